@@ -1,0 +1,93 @@
+//! Error values of the model: bad parameters, bad angles, degenerate geometry.
+
+use core::fmt;
+
+/// Why a model could not be built or evaluated. Each variant prints one clear line.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ModelError {
+    /// A value was NaN or infinite.
+    NotFinite {
+        /// Which quantity (e.g. `"sigma"`, `"theta_r"`).
+        what: &'static str,
+    },
+    /// A value that must be strictly positive was zero or negative.
+    NotPositive {
+        /// Which quantity.
+        what: &'static str,
+        /// The offending value.
+        value: f64,
+    },
+    /// A weight that must be non-negative was negative.
+    Negative {
+        /// Which quantity.
+        what: &'static str,
+        /// The offending value.
+        value: f64,
+    },
+    /// A value is outside its domain `[min, max]` (angles in degrees).
+    OutOfRange {
+        /// Which quantity.
+        what: &'static str,
+        /// The offending value.
+        value: f64,
+        /// Smallest allowed value.
+        min: f64,
+        /// Largest allowed value.
+        max: f64,
+    },
+    /// A width parameter is so small or so large that the model's normalisation
+    /// (1/sigma^2) is not representable in the chosen float type.
+    Unrepresentable {
+        /// Which quantity.
+        what: &'static str,
+        /// The offending value.
+        value: f64,
+    },
+    /// A direction vector is not of unit length.
+    NotUnit {
+        /// Which vector (`"w_i"` or `"w_r"`).
+        what: &'static str,
+    },
+    /// `w_i + w_r = 0`: source and detector both grazing and opposite, no half vector.
+    NoHalfVector,
+    /// The BRDF value overflows the chosen float type (extremely sharp lobe).
+    Overflow,
+    /// No preset by that name.
+    UnknownPreset,
+}
+
+impl fmt::Display for ModelError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            ModelError::NotFinite { what } => write!(f, "{what} must be a finite number"),
+            ModelError::NotPositive { what, value } => {
+                write!(f, "{what} must be > 0 (got {value})")
+            }
+            ModelError::Negative { what, value } => write!(f, "{what} must be >= 0 (got {value})"),
+            ModelError::OutOfRange {
+                what,
+                value,
+                min,
+                max,
+            } => {
+                write!(f, "{what} = {value} is outside [{min}, {max}] degrees")
+            }
+            ModelError::Unrepresentable { what, value } => write!(
+                f,
+                "{what} = {value} is too extreme for this float precision (1/{what}^2 does not fit)"
+            ),
+            ModelError::NotUnit { what } => write!(f, "{what} must be a unit vector"),
+            ModelError::NoHalfVector => write!(
+                f,
+                "w_i + w_r = 0 (source and detector grazing and opposite): the half vector is undefined"
+            ),
+            ModelError::Overflow => write!(f, "the BRDF value overflows this float precision"),
+            ModelError::UnknownPreset => write!(
+                f,
+                "unknown preset (known: al-0.087, al-0.142, al-0.782, cu-0.070, fe-0.115)"
+            ),
+        }
+    }
+}
+
+impl core::error::Error for ModelError {}

@@ -1,0 +1,23 @@
+//! brdf-core: the no_std, no-alloc heart of gonio.
+//!
+//! - [`model`]: the three-component BRDF for metals (Wang et al. 2016) and the
+//!   Torrance–Sparrow baseline, generic over `f32`/`f64`.
+//! - [`geometry`]: in-plane and 3-D measurement geometry.
+//! - [`presets`]: the paper's materials.
+//!
+//! Units: angles in degrees at every public interface (radians only inside), BRDF in
+//! the paper's relative units.
+#![cfg_attr(not(test), no_std)]
+#![deny(missing_docs)]
+
+pub mod error;
+pub mod float;
+pub mod geometry;
+pub mod model;
+pub mod presets;
+
+pub use error::ModelError;
+pub use float::Real;
+pub use geometry::Geometry;
+pub use model::{Components, Evaluation, Model, Params};
+pub use presets::{PRESETS, Preset};

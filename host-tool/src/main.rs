@@ -1,1 +1,73 @@
-fn main() {}
+//! `gonio`: the goniometer BRDF tool. Parses the command line and dispatches.
+
+mod angles;
+mod error;
+mod eval;
+mod output;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+use crate::error::{CliResult, EXIT_USAGE};
+
+/// gonio: measure and model how metal surfaces reflect light.
+#[derive(Debug, Parser)]
+#[command(
+    name = "gonio",
+    version,
+    about = "Measure and model how metal surfaces reflect light (three-component BRDF)",
+    long_about = "gonio drives a two-arm goniometer, captures BRDF sweeps and fits the \
+three-component model for metals (specular + directional diffuse + ideal diffuse; \
+Wang et al., Chinese Physics B 25 (2016) 094201).\n\n\
+Conventions everywhere: angles in degrees; theta_i in [0, 90]; theta_r signed in \
+[-90, 90], positive on the specular side (theta_r = +theta_i is the mirror direction, \
+-theta_i is retro-reflection); BRDF values in the paper's relative units.\n\n\
+Exit status: 0 success, 1 the job failed, 2 bad usage or bad input."
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    Eval(eval::EvalArgs),
+}
+
+fn run(cli: Cli) -> CliResult {
+    match cli.command {
+        Command::Eval(args) => eval::run(&args),
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) if !e.use_stderr() => {
+            // --help and --version: print and succeed.
+            let _ = e.print();
+            return ExitCode::SUCCESS;
+        }
+        Err(e) => {
+            // One clear line: clap's first paragraph (which may list missing arguments
+            // on lines of their own), joined.
+            let text = e.to_string();
+            let what: Vec<&str> = text
+                .lines()
+                .take_while(|l| !l.trim().is_empty())
+                .map(str::trim)
+                .collect();
+            let what = what.join(" ");
+            eprintln!("gonio: {} (see --help)", what.trim_start_matches("error: "));
+            return ExitCode::from(EXIT_USAGE);
+        }
+    };
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("gonio: {e}");
+            ExitCode::from(e.code)
+        }
+    }
+}

@@ -21,3 +21,6 @@ pub use float::Real;
 pub use geometry::Geometry;
 pub use model::{Components, Evaluation, Model, Params};
 pub use presets::{PRESETS, Preset};
+pub mod frame;
+pub mod plan;
+pub mod protocol;

@@ -1,0 +1,266 @@
+//! The wire protocol (the one ICD shared by firmware and host): every message type.
+//!
+//! Messages are postcard-encoded, then framed by [`crate::frame`]. Enum variants are
+//! encoded by index, so variants are only ever appended, never reordered; the first
+//! variant of both enums (`GetInfo` / `Info`) and `Info`'s first field (the protocol
+//! version) never change, so a host can always tell which protocol a device speaks.
+//! Angles are degrees (f32), times milliseconds.
+
+use heapless::{String, Vec};
+use serde::{Deserialize, Serialize};
+
+/// Version of this protocol. Bump it on any change of a message's encoding.
+pub const PROTOCOL_VERSION: u16 = 1;
+/// Most explicit points a plan may carry ([`Grid::Points`]).
+pub const MAX_PLAN_POINTS: usize = 240;
+/// Most incidence angles a [`Grid::Custom`] plan may carry.
+pub const MAX_INCIDENCES: usize = 16;
+/// Longest message body in bytes (postcard encoding plus the 4-byte CRC).
+pub const MAX_MESSAGE_LEN: usize = 2048;
+/// Longest error detail text in bytes.
+pub const MAX_DETAIL_LEN: usize = 48;
+
+/// Commands, host to device.
+// No heap in the core: a plan is held inline at its fixed capacity (about 2 KB).
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum Command {
+    /// Handshake: the device answers with [`Event::Info`].
+    GetInfo,
+    /// Liveness check: answered with [`Event::Pong`] carrying the same token.
+    Ping(u32),
+    /// Runs a sweep: [`Event::Progress`], [`Event::Reading`]s, then [`Event::SweepDone`].
+    StartSweep(SweepPlan),
+    /// Stops any motion within one step. A running sweep ends with `SweepDone`
+    /// (`aborted: true`); otherwise answered with [`Event::Status`].
+    Abort,
+    /// Homes both arms against their switches; answered with [`Event::Status`].
+    Home,
+    /// Moves one arm to an absolute angle (degrees); answered with [`Event::Status`].
+    Jog {
+        /// Which arm.
+        arm: Arm,
+        /// Target angle in degrees (source: theta_i; detector: signed theta_r).
+        degrees: f32,
+    },
+    /// Switches the laser; answered with [`Event::Status`].
+    SetLaser(bool),
+}
+
+/// Events, device to host.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum Event {
+    /// Who the device is and what it can do.
+    Info(Info),
+    /// Answer to [`Command::Ping`].
+    Pong(u32),
+    /// One measured point.
+    Reading(Reading),
+    /// Sweep progress (at start and at each new incidence angle).
+    Progress(Progress),
+    /// A sweep ended (completed or aborted).
+    SweepDone(SweepDone),
+    /// Something went wrong; the device keeps serving.
+    Error(ErrorEvent),
+    /// Arm positions and laser state, after Home, Jog, SetLaser or an idle Abort.
+    Status(Status),
+}
+
+/// The two arms of the goniometer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Arm {
+    /// The source (laser) arm, at theta_i in [0, 90].
+    Source,
+    /// The detector arm, at signed theta_r.
+    Detector,
+}
+
+/// Travel and resolution of one arm.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ArmLimits {
+    /// Lowest reachable angle (degrees), a soft limit.
+    pub min_deg: f32,
+    /// Highest reachable angle (degrees), a soft limit.
+    pub max_deg: f32,
+    /// Microsteps per degree of arm rotation.
+    pub steps_per_deg: f32,
+}
+
+/// The handshake answer.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Info {
+    /// [`PROTOCOL_VERSION`] of the firmware. Always the first field.
+    pub protocol: u16,
+    /// Firmware version (major, minor, patch).
+    pub firmware: [u8; 3],
+    /// Board name, e.g. `"stm32f411"` or `"qemu"`.
+    pub board: String<16>,
+    /// Source arm travel.
+    pub source: ArmLimits,
+    /// Detector arm travel.
+    pub detector: ArmLimits,
+    /// Most points a plan may hold ([`MAX_PLAN_POINTS`] for explicit points).
+    pub max_points: u16,
+    /// Whether both arms are homed (sweeps and jogs need it).
+    pub homed: bool,
+}
+
+/// Which angles a sweep visits.
+#[allow(clippy::large_enum_variant)] // fixed capacity inline, see `Command`
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum Grid {
+    /// The paper's grid: theta_i 0..80 step 10, theta_r -80..80 step 10 (9 x 17).
+    Paper,
+    /// Each incidence angle with the same detector range (stop included).
+    Custom {
+        /// Incidence angles in degrees.
+        incidences: Vec<f32, MAX_INCIDENCES>,
+        /// First detector angle (degrees).
+        start: f32,
+        /// Last detector angle (degrees), included when on the grid.
+        stop: f32,
+        /// Detector step (degrees, > 0).
+        step: f32,
+    },
+    /// Explicit points, visited in order (adaptive plans).
+    Points(Vec<Point, MAX_PLAN_POINTS>),
+}
+
+/// One (theta_i, theta_r) pair in degrees.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Point {
+    /// Incidence angle (degrees).
+    pub theta_i: f32,
+    /// Signed detector angle (degrees).
+    pub theta_r: f32,
+}
+
+/// What is done at each point.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PointSettings {
+    /// Wait after the arms stop before sampling (milliseconds).
+    pub settle_ms: u16,
+    /// Detector samples averaged per reading (>= 1).
+    pub samples: u16,
+    /// Also sample with the laser off and subtract that dark level.
+    pub dark: bool,
+}
+
+/// A sweep: the grid, the exclusion zone around retro-reflection, per-point settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SweepPlan {
+    /// Chosen by the host; echoed in every Reading.
+    pub sweep_id: u32,
+    /// The angles to visit.
+    pub grid: Grid,
+    /// Half-width (degrees) of the zone around theta_r = -theta_i that is skipped
+    /// because the detector would block the beam. 0 keeps every point.
+    pub exclude_retro_deg: f32,
+    /// Per-point settings.
+    pub settings: PointSettings,
+    /// Skip the first `skip` points of the plan (used to resume a sweep).
+    pub skip: u16,
+}
+
+/// One measured point.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Reading {
+    /// The plan's sweep id.
+    pub sweep_id: u32,
+    /// Index of the point in the plan (after exclusions), 0-based and contiguous.
+    pub seq: u32,
+    /// Incidence angle reached (degrees, from the step count).
+    pub theta_i: f32,
+    /// Detector angle reached (degrees, from the step count).
+    pub theta_r: f32,
+    /// Mean detector value, dark-subtracted if asked (instrument units).
+    pub value: f32,
+    /// Standard deviation of a single sample (same units).
+    pub std: f32,
+    /// Samples averaged.
+    pub n: u16,
+    /// Milliseconds since the sweep started.
+    pub t_ms: u32,
+}
+
+/// Sweep progress.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Progress {
+    /// The plan's sweep id.
+    pub sweep_id: u32,
+    /// Readings done so far (including skipped ones when resuming).
+    pub done: u32,
+    /// Readings in the whole plan.
+    pub total: u32,
+    /// Current incidence angle (degrees).
+    pub theta_i: f32,
+}
+
+/// End of a sweep.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SweepDone {
+    /// The plan's sweep id.
+    pub sweep_id: u32,
+    /// Readings sent in this run (not counting skipped ones).
+    pub count: u32,
+    /// Index of the next point that was not measured (= total when complete).
+    pub next_seq: u32,
+    /// True when stopped by Abort or an error before the end.
+    pub aborted: bool,
+}
+
+/// Arm positions and laser state.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Status {
+    /// Source arm angle (degrees).
+    pub source_deg: f32,
+    /// Detector arm angle (degrees).
+    pub detector_deg: f32,
+    /// Laser on.
+    pub laser: bool,
+    /// Both arms homed.
+    pub homed: bool,
+}
+
+/// Error codes. Every user-caused error has one; the device keeps serving.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ErrorCode {
+    /// A frame failed its CRC or COBS check, or was too long; it was dropped.
+    CorruptFrame,
+    /// A frame was intact but is not a command this firmware knows.
+    UnknownCommand,
+    /// A sweep or move is running; only Ping, GetInfo and Abort are served.
+    Busy,
+    /// The arms must be homed first (send Home).
+    NotHomed,
+    /// The plan is malformed (empty, bad step, too many points, bad settings).
+    BadPlan,
+    /// A target lies outside an arm's soft limits.
+    OutOfLimits,
+    /// Homing did not find the switch in time.
+    HomingFailed,
+    /// The detector failed to deliver a sample.
+    DetectorFault,
+}
+
+/// An error report.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ErrorEvent {
+    /// What kind of error.
+    pub code: ErrorCode,
+    /// A short human-readable explanation (truncated to [`MAX_DETAIL_LEN`] bytes).
+    pub detail: String<MAX_DETAIL_LEN>,
+}
+
+impl ErrorEvent {
+    /// Builds an error, truncating `detail` at a character boundary if too long.
+    pub fn new(code: ErrorCode, detail: &str) -> Self {
+        let mut s = String::new();
+        for ch in detail.chars() {
+            if s.push(ch).is_err() {
+                break;
+            }
+        }
+        ErrorEvent { code, detail: s }
+    }
+}

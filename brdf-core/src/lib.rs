@@ -4,6 +4,11 @@
 //!   Torrance–Sparrow baseline, generic over `f32`/`f64`.
 //! - [`geometry`]: in-plane and 3-D measurement geometry.
 //! - [`presets`]: the paper's materials.
+//! - [`protocol`] and [`frame`]: the wire protocol and its framing.
+//! - [`plan`]: sweep plans (paper, custom, adaptive).
+//! - [`ramp`] and [`axis`]: stepper motion of one arm.
+//! - [`controller`]: the goniometer state machine.
+//! - [`sim`]: simulated arms and a virtual sample.
 //!
 //! Units: angles in degrees at every public interface (radians only inside), BRDF in
 //! the paper's relative units.
@@ -21,6 +26,10 @@ pub use float::Real;
 pub use geometry::Geometry;
 pub use model::{Components, Evaluation, Model, Params};
 pub use presets::{PRESETS, Preset};
+pub mod axis;
+pub mod controller;
 pub mod frame;
 pub mod plan;
 pub mod protocol;
+pub mod ramp;
+pub mod sim;

@@ -272,4 +272,4 @@ impl<T: Real> Model<T> {
 
 #[cfg(test)]
 #[path = "model_tests.rs"]
-mod tests;
+pub(crate) mod tests;

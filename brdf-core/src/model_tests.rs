@@ -6,8 +6,9 @@ use crate::presets::Preset;
 use proptest::prelude::*;
 
 /// (preset, theta_i, theta_r, k_s, f_s, f_dd, f) from MODEL.md, digits as printed there.
+/// Row 0 is fe-0.115 at theta_i = theta_r = 20.
 #[allow(clippy::excessive_precision)]
-const REFERENCE: [(&str, f64, f64, f64, f64, f64, f64); 5] = [
+pub(crate) const REFERENCE: [(&str, f64, f64, f64, f64, f64, f64); 5] = [
     (
         "fe-0.115",
         20.0,

@@ -68,8 +68,7 @@ impl SweepPlan {
     pub fn points(&self) -> PlanPoints<'_> {
         PlanPoints {
             plan: self,
-            leg: 0,
-            k: 0,
+            cursor: PlanCursor::default(),
         }
     }
 
@@ -155,16 +154,29 @@ fn leg_len(start: f32, stop: f32, step: f32) -> Result<u32, PlanError> {
 /// Iterator over a plan's points (see [`SweepPlan::points`]).
 pub struct PlanPoints<'a> {
     plan: &'a SweepPlan,
-    leg: usize,
-    k: u32,
+    cursor: PlanCursor,
 }
 
 impl Iterator for PlanPoints<'_> {
     type Item = Point;
 
     fn next(&mut self) -> Option<Point> {
+        self.cursor.next(self.plan)
+    }
+}
+
+/// A position in a plan that does not borrow it, so a running sweep can keep both.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct PlanCursor {
+    leg: usize,
+    k: u32,
+}
+
+impl PlanCursor {
+    /// The next point of `plan` after the exclusion zone, or `None` at the end.
+    pub fn next(&mut self, plan: &SweepPlan) -> Option<Point> {
         loop {
-            let p = match &self.plan.grid {
+            let p = match &plan.grid {
                 Grid::Paper => {
                     if self.leg >= 9 {
                         return None;
@@ -205,7 +217,7 @@ impl Iterator for PlanPoints<'_> {
                     p
                 }
             };
-            if !self.plan.excluded(p) {
+            if !plan.excluded(p) {
                 return Some(p);
             }
         }

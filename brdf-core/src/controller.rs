@@ -1,0 +1,590 @@
+//! The goniometer controller: a state machine that takes commands (as bytes), drives
+//! both arms through a sweep plan, asks a [`Detector`] for samples and emits events
+//! (as frames). It has no I/O of its own and never blocks: the board feeds it bytes,
+//! calls [`Controller::tick`] when it asks to be called, and sends the frames it hands
+//! out. The same code runs on the MCU, in QEMU, in host tests and in `gonio simulate`.
+
+use embedded_hal::digital::OutputPin;
+use heapless::Deque;
+
+use crate::axis::{Axis, AxisConfig, AxisError, AxisPins, Tick};
+use crate::frame::{self, FrameDecoder, FrameError, FrameStats, MAX_FRAME_LEN};
+use crate::plan::{PlanCursor, PlanError};
+use crate::protocol::{
+    Arm, Command, ErrorCode, ErrorEvent, Event, Info, MAX_PLAN_POINTS, PROTOCOL_VERSION, Point,
+    Progress, Reading, Status, SweepDone, SweepPlan,
+};
+
+/// Events the controller can hold before the board takes them. A sweep pauses while
+/// the outbox is nearly full, so readings are never dropped.
+pub const OUTBOX_LEN: usize = 8;
+
+/// A detector failed to deliver a sample.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct DetectorError;
+
+/// The light detector on the detector arm (photodiode ADC, power meter, or a virtual
+/// sample). Angles in degrees are the arms' current positions, for simulations.
+pub trait Detector {
+    /// One sample in instrument units.
+    fn sample(&mut self, theta_i: f32, theta_r: f32, laser_on: bool) -> Result<f32, DetectorError>;
+}
+
+/// Who the controller is and how its arms are built.
+#[derive(Debug, Clone, Copy)]
+pub struct ControllerConfig {
+    /// Board name reported in the handshake (at most 16 bytes).
+    pub board: &'static str,
+    /// Firmware version (major, minor, patch).
+    pub firmware: [u8; 3],
+    /// Source arm.
+    pub source: AxisConfig,
+    /// Detector arm.
+    pub detector: AxisConfig,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Step {
+    NextPoint,
+    MoveSource,
+    MoveDetector,
+    Settle { until_us: u64, dark_done: bool },
+    Measure { dark_done: bool },
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+struct Stats {
+    n: u16,
+    mean: f32,
+    m2: f32,
+}
+
+impl Stats {
+    fn push(&mut self, x: f32) {
+        self.n += 1;
+        let d = x - self.mean;
+        self.mean += d / self.n as f32;
+        self.m2 += d * (x - self.mean);
+    }
+
+    fn var(&self) -> f32 {
+        if self.n > 1 {
+            self.m2 / (self.n - 1) as f32
+        } else {
+            0.0
+        }
+    }
+}
+
+struct Sweep {
+    plan: SweepPlan,
+    cursor: PlanCursor,
+    total: u32,
+    /// Index of the current point (after exclusion).
+    seq: u32,
+    /// Readings sent in this run.
+    count: u32,
+    point: Point,
+    step: Step,
+    start_us: u64,
+    dark: Stats,
+    source_at: Option<f32>,
+}
+
+// The sweep (and its plan) is held inline: no heap in the core.
+#[allow(clippy::large_enum_variant)]
+enum State {
+    Idle,
+    Homing(Arm),
+    Jogging(Arm),
+    Sweep(Sweep),
+}
+
+/// The controller. `S`/`D` are the source and detector arms' pins, `L` the laser
+/// enable pin, `DET` the detector.
+pub struct Controller<S, D, L, DET> {
+    cfg: ControllerConfig,
+    source: Axis<S>,
+    detector: Axis<D>,
+    laser: L,
+    laser_on: bool,
+    det: DET,
+    decoder: FrameDecoder<MAX_FRAME_LEN>,
+    outbox: Deque<Event, OUTBOX_LEN>,
+    state: State,
+    dropped_events: u32,
+    now_us: u64,
+}
+
+impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, DET> {
+    /// A controller at rest, arms not homed, laser off.
+    pub fn new(cfg: ControllerConfig, source: S, detector: D, laser: L, det: DET) -> Self {
+        let mut c = Controller {
+            cfg,
+            source: Axis::new(cfg.source, source),
+            detector: Axis::new(cfg.detector, detector),
+            laser,
+            laser_on: true,
+            det,
+            decoder: FrameDecoder::new(),
+            outbox: Deque::new(),
+            state: State::Idle,
+            dropped_events: 0,
+            now_us: 0,
+        };
+        c.set_laser(false);
+        c
+    }
+
+    /// The source arm.
+    pub fn source(&self) -> &Axis<S> {
+        &self.source
+    }
+
+    /// The detector arm.
+    pub fn detector(&self) -> &Axis<D> {
+        &self.detector
+    }
+
+    /// The detector (for simulations).
+    pub fn detector_device(&mut self) -> &mut DET {
+        &mut self.det
+    }
+
+    /// Frames received and dropped so far.
+    pub fn frame_stats(&self) -> FrameStats {
+        self.decoder.stats()
+    }
+
+    /// Events that could not be queued (replies to a host that does not read). Readings
+    /// are never among them.
+    pub fn dropped_events(&self) -> u32 {
+        self.dropped_events
+    }
+
+    /// True while a sweep, homing or jog is under way.
+    pub fn is_busy(&self) -> bool {
+        !matches!(self.state, State::Idle)
+    }
+
+    /// Feeds received bytes; complete frames are handled at once (so Abort takes effect
+    /// before the next step). `now_us` is a monotonic microsecond clock.
+    pub fn receive(&mut self, bytes: &[u8], now_us: u64) {
+        self.now_us = now_us;
+        for &b in bytes {
+            match self.decoder.push::<Command>(b) {
+                None => {}
+                Some(Ok(cmd)) => self.handle(cmd),
+                Some(Err(FrameError::Decode)) => {
+                    self.error(ErrorCode::UnknownCommand, "intact frame, unknown command")
+                }
+                Some(Err(_)) => {
+                    self.error(ErrorCode::CorruptFrame, "frame dropped: CRC/COBS/length")
+                }
+            }
+        }
+    }
+
+    /// Takes the next event as a frame into `buf` (at least `MAX_FRAME_LEN` bytes);
+    /// returns its length, or `None` when there is nothing to send.
+    pub fn next_frame(&mut self, buf: &mut [u8]) -> Option<usize> {
+        let ev = self.outbox.pop_front()?;
+        match frame::encode(&ev, buf) {
+            Ok(n) => Some(n),
+            Err(_) => {
+                self.dropped_events += 1;
+                None
+            }
+        }
+    }
+
+    /// Takes the next event itself (in-process links).
+    pub fn next_event(&mut self) -> Option<Event> {
+        self.outbox.pop_front()
+    }
+
+    fn push(&mut self, ev: Event) {
+        if self.outbox.push_back(ev).is_err() {
+            self.dropped_events += 1;
+        }
+    }
+
+    fn error(&mut self, code: ErrorCode, detail: &str) {
+        self.push(Event::Error(ErrorEvent::new(code, detail)));
+    }
+
+    fn homed(&self) -> bool {
+        self.source.is_homed() && self.detector.is_homed()
+    }
+
+    fn status(&self) -> Event {
+        Event::Status(Status {
+            source_deg: self.source.degrees(),
+            detector_deg: self.detector.degrees(),
+            laser: self.laser_on,
+            homed: self.homed(),
+        })
+    }
+
+    fn info(&self) -> Event {
+        let mut board = heapless::String::new();
+        for ch in self.cfg.board.chars() {
+            if board.push(ch).is_err() {
+                break;
+            }
+        }
+        Event::Info(Info {
+            protocol: PROTOCOL_VERSION,
+            firmware: self.cfg.firmware,
+            board,
+            source: self.cfg.source.limits(),
+            detector: self.cfg.detector.limits(),
+            max_points: MAX_PLAN_POINTS as u16,
+            homed: self.homed(),
+        })
+    }
+
+    fn set_laser(&mut self, on: bool) {
+        if self.laser_on != on {
+            // A laser pin that fails is reported by the detector readings; the state
+            // follows the request.
+            let _ = self.laser.set_state(on.into());
+            self.laser_on = on;
+        }
+    }
+
+    fn handle(&mut self, cmd: Command) {
+        match cmd {
+            Command::GetInfo => self.push(self.info()),
+            Command::Ping(token) => self.push(Event::Pong(token)),
+            Command::Abort => self.abort(),
+            _ if self.is_busy() => self.error(ErrorCode::Busy, "busy: send Abort first"),
+            Command::Home => match self.detector.start_homing(self.now_ms()) {
+                Ok(()) => self.state = State::Homing(Arm::Detector),
+                Err(e) => self.axis_error(e),
+            },
+            Command::Jog { arm, degrees } => {
+                let r = match arm {
+                    Arm::Source => self.source.move_to(degrees),
+                    Arm::Detector => self.detector.move_to(degrees),
+                };
+                match r {
+                    Ok(()) => self.state = State::Jogging(arm),
+                    Err(e) => self.axis_error(e),
+                }
+            }
+            Command::SetLaser(on) => {
+                self.set_laser(on);
+                self.push(self.status());
+            }
+            Command::StartSweep(plan) => self.start_sweep(plan),
+        }
+    }
+
+    fn axis_error(&mut self, e: AxisError) {
+        match e {
+            AxisError::OutOfLimits => {
+                self.error(ErrorCode::OutOfLimits, "target outside the soft limits")
+            }
+            AxisError::NotHomed => self.error(ErrorCode::NotHomed, "arms not homed: send Home"),
+            AxisError::Busy => self.error(ErrorCode::Busy, "arm is moving"),
+            AxisError::HomingTimeout => {
+                self.error(ErrorCode::HomingFailed, "home switch not found in time")
+            }
+            AxisError::SwitchStuck => {
+                self.error(ErrorCode::HomingFailed, "home switch stuck after back-off")
+            }
+            AxisError::Pin => self.error(ErrorCode::HomingFailed, "stepper pin failure"),
+        }
+    }
+
+    fn start_sweep(&mut self, plan: SweepPlan) {
+        if !self.homed() {
+            return self.error(ErrorCode::NotHomed, "arms not homed: send Home");
+        }
+        let total = match plan.validate(&self.cfg.source.limits(), &self.cfg.detector.limits()) {
+            Ok(n) => n,
+            Err(e @ PlanError::OutOfLimits { .. }) => {
+                let mut text: heapless::String<48> = heapless::String::new();
+                let _ = core::fmt::write(&mut text, format_args!("{e}"));
+                return self.error(ErrorCode::OutOfLimits, &text);
+            }
+            Err(e) => {
+                let mut text: heapless::String<48> = heapless::String::new();
+                let _ = core::fmt::write(&mut text, format_args!("{e}"));
+                return self.error(ErrorCode::BadPlan, &text);
+            }
+        };
+        let mut cursor = PlanCursor::default();
+        let skip = plan.skip as u32;
+        for _ in 0..skip {
+            cursor.next(&plan);
+        }
+        let mut peek = cursor;
+        let first = peek.next(&plan).map(|p| p.theta_i).unwrap_or(0.0);
+        self.push(Event::Progress(Progress {
+            sweep_id: plan.sweep_id,
+            done: skip,
+            total,
+            theta_i: first,
+        }));
+        self.state = State::Sweep(Sweep {
+            plan,
+            cursor,
+            total,
+            seq: skip,
+            count: 0,
+            point: Point {
+                theta_i: 0.0,
+                theta_r: 0.0,
+            },
+            step: Step::NextPoint,
+            start_us: self.now_us,
+            dark: Stats::default(),
+            source_at: None,
+        });
+    }
+
+    fn abort(&mut self) {
+        self.source.stop_now();
+        self.detector.stop_now();
+        match core::mem::replace(&mut self.state, State::Idle) {
+            State::Sweep(sw) => self.end_sweep(&sw, true),
+            _ => self.push(self.status()),
+        }
+    }
+
+    fn end_sweep(&mut self, sw: &Sweep, aborted: bool) {
+        self.set_laser(false);
+        self.push(Event::SweepDone(SweepDone {
+            sweep_id: sw.plan.sweep_id,
+            count: sw.count,
+            next_seq: sw.seq,
+            aborted,
+        }));
+    }
+
+    fn now_ms(&self) -> u32 {
+        (self.now_us / 1000) as u32
+    }
+
+    /// Advances the work by one unit (one step of an arm, one wait, one reading).
+    /// Returns when to call again; [`Tick::Idle`] means "only after new input".
+    pub fn tick(&mut self, now_us: u64) -> Tick {
+        self.now_us = now_us;
+        let now_ms = self.now_ms();
+        match &mut self.state {
+            State::Idle => Tick::Idle,
+            State::Homing(arm) => {
+                let arm = *arm;
+                let r = match arm {
+                    Arm::Detector => self.detector.tick(now_ms),
+                    Arm::Source => self.source.tick(now_ms),
+                };
+                match r {
+                    Ok(Tick::Wait(us)) => Tick::Wait(us),
+                    Ok(Tick::Idle) if arm == Arm::Detector => {
+                        match self.source.start_homing(now_ms) {
+                            Ok(()) => {
+                                self.state = State::Homing(Arm::Source);
+                                Tick::Wait(0)
+                            }
+                            Err(e) => self.fail(e),
+                        }
+                    }
+                    Ok(Tick::Idle) => {
+                        self.state = State::Idle;
+                        self.push(self.status());
+                        Tick::Idle
+                    }
+                    Err(e) => self.fail(e),
+                }
+            }
+            State::Jogging(arm) => {
+                let r = match arm {
+                    Arm::Detector => self.detector.tick(now_ms),
+                    Arm::Source => self.source.tick(now_ms),
+                };
+                match r {
+                    Ok(Tick::Wait(us)) => Tick::Wait(us),
+                    Ok(Tick::Idle) => {
+                        self.state = State::Idle;
+                        self.push(self.status());
+                        Tick::Idle
+                    }
+                    Err(e) => self.fail(e),
+                }
+            }
+            State::Sweep(_) => self.sweep_tick(now_us),
+        }
+    }
+
+    fn fail(&mut self, e: AxisError) -> Tick {
+        self.source.stop_now();
+        self.detector.stop_now();
+        if let State::Sweep(sw) = core::mem::replace(&mut self.state, State::Idle) {
+            self.axis_error(e);
+            self.end_sweep(&sw, true);
+        } else {
+            self.axis_error(e);
+        }
+        Tick::Idle
+    }
+
+    fn sweep_tick(&mut self, now_us: u64) -> Tick {
+        // A reading (and possibly a Progress) must fit: otherwise wait for the board to
+        // take frames. Nothing is ever dropped from a sweep.
+        if OUTBOX_LEN - self.outbox.len() < 3 {
+            return Tick::Wait(100);
+        }
+        let State::Sweep(sw) = &mut self.state else {
+            return Tick::Idle;
+        };
+        match sw.step {
+            Step::NextPoint => {
+                let Some(p) = sw.cursor.next(&sw.plan) else {
+                    if let State::Sweep(sw) = core::mem::replace(&mut self.state, State::Idle) {
+                        self.end_sweep(&sw, false);
+                    }
+                    return Tick::Idle;
+                };
+                sw.point = p;
+                if sw.source_at != Some(p.theta_i) {
+                    if sw.source_at.is_some() {
+                        let ev = Event::Progress(Progress {
+                            sweep_id: sw.plan.sweep_id,
+                            done: sw.seq,
+                            total: sw.total,
+                            theta_i: p.theta_i,
+                        });
+                        self.push(ev);
+                    }
+                    return self.begin_move(Arm::Source, p.theta_i);
+                }
+                self.begin_move(Arm::Detector, p.theta_r)
+            }
+            Step::MoveSource | Step::MoveDetector => {
+                let arm = if sw.step == Step::MoveSource {
+                    Arm::Source
+                } else {
+                    Arm::Detector
+                };
+                let now_ms = (now_us / 1000) as u32;
+                let r = match arm {
+                    Arm::Source => self.source.tick(now_ms),
+                    Arm::Detector => self.detector.tick(now_ms),
+                };
+                match r {
+                    Ok(Tick::Wait(us)) => Tick::Wait(us),
+                    Ok(Tick::Idle) => {
+                        let State::Sweep(sw) = &mut self.state else {
+                            return Tick::Idle;
+                        };
+                        if arm == Arm::Source {
+                            sw.source_at = Some(sw.point.theta_i);
+                            let target = sw.point.theta_r;
+                            return self.begin_move(Arm::Detector, target);
+                        }
+                        let settle = sw.plan.settings.settle_ms as u64 * 1000;
+                        sw.step = Step::Settle {
+                            until_us: now_us + settle,
+                            dark_done: !sw.plan.settings.dark,
+                        };
+                        if sw.plan.settings.dark {
+                            self.set_laser(false);
+                        } else {
+                            self.set_laser(true);
+                        }
+                        Tick::Wait(0)
+                    }
+                    Err(e) => self.fail(e),
+                }
+            }
+            Step::Settle {
+                until_us,
+                dark_done,
+            } => {
+                if now_us < until_us {
+                    return Tick::Wait((until_us - now_us).min(u32::MAX as u64) as u32);
+                }
+                sw.step = Step::Measure { dark_done };
+                Tick::Wait(0)
+            }
+            Step::Measure { dark_done } => self.measure(now_us, dark_done),
+        }
+    }
+
+    fn begin_move(&mut self, arm: Arm, deg: f32) -> Tick {
+        let r = match arm {
+            Arm::Source => self.source.move_to(deg),
+            Arm::Detector => self.detector.move_to(deg),
+        };
+        if let Err(e) = r {
+            return self.fail(e);
+        }
+        if let State::Sweep(sw) = &mut self.state {
+            sw.step = if arm == Arm::Source {
+                Step::MoveSource
+            } else {
+                Step::MoveDetector
+            };
+        }
+        Tick::Wait(0)
+    }
+
+    fn measure(&mut self, now_us: u64, dark_done: bool) -> Tick {
+        let (ti, tr) = (self.source.degrees(), self.detector.degrees());
+        let State::Sweep(sw) = &mut self.state else {
+            return Tick::Idle;
+        };
+        let samples = sw.plan.settings.samples;
+        let mut stats = Stats::default();
+        for _ in 0..samples {
+            match self.det.sample(ti, tr, self.laser_on) {
+                Ok(x) => stats.push(x),
+                Err(_) => {
+                    if let State::Sweep(sw) = core::mem::replace(&mut self.state, State::Idle) {
+                        self.error(ErrorCode::DetectorFault, "detector gave no sample");
+                        self.end_sweep(&sw, true);
+                    }
+                    return Tick::Idle;
+                }
+            }
+        }
+        if !dark_done {
+            // Dark level taken; now the lit reading after another settle.
+            sw.dark = stats;
+            let settle = sw.plan.settings.settle_ms as u64 * 1000;
+            sw.step = Step::Settle {
+                until_us: now_us + settle,
+                dark_done: true,
+            };
+            self.set_laser(true);
+            return Tick::Wait(0);
+        }
+        let (value, var) = if sw.plan.settings.dark {
+            (stats.mean - sw.dark.mean, stats.var() + sw.dark.var())
+        } else {
+            (stats.mean, stats.var())
+        };
+        let reading = Reading {
+            sweep_id: sw.plan.sweep_id,
+            seq: sw.seq,
+            theta_i: ti,
+            theta_r: tr,
+            value,
+            std: libm::sqrtf(var),
+            n: samples,
+            t_ms: ((now_us - sw.start_us) / 1000) as u32,
+        };
+        sw.seq += 1;
+        sw.count += 1;
+        sw.step = Step::NextPoint;
+        self.push(Event::Reading(reading));
+        Tick::Wait(0)
+    }
+}
+
+#[cfg(test)]
+#[path = "controller_tests.rs"]
+mod tests;

@@ -1,0 +1,207 @@
+//! Simulated hardware: an arm whose pins move a virtual shaft with a home switch, and a
+//! virtual sample that answers with the model plus deterministic noise. Used by the
+//! QEMU board, by `gonio simulate`/`gonio demo` and by tests.
+
+use crate::axis::{AxisPins, PinError};
+use crate::controller::{Detector, DetectorError};
+use crate::presets::Preset;
+
+/// A simulated step/dir driver on a shaft. The shaft's true position is in steps; the
+/// home switch is pressed at or below `switch_at`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimArm {
+    /// True shaft position (steps), unknown to the axis until it homes.
+    pub shaft: i32,
+    /// Shaft position at and below which the switch is pressed.
+    pub switch_at: i32,
+    /// Level of the direction pin.
+    pub dir_high: bool,
+    /// Driver enabled.
+    pub enabled: bool,
+    /// Pulses received.
+    pub pulses: u32,
+    /// Lowest and highest shaft positions ever reached.
+    pub extremes: (i32, i32),
+    /// The direction pin's high level moves the shaft down (a wiring inversion).
+    pub inverted: bool,
+}
+
+impl SimArm {
+    /// A shaft at `shaft` steps with the switch at `switch_at`.
+    pub fn new(shaft: i32, switch_at: i32) -> Self {
+        SimArm {
+            shaft,
+            switch_at,
+            dir_high: false,
+            enabled: false,
+            pulses: 0,
+            extremes: (shaft, shaft),
+            inverted: false,
+        }
+    }
+}
+
+impl AxisPins for SimArm {
+    fn set_dir(&mut self, high: bool) -> Result<(), PinError> {
+        self.dir_high = high;
+        Ok(())
+    }
+
+    fn pulse(&mut self) -> Result<(), PinError> {
+        if self.enabled {
+            self.shaft += if self.dir_high != self.inverted {
+                1
+            } else {
+                -1
+            };
+            self.extremes = (
+                self.extremes.0.min(self.shaft),
+                self.extremes.1.max(self.shaft),
+            );
+        }
+        self.pulses += 1;
+        Ok(())
+    }
+
+    fn set_enabled(&mut self, on: bool) -> Result<(), PinError> {
+        self.enabled = on;
+        Ok(())
+    }
+
+    fn home_pressed(&mut self) -> Result<bool, PinError> {
+        Ok(self.shaft <= self.switch_at)
+    }
+}
+
+/// An output pin that only remembers its level (the laser on a board without one).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct SimPin {
+    /// Current level.
+    pub high: bool,
+}
+
+impl embedded_hal::digital::ErrorType for SimPin {
+    type Error = core::convert::Infallible;
+}
+
+impl embedded_hal::digital::OutputPin for SimPin {
+    fn set_low(&mut self) -> Result<(), Self::Error> {
+        self.high = false;
+        Ok(())
+    }
+
+    fn set_high(&mut self) -> Result<(), Self::Error> {
+        self.high = true;
+        Ok(())
+    }
+}
+
+/// A deterministic xorshift32 generator (no_std, reproducible on every target).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct XorShift32(u32);
+
+impl XorShift32 {
+    /// Seeds the generator (a zero seed is replaced, xorshift needs a non-zero state).
+    pub fn new(seed: u32) -> Self {
+        XorShift32(if seed == 0 { 0x9E37_79B9 } else { seed })
+    }
+
+    /// Next value, uniform in [0, 1).
+    pub fn uniform(&mut self) -> f32 {
+        let mut x = self.0;
+        x ^= x << 13;
+        x ^= x >> 17;
+        x ^= x << 5;
+        self.0 = x;
+        (x >> 8) as f32 / (1u32 << 24) as f32
+    }
+
+    /// Next value, approximately standard normal (sum of four uniforms, scaled to unit
+    /// variance; bounded by +-3.46).
+    pub fn normal(&mut self) -> f32 {
+        let s = self.uniform() + self.uniform() + self.uniform() + self.uniform();
+        (s - 2.0) * 1.732_050_8
+    }
+}
+
+/// A virtual sample: the preset's three-component model evaluated in f32 at the arms'
+/// angles, times `(1 + noise * n)` with `n` deterministic pseudo-random standard-normal
+/// noise. With the laser off it reads a dark level `dark` (plus the same relative
+/// noise on it).
+#[derive(Debug, Clone, Copy)]
+pub struct VirtualSample {
+    /// The material.
+    pub preset: &'static Preset,
+    /// Relative noise (0.005 = 0.5 %).
+    pub noise: f32,
+    /// Reading with the laser off.
+    pub dark: f32,
+    /// Noise source.
+    pub rng: XorShift32,
+}
+
+impl VirtualSample {
+    /// A virtual sample of `preset` with relative `noise` and a given seed; dark level 0.
+    pub fn new(preset: &'static Preset, noise: f32, seed: u32) -> Self {
+        VirtualSample {
+            preset,
+            noise,
+            dark: 0.0,
+            rng: XorShift32::new(seed),
+        }
+    }
+}
+
+impl Detector for VirtualSample {
+    fn sample(&mut self, theta_i: f32, theta_r: f32, laser_on: bool) -> Result<f32, DetectorError> {
+        let clean = if laser_on {
+            let model = self.preset.model(theta_i).map_err(|_| DetectorError)?;
+            model
+                .eval_in_plane(theta_i, theta_r)
+                .map_err(|_| DetectorError)?
+                .f
+                + self.dark
+        } else {
+            self.dark
+        };
+        Ok(clean * (1.0 + self.noise * self.rng.normal()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn noise_is_deterministic_with_unit_variance() {
+        let mut a = XorShift32::new(42);
+        let mut b = XorShift32::new(42);
+        let xs: std::vec::Vec<f32> = (0..20000).map(|_| a.normal()).collect();
+        assert!(
+            xs.iter()
+                .zip((0..20000).map(|_| b.normal()))
+                .all(|(x, y)| *x == y)
+        );
+        let mean = xs.iter().sum::<f32>() / xs.len() as f32;
+        let var = xs.iter().map(|x| (x - mean) * (x - mean)).sum::<f32>() / xs.len() as f32;
+        assert!(
+            mean.abs() < 0.03 && (var - 1.0).abs() < 0.05,
+            "{mean} {var}"
+        );
+    }
+
+    #[test]
+    fn virtual_sample_reads_the_model() {
+        let fe = Preset::by_name("fe-0.115").unwrap();
+        let mut s = VirtualSample::new(fe, 0.0, 1);
+        let v = s.sample(20.0, 20.0, true).unwrap();
+        assert!((v as f64 - crate::model::tests::REFERENCE[0].6).abs() / 972.0 < 1e-5);
+        assert_eq!(s.sample(20.0, 20.0, false).unwrap(), 0.0);
+        let mut noisy = VirtualSample::new(fe, 0.005, 1);
+        for _ in 0..100 {
+            let v = noisy.sample(20.0, 20.0, true).unwrap() as f64;
+            assert!((v - 972.0).abs() / 972.0 < 0.005 * 3.5);
+        }
+        assert!(s.sample(20.0, 95.0, true).is_err());
+    }
+}

@@ -42,6 +42,13 @@ pub fn encode<T: Serialize>(msg: &T, buf: &mut [u8]) -> Result<usize, FrameError
 
 /// Decodes one frame body (the bytes before a 0x00, COBS-encoded) in place.
 pub fn decode_body<T: DeserializeOwned>(body: &mut [u8]) -> Result<T, FrameError> {
+    let n = check_body(body)?;
+    decode_payload(&body[..n])
+}
+
+/// COBS-decodes `body` in place and checks its CRC; returns the payload length (the
+/// payload is then `body[..len]`).
+fn check_body(body: &mut [u8]) -> Result<usize, FrameError> {
     let n = cobs::decode_in_place(body).map_err(|_| FrameError::Cobs)?;
     if n < 4 {
         return Err(if n == 0 {
@@ -55,6 +62,11 @@ pub fn decode_body<T: DeserializeOwned>(body: &mut [u8]) -> Result<T, FrameError
     if CRC.checksum(payload) != sent {
         return Err(FrameError::Crc);
     }
+    Ok(n - 4)
+}
+
+/// Decodes a CRC-checked payload; it must be consumed exactly.
+fn decode_payload<T: DeserializeOwned>(payload: &[u8]) -> Result<T, FrameError> {
     match postcard::take_from_bytes::<T>(payload) {
         Ok((msg, [])) => Ok(msg),
         _ => Err(FrameError::Decode),
@@ -87,6 +99,8 @@ impl FrameStats {
 pub struct FrameDecoder<const N: usize> {
     buf: [u8; N],
     len: usize,
+    /// Length of the last frame's payload (CRC stripped) left in `buf`, if intact.
+    last_payload: usize,
     overflowed: bool,
     stats: FrameStats,
 }
@@ -103,6 +117,7 @@ impl<const N: usize> FrameDecoder<N> {
         FrameDecoder {
             buf: [0; N],
             len: 0,
+            last_payload: 0,
             overflowed: false,
             stats: FrameStats {
                 ok: 0,
@@ -119,6 +134,13 @@ impl<const N: usize> FrameDecoder<N> {
         self.stats
     }
 
+    /// The payload of the frame just returned as `Err(FrameError::Decode)` (intact but
+    /// not a `T`), e.g. to read the version of a newer protocol's `Info`. Empty
+    /// otherwise, and once the next byte is pushed.
+    pub fn undecoded_payload(&self) -> &[u8] {
+        &self.buf[..self.last_payload]
+    }
+
     /// Bytes of an unfinished frame held in the buffer.
     pub fn pending(&self) -> usize {
         self.len
@@ -129,6 +151,7 @@ impl<const N: usize> FrameDecoder<N> {
     /// a sender may prefix a frame with 0x00 to flush line noise.
     pub fn push<T: DeserializeOwned>(&mut self, byte: u8) -> Option<Result<T, FrameError>> {
         if byte != 0 {
+            self.last_payload = 0;
             if self.len < N {
                 self.buf[self.len] = byte;
                 self.len += 1;
@@ -145,7 +168,9 @@ impl<const N: usize> FrameDecoder<N> {
         if len == 0 {
             return None;
         }
-        let result = decode_body::<T>(&mut self.buf[..len]);
+        let result = check_body(&mut self.buf[..len]).and_then(|n| {
+            decode_payload::<T>(&self.buf[..n]).inspect_err(|_| self.last_payload = n)
+        });
         match result {
             Ok(_) => self.stats.ok += 1,
             Err(FrameError::Crc) => self.stats.crc += 1,

@@ -355,3 +355,34 @@ fn crc_is_the_standard_crc32() {
     // binascii.crc32) gives for ASCII "123456789", as docs/protocol.md states.
     assert_eq!(CRC.checksum(b"123456789"), 0xCBF4_3926);
 }
+
+#[test]
+fn a_newer_info_still_shows_its_version() {
+    // A hypothetical v2 Info: variant 0, protocol first, then fields v1 does not know.
+    let v2 = (
+        0u8,
+        2u16,
+        [9u8; 5],
+        "board with a longer name than v1 allows!",
+    );
+    let mut d = FrameDecoder::<N>::new();
+    let r: StdVec<_> = frame(&v2)
+        .iter()
+        .filter_map(|&b| d.push::<Event>(b))
+        .collect();
+    assert_eq!(r, vec![Err(FrameError::Decode)]);
+    assert_eq!(peek_info_version(d.undecoded_payload()), Some(2));
+    // An ordinary v1 Info peeks the same way; another event does not.
+    let (_, events) = every_message();
+    assert_eq!(
+        peek_info_version(&postcard::to_allocvec(&events[0]).unwrap()),
+        Some(PROTOCOL_VERSION)
+    );
+    assert_eq!(
+        peek_info_version(&postcard::to_allocvec(&events[1]).unwrap()),
+        None
+    );
+    // The payload is only offered right after the failed frame.
+    d.push::<Event>(0x11);
+    assert!(d.undecoded_payload().is_empty());
+}

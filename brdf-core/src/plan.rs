@@ -45,10 +45,37 @@ impl fmt::Display for PlanError {
             PlanError::BadExclusion => f.write_str("exclusion width must be >= 0"),
             PlanError::OutOfLimits { source, deg } => {
                 let arm = if source { "source" } else { "detector" };
-                write!(f, "{arm} angle {deg} is outside the arm's limits")
+                write!(f, "{arm} angle ")?;
+                write_deg(f, deg)?;
+                f.write_str(" is outside the arm's limits")
             }
         }
     }
+}
+
+/// Writes an angle with up to three decimals without float formatting (which would
+/// cost the firmware about 10 KB of flash): `-95`, `12.5`, `0.013`, `NaN`.
+fn write_deg(f: &mut fmt::Formatter<'_>, deg: f32) -> fmt::Result {
+    if !deg.is_finite() {
+        return f.write_str(if deg.is_nan() { "NaN" } else { "inf" });
+    }
+    let milli = libm::roundf(deg * 1000.0);
+    if libm::fabsf(milli) >= 2.0e9 {
+        return f.write_str(if deg < 0.0 { "-huge" } else { "huge" });
+    }
+    let milli = milli as i32;
+    let sign = if milli < 0 { "-" } else { "" };
+    let (int, mut frac) = (milli.unsigned_abs() / 1000, milli.unsigned_abs() % 1000);
+    write!(f, "{sign}{int}")?;
+    if frac != 0 {
+        let mut digits = 3;
+        while frac % 10 == 0 {
+            frac /= 10;
+            digits -= 1;
+        }
+        write!(f, ".{frac:0digits$}")?;
+    }
+    Ok(())
 }
 
 impl SweepPlan {

@@ -247,3 +247,21 @@ fn adaptive_rejects_bad_requests() {
         PlanError::BadStep
     );
 }
+
+#[test]
+fn out_of_limit_angles_print_without_float_formatting() {
+    for (deg, text) in [
+        (-95.0, "-95"),
+        (12.5, "12.5"),
+        (0.0125, "0.013"),
+        (-0.5, "-0.5"),
+        (f32::NAN, "NaN"),
+        (1e12, "huge"),
+    ] {
+        let e = PlanError::OutOfLimits { source: false, deg };
+        assert_eq!(
+            std::format!("{e}"),
+            std::format!("detector angle {text} is outside the arm's limits")
+        );
+    }
+}

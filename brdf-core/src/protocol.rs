@@ -264,3 +264,17 @@ impl ErrorEvent {
         ErrorEvent { code, detail: s }
     }
 }
+
+/// Reads the protocol version out of an `Info` event body of *any* protocol version:
+/// variant 0 of `Event` and its first field are the same in every version. Returns
+/// `None` if the body is not an `Info`.
+pub fn peek_info_version(body: &[u8]) -> Option<u16> {
+    #[derive(Deserialize)]
+    enum Peek {
+        Info(u16),
+    }
+    match postcard::take_from_bytes::<Peek>(body) {
+        Ok((Peek::Info(v), _)) => Some(v),
+        Err(_) => None,
+    }
+}

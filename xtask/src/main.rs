@@ -1,20 +1,47 @@
 //! `cargo xtask`: the project's build and test entry points.
 //!
-//! - `cargo xtask test`: everything CI runs (installs what it needs first).
+//! - `cargo xtask setup`: installs what the build needs (thumb target, llvm-tools,
+//!   flip-link, qemu-system-arm, libudev-dev).
+//! - `cargo xtask firmware --board qemu|stm32f411`: builds the release ELF and prints
+//!   its path as the last line of stdout.
+//! - `cargo xtask size`: builds both boards and checks the stm32f411 size budget.
+//! - `cargo xtask qemu-e2e`: builds the qemu image and runs the end-to-end test.
+//! - `cargo xtask test`: everything CI runs.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
 
 const THUMB: &str = "thumbv7em-none-eabihf";
+/// Size budget of the stm32f411 release image (issue: flash text+data, static RAM).
+const FLASH_BUDGET: u64 = 64 * 1024;
+const RAM_BUDGET: u64 = 16 * 1024;
 
 type Result<T = ()> = std::result::Result<T, String>;
+
+const USAGE: &str = "usage: cargo xtask <command>
+  setup                              install the thumb target, llvm-tools, flip-link,
+                                     qemu-system-arm and libudev-dev when missing
+  firmware --board qemu|stm32f411    build the release ELF, print its path last
+  size                               build both boards, print sizes, check the budget
+  qemu-e2e                           build the qemu image, run the end-to-end test
+  test                               setup, fmt, clippy, host tests (with qemu-e2e),
+                                     firmware builds, clippy and size budget";
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let args: Vec<&str> = args.iter().map(String::as_str).collect();
     let result = match args.as_slice() {
-        ["test"] => test_all(),
         ["setup"] => setup(),
+        ["firmware", "--board", board] | ["firmware", "--board=", board] => {
+            firmware(board).map(|p| println!("{}", p.display()))
+        }
+        ["size"] => size().map(|_| ()),
+        ["qemu-e2e"] => qemu_e2e(),
+        ["test"] => test_all(),
+        ["help" | "--help" | "-h"] => {
+            println!("{USAGE}");
+            Ok(())
+        }
         _ => Err(USAGE.to_string()),
     };
     match result {
@@ -26,10 +53,6 @@ fn main() -> ExitCode {
     }
 }
 
-const USAGE: &str = "usage: cargo xtask <command>
-  setup    install the thumb target and qemu-system-arm if missing
-  test     setup, then fmt check, clippy, host tests, thumb builds";
-
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .parent()
@@ -37,12 +60,16 @@ fn root() -> PathBuf {
         .to_path_buf()
 }
 
+fn command(dir: &Path, program: &str, args: &[&str]) -> Command {
+    eprintln!("+ {program} {}", args.join(" "));
+    let mut c = Command::new(program);
+    c.args(args).current_dir(dir);
+    c
+}
+
 /// Runs a command in `dir`, echoing it, failing on a non-zero exit.
 fn run(dir: &Path, program: &str, args: &[&str]) -> Result {
-    eprintln!("+ {program} {}", args.join(" "));
-    let status = Command::new(program)
-        .args(args)
-        .current_dir(dir)
+    let status = command(dir, program, args)
         .status()
         .map_err(|e| format!("cannot run {program}: {e}"))?;
     if status.success() {
@@ -52,33 +79,140 @@ fn run(dir: &Path, program: &str, args: &[&str]) -> Result {
     }
 }
 
-fn on_path(program: &str) -> bool {
+fn works(program: &str, args: &[&str]) -> bool {
     Command::new(program)
-        .arg("--version")
+        .args(args)
         .output()
         .map(|o| o.status.success())
         .unwrap_or(false)
 }
 
-/// Installs the thumb target and QEMU when missing (QEMU through apt, which needs root).
+fn llvm_size() -> Result<PathBuf> {
+    let out = Command::new("rustc")
+        .args(["--print", "sysroot"])
+        .output()
+        .map_err(|e| e.to_string())?;
+    let sysroot = String::from_utf8_lossy(&out.stdout).trim().to_string();
+    let host = Command::new("rustc")
+        .args(["-vV"])
+        .output()
+        .map_err(|e| e.to_string())?;
+    let host = String::from_utf8_lossy(&host.stdout)
+        .lines()
+        .find_map(|l| l.strip_prefix("host: ").map(str::to_string))
+        .ok_or("rustc -vV printed no host")?;
+    Ok(PathBuf::from(sysroot)
+        .join("lib/rustlib")
+        .join(host)
+        .join("bin/llvm-size"))
+}
+
+/// Installs what the build needs when missing. apt needs root (CI and these machines
+/// run as root); elsewhere install qemu-system-arm and libudev-dev yourself.
 fn setup() -> Result {
     let root = root();
     run(&root, "rustup", &["target", "add", THUMB])?;
-    if !on_path("qemu-system-arm") {
+    if !llvm_size()?.exists() {
+        run(&root, "rustup", &["component", "add", "llvm-tools"])?;
+    }
+    if !works("flip-link", &["--version"]) {
+        run(&root, "cargo", &["install", "flip-link", "--locked"])?;
+    }
+    let need_qemu = !works("qemu-system-arm", &["--version"]);
+    let need_udev = !works("pkg-config", &["--exists", "libudev"]);
+    if need_qemu || need_udev {
         run(&root, "apt-get", &["update", "-qq"])?;
         run(
             &root,
             "apt-get",
-            &["install", "-y", "-qq", "qemu-system-arm"],
+            &[
+                "install",
+                "-y",
+                "-qq",
+                "qemu-system-arm",
+                "libudev-dev",
+                "pkg-config",
+            ],
         )?;
     }
     Ok(())
 }
 
+/// Builds a board's release ELF; returns its path.
+fn firmware(board: &str) -> Result<PathBuf> {
+    if !matches!(board, "qemu" | "stm32f411") {
+        return Err(format!("unknown board '{board}' (qemu or stm32f411)"));
+    }
+    let fw = root().join("firmware");
+    run(
+        &fw,
+        "cargo",
+        &["build", "--release", "--bin", board, "--features", board],
+    )?;
+    Ok(fw.join("target").join(THUMB).join("release").join(board))
+}
+
+/// (text, data, bss) of an ELF, from llvm-size's Berkeley format.
+fn sizes(elf: &Path) -> Result<(u64, u64, u64)> {
+    let out = Command::new(llvm_size()?)
+        .arg(elf)
+        .output()
+        .map_err(|e| format!("llvm-size: {e}"))?;
+    let text = String::from_utf8_lossy(&out.stdout);
+    let line = text
+        .lines()
+        .nth(1)
+        .ok_or_else(|| format!("llvm-size printed {text:?}"))?;
+    let v: Vec<u64> = line
+        .split_whitespace()
+        .take(3)
+        .map(|x| x.parse().unwrap_or(0))
+        .collect();
+    Ok((v[0], v[1], v[2]))
+}
+
+fn size() -> Result<bool> {
+    let mut ok = true;
+    for board in ["qemu", "stm32f411"] {
+        let elf = firmware(board)?;
+        let (text, data, bss) = sizes(&elf)?;
+        let (flash, ram) = (text + data, data + bss);
+        println!(
+            "{board:>10}: flash {flash:>6} B (text {text} + data {data}), static RAM {ram:>6} B (data {data} + bss {bss})"
+        );
+        if board == "stm32f411" && (flash > FLASH_BUDGET || ram > RAM_BUDGET) {
+            println!(
+                "{board:>10}: OVER BUDGET (flash <= {FLASH_BUDGET} B, static RAM <= {RAM_BUDGET} B)"
+            );
+            ok = false;
+        }
+    }
+    if ok {
+        Ok(true)
+    } else {
+        Err("stm32f411 image over its size budget".into())
+    }
+}
+
+fn qemu_e2e() -> Result {
+    let elf = firmware("qemu")?;
+    let status = command(&root(), "cargo", &["test", "-p", "gonio-e2e"])
+        .env("GONIO_QEMU_ELF", &elf)
+        .status()
+        .map_err(|e| e.to_string())?;
+    if status.success() {
+        Ok(())
+    } else {
+        Err("qemu end-to-end test failed".into())
+    }
+}
+
 fn test_all() -> Result {
     setup()?;
     let root = root();
+    let fw = root.join("firmware");
     run(&root, "cargo", &["fmt", "--all", "--", "--check"])?;
+    run(&fw, "cargo", &["fmt", "--", "--check"])?;
     run(
         &root,
         "cargo",
@@ -91,12 +225,37 @@ fn test_all() -> Result {
             "warnings",
         ],
     )?;
-    run(&root, "cargo", &["test", "--workspace"])?;
+    for board in ["qemu", "stm32f411"] {
+        run(
+            &fw,
+            "cargo",
+            &[
+                "clippy",
+                "--release",
+                "--bin",
+                board,
+                "--features",
+                board,
+                "--",
+                "-D",
+                "warnings",
+            ],
+        )?;
+    }
     run(
         &root,
         "cargo",
         &["build", "--release", "-p", "brdf-core", "--target", THUMB],
     )?;
+    size()?;
+    let elf = firmware("qemu")?;
+    let status = command(&root, "cargo", &["test", "--workspace"])
+        .env("GONIO_QEMU_ELF", &elf)
+        .status()
+        .map_err(|e| e.to_string())?;
+    if !status.success() {
+        return Err("tests failed".into());
+    }
     eprintln!("xtask: all checks passed");
     Ok(())
 }

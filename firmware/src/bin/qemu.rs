@@ -1,0 +1,129 @@
+//! Board `qemu`: the goniometer firmware on QEMU's `netduinoplus2` (an STM32F405 with
+//! the same memory map as our STM32F411), so the real controller, protocol and framing
+//! run in tests on any machine.
+//!
+//! - Link: USART1 (0x40011000), connected by QEMU to a pseudo-terminal with
+//!   `-serial pty`. QEMU models neither the RCC nor baud rates: bytes move as fast as
+//!   the emulator runs.
+//! - Arms: simulated (`brdf_core::sim::SimArm`): steps are counted, a home switch sits
+//!   at each arm's `home_deg`; the shafts start at 45 (source) and 10 (detector)
+//!   degrees, unknown to the controller until it homes.
+//! - Detector: a virtual sample, the `fe-0.115` preset evaluated with brdf-core in
+//!   f32, times `1 + 0.005 * n` with `n` deterministic pseudo-random standard-normal
+//!   noise (xorshift32, fixed seed), so every run of the image gives the same numbers.
+//! - Time: simulated. When the controller asks to be called again in N microseconds
+//!   the clock jumps there, so motion and settle times cost no wall time; readings'
+//!   `t_ms` are simulated milliseconds.
+//! - Semihosting only to exit: a panic or HardFault exits QEMU with status 1.
+#![no_std]
+#![no_main]
+
+use core::ptr::{read_volatile, write_volatile};
+
+use brdf_core::controller::{Controller, ControllerConfig};
+use brdf_core::presets::Preset;
+use brdf_core::sim::{SimArm, SimPin, VirtualSample};
+use cortex_m_rt::{ExceptionFrame, entry, exception};
+use cortex_m_semihosting::{debug, hprintln};
+use firmware::mechanics::{DETECTOR, FIRMWARE_VERSION, SOURCE};
+use firmware::service::{Link, Service};
+
+/// USART1 of the STM32F4 family, by its registers (RM0383 section 19.6).
+struct Usart1;
+
+impl Usart1 {
+    const BASE: usize = 0x4001_1000;
+    const SR: *mut u32 = Self::BASE as *mut u32;
+    const DR: *mut u32 = (Self::BASE + 0x04) as *mut u32;
+    const BRR: *mut u32 = (Self::BASE + 0x08) as *mut u32;
+    const CR1: *mut u32 = (Self::BASE + 0x0C) as *mut u32;
+    const SR_RXNE: u32 = 1 << 5;
+    const SR_TXE: u32 = 1 << 7;
+    const CR1_UE_TE_RE: u32 = (1 << 13) | (1 << 3) | (1 << 2);
+    /// RCC APB2ENR, bit 4: USART1 clock (ignored by QEMU, needed on silicon).
+    const RCC_APB2ENR: *mut u32 = 0x4002_3844 as *mut u32;
+
+    fn init() -> Self {
+        // SAFETY: single-threaded start-up; these are the documented USART1/RCC
+        // registers and nothing else uses them.
+        unsafe {
+            write_volatile(
+                Self::RCC_APB2ENR,
+                read_volatile(Self::RCC_APB2ENR) | (1 << 4),
+            );
+            // 115200 baud from a 16 MHz HSI (ignored by QEMU).
+            write_volatile(Self::BRR, 0x8B);
+            write_volatile(Self::CR1, Self::CR1_UE_TE_RE);
+        }
+        Usart1
+    }
+}
+
+impl Link for Usart1 {
+    fn read(&mut self, buf: &mut [u8]) -> usize {
+        let mut n = 0;
+        // SAFETY: reads of USART1 status/data registers; reading DR clears RXNE.
+        while n < buf.len() && unsafe { read_volatile(Self::SR) } & Self::SR_RXNE != 0 {
+            buf[n] = unsafe { read_volatile(Self::DR) } as u8;
+            n += 1;
+        }
+        n
+    }
+
+    fn write(&mut self, bytes: &[u8]) -> usize {
+        for &b in bytes {
+            // SAFETY: USART1 status/data registers; TXE means DR may be written.
+            while unsafe { read_volatile(Self::SR) } & Self::SR_TXE == 0 {}
+            unsafe { write_volatile(Self::DR, b as u32) };
+        }
+        bytes.len()
+    }
+}
+
+#[entry]
+fn main() -> ! {
+    let mut link = Usart1::init();
+    let sample = Preset::by_name("fe-0.115").unwrap_or(&brdf_core::presets::PRESETS[4]);
+    let cfg = ControllerConfig {
+        board: "qemu",
+        firmware: FIRMWARE_VERSION,
+        source: SOURCE,
+        detector: DETECTOR,
+    };
+    let ctrl = Controller::new(
+        cfg,
+        SimArm::new(SOURCE.to_steps(45.0), SOURCE.to_steps(SOURCE.home_deg)),
+        SimArm::new(
+            DETECTOR.to_steps(10.0),
+            DETECTOR.to_steps(DETECTOR.home_deg),
+        ),
+        SimPin::default(),
+        VirtualSample::new(sample, 0.005, 0x6F6E_6F67),
+    );
+    let mut service = Service::new(ctrl);
+    let mut now_us: u64 = 0;
+    loop {
+        if let Some(at) = service.poll(&mut link, now_us) {
+            // Simulated time: jump to the next deadline.
+            now_us = now_us.max(at);
+        }
+    }
+}
+
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    hprintln!("firmware panic: {}", info);
+    debug::exit(debug::EXIT_FAILURE);
+    loop {
+        cortex_m::asm::bkpt();
+    }
+}
+
+#[exception]
+unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
+    hprintln!("firmware HardFault at pc={:#010x}", frame.pc());
+    debug::exit(debug::EXIT_FAILURE);
+    loop {
+        cortex_m::asm::bkpt();
+    }
+}

@@ -1,0 +1,398 @@
+//! Goniometer controller on a WeAct "Black Pill" STM32F411CEU6 (25 MHz HSE crystal):
+//! USB CDC-ACM link to the host, two step/dir arms, a laser enable and a photodiode
+//! amplifier on ADC1. Logs go out over RTT (defmt); panics print there too.
+//!
+//! Build and flash: `cargo run --release --bin stm32f411 --features stm32f411`
+//! (from `firmware/`, with a debug probe on SWD).
+//!
+//! # Pins
+//!
+//! This table and [`Board::take`] are the only places that name pins; keep them in step.
+//!
+//! | Pin  | Function                  | Notes                                                      |
+//! |------|---------------------------|------------------------------------------------------------|
+//! | PB12 | source arm STEP           | push-pull, idle low, ~2 us high pulse                      |
+//! | PB13 | source arm DIR            | push-pull; 1 us settle after every change                  |
+//! | PB14 | source arm ENABLE         | push-pull, active low (driver `EN`); driven high at boot   |
+//! | PB15 | source arm HOME switch    | input, internal pull-up, switch to GND = pressed           |
+//! | PB6  | detector arm STEP         | push-pull, idle low, ~2 us high pulse                      |
+//! | PB7  | detector arm DIR          | push-pull; 1 us settle after every change                  |
+//! | PB8  | detector arm ENABLE       | push-pull, active low (driver `EN`); driven high at boot   |
+//! | PB9  | detector arm HOME switch  | input, internal pull-up, switch to GND = pressed           |
+//! | PB10 | laser enable              | push-pull, active high; driven low (off) at boot           |
+//! | PA1  | photodiode amplifier out  | analog, ADC1_IN1, 0..3.3 V; keep the amp output <= VDDA    |
+//! | PC13 | status LED (on board)     | push-pull, active low; lit once the firmware is running    |
+//! | PA11 | USB D-                    | OTG_FS (on board USB-C)                                    |
+//! | PA12 | USB D+                    | OTG_FS (on board USB-C)                                    |
+//! | PA13 | SWDIO                     | debug probe, not reassigned                                |
+//! | PA14 | SWCLK                     | debug probe, not reassigned                                |
+//!
+//! Left free on purpose: PA0 (the on-board KEY button), PB2 (BOOT1, has a resistor on
+//! the board), PA15/PB3/PB4 (JTAG; PB3 is SWO), PC14/PC15 (32 kHz crystal), PA9/PA10
+//! (USART1, the ROM bootloader's UART). The F411CE package has no PB11. Both arms are
+//! on one header row (PB12..PB15, PB6..PB9); the laser and the analog input are on the
+//! other, away from the step lines.
+//!
+//! During reset and until `Board::take` runs, all pins float: a driver whose `EN` has
+//! no pull-up of its own (A4988, DRV8825 boards pull it down) holds torque then, and a
+//! laser driver needs its own pull-down to stay off.
+//!
+//! # Detector units
+//!
+//! [`Photodiode::sample`] returns raw ADC counts (12 bit, 0..=4095 for 0..VDDA), the
+//! mean of [`OVERSAMPLE`] conversions as `f32`, so it carries fractional counts. Counts
+//! are not converted to volts: readings are relative anyway (dark-subtracted, then
+//! normalised on the host), and counts do not depend on an estimate of VDDA.
+//!
+//! # Time
+//!
+//! TIM5 (32 bit) counts microseconds; [`MicrosClock`] extends it to 64 bits by noticing
+//! wrap-arounds (every 71.6 minutes), which only needs `now_us` to be called more
+//! often than that — the main loop calls it continuously.
+
+#![no_std]
+#![no_main]
+
+use brdf_core::axis::StepDirPins;
+use brdf_core::controller::{Controller, ControllerConfig, Detector, DetectorError};
+use cortex_m_rt::entry;
+use defmt_rtt as _;
+use embedded_hal::delay::DelayNs;
+use embedded_hal::digital::{ErrorType, OutputPin, PinState};
+use firmware::mechanics;
+use firmware::service::{Link, Service};
+use panic_probe as _;
+use stm32f4xx_hal::adc::Adc;
+use stm32f4xx_hal::adc::config::{AdcConfig, Clock, Resolution, SampleTime};
+use stm32f4xx_hal::dwt::{Delay, DwtExt};
+use stm32f4xx_hal::gpio::PinState as Level;
+use stm32f4xx_hal::gpio::{
+    Analog, Input, Output, PA1, PB6, PB7, PB8, PB9, PB10, PB12, PB13, PB14, PB15, PC13,
+};
+use stm32f4xx_hal::otg_fs::{USB, UsbBus, UsbBusType};
+use stm32f4xx_hal::pac;
+use stm32f4xx_hal::prelude::*;
+use stm32f4xx_hal::rcc::{Config, Rcc};
+use stm32f4xx_hal::timer::FTimerUs;
+use usb_device::UsbError;
+use usb_device::bus::UsbBusAllocator;
+use usb_device::device::{StringDescriptors, UsbDevice, UsbDeviceBuilder, UsbVidPid};
+use usbd_serial::SerialPort;
+
+/// Board name reported in the handshake.
+const BOARD: &str = "stm32f411";
+/// USB vendor/product: the pid.codes (V-USB) shared CDC-ACM pair.
+const USB_VID_PID: UsbVidPid = UsbVidPid(0x16c0, 0x27dd);
+/// USB manufacturer string.
+const USB_MANUFACTURER: &str = "gonio";
+/// USB product string; the host tool finds the board by it.
+const USB_PRODUCT: &str = "gonio goniometer";
+/// Step pulse width (A4988 >= 1 us, DRV8825 >= 1.9 us, TMC2209 >= 0.1 us).
+const STEP_PULSE_NS: u32 = 2_000;
+/// Direction setup time before the next step edge (DRV8825 >= 650 ns, A4988 >= 200 ns).
+const DIR_SETUP_NS: u32 = 1_000;
+/// ADC conversions averaged per detector sample.
+const OVERSAMPLE: u32 = 16;
+/// ADC sample time: 144 ADC clocks (6 us at 24 MHz) is ample for an op-amp output.
+const ADC_SAMPLE_TIME: SampleTime = SampleTime::Cycles_144;
+/// Words of RAM for the USB OTG endpoint buffers (OUT packets of EP0 and the CDC data
+/// endpoint; 64 bytes each, with room to spare).
+const USB_EP_MEMORY_WORDS: usize = 320;
+
+/// A direction output that waits [`DIR_SETUP_NS`] after every level change, so the
+/// driver has latched the direction before the step edge that follows at once.
+struct DirPin<P> {
+    pin: P,
+    delay: Delay,
+}
+
+impl<P: OutputPin> ErrorType for DirPin<P> {
+    type Error = P::Error;
+}
+
+impl<P: OutputPin> OutputPin for DirPin<P> {
+    fn set_low(&mut self) -> Result<(), Self::Error> {
+        self.set_state(PinState::Low)
+    }
+
+    fn set_high(&mut self) -> Result<(), Self::Error> {
+        self.set_state(PinState::High)
+    }
+
+    fn set_state(&mut self, state: PinState) -> Result<(), Self::Error> {
+        self.pin.set_state(state)?;
+        self.delay.delay_ns(DIR_SETUP_NS);
+        Ok(())
+    }
+}
+
+/// Pins of the source (laser) arm.
+type SourcePins = StepDirPins<PB12<Output>, DirPin<PB13<Output>>, PB14<Output>, PB15<Input>, Delay>;
+/// Pins of the detector arm.
+type DetectorPins = StepDirPins<PB6<Output>, DirPin<PB7<Output>>, PB8<Output>, PB9<Input>, Delay>;
+
+/// A step/dir driver with the settings common to both arms.
+fn step_dir<STEP, DIR, EN, HOME>(
+    step: STEP,
+    dir: DIR,
+    enable: EN,
+    home: HOME,
+    delay: Delay,
+) -> StepDirPins<STEP, DirPin<DIR>, EN, HOME, Delay> {
+    StepDirPins {
+        step,
+        dir: DirPin { pin: dir, delay },
+        enable,
+        home,
+        delay,
+        pulse_ns: STEP_PULSE_NS,
+        enable_active_low: true,
+        home_active_low: true,
+    }
+}
+
+/// The photodiode amplifier on ADC1: each sample is the mean of [`OVERSAMPLE`]
+/// conversions, in raw ADC counts (0..=4095).
+struct Photodiode {
+    adc: Adc<pac::ADC1>,
+    pin: PA1<Analog>,
+}
+
+impl Detector for Photodiode {
+    fn sample(
+        &mut self,
+        _theta_i: f32,
+        _theta_r: f32,
+        _laser_on: bool,
+    ) -> Result<f32, DetectorError> {
+        let sum: u32 = (0..OVERSAMPLE)
+            .map(|_| u32::from(self.adc.convert(&self.pin, ADC_SAMPLE_TIME)))
+            .sum();
+        Ok(sum as f32 / OVERSAMPLE as f32)
+    }
+}
+
+/// TIM5 free-running at 1 MHz, extended to 64 bits.
+struct MicrosClock {
+    tim: pac::TIM5,
+    last: u32,
+    wraps: u32,
+}
+
+impl MicrosClock {
+    /// Starts TIM5 counting microseconds from 0 over the full 32-bit range.
+    fn start(tim: pac::TIM5, rcc: &mut Rcc) -> Self {
+        // Enables and resets TIM5 and sets the prescaler for 1 MHz.
+        let tim = FTimerUs::new(tim, rcc).release();
+        tim.arr().write(|w| w.arr().set(u32::MAX));
+        // Load the prescaler and restart from 0, then run.
+        tim.egr().write(|w| w.ug().set_bit());
+        tim.cr1().modify(|_, w| w.cen().set_bit());
+        MicrosClock {
+            tim,
+            last: 0,
+            wraps: 0,
+        }
+    }
+
+    /// Microseconds since `start`; must be called at least once per 71 minutes.
+    fn now_us(&mut self) -> u64 {
+        let now = self.tim.cnt().read().bits();
+        if now < self.last {
+            self.wraps += 1;
+        }
+        self.last = now;
+        (u64::from(self.wraps) << 32) | u64::from(now)
+    }
+}
+
+/// The USB CDC-ACM port as the service's link.
+struct UsbLink<'a> {
+    dev: UsbDevice<'a, UsbBusType>,
+    serial: SerialPort<'a, UsbBusType>,
+}
+
+impl Link for UsbLink<'_> {
+    fn poll(&mut self) {
+        self.dev.poll(&mut [&mut self.serial]);
+    }
+
+    fn read(&mut self, buf: &mut [u8]) -> usize {
+        match self.serial.read(buf) {
+            Ok(n) => n,
+            Err(UsbError::WouldBlock) => 0,
+            Err(_) => {
+                defmt::warn!("usb read failed");
+                0
+            }
+        }
+    }
+
+    fn write(&mut self, bytes: &[u8]) -> usize {
+        match self.serial.write(bytes) {
+            Ok(n) => n,
+            Err(UsbError::WouldBlock) => 0,
+            Err(_) => {
+                defmt::warn!("usb write failed");
+                0
+            }
+        }
+    }
+}
+
+/// The chip's 96-bit unique ID as 24 upper-case hex digits: the three 32-bit words at
+/// 0x1FFF_7A10 in address order, each most significant digit first (as a debugger
+/// shows them).
+fn unique_id_hex() -> [u8; 24] {
+    const UID_BASE: *const u32 = 0x1FFF_7A10 as *const u32;
+    const HEX: &[u8; 16] = b"0123456789ABCDEF";
+    let mut out = [0u8; 24];
+    for (i, chunk) in out.chunks_exact_mut(8).enumerate() {
+        // SAFETY: the unique ID is three read-only words of system memory, always
+        // mapped on the STM32F411 (RM0383 section 24.2).
+        let word = unsafe { core::ptr::read_volatile(UID_BASE.add(i)) };
+        for (j, c) in chunk.iter_mut().enumerate() {
+            *c = HEX[((word >> (28 - 4 * j)) & 0xF) as usize];
+        }
+    }
+    out
+}
+
+/// Everything on the board the firmware uses, set up. The pin assignment here follows
+/// the table at the top of this file.
+struct Board {
+    source: SourcePins,
+    detector: DetectorPins,
+    laser: PB10<Output>,
+    photodiode: Photodiode,
+    led: PC13<Output>,
+    clock: MicrosClock,
+    usb_bus: UsbBusAllocator<UsbBusType>,
+}
+
+impl Board {
+    fn take() -> Board {
+        let dp = pac::Peripherals::take().unwrap();
+        let cp = cortex_m::Peripherals::take().unwrap();
+
+        // 25 MHz HSE -> PLL: sysclk 96 MHz and exactly 48 MHz for USB (the HAL picks
+        // M = 25, N = 384, P = 4, Q = 8). APB1 48 MHz (timers 96 MHz), APB2 96 MHz.
+        let mut rcc = dp
+            .RCC
+            .freeze(Config::hse(25.MHz()).sysclk(96.MHz()).require_pll48clk());
+        let clocks = rcc.clocks;
+        defmt::info!(
+            "clocks: sysclk {} Hz, hclk {} Hz, pclk1 {} Hz, pclk2 {} Hz, usb {} Hz",
+            clocks.sysclk().raw(),
+            clocks.hclk().raw(),
+            clocks.pclk1().raw(),
+            clocks.pclk2().raw(),
+            clocks.pll48clk().map_or(0, |f| f.raw())
+        );
+        assert!(clocks.is_pll48clk_valid(), "no valid 48 MHz USB clock");
+
+        // The DWT cycle counter times the step pulses and the direction setup.
+        let delay = cp.DWT.constrain(cp.DCB, &clocks).delay();
+
+        let gpioa = dp.GPIOA.split(&mut rcc);
+        let gpiob = dp.GPIOB.split(&mut rcc);
+        let gpioc = dp.GPIOC.split(&mut rcc);
+
+        let source = step_dir(
+            gpiob.pb12.into_push_pull_output_in_state(Level::Low),
+            gpiob.pb13.into_push_pull_output_in_state(Level::Low),
+            gpiob.pb14.into_push_pull_output_in_state(Level::High),
+            gpiob.pb15.into_pull_up_input(),
+            delay,
+        );
+        let detector = step_dir(
+            gpiob.pb6.into_push_pull_output_in_state(Level::Low),
+            gpiob.pb7.into_push_pull_output_in_state(Level::Low),
+            gpiob.pb8.into_push_pull_output_in_state(Level::High),
+            gpiob.pb9.into_pull_up_input(),
+            delay,
+        );
+        let laser = gpiob.pb10.into_push_pull_output_in_state(Level::Low);
+        let led = gpioc.pc13.into_push_pull_output_in_state(Level::High);
+
+        // ADC clock = APB2 / 4 = 24 MHz (the F411 allows at most 36 MHz).
+        let adc = Adc::new(
+            dp.ADC1,
+            true,
+            AdcConfig::default()
+                .clock(Clock::Pclk2_div_4)
+                .resolution(Resolution::Twelve)
+                .default_sample_time(ADC_SAMPLE_TIME),
+            &mut rcc,
+        );
+        let photodiode = Photodiode {
+            adc,
+            pin: gpioa.pa1.into_analog(),
+        };
+
+        let clock = MicrosClock::start(dp.TIM5, &mut rcc);
+
+        let ep_memory =
+            cortex_m::singleton!(: [u32; USB_EP_MEMORY_WORDS] = [0; USB_EP_MEMORY_WORDS]).unwrap();
+        let usb = USB::new(
+            (dp.OTG_FS_GLOBAL, dp.OTG_FS_DEVICE, dp.OTG_FS_PWRCLK),
+            (gpioa.pa11, gpioa.pa12),
+            &clocks,
+        );
+        let usb_bus = UsbBus::new(usb, ep_memory);
+
+        Board {
+            source,
+            detector,
+            laser,
+            photodiode,
+            led,
+            clock,
+            usb_bus,
+        }
+    }
+}
+
+#[entry]
+fn main() -> ! {
+    let Board {
+        source,
+        detector,
+        laser,
+        photodiode,
+        mut led,
+        mut clock,
+        usb_bus,
+    } = Board::take();
+
+    let serial_hex = unique_id_hex();
+    let serial_number = core::str::from_utf8(&serial_hex).unwrap_or("0");
+    defmt::info!("serial number {}", serial_number);
+
+    let serial = SerialPort::new(&usb_bus);
+    let dev = UsbDeviceBuilder::new(&usb_bus, USB_VID_PID)
+        .device_class(usbd_serial::USB_CLASS_CDC)
+        .strings(&[StringDescriptors::default()
+            .manufacturer(USB_MANUFACTURER)
+            .product(USB_PRODUCT)
+            .serial_number(serial_number)])
+        .unwrap()
+        .build();
+    let mut link = UsbLink { dev, serial };
+
+    let cfg = ControllerConfig {
+        board: BOARD,
+        firmware: mechanics::FIRMWARE_VERSION,
+        source: mechanics::SOURCE,
+        detector: mechanics::DETECTOR,
+    };
+    let mut service = Service::new(Controller::new(cfg, source, detector, laser, photodiode));
+
+    led.set_low();
+    defmt::info!("gonio {} ready", BOARD);
+
+    loop {
+        let now = clock.now_us();
+        service.poll(&mut link, now);
+    }
+}

@@ -1,0 +1,5 @@
+//! The gonio host library: talking to the goniometer (serial or in-process), and
+//! everything the `gonio` command does with what it receives.
+#![deny(missing_docs)]
+
+pub mod link;

@@ -1,0 +1,235 @@
+//! The host end of the wire protocol: a transport (serial port or in-process device),
+//! framing, the handshake with its version check, and receive statistics.
+
+use std::collections::VecDeque;
+use std::fmt;
+use std::io::{self, Write};
+use std::time::{Duration, Instant};
+
+use brdf_core::frame::{self, FrameDecoder, FrameError, FrameStats, MAX_FRAME_LEN};
+use brdf_core::protocol::{Command, Event, Info, PROTOCOL_VERSION, peek_info_version};
+
+/// A byte pipe to a device.
+pub trait Transport {
+    /// Sends all of `bytes`.
+    fn send(&mut self, bytes: &[u8]) -> io::Result<()>;
+    /// Receives what arrives within `timeout` into `buf`; `Ok(0)` when nothing came.
+    fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<usize>;
+}
+
+/// A serial port (USB CDC device or pseudo-terminal).
+pub struct SerialTransport {
+    port: Box<dyn serialport::SerialPort>,
+    /// The path it was opened with.
+    pub path: String,
+}
+
+impl SerialTransport {
+    /// Opens `path` at 115200 baud, 8N1, no flow control (the baud rate does not
+    /// matter for USB CDC or QEMU, but real UARTs need one).
+    pub fn open(path: &str) -> Result<Self, LinkError> {
+        let port = serialport::new(path, 115_200)
+            .timeout(Duration::from_millis(20))
+            .open()
+            .map_err(|e| LinkError::Open {
+                path: path.to_string(),
+                reason: e.to_string(),
+            })?;
+        Ok(SerialTransport {
+            port,
+            path: path.to_string(),
+        })
+    }
+}
+
+impl Transport for SerialTransport {
+    fn send(&mut self, bytes: &[u8]) -> io::Result<()> {
+        self.port.write_all(bytes)?;
+        self.port.flush()
+    }
+
+    fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<usize> {
+        self.port
+            .set_timeout(timeout.max(Duration::from_millis(1)))
+            .map_err(io::Error::other)?;
+        match self.port.read(buf) {
+            Ok(n) => Ok(n),
+            Err(e) if e.kind() == io::ErrorKind::TimedOut => Ok(0),
+            Err(e) => Err(e),
+        }
+    }
+}
+
+/// Why talking to the device failed.
+#[derive(Debug)]
+pub enum LinkError {
+    /// The port could not be opened.
+    Open {
+        /// Port path.
+        path: String,
+        /// What the OS said.
+        reason: String,
+    },
+    /// Reading or writing failed (e.g. the device was unplugged).
+    Io(io::Error),
+    /// Nothing arrived in time.
+    Timeout(&'static str),
+    /// The device speaks another protocol version.
+    Version {
+        /// The device's version.
+        device: u16,
+    },
+}
+
+impl fmt::Display for LinkError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            LinkError::Open { path, reason } => write!(f, "cannot open {path}: {reason}"),
+            LinkError::Io(e) => write!(f, "device link failed: {e}"),
+            LinkError::Timeout(what) => write!(f, "device did not answer: {what}"),
+            LinkError::Version { device } if *device > PROTOCOL_VERSION => write!(
+                f,
+                "device speaks protocol v{device}, this gonio speaks v{PROTOCOL_VERSION}: update gonio"
+            ),
+            LinkError::Version { device } => write!(
+                f,
+                "device speaks protocol v{device}, this gonio speaks v{PROTOCOL_VERSION}: update the firmware (gonio flash)"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for LinkError {}
+
+impl From<io::Error> for LinkError {
+    fn from(e: io::Error) -> Self {
+        LinkError::Io(e)
+    }
+}
+
+/// Frames over a transport: commands out, events in, with counters of what was
+/// dropped and an optional log of every raw byte received.
+pub struct Link<T> {
+    transport: T,
+    decoder: FrameDecoder<MAX_FRAME_LEN>,
+    inbox: VecDeque<Event>,
+    raw_log: Option<Box<dyn Write + Send>>,
+    foreign_version: Option<u16>,
+}
+
+impl<T: Transport> Link<T> {
+    /// Wraps a transport.
+    pub fn new(transport: T) -> Self {
+        Link {
+            transport,
+            decoder: FrameDecoder::new(),
+            inbox: VecDeque::new(),
+            raw_log: None,
+            foreign_version: None,
+        }
+    }
+
+    /// Logs every received byte to `w` (a raw frame log for later replay).
+    pub fn set_raw_log(&mut self, w: Box<dyn Write + Send>) {
+        self.raw_log = Some(w);
+    }
+
+    /// The transport.
+    pub fn transport(&mut self) -> &mut T {
+        &mut self.transport
+    }
+
+    /// Frames received and dropped (CRC, COBS, too long, undecodable).
+    pub fn stats(&self) -> FrameStats {
+        self.decoder.stats()
+    }
+
+    /// Sends one command.
+    pub fn send(&mut self, cmd: &Command) -> Result<(), LinkError> {
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let n = frame::encode(cmd, &mut buf).expect("every command fits MAX_FRAME_LEN");
+        self.transport.send(&buf[..n])?;
+        Ok(())
+    }
+
+    /// Sends raw bytes (tests of the device's robustness).
+    pub fn send_raw(&mut self, bytes: &[u8]) -> Result<(), LinkError> {
+        self.transport.send(bytes)?;
+        Ok(())
+    }
+
+    /// The next event, waiting at most `timeout`; `Ok(None)` if none came. Dropped
+    /// frames are counted in [`Link::stats`], never returned.
+    pub fn recv(&mut self, timeout: Duration) -> Result<Option<Event>, LinkError> {
+        let deadline = Instant::now() + timeout;
+        let mut buf = [0u8; 4096];
+        loop {
+            if let Some(ev) = self.inbox.pop_front() {
+                return Ok(Some(ev));
+            }
+            let left = deadline.saturating_duration_since(Instant::now());
+            let n = self.transport.recv(&mut buf, left)?;
+            if let Some(log) = &mut self.raw_log {
+                log.write_all(&buf[..n])?;
+            }
+            for &b in &buf[..n] {
+                match self.decoder.push::<Event>(b) {
+                    Some(Ok(ev)) => self.inbox.push_back(ev),
+                    Some(Err(FrameError::Decode)) => {
+                        // Intact but not ours: a device of another protocol version
+                        // still shows its version in an Info.
+                        if let Some(v) = peek_info_version(self.decoder.undecoded_payload()) {
+                            self.foreign_version = Some(v);
+                        }
+                    }
+                    Some(Err(_)) | None => {}
+                }
+            }
+            if self.inbox.is_empty() && Instant::now() >= deadline {
+                return Ok(None);
+            }
+        }
+    }
+
+    /// Handshake: Ping every 50 ms until the matching Pong (bytes sent before the
+    /// device listens are lost), then GetInfo; checks the protocol version. Events
+    /// other than the awaited ones are dropped.
+    pub fn handshake(&mut self, timeout: Duration) -> Result<Info, LinkError> {
+        let deadline = Instant::now() + timeout;
+        let token = 0x676F_6E69; // "goni"
+        'ping: loop {
+            if Instant::now() >= deadline {
+                return Err(LinkError::Timeout("no Pong to Ping"));
+            }
+            // Flush line noise in front of the first frame.
+            self.send_raw(&[0])?;
+            self.send(&Command::Ping(token))?;
+            let wait_until = Instant::now() + Duration::from_millis(50);
+            while Instant::now() < wait_until {
+                if let Some(Event::Pong(t)) = self.recv(Duration::from_millis(10))? {
+                    if t == token {
+                        break 'ping;
+                    }
+                }
+            }
+        }
+        self.send(&Command::GetInfo)?;
+        while Instant::now() < deadline {
+            match self.recv(deadline.saturating_duration_since(Instant::now()))? {
+                Some(Event::Info(info)) => {
+                    if info.protocol != PROTOCOL_VERSION {
+                        return Err(LinkError::Version {
+                            device: info.protocol,
+                        });
+                    }
+                    return Ok(info);
+                }
+                Some(_) | None => {}
+            }
+            if let Some(device) = self.foreign_version {
+                return Err(LinkError::Version { device });
+            }
+        }
+        Err(LinkError::Timeout("no Info to GetInfo"))
+    }
+}

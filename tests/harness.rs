@@ -101,6 +101,7 @@ impl Qemu {
             }
         }
         let _ = child.kill();
+        let _ = child.wait();
         panic!("qemu printed no pty path within 10 s: {seen:?}");
     }
 

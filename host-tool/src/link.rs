@@ -215,16 +215,15 @@ impl<T: Transport> Link<T> {
         }
         self.send(&Command::GetInfo)?;
         while Instant::now() < deadline {
-            match self.recv(deadline.saturating_duration_since(Instant::now()))? {
-                Some(Event::Info(info)) => {
-                    if info.protocol != PROTOCOL_VERSION {
-                        return Err(LinkError::Version {
-                            device: info.protocol,
-                        });
-                    }
-                    return Ok(info);
+            if let Some(Event::Info(info)) =
+                self.recv(deadline.saturating_duration_since(Instant::now()))?
+            {
+                if info.protocol != PROTOCOL_VERSION {
+                    return Err(LinkError::Version {
+                        device: info.protocol,
+                    });
                 }
-                Some(_) | None => {}
+                return Ok(info);
             }
             if let Some(device) = self.foreign_version {
                 return Err(LinkError::Version { device });

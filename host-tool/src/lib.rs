@@ -2,4 +2,8 @@
 //! everything the `gonio` command does with what it receives.
 #![deny(missing_docs)]
 
+pub mod angles;
+pub mod error;
+pub mod eval;
 pub mod link;
+pub mod output;

@@ -1,15 +1,10 @@
 //! `gonio`: the goniometer BRDF tool. Parses the command line and dispatches.
 
-mod angles;
-mod error;
-mod eval;
-mod output;
-
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-
-use crate::error::{CliResult, EXIT_USAGE};
+use gonio::error::{CliResult, EXIT_USAGE};
+use gonio::eval;
 
 /// gonio: measure and model how metal surfaces reflect light.
 #[derive(Debug, Parser)]

@@ -7,3 +7,4 @@ pub mod error;
 pub mod eval;
 pub mod link;
 pub mod output;
+pub mod sweep_file;

@@ -5,6 +5,7 @@
 pub mod angles;
 pub mod error;
 pub mod eval;
+pub mod host_plan;
 pub mod link;
 pub mod output;
 pub mod sweep_file;

@@ -7,7 +7,8 @@
 //! - [`protocol`] and [`frame`]: the wire protocol and its framing.
 //! - [`plan`]: sweep plans (paper, custom, adaptive).
 //! - [`ramp`] and [`axis`]: stepper motion of one arm.
-//! - [`controller`]: the goniometer state machine.
+//! - [`controller`]: the goniometer state machine; [`service`]: the loop that connects
+//!   it to a link; [`mechanics`]: the reference goniometer's arms.
 //! - [`sim`]: simulated arms and a virtual sample.
 //!
 //! Units: angles in degrees at every public interface (radians only inside), BRDF in
@@ -15,21 +16,23 @@
 #![cfg_attr(not(test), no_std)]
 #![deny(missing_docs)]
 
+pub mod axis;
+pub mod controller;
 pub mod error;
 pub mod float;
+pub mod frame;
 pub mod geometry;
+pub mod mechanics;
 pub mod model;
+pub mod plan;
 pub mod presets;
+pub mod protocol;
+pub mod ramp;
+pub mod service;
+pub mod sim;
 
 pub use error::ModelError;
 pub use float::Real;
 pub use geometry::Geometry;
 pub use model::{Components, Evaluation, Model, Params};
 pub use presets::{PRESETS, Preset};
-pub mod axis;
-pub mod controller;
-pub mod frame;
-pub mod plan;
-pub mod protocol;
-pub mod ramp;
-pub mod sim;

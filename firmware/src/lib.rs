@@ -1,8 +1,8 @@
-//! Board-independent part of the goniometer firmware: the mechanics of our goniometer
-//! and the service loop that connects a link (USB CDC or USART) to the brdf-core
-//! controller. The boards in `src/bin/` only provide pins, a link and a clock.
+//! Board-independent part of the goniometer firmware. The controller, the service loop
+//! and the arms' mechanics live in brdf-core (shared with the host's simulated
+//! devices); the boards in `src/bin/` only provide pins, a link and a clock.
 #![no_std]
 #![deny(missing_docs)]
 
-pub mod mechanics;
-pub mod service;
+/// Firmware version reported in the handshake (major, minor, patch).
+pub const FIRMWARE_VERSION: [u8; 3] = [0, 1, 0];

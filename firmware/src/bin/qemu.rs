@@ -21,12 +21,13 @@
 use core::ptr::{read_volatile, write_volatile};
 
 use brdf_core::controller::{Controller, ControllerConfig};
+use brdf_core::mechanics::{DETECTOR, SOURCE};
 use brdf_core::presets::Preset;
+use brdf_core::service::{Link, Service};
 use brdf_core::sim::{SimArm, SimPin, VirtualSample};
 use cortex_m_rt::{ExceptionFrame, entry, exception};
 use cortex_m_semihosting::{debug, hprintln};
-use firmware::mechanics::{DETECTOR, FIRMWARE_VERSION, SOURCE};
-use firmware::service::{Link, Service};
+use firmware::FIRMWARE_VERSION;
 
 /// USART1 of the STM32F4 family, by its registers (RM0383 section 19.6).
 struct Usart1;

@@ -55,12 +55,12 @@
 
 use brdf_core::axis::StepDirPins;
 use brdf_core::controller::{Controller, ControllerConfig, Detector, DetectorError};
+use brdf_core::mechanics;
+use brdf_core::service::{Link, Service};
 use cortex_m_rt::entry;
 use defmt_rtt as _;
 use embedded_hal::delay::DelayNs;
 use embedded_hal::digital::{ErrorType, OutputPin, PinState};
-use firmware::mechanics;
-use firmware::service::{Link, Service};
 use panic_probe as _;
 use stm32f4xx_hal::adc::Adc;
 use stm32f4xx_hal::adc::config::{AdcConfig, Clock, Resolution, SampleTime};
@@ -382,7 +382,7 @@ fn main() -> ! {
 
     let cfg = ControllerConfig {
         board: BOARD,
-        firmware: mechanics::FIRMWARE_VERSION,
+        firmware: firmware::FIRMWARE_VERSION,
         source: mechanics::SOURCE,
         detector: mechanics::DETECTOR,
     };

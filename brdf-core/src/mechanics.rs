@@ -1,11 +1,12 @@
-//! The goniometer's mechanics: steps per degree, speeds, travel and home switches of
-//! both arms. Angles in degrees, speeds in degrees per second.
+//! The reference goniometer's mechanics (what the firmware and the simulated devices
+//! drive): steps per degree, speeds, travel and home switches of both arms. Angles in
+//! degrees, speeds in degrees per second.
 //!
 //! Both arms: 1.8 degree stepper (200 full steps per turn) through a 1:9 belt
 //! reduction = 5 full steps per degree, 16 microsteps = 80 microsteps per degree
 //! (0.0125 degree resolution; every multiple of 0.0125 degree is exact).
 
-use brdf_core::axis::AxisConfig;
+use crate::axis::AxisConfig;
 
 /// Source (laser) arm: theta_i in [0, 90]; home switch just below 0.
 pub const SOURCE: AxisConfig = AxisConfig {
@@ -30,6 +31,3 @@ pub const DETECTOR: AxisConfig = AxisConfig {
     home_timeout_ms: 60_000,
     ..SOURCE
 };
-
-/// Firmware version reported in the handshake.
-pub const FIRMWARE_VERSION: [u8; 3] = [0, 1, 0];

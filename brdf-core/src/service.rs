@@ -1,10 +1,12 @@
-//! The service loop: bytes from the link into the controller, ticks when the
-//! controller asks, frames from the controller back out, never blocking on the link.
+//! The service loop every board runs (firmware boards and the host's simulated
+//! devices): bytes from the link into the controller, ticks when the controller asks,
+//! frames from the controller back out, never blocking on the link.
 
-use brdf_core::axis::{AxisPins, Tick};
-use brdf_core::controller::{Controller, Detector};
-use brdf_core::frame::MAX_FRAME_LEN;
 use embedded_hal::digital::OutputPin;
+
+use crate::axis::{AxisPins, Tick};
+use crate::controller::{Controller, Detector};
+use crate::frame::MAX_FRAME_LEN;
 
 /// A byte link to the host that never blocks.
 pub trait Link {

@@ -5,9 +5,11 @@
 use std::collections::BTreeSet;
 use std::path::Path;
 
-use brdf_core::plan::adaptive;
-use brdf_core::protocol::{ArmLimits, Grid, MAX_INCIDENCES, MAX_PLAN_POINTS, Point, PointSettings, SweepPlan};
 use brdf_core::Preset;
+use brdf_core::plan::adaptive;
+use brdf_core::protocol::{
+    ArmLimits, Grid, MAX_INCIDENCES, MAX_PLAN_POINTS, Point, PointSettings, SweepPlan,
+};
 use serde::Deserialize;
 
 use crate::error::{CliError, CliResult};
@@ -87,25 +89,44 @@ struct DetectorRange {
 }
 
 /// The model domain used to check plans before any device is involved.
-const DOMAIN_SOURCE: ArmLimits = ArmLimits { min_deg: 0.0, max_deg: 90.0, steps_per_deg: 1.0 };
-const DOMAIN_DETECTOR: ArmLimits = ArmLimits { min_deg: -90.0, max_deg: 90.0, steps_per_deg: 1.0 };
+const DOMAIN_SOURCE: ArmLimits = ArmLimits {
+    min_deg: 0.0,
+    max_deg: 90.0,
+    steps_per_deg: 1.0,
+};
+const DOMAIN_DETECTOR: ArmLimits = ArmLimits {
+    min_deg: -90.0,
+    max_deg: 90.0,
+    steps_per_deg: 1.0,
+};
 
 fn settings(o: &SettingsOverride, file: Option<&PlanFile>) -> CliResult<PointSettings> {
-    let samples = o.samples.or(file.and_then(|f| f.samples)).unwrap_or(DEFAULT_SAMPLES);
+    let samples = o
+        .samples
+        .or(file.and_then(|f| f.samples))
+        .unwrap_or(DEFAULT_SAMPLES);
     if samples == 0 {
         return Err(CliError::usage("samples must be >= 1"));
     }
     Ok(PointSettings {
         samples,
-        settle_ms: o.settle_ms.or(file.and_then(|f| f.settle_ms)).unwrap_or(DEFAULT_SETTLE_MS),
+        settle_ms: o
+            .settle_ms
+            .or(file.and_then(|f| f.settle_ms))
+            .unwrap_or(DEFAULT_SETTLE_MS),
         dark: o.dark || file.and_then(|f| f.dark).unwrap_or(false),
     })
 }
 
 fn exclusion(o: &SettingsOverride, file: Option<&PlanFile>) -> CliResult<f32> {
-    let e = o.exclude_retro.or(file.and_then(|f| f.exclude_retro)).unwrap_or(0.0);
+    let e = o
+        .exclude_retro
+        .or(file.and_then(|f| f.exclude_retro))
+        .unwrap_or(0.0);
     if !(e.is_finite() && e >= 0.0) {
-        return Err(CliError::usage(format!("exclusion half-width must be >= 0 degrees (got {e})")));
+        return Err(CliError::usage(format!(
+            "exclusion half-width must be >= 0 degrees (got {e})"
+        )));
     }
     Ok(e)
 }
@@ -113,22 +134,35 @@ fn exclusion(o: &SettingsOverride, file: Option<&PlanFile>) -> CliResult<f32> {
 impl HostPlan {
     /// The paper's 9 x 17 grid.
     pub fn paper(o: &SettingsOverride) -> CliResult<Self> {
-        Self::from_grid("paper".into(), Grid::Paper, settings(o, None)?, exclusion(o, None)?)
+        Self::from_grid(
+            "paper".into(),
+            Grid::Paper,
+            settings(o, None)?,
+            exclusion(o, None)?,
+        )
     }
 
     /// Reads a TOML plan file (see the README for its keys).
     pub fn from_file(path: &Path, o: &SettingsOverride) -> CliResult<Self> {
         let text = std::fs::read_to_string(path)
             .map_err(|e| CliError::usage(format!("cannot read plan {}: {e}", path.display())))?;
-        let f: PlanFile = toml::from_str(&text)
-            .map_err(|e| CliError::usage(format!("plan {}: {}", path.display(), one_line(&e.to_string()))))?;
+        let f: PlanFile = toml::from_str(&text).map_err(|e| {
+            CliError::usage(format!(
+                "plan {}: {}",
+                path.display(),
+                one_line(&e.to_string())
+            ))
+        })?;
         let s = settings(o, Some(&f))?;
         let e = exclusion(o, Some(&f))?;
         let description = format!("file {}", path.display());
         match (&f.incidences, &f.detector, &f.points) {
             (Some(inc), Some(d), None) => {
                 if inc.len() > MAX_INCIDENCES {
-                    return Err(CliError::usage(format!("plan {}: at most {MAX_INCIDENCES} incidences", path.display())));
+                    return Err(CliError::usage(format!(
+                        "plan {}: at most {MAX_INCIDENCES} incidences",
+                        path.display()
+                    )));
                 }
                 let grid = Grid::Custom {
                     incidences: heapless::Vec::from_slice(inc).expect("length checked"),
@@ -139,7 +173,13 @@ impl HostPlan {
                 Self::from_grid(description, grid, s, e)
             }
             (None, None, Some(points)) => {
-                let points: Vec<Point> = points.iter().map(|[i, r]| Point { theta_i: *i, theta_r: *r }).collect();
+                let points: Vec<Point> = points
+                    .iter()
+                    .map(|[i, r]| Point {
+                        theta_i: *i,
+                        theta_r: *r,
+                    })
+                    .collect();
                 Self::from_points(description, points, s, e)
             }
             _ => Err(CliError::usage(format!(
@@ -151,20 +191,48 @@ impl HostPlan {
 
     /// An adaptive plan: readings placed densely where the prior's curve bends.
     pub fn adaptive(prior: &str, budget: usize, o: &SettingsOverride) -> CliResult<Self> {
-        let preset = Preset::by_name(prior).map_err(|e| CliError::usage(format!("--prior '{prior}': {e}")))?;
+        let preset = Preset::by_name(prior)
+            .map_err(|e| CliError::usage(format!("--prior '{prior}': {e}")))?;
         let e = exclusion(o, None)?;
         let incidences: Vec<f32> = (0..9).map(|k| 10.0 * k as f32).collect();
-        let plan = adaptive::<f64>(0, &incidences, -80.0, 80.0, budget, 0.5, e, settings(o, None)?, |ti| {
-            preset.model(ti as f64).ok()
-        })
+        let plan = adaptive::<f64>(
+            0,
+            &incidences,
+            -80.0,
+            80.0,
+            budget,
+            0.5,
+            e,
+            settings(o, None)?,
+            |ti| preset.model(ti as f64).ok(),
+        )
         .map_err(|err| CliError::usage(format!("adaptive plan with budget {budget}: {err}")))?;
-        let Grid::Points(points) = &plan.grid else { unreachable!("adaptive plans are point lists") };
-        Self::from_points(format!("adaptive prior={prior} budget={budget}"), points.to_vec(), plan.settings, e)
+        let Grid::Points(points) = &plan.grid else {
+            unreachable!("adaptive plans are point lists")
+        };
+        Self::from_points(
+            format!("adaptive prior={prior} budget={budget}"),
+            points.to_vec(),
+            plan.settings,
+            e,
+        )
     }
 
-    fn from_grid(description: String, grid: Grid, settings: PointSettings, exclude: f32) -> CliResult<Self> {
-        let plan = SweepPlan { sweep_id: 0, grid, exclude_retro_deg: exclude, settings, skip: 0 };
-        plan.validate(&DOMAIN_SOURCE, &DOMAIN_DETECTOR).map_err(|e| CliError::usage(format!("plan: {e}")))?;
+    fn from_grid(
+        description: String,
+        grid: Grid,
+        settings: PointSettings,
+        exclude: f32,
+    ) -> CliResult<Self> {
+        let plan = SweepPlan {
+            sweep_id: 0,
+            grid,
+            exclude_retro_deg: exclude,
+            settings,
+            skip: 0,
+        };
+        plan.validate(&DOMAIN_SOURCE, &DOMAIN_DETECTOR)
+            .map_err(|e| CliError::usage(format!("plan: {e}")))?;
         Ok(HostPlan {
             description,
             points: plan.points().collect(),
@@ -174,7 +242,12 @@ impl HostPlan {
         })
     }
 
-    fn from_points(description: String, points: Vec<Point>, settings: PointSettings, exclude: f32) -> CliResult<Self> {
+    fn from_points(
+        description: String,
+        points: Vec<Point>,
+        settings: PointSettings,
+        exclude: f32,
+    ) -> CliResult<Self> {
         let mut kept = Vec::with_capacity(points.len());
         for chunk in points.chunks(MAX_PLAN_POINTS) {
             let plan = SweepPlan {
@@ -192,7 +265,13 @@ impl HostPlan {
         if kept.is_empty() {
             return Err(CliError::usage("plan: no point to measure"));
         }
-        Ok(HostPlan { description, points: kept, settings, exclude_retro_deg: exclude, compact: None })
+        Ok(HostPlan {
+            description,
+            points: kept,
+            settings,
+            exclude_retro_deg: exclude,
+            compact: None,
+        })
     }
 
     /// Checks the plan against a device's arm limits.
@@ -219,7 +298,10 @@ impl HostPlan {
     pub fn settings_words(&self) -> String {
         format!(
             "samples={} settle_ms={} dark={} exclude_retro={}",
-            self.settings.samples, self.settings.settle_ms, self.settings.dark, self.exclude_retro_deg
+            self.settings.samples,
+            self.settings.settle_ms,
+            self.settings.dark,
+            self.exclude_retro_deg
         )
     }
 
@@ -268,8 +350,16 @@ impl HostPlan {
     }
 
     /// Rebuilds the plan a sweep file recorded (for `--resume`).
-    pub fn from_recorded(description: &str, points: &[(f32, f32)], settings_words: &str) -> CliResult<Self> {
-        let mut s = PointSettings { samples: DEFAULT_SAMPLES, settle_ms: DEFAULT_SETTLE_MS, dark: false };
+    pub fn from_recorded(
+        description: &str,
+        points: &[(f32, f32)],
+        settings_words: &str,
+    ) -> CliResult<Self> {
+        let mut s = PointSettings {
+            samples: DEFAULT_SAMPLES,
+            settle_ms: DEFAULT_SETTLE_MS,
+            dark: false,
+        };
         let mut exclude = 0.0;
         for w in settings_words.split_whitespace() {
             let bad = || CliError::usage(format!("sweep file: bad setting '{w}'"));
@@ -281,7 +371,10 @@ impl HostPlan {
                 _ => return Err(bad()),
             }
         }
-        let pts: Vec<Point> = points.iter().map(|&(theta_i, theta_r)| Point { theta_i, theta_r }).collect();
+        let pts: Vec<Point> = points
+            .iter()
+            .map(|&(theta_i, theta_r)| Point { theta_i, theta_r })
+            .collect();
         let mut plan = Self::from_points(description.to_string(), pts, s, 0.0)?;
         plan.exclude_retro_deg = exclude;
         if description == "paper" {

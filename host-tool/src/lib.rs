@@ -3,9 +3,15 @@
 #![deny(missing_docs)]
 
 pub mod angles;
+pub mod capture;
+pub mod device_cmds;
 pub mod error;
 pub mod eval;
+pub mod flash;
 pub mod host_plan;
 pub mod link;
 pub mod output;
+pub mod ports;
+pub mod progress;
+pub mod sim_device;
 pub mod sweep_file;

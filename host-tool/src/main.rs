@@ -4,7 +4,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use gonio::error::{CliResult, EXIT_USAGE};
-use gonio::eval;
+use gonio::{device_cmds, eval, flash, ports};
 
 /// gonio: measure and model how metal surfaces reflect light.
 #[derive(Debug, Parser)]
@@ -28,11 +28,21 @@ struct Cli {
 #[derive(Debug, Subcommand)]
 enum Command {
     Eval(eval::EvalArgs),
+    Ports(ports::PortsArgs),
+    Info(device_cmds::InfoArgs),
+    Capture(device_cmds::CaptureArgs),
+    Simulate(device_cmds::SimulateArgs),
+    Flash(flash::FlashArgs),
 }
 
 fn run(cli: Cli) -> CliResult {
     match cli.command {
         Command::Eval(args) => eval::run(&args),
+        Command::Ports(args) => ports::run(&args),
+        Command::Info(args) => device_cmds::info(&args),
+        Command::Capture(args) => device_cmds::run_capture(&args),
+        Command::Simulate(args) => device_cmds::run_simulate(&args),
+        Command::Flash(args) => flash::run(&args),
     }
 }
 

@@ -77,7 +77,9 @@ impl Likeness {
 /// product string is [`Likeness::Maybe`]; with another product string it is someone
 /// else's device on the shared VID:PID, [`Likeness::No`].
 pub fn looks_like_gonio(vid: u16, pid: u16, product: Option<&str>) -> Likeness {
-    let product = product.map(|p| p.trim().replace('_', " ")).unwrap_or_default();
+    let product = product
+        .map(|p| p.trim().replace('_', " "))
+        .unwrap_or_default();
     if product.eq_ignore_ascii_case(GONIO_PRODUCT) {
         Likeness::Yes
     } else if (vid, pid) == (GONIO_VID, GONIO_PID) && product.is_empty() {
@@ -300,7 +302,10 @@ mod tests {
             Likeness::No
         );
         assert_eq!(looks_like_gonio(0x16c0, 0x27dd, None), Likeness::Maybe);
-        assert_eq!(looks_like_gonio(0x16c0, 0x27dd, Some("  ")), Likeness::Maybe);
+        assert_eq!(
+            looks_like_gonio(0x16c0, 0x27dd, Some("  ")),
+            Likeness::Maybe
+        );
     }
 
     #[test]
@@ -358,7 +363,10 @@ mod tests {
 
     #[test]
     fn json_escapes_and_uses_null() {
-        assert_eq!(json_string("a\"b\\c\nd\u{1}é"), "\"a\\\"b\\\\c\\nd\\u0001é\"");
+        assert_eq!(
+            json_string("a\"b\\c\nd\u{1}é"),
+            "\"a\\\"b\\\\c\\nd\\u0001é\""
+        );
         assert_eq!(json(&[]), "[]\n");
         let j = json(&[row("COM3", None, Likeness::Maybe)]);
         assert_eq!(

@@ -150,23 +150,34 @@ impl SweepWriter {
             }
         })?;
         let first = "# gonio sweep v1\n";
-        let points: Vec<String> = header.points.iter().map(|(i, r)| format!("{i}:{r}")).collect();
+        let points: Vec<String> = header
+            .points
+            .iter()
+            .map(|(i, r)| format!("{i}:{r}"))
+            .collect();
         let mut text = String::from(first);
         text.push_str(&status_line(Status::Running, &Counters::default()));
         text.push_str(&format!("# device: {}\n", header.device));
         text.push_str(&format!("# plan: {}\n", header.plan));
         text.push_str(&format!("# settings: {}\n", header.settings));
-        text.push_str(&format!("# started: {}\n", humantime::format_rfc3339_seconds(std::time::SystemTime::now())));
+        text.push_str(&format!(
+            "# started: {}\n",
+            humantime::format_rfc3339_seconds(std::time::SystemTime::now())
+        ));
         text.push_str(&format!("# points: {}\n", points.join(" ")));
         text.push_str(&COLUMNS.join(","));
         text.push('\n');
-        file.write_all(text.as_bytes()).map_err(|e| io_err(path, e))?;
+        file.write_all(text.as_bytes())
+            .map_err(|e| io_err(path, e))?;
         file.sync_all().map_err(|e| io_err(path, e))?;
         Ok(SweepWriter {
             file,
             path: path.to_path_buf(),
             status_at: first.len() as u64,
-            counters: Counters { missing: header.points.len() as u64, ..Counters::default() },
+            counters: Counters {
+                missing: header.points.len() as u64,
+                ..Counters::default()
+            },
         })
     }
 
@@ -181,21 +192,38 @@ impl SweepWriter {
                 data.columns
             )));
         }
-        let mut file = OpenOptions::new().read(true).write(true).open(path).map_err(|e| io_err(path, e))?;
-        file.set_len(data.complete_len).map_err(|e| io_err(path, e))?;
+        let mut file = OpenOptions::new()
+            .read(true)
+            .write(true)
+            .open(path)
+            .map_err(|e| io_err(path, e))?;
+        file.set_len(data.complete_len)
+            .map_err(|e| io_err(path, e))?;
         file.seek(SeekFrom::End(0)).map_err(|e| io_err(path, e))?;
-        let status_at = data
-            .status_offset
-            .ok_or_else(|| CliError::usage(format!("{}: no status line; cannot resume it", path.display())))?;
+        let status_at = data.status_offset.ok_or_else(|| {
+            CliError::usage(format!(
+                "{}: no status line; cannot resume it",
+                path.display()
+            ))
+        })?;
         // The status line may predate a crash: recount what the rows show, keep the
         // cumulative link counters.
-        let present: std::collections::BTreeSet<u32> = data.rows.iter().filter_map(|r| r.seq).collect();
+        let present: std::collections::BTreeSet<u32> =
+            data.rows.iter().filter_map(|r| r.seq).collect();
         let counters = Counters {
             readings: data.rows.len() as u64,
             missing: (data.points.len() as u64).saturating_sub(present.len() as u64),
             ..data.counters
         };
-        Ok((SweepWriter { file, path: path.to_path_buf(), status_at, counters }, data))
+        Ok((
+            SweepWriter {
+                file,
+                path: path.to_path_buf(),
+                status_at,
+                counters,
+            },
+            data,
+        ))
     }
 
     /// Counters so far.
@@ -216,7 +244,9 @@ impl SweepWriter {
             opt(row.seq.map(|v| v.to_string())),
             opt(row.t_ms.map(|v| v.to_string())),
         );
-        self.file.write_all(line.as_bytes()).map_err(|e| io_err(&self.path, e))?;
+        self.file
+            .write_all(line.as_bytes())
+            .map_err(|e| io_err(&self.path, e))?;
         self.file.sync_data().map_err(|e| io_err(&self.path, e))?;
         self.counters.readings += 1;
         self.counters.missing = self.counters.missing.saturating_sub(1);
@@ -226,10 +256,19 @@ impl SweepWriter {
     /// Rewrites the status line in place (same length) and syncs.
     pub fn set_status(&mut self, status: Status) -> Result<(), CliError> {
         let line = status_line(status, &self.counters);
-        let end = self.file.stream_position().map_err(|e| io_err(&self.path, e))?;
-        self.file.seek(SeekFrom::Start(self.status_at)).map_err(|e| io_err(&self.path, e))?;
-        self.file.write_all(line.as_bytes()).map_err(|e| io_err(&self.path, e))?;
-        self.file.seek(SeekFrom::Start(end)).map_err(|e| io_err(&self.path, e))?;
+        let end = self
+            .file
+            .stream_position()
+            .map_err(|e| io_err(&self.path, e))?;
+        self.file
+            .seek(SeekFrom::Start(self.status_at))
+            .map_err(|e| io_err(&self.path, e))?;
+        self.file
+            .write_all(line.as_bytes())
+            .map_err(|e| io_err(&self.path, e))?;
+        self.file
+            .seek(SeekFrom::Start(end))
+            .map_err(|e| io_err(&self.path, e))?;
         self.file.sync_all().map_err(|e| io_err(&self.path, e))
     }
 }
@@ -262,8 +301,10 @@ impl SweepData {
 /// Reads a sweep file. A last line without its newline (a file cut short) is ignored;
 /// any complete line that does not parse is an error naming the line.
 pub fn read_sweep(path: &Path) -> Result<SweepData, CliError> {
-    let bytes = std::fs::read(path).map_err(|e| CliError::usage(format!("cannot read {}: {e}", path.display())))?;
-    parse_sweep(&bytes).map_err(|(line, msg)| CliError::usage(format!("{}:{line}: {msg}", path.display())))
+    let bytes = std::fs::read(path)
+        .map_err(|e| CliError::usage(format!("cannot read {}: {e}", path.display())))?;
+    parse_sweep(&bytes)
+        .map_err(|(line, msg)| CliError::usage(format!("{}:{line}: {msg}", path.display())))
 }
 
 /// Parses sweep file bytes; errors carry the 1-based line number.
@@ -293,7 +334,8 @@ pub fn parse_sweep(bytes: &[u8]) -> Result<SweepData, (usize, String)> {
                 points_line = lineno;
             }
             if let Some((key, value)) = meta.trim().split_once(':') {
-                data.meta.insert(key.trim().to_string(), value.trim().to_string());
+                data.meta
+                    .insert(key.trim().to_string(), value.trim().to_string());
             }
             data.complete_len = offset;
             continue;
@@ -316,7 +358,10 @@ pub fn parse_sweep(bytes: &[u8]) -> Result<SweepData, (usize, String)> {
             }
             Some(idx) => {
                 let fields: Vec<&str> = text.split(',').map(str::trim).collect();
-                let get = |i: Option<usize>| i.and_then(|i| fields.get(i).copied()).filter(|s| !s.is_empty());
+                let get = |i: Option<usize>| {
+                    i.and_then(|i| fields.get(i).copied())
+                        .filter(|s| !s.is_empty())
+                };
                 let num = |i: Option<usize>, name: &str| -> Result<Option<f64>, (usize, String)> {
                     match get(i) {
                         None => Ok(None),
@@ -332,7 +377,10 @@ pub fn parse_sweep(bytes: &[u8]) -> Result<SweepData, (usize, String)> {
                 let int = |i: Option<usize>, name: &str| -> Result<Option<u64>, (usize, String)> {
                     match get(i) {
                         None => Ok(None),
-                        Some(s) => s.parse::<u64>().map(Some).map_err(|_| (lineno, format!("{name} '{s}' is not a whole number"))),
+                        Some(s) => s
+                            .parse::<u64>()
+                            .map(Some)
+                            .map_err(|_| (lineno, format!("{name} '{s}' is not a whole number"))),
                     }
                 };
                 data.rows.push(Row {
@@ -350,9 +398,14 @@ pub fn parse_sweep(bytes: &[u8]) -> Result<SweepData, (usize, String)> {
     }
     if let Some(p) = data.meta.get("points") {
         for item in p.split_whitespace() {
-            let parsed = item.split_once(':').and_then(|(a, b)| Some((a.parse().ok()?, b.parse().ok()?)));
+            let parsed = item
+                .split_once(':')
+                .and_then(|(a, b)| Some((a.parse().ok()?, b.parse().ok()?)));
             let Some(pt) = parsed else {
-                return Err((points_line, format!("bad point '{item}' in the points line")));
+                return Err((
+                    points_line,
+                    format!("bad point '{item}' in the points line"),
+                ));
             };
             data.points.push(pt);
         }

@@ -37,7 +37,16 @@ fn rows_round_trip_exactly_and_status_is_rewritten_in_place() {
     assert_eq!(data.rows, (0..3).map(row).collect::<Vec<_>>());
     assert_eq!(data.columns, COLUMNS);
     assert_eq!(data.points, header().points);
-    assert_eq!(data.counters, Counters { readings: 3, missing: 0, gaps: 2, dropped: 0, timeouts: 0 });
+    assert_eq!(
+        data.counters,
+        Counters {
+            readings: 3,
+            missing: 0,
+            gaps: 2,
+            dropped: 0,
+            timeouts: 0
+        }
+    );
     assert!(data.meta["status"].starts_with("complete"));
     assert_eq!(data.meta["plan"], "paper");
     assert!(data.meta["started"].ends_with('Z'));
@@ -59,7 +68,10 @@ fn a_file_cut_at_any_byte_reads_up_to_its_last_complete_row() {
     let header_end = bytes.windows(5).position(|w| w == b"t_ms\n").unwrap() + 5;
     for cut in 0..=bytes.len() {
         let data = parse_sweep(&bytes[..cut]).unwrap_or_else(|e| panic!("cut at {cut}: {e:?}"));
-        let complete_rows = bytes[header_end.min(cut)..cut].iter().filter(|&&b| b == b'\n').count();
+        let complete_rows = bytes[header_end.min(cut)..cut]
+            .iter()
+            .filter(|&&b| b == b'\n')
+            .count();
         let expect = if cut < header_end { 0 } else { complete_rows };
         assert_eq!(data.rows.len(), expect, "cut at {cut}");
         assert_eq!(data.rows, (0..expect as u32).map(row).collect::<Vec<_>>());
@@ -91,7 +103,14 @@ fn other_tools_files_are_read_by_column_name() {
     let text = b"# from a spreadsheet\nbrdf,note,theta_r,theta_i\n1.5,x,-20,20\n2.5,y,20,20\n";
     let data = parse_sweep(text).unwrap();
     assert_eq!(data.rows.len(), 2);
-    assert_eq!((data.rows[1].theta_i, data.rows[1].theta_r, data.rows[1].brdf), (20.0, 20.0, 2.5));
+    assert_eq!(
+        (
+            data.rows[1].theta_i,
+            data.rows[1].theta_r,
+            data.rows[1].brdf
+        ),
+        (20.0, 20.0, 2.5)
+    );
     assert_eq!(data.rows[0].seq, None);
 }
 
@@ -99,13 +118,33 @@ fn other_tools_files_are_read_by_column_name() {
 fn bad_files_name_the_line() {
     for (text, line, msg) in [
         (&b"theta_i,brdf\n1,2\n"[..], 1, "missing column 'theta_r'"),
-        (b"theta_i,theta_r,brdf\n1,2,3\n1,x,3\n", 3, "theta_r 'x' is not a finite number"),
-        (b"theta_i,theta_r,brdf\n1,2,nan\n", 2, "brdf 'nan' is not a finite number"),
+        (
+            b"theta_i,theta_r,brdf\n1,2,3\n1,x,3\n",
+            3,
+            "theta_r 'x' is not a finite number",
+        ),
+        (
+            b"theta_i,theta_r,brdf\n1,2,nan\n",
+            2,
+            "brdf 'nan' is not a finite number",
+        ),
         (b"theta_i,theta_r,brdf\n1,2,\n", 2, "brdf is empty"),
-        (b"theta_i,theta_r,brdf,seq\n1,2,3,-1\n", 2, "seq '-1' is not a whole number"),
-        (b"theta_i,theta_r,brdf\n1,2,3\n# late\n", 3, "metadata line after the header row"),
+        (
+            b"theta_i,theta_r,brdf,seq\n1,2,3,-1\n",
+            2,
+            "seq '-1' is not a whole number",
+        ),
+        (
+            b"theta_i,theta_r,brdf\n1,2,3\n# late\n",
+            3,
+            "metadata line after the header row",
+        ),
         (b"\xff\xfe\n", 1, "not UTF-8"),
-        (b"# points: 1:2 3\ntheta_i,theta_r,brdf\n", 1, "bad point '3'"),
+        (
+            b"# points: 1:2 3\ntheta_i,theta_r,brdf\n",
+            1,
+            "bad point '3'",
+        ),
     ] {
         let (l, m) = parse_sweep(text).unwrap_err();
         assert_eq!(l, line, "{m}");
@@ -116,8 +155,18 @@ fn bad_files_name_the_line() {
 }
 
 fn tempdir() -> PathBuf {
-    let d = std::env::temp_dir().join(format!("gonio-test-{}-{:?}", std::process::id(), std::thread::current().id()));
-    let d = d.join(format!("{}", std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).unwrap().as_nanos()));
+    let d = std::env::temp_dir().join(format!(
+        "gonio-test-{}-{:?}",
+        std::process::id(),
+        std::thread::current().id()
+    ));
+    let d = d.join(format!(
+        "{}",
+        std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .unwrap()
+            .as_nanos()
+    ));
     std::fs::create_dir_all(&d).unwrap();
     d
 }

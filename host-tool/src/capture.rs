@@ -1,0 +1,492 @@
+//! The capture engine: runs a plan on a device and writes every reading to the sweep
+//! file as it arrives. Counts sequence gaps, dropped frames and silences; re-measures
+//! lost readings (never fills them in); turns Ctrl-C into Abort with a valid file;
+//! reconnects to a device that went away and measures only what is missing.
+
+use std::collections::BTreeSet;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use brdf_core::protocol::{Command, ErrorCode, Event, Info, Reading};
+
+use crate::error::{CliError, CliResult};
+use crate::host_plan::{DeviceSweep, HostPlan};
+use crate::link::{Link, LinkError, Transport};
+use crate::progress::Progress;
+use crate::sweep_file::{Counters, Header, Row, Status, SweepWriter};
+
+/// Opens (and re-opens) the link to a device.
+pub trait Connector {
+    /// The transport it yields.
+    type T: Transport;
+    /// Opens the link; does not handshake.
+    fn connect(&mut self) -> Result<Link<Self::T>, LinkError>;
+    /// Whether trying again after a lost link can help (a serial device may come back;
+    /// an in-process one cannot get lost).
+    fn can_reconnect(&self) -> bool;
+}
+
+/// How to run a capture.
+#[derive(Debug, Clone)]
+pub struct CaptureSetup {
+    /// The plan (ignored with `resume`: the file's plan is used).
+    pub plan: Option<HostPlan>,
+    /// The sweep file.
+    pub out: PathBuf,
+    /// Continue the plan recorded in `out`, measuring only the missing points.
+    pub resume: bool,
+    /// Overwrite `out` if it exists.
+    pub force: bool,
+    /// Also append every received byte to this file (raw frame log for replay).
+    pub raw: Option<PathBuf>,
+    /// A device silent this long is pinged; if it does not answer, it is lost.
+    pub event_timeout: Duration,
+    /// How long to wait for a lost device to come back.
+    pub reconnect_for: Duration,
+    /// Rounds of re-measuring readings lost on the link.
+    pub retries: u32,
+    /// Handshake timeout.
+    pub handshake_timeout: Duration,
+    /// Time allowed for homing.
+    pub home_timeout: Duration,
+}
+
+impl CaptureSetup {
+    /// Defaults for a plan and output file.
+    pub fn new(plan: Option<HostPlan>, out: PathBuf) -> Self {
+        CaptureSetup {
+            plan,
+            out,
+            resume: false,
+            force: false,
+            raw: None,
+            event_timeout: Duration::from_secs(30),
+            reconnect_for: Duration::from_secs(60),
+            retries: 3,
+            handshake_timeout: Duration::from_secs(10),
+            home_timeout: Duration::from_secs(180),
+        }
+    }
+}
+
+/// What a capture did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CaptureReport {
+    /// How it ended.
+    pub status: Status,
+    /// Final counters (as in the file's status line).
+    pub counters: Counters,
+    /// Plan points still without a reading.
+    pub missing: Vec<u32>,
+    /// Plan points in all.
+    pub total: usize,
+    /// The device's handshake.
+    pub info: Info,
+    /// Times the link was re-established.
+    pub reconnects: u32,
+}
+
+enum Outcome {
+    Done,
+    Interrupted,
+    Lost(String),
+}
+
+struct Run<'a, C: Connector> {
+    conn: &'a mut C,
+    setup: &'a CaptureSetup,
+    plan: HostPlan,
+    writer: SweepWriter,
+    present: BTreeSet<u32>,
+    progress: &'a mut dyn Progress,
+    interrupt: &'a AtomicBool,
+    next_id: u32,
+    reconnects: u32,
+    dropped_before: u64,
+}
+
+/// The f64 nearest to an f32's shortest decimal form: the file then shows
+/// `10102.495`, not `10102.4951171875`, and parsing it as f32 gives the device's value.
+fn shortest(x: f32) -> f64 {
+    x.to_string().parse().unwrap_or(x as f64)
+}
+
+fn device_line(info: &Info) -> String {
+    let [a, b, c] = info.firmware;
+    format!(
+        "{} firmware {a}.{b}.{c} protocol {}",
+        info.board, info.protocol
+    )
+}
+
+/// Opens the link, handshakes, stops anything the device was still doing and homes it
+/// if needed.
+fn prepare<C: Connector>(conn: &mut C, setup: &CaptureSetup) -> CliResult<(Link<C::T>, Info)> {
+    let mut link = conn
+        .connect()
+        .map_err(|e| CliError::failed(e.to_string()))?;
+    if let Some(raw) = &setup.raw {
+        let f = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(raw)
+            .map_err(|e| CliError::failed(format!("{}: {e}", raw.display())))?;
+        link.set_raw_log(Box::new(f));
+    }
+    let mut info = link
+        .handshake(setup.handshake_timeout)
+        .map_err(|e| match e {
+            LinkError::Version { .. } => CliError::failed(e.to_string()),
+            e => CliError::failed(e.to_string()),
+        })?;
+    // A device that survived a lost link may still be sweeping: stop it.
+    link.send(&Command::Abort)
+        .map_err(|e| CliError::failed(e.to_string()))?;
+    wait_for(&mut link, Duration::from_secs(5), |e| {
+        matches!(e, Event::Status(_) | Event::SweepDone(_))
+    })?;
+    if !info.homed {
+        link.send(&Command::Home)
+            .map_err(|e| CliError::failed(e.to_string()))?;
+        match wait_for(&mut link, setup.home_timeout, |e| {
+            matches!(e, Event::Status(_) | Event::Error(_))
+        })? {
+            Event::Status(s) if s.homed => info.homed = true,
+            Event::Error(e) => {
+                return Err(CliError::failed(format!("homing failed: {}", e.detail)));
+            }
+            other => return Err(CliError::failed(format!("homing failed: {other:?}"))),
+        }
+    }
+    Ok((link, info))
+}
+
+fn wait_for<T: Transport>(
+    link: &mut Link<T>,
+    limit: Duration,
+    want: impl Fn(&Event) -> bool,
+) -> CliResult<Event> {
+    let deadline = Instant::now() + limit;
+    while Instant::now() < deadline {
+        match link.recv(Duration::from_millis(100)) {
+            Ok(Some(ev)) if want(&ev) => return Ok(ev),
+            Ok(_) => {}
+            Err(e) => return Err(CliError::failed(e.to_string())),
+        }
+    }
+    Err(CliError::failed(format!(
+        "device did not answer within {} s",
+        limit.as_secs()
+    )))
+}
+
+/// Runs a capture. Returns the report; the caller turns an incomplete one into an
+/// exit status. Bad input (a plan outside the device's travel, an existing file without
+/// `--force`) is an error before anything is measured.
+pub fn capture<C: Connector>(
+    conn: &mut C,
+    setup: &CaptureSetup,
+    progress: &mut dyn Progress,
+    interrupt: &AtomicBool,
+) -> CliResult<CaptureReport> {
+    let (mut link, info) = prepare(conn, setup)?;
+    let (writer, plan, present) = if setup.resume {
+        let (writer, data) = SweepWriter::resume(&setup.out)?;
+        let plan = HostPlan::from_recorded(
+            data.meta
+                .get("plan")
+                .map(String::as_str)
+                .unwrap_or("recorded"),
+            &data.points,
+            data.meta.get("settings").map(String::as_str).unwrap_or(""),
+        )?;
+        let present: BTreeSet<u32> = data.rows.iter().filter_map(|r| r.seq).collect();
+        (writer, plan, present)
+    } else {
+        let plan = setup
+            .plan
+            .clone()
+            .ok_or_else(|| CliError::usage("no plan given"))?;
+        plan.check_limits(&info.source, &info.detector)?;
+        let header = Header {
+            device: device_line(&info),
+            plan: plan.description.clone(),
+            settings: plan.settings_words(),
+            points: plan.points.iter().map(|p| (p.theta_i, p.theta_r)).collect(),
+        };
+        (
+            SweepWriter::create(&setup.out, &header, setup.force)?,
+            plan,
+            BTreeSet::new(),
+        )
+    };
+    plan.check_limits(&info.source, &info.detector)?;
+    let first_id = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_secs() as u32)
+        .unwrap_or(1);
+    let mut run = Run {
+        conn,
+        setup,
+        plan,
+        writer,
+        present,
+        progress,
+        interrupt,
+        next_id: first_id,
+        reconnects: 0,
+        dropped_before: 0,
+    };
+    run.progress
+        .start(run.plan.points.len() as u64, run.present.len() as u64);
+    let status = run.all_rounds(&mut link);
+    run.progress.finish();
+    let status = status?;
+    run.writer.counters().dropped = run.dropped_before + link.stats().dropped() as u64;
+    run.writer.set_status(status)?;
+    let missing: Vec<u32> = (0..run.plan.points.len() as u32)
+        .filter(|k| !run.present.contains(k))
+        .collect();
+    Ok(CaptureReport {
+        status,
+        counters: *run.writer.counters(),
+        missing,
+        total: run.plan.points.len(),
+        info,
+        reconnects: run.reconnects,
+    })
+}
+
+impl<C: Connector> Run<'_, C> {
+    fn all_rounds(&mut self, link: &mut Link<C::T>) -> CliResult<Status> {
+        let mut round = 0;
+        loop {
+            let sweeps = self.plan.sweeps_for(&self.present, self.next_id);
+            if sweeps.is_empty() {
+                return Ok(Status::Complete);
+            }
+            if round > self.setup.retries {
+                self.progress.note(&format!(
+                    "capture: {} readings still missing after {} rounds of re-measuring",
+                    sweeps.iter().map(|s| s.map.len()).sum::<usize>(),
+                    self.setup.retries
+                ));
+                return Ok(Status::Failed);
+            }
+            if round > 0 {
+                let n: usize = sweeps.iter().map(|s| s.map.len()).sum();
+                self.progress.note(&format!(
+                    "capture: re-measuring {n} readings lost on the link"
+                ));
+            }
+            round += 1;
+            for sw in sweeps {
+                self.next_id = sw.plan.sweep_id + 1;
+                match self.one_sweep(link, &sw)? {
+                    Outcome::Done => {}
+                    Outcome::Interrupted => return Ok(Status::Interrupted),
+                    Outcome::Lost(why) => {
+                        self.reconnect(link, &why)?;
+                        round = 0; // the loss was the link's, not a reading's
+                        break;
+                    }
+                }
+            }
+        }
+    }
+
+    fn reconnect(&mut self, link: &mut Link<C::T>, why: &str) -> CliResult {
+        self.dropped_before += link.stats().dropped() as u64;
+        if !self.conn.can_reconnect() {
+            self.writer.set_status(Status::Failed)?;
+            return Err(CliError::failed(format!("device lost: {why}")));
+        }
+        self.progress.note(&format!(
+            "capture: device lost ({why}); waiting up to {} s for it to come back",
+            self.setup.reconnect_for.as_secs()
+        ));
+        let deadline = Instant::now() + self.setup.reconnect_for;
+        loop {
+            if self.interrupt.load(Ordering::Relaxed) {
+                self.writer.set_status(Status::Interrupted)?;
+                return Err(CliError::failed(
+                    "interrupted while waiting for the device; continue with --resume",
+                ));
+            }
+            match prepare(self.conn, self.setup) {
+                Ok((l, _)) => {
+                    *link = l;
+                    self.reconnects += 1;
+                    self.progress
+                        .note("capture: device is back; measuring what is missing");
+                    return Ok(());
+                }
+                Err(e) if Instant::now() >= deadline => {
+                    self.writer.set_status(Status::Failed)?;
+                    return Err(CliError::failed(format!(
+                        "device lost ({why}) and not back within {} s ({e}); continue later with --resume",
+                        self.setup.reconnect_for.as_secs()
+                    )));
+                }
+                Err(_) => std::thread::sleep(Duration::from_millis(250)),
+            }
+        }
+    }
+
+    fn send(&mut self, link: &mut Link<C::T>, cmd: &Command) -> Result<(), String> {
+        link.send(cmd).map_err(|e| e.to_string())
+    }
+
+    fn one_sweep(&mut self, link: &mut Link<C::T>, sw: &DeviceSweep) -> CliResult<Outcome> {
+        let id = sw.plan.sweep_id;
+        if let Err(e) = self.send(link, &Command::StartSweep(sw.plan.clone())) {
+            return Ok(Outcome::Lost(e));
+        }
+        let mut expected = sw.plan.skip as u32;
+        let mut started = false;
+        let mut silent_since = Instant::now();
+        let mut restarts = 0;
+        let mut aborting: Option<Instant> = None;
+        loop {
+            if aborting.is_none() && self.interrupt.load(Ordering::Relaxed) {
+                if let Err(e) = self.send(link, &Command::Abort) {
+                    return Ok(Outcome::Lost(e));
+                }
+                aborting = Some(Instant::now());
+            }
+            if aborting.is_some_and(|t| t.elapsed() > Duration::from_secs(5)) {
+                return Ok(Outcome::Interrupted);
+            }
+            let ev = match link.recv(Duration::from_millis(200)) {
+                Ok(ev) => ev,
+                Err(e) => return Ok(Outcome::Lost(e.to_string())),
+            };
+            let Some(ev) = ev else {
+                if silent_since.elapsed() >= self.setup.event_timeout {
+                    self.writer.counters().timeouts += 1;
+                    if !self.answers_ping(link)? {
+                        return Ok(Outcome::Lost(format!(
+                            "silent for {} s and no answer to Ping",
+                            self.setup.event_timeout.as_secs()
+                        )));
+                    }
+                    if !started {
+                        // The StartSweep may have been lost on the way: send it again
+                        // (a device already running it answers Busy, which is fine).
+                        if let Err(e) = self.send(link, &Command::StartSweep(sw.plan.clone())) {
+                            return Ok(Outcome::Lost(e));
+                        }
+                    }
+                    silent_since = Instant::now();
+                }
+                continue;
+            };
+            silent_since = Instant::now();
+            match ev {
+                Event::Reading(r) if r.sweep_id == id => {
+                    started = true;
+                    if r.seq > expected {
+                        self.writer.counters().gaps += (r.seq - expected) as u64;
+                    }
+                    expected = expected.max(r.seq + 1);
+                    self.record(sw, &r)?;
+                }
+                Event::Progress(p) if p.sweep_id == id => started = true,
+                Event::SweepDone(d) if d.sweep_id == id => {
+                    if d.next_seq > expected {
+                        self.writer.counters().gaps += (d.next_seq - expected) as u64;
+                    }
+                    if aborting.is_some() {
+                        return Ok(Outcome::Interrupted);
+                    }
+                    if d.aborted {
+                        return Err(CliError::failed("the device aborted the sweep"));
+                    }
+                    return Ok(Outcome::Done);
+                }
+                Event::Error(e) if !started => match e.code {
+                    // Our StartSweep was corrupted on the way, or the device is still
+                    // busy with something: try again a few times.
+                    ErrorCode::CorruptFrame | ErrorCode::UnknownCommand | ErrorCode::Busy
+                        if restarts < 3 =>
+                    {
+                        restarts += 1;
+                        if e.code == ErrorCode::Busy {
+                            if let Err(err) = self.send(link, &Command::Abort) {
+                                return Ok(Outcome::Lost(err));
+                            }
+                        }
+                        std::thread::sleep(Duration::from_millis(50));
+                        if let Err(err) = self.send(link, &Command::StartSweep(sw.plan.clone())) {
+                            return Ok(Outcome::Lost(err));
+                        }
+                    }
+                    _ => {
+                        self.writer.set_status(Status::Failed)?;
+                        return Err(CliError::failed(format!(
+                            "device refused the sweep: {}",
+                            e.detail
+                        )));
+                    }
+                },
+                Event::Error(e)
+                    if matches!(
+                        e.code,
+                        ErrorCode::DetectorFault | ErrorCode::HomingFailed | ErrorCode::OutOfLimits
+                    ) =>
+                {
+                    self.writer.set_status(Status::Failed)?;
+                    return Err(CliError::failed(format!(
+                        "device error during the sweep: {}",
+                        e.detail
+                    )));
+                }
+                // Errors about frames we sent during the sweep (a corrupted Ping) and
+                // events of other sweeps are not this sweep's business.
+                _ => {}
+            }
+        }
+    }
+
+    fn answers_ping(&mut self, link: &mut Link<C::T>) -> CliResult<bool> {
+        let token = 0x7069_6e67;
+        if link.send(&Command::Ping(token)).is_err() {
+            return Ok(false);
+        }
+        let deadline = Instant::now() + Duration::from_secs(3);
+        while Instant::now() < deadline {
+            match link.recv(Duration::from_millis(100)) {
+                Ok(Some(Event::Pong(t))) if t == token => return Ok(true),
+                Ok(_) => {}
+                Err(_) => return Ok(false),
+            }
+        }
+        Ok(false)
+    }
+
+    fn record(&mut self, sw: &DeviceSweep, r: &Reading) -> CliResult {
+        let Some(seq) = sw.host_seq(r.seq) else {
+            return Ok(());
+        };
+        if !self.present.insert(seq) {
+            return Ok(()); // a duplicate: already in the file
+        }
+        self.writer.append(&Row {
+            theta_i: shortest(r.theta_i),
+            theta_r: shortest(r.theta_r),
+            brdf: shortest(r.value),
+            std: Some(shortest(r.std)),
+            n: Some(r.n as u32),
+            seq: Some(seq),
+            t_ms: Some(r.t_ms as u64),
+        })?;
+        self.progress
+            .reading(self.present.len() as u64, r.theta_i, r.theta_r);
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+#[path = "capture_tests.rs"]
+mod tests;

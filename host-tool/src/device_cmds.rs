@@ -389,6 +389,10 @@ pub struct SimulateArgs {
     /// Serve the simulated device on a pseudo-terminal instead of capturing.
     #[arg(long, conflicts_with_all = ["out", "resume"])]
     pub pty: bool,
+    /// With --pty: run this many times faster than real time (1 = a real instrument's
+    /// pace; default: as fast as possible).
+    #[arg(long, requires = "pty", value_name = "X")]
+    pub speed: Option<f64>,
     /// Which plan to run.
     #[command(flatten)]
     pub plan: PlanArgs,
@@ -411,7 +415,15 @@ pub fn sim_config(material: &str, noise: f32, seed: u32) -> CliResult<SimConfig>
 
 /// Runs `gonio simulate`.
 pub fn run_simulate(args: &SimulateArgs) -> CliResult {
-    let cfg = sim_config(&args.material, args.noise, args.seed)?;
+    let mut cfg = sim_config(&args.material, args.noise, args.seed)?;
+    if let Some(speed) = args.speed {
+        if !(speed.is_finite() && speed > 0.0) {
+            return Err(CliError::usage(format!(
+                "--speed must be > 0 (got {speed})"
+            )));
+        }
+        cfg.speed = Some(speed);
+    }
     if args.pty {
         let dev = PtyDevice::start(&cfg)
             .map_err(|e| CliError::failed(format!("cannot open a pseudo-terminal: {e}")))?;

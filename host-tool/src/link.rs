@@ -54,7 +54,15 @@ impl Transport for SerialTransport {
             .map_err(io::Error::other)?;
         match self.port.read(buf) {
             Ok(n) => Ok(n),
-            Err(e) if e.kind() == io::ErrorKind::TimedOut => Ok(0),
+            // A signal (Ctrl-C) interrupting the wait is not a lost device.
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    io::ErrorKind::TimedOut | io::ErrorKind::Interrupted
+                ) =>
+            {
+                Ok(0)
+            }
             Err(e) => Err(e),
         }
     }
@@ -215,9 +223,10 @@ impl<T: Transport> Link<T> {
         }
         self.send(&Command::GetInfo)?;
         while Instant::now() < deadline {
-            if let Some(Event::Info(info)) =
-                self.recv(deadline.saturating_duration_since(Instant::now()))?
-            {
+            let slice = deadline
+                .saturating_duration_since(Instant::now())
+                .min(Duration::from_millis(50));
+            if let Some(Event::Info(info)) = self.recv(slice)? {
                 if info.protocol != PROTOCOL_VERSION {
                     return Err(LinkError::Version {
                         device: info.protocol,

@@ -36,6 +36,9 @@ pub struct SimConfig {
     pub seed: u32,
     /// Firmware version the simulated device reports.
     pub firmware: [u8; 3],
+    /// On a pty: run this many times faster than real time (`None`: as fast as
+    /// possible, waits cost nothing). In-process devices always run as fast as possible.
+    pub speed: Option<f64>,
 }
 
 impl SimConfig {
@@ -46,6 +49,7 @@ impl SimConfig {
             noise,
             seed,
             firmware: [0, 1, 0],
+            speed: None,
         }
     }
 
@@ -154,7 +158,7 @@ pub struct PtyDevice {
 impl PtyDevice {
     /// Opens a pty pair and starts serving it. The slave path is [`PtyDevice::path`].
     pub fn start(cfg: &SimConfig) -> io::Result<Self> {
-        use nix::fcntl::{FcntlArg, OFlag, fcntl};
+        use nix::fcntl::{FcntlArg, FdFlag, OFlag, fcntl};
         use nix::sys::termios::{SetArg, cfmakeraw, tcgetattr, tcsetattr};
         let pty = nix::pty::openpty(None, None).map_err(io::Error::from)?;
         // SAFETY: openpty returned two fresh descriptors that nothing else owns.
@@ -164,21 +168,35 @@ impl PtyDevice {
         cfmakeraw(&mut t);
         tcsetattr(slave.as_raw_fd(), SetArg::TCSANOW, &t).map_err(io::Error::from)?;
         fcntl(master.as_raw_fd(), FcntlArg::F_SETFL(OFlag::O_NONBLOCK)).map_err(io::Error::from)?;
+        // Not inherited by child processes: a child holding the master would keep the
+        // pty alive after the device is dropped, and clients would never see it go.
+        for fd in [master.as_raw_fd(), slave.as_raw_fd()] {
+            fcntl(fd, FcntlArg::F_SETFD(FdFlag::FD_CLOEXEC)).map_err(io::Error::from)?;
+        }
         let path = nix::unistd::ttyname(slave.as_raw_fd()).map_err(io::Error::from)?;
         let stop = Arc::new(AtomicBool::new(false));
         let flag = stop.clone();
         let mut service = cfg.service();
+        let speed = cfg.speed.filter(|s| s.is_finite() && *s > 0.0);
         let thread = std::thread::spawn(move || {
             // The slave stays open here too, so reads of the master do not fail while
             // no client has the port open.
             let _slave = slave;
             let mut port = PtyMaster(master);
+            let started = std::time::Instant::now();
             let mut now_us = 0u64;
             while !flag.load(Ordering::Relaxed) {
-                match service.poll(&mut port, now_us) {
-                    Some(at) if at > now_us => now_us = at,
-                    Some(_) => {}
-                    None => port.wait_readable(Duration::from_millis(20)),
+                if let Some(speed) = speed {
+                    now_us = now_us.max((started.elapsed().as_secs_f64() * speed * 1e6) as u64);
+                }
+                match (service.poll(&mut port, now_us), speed) {
+                    (Some(at), None) => now_us = now_us.max(at),
+                    (Some(at), Some(speed)) if at > now_us => {
+                        let wall = Duration::from_secs_f64((at - now_us) as f64 / speed / 1e6);
+                        port.wait_readable(wall.min(Duration::from_millis(20)));
+                    }
+                    (Some(_), Some(_)) => {}
+                    (None, _) => port.wait_readable(Duration::from_millis(20)),
                 }
                 if service.sending() {
                     // The client is not reading: do not spin.

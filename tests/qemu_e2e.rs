@@ -222,3 +222,43 @@ fn firmware_in_qemu_serves_gonio_over_a_pty() {
         qemu.output.try_iter().collect::<Vec<_>>()
     );
 }
+
+#[test]
+fn gonio_capture_engine_against_the_firmware() {
+    use gonio::capture::{CaptureSetup, capture};
+    use gonio::device_cmds::SerialConnector;
+    use gonio::host_plan::HostPlan;
+    use gonio::progress::Quiet;
+    use gonio::sweep_file::{Status, read_sweep};
+    use std::sync::atomic::AtomicBool;
+
+    let elf = qemu_elf();
+    let qemu = Qemu::start(&elf, Duration::from_secs(600));
+    let dir = std::env::temp_dir().join(format!("gonio-qemu-capture-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("fe.csv");
+    let _ = std::fs::remove_file(&out);
+    let mut setup = CaptureSetup::new(
+        Some(HostPlan::paper(&Default::default()).unwrap()),
+        out.clone(),
+    );
+    setup.handshake_timeout = Duration::from_secs(20);
+    let mut conn = SerialConnector::new(&qemu.pty);
+    let report = capture(&mut conn, &setup, &mut Quiet, &AtomicBool::new(false)).expect("capture");
+    assert_eq!(report.status, Status::Complete);
+    assert_eq!(report.info.board.as_str(), "qemu");
+    let data = read_sweep(&out).unwrap();
+    assert_eq!(data.rows.len(), 153);
+    assert_eq!(data.counters.gaps + data.counters.dropped, 0);
+    let fe = Preset::by_name("fe-0.115").unwrap();
+    for (k, r) in data.rows.iter().enumerate() {
+        assert_eq!(r.seq, Some(k as u32));
+        let want = fe
+            .model(r.theta_i)
+            .unwrap()
+            .eval_in_plane(r.theta_i, r.theta_r)
+            .unwrap()
+            .f;
+        assert!((r.brdf - want).abs() / want < 0.03, "{r:?} vs {want}");
+    }
+}

@@ -25,6 +25,13 @@ pub struct Geometry<T> {
     pub cos_b: T,
     /// |theta_r| in radians, the argument of the directional-diffuse lobe.
     pub theta_r: T,
+    /// tan^2(alpha) = sin^2/cos^2 of the half vector's polar angle; +inf at alpha = 90
+    /// degrees (both directions grazing), where the facet lobe vanishes.
+    pub tan2_a: T,
+    /// G / (cos_i cos_r) of eq. 3-4, computed as
+    /// `1 / max(cos_i cos_r, cos_b max(cos_i, cos_r) / (2 cos_a))` so it stays finite at
+    /// grazing angles (0 at alpha = 90 degrees).
+    pub g_term: T,
 }
 
 /// Checks that `value` (degrees) is finite and within `[min, max]`.
@@ -61,18 +68,18 @@ impl<T: Real> Geometry<T> {
         let half = T::lit(0.5);
         let alpha = (ti - tr) * half; // in [-45, 90] degrees
         let beta = (ti + tr) * half; // in [-45, 90] degrees
-        let g = Geometry {
-            cos_i: cos_deg(ti),
-            cos_r: cos_deg(tr),
-            cos_a: cos_deg(alpha),
-            sin_a: deg_to_rad(alpha).sin().abs(),
-            cos_b: cos_deg(beta),
-            theta_r: deg_to_rad(tr.abs()),
-        };
-        if g.cos_b <= T::zero() {
+        let cos_b = cos_deg(beta);
+        if cos_b <= T::zero() {
             return Err(ModelError::NoHalfVector);
         }
-        Ok(g)
+        Ok(Self::with_derived(
+            cos_deg(ti),
+            cos_deg(tr),
+            cos_deg(alpha),
+            deg_to_rad(alpha).sin().abs(),
+            cos_b,
+            deg_to_rad(tr.abs()),
+        ))
     }
 
     /// From unit direction vectors `[x, y, z]` (z along the mean normal, both in the
@@ -89,14 +96,35 @@ impl<T: Real> Geometry<T> {
         }
         let s_xy = (s[0] * s[0] + s[1] * s[1]).sqrt();
         let r_xy = (wr[0] * wr[0] + wr[1] * wr[1]).sqrt();
-        Ok(Geometry {
-            cos_i: wi[2],
-            cos_r: wr[2],
-            cos_a: s[2] / s_len,
-            sin_a: s_xy / s_len,
-            cos_b: s_len * T::lit(0.5),
-            theta_r: r_xy.atan2(wr[2]),
-        })
+        Ok(Self::with_derived(
+            wi[2],
+            wr[2],
+            s[2] / s_len,
+            s_xy / s_len,
+            s_len * T::lit(0.5),
+            r_xy.atan2(wr[2]),
+        ))
+    }
+
+    /// Adds the parameter-independent factors of eq. 3-4 to the basic cosines.
+    fn with_derived(cos_i: T, cos_r: T, cos_a: T, sin_a: T, cos_b: T, theta_r: T) -> Self {
+        let c2 = cos_a * cos_a;
+        let (tan2_a, g_term) = if c2 > T::zero() {
+            let gden = (cos_i * cos_r).max(cos_b * cos_i.max(cos_r) / (T::lit(2.0) * cos_a));
+            (sin_a * sin_a / c2, T::one() / gden)
+        } else {
+            (T::infinity(), T::zero())
+        };
+        Geometry {
+            cos_i,
+            cos_r,
+            cos_a,
+            sin_a,
+            cos_b,
+            theta_r,
+            tan2_a,
+            g_term,
+        }
     }
 
     /// From polar/azimuth pairs in degrees: theta in [0, 90], phi any finite value.

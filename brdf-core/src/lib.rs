@@ -34,5 +34,5 @@ pub mod sim;
 pub use error::ModelError;
 pub use float::Real;
 pub use geometry::Geometry;
-pub use model::{Components, Evaluation, Model, Params};
+pub use model::{Components, Evaluation, Gradient, Model, Params};
 pub use presets::{PRESETS, Preset};

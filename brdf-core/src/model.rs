@@ -85,6 +85,22 @@ pub struct Evaluation<T> {
     pub f: T,
 }
 
+/// Derivatives of the BRDF with respect to the natural logarithms of the parameters
+/// (see [`Model::eval_with_gradient`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Gradient<T> {
+    /// d f / d ln k_s.
+    pub ln_ks: T,
+    /// d f / d ln sigma.
+    pub ln_sigma: T,
+    /// d f / d ln k_dd.
+    pub ln_kdd: T,
+    /// d f / d ln sigma_m.
+    pub ln_sigma_m: T,
+    /// d f / d ln k_id.
+    pub ln_kid: T,
+}
+
 /// A validated model, ready to evaluate. Construction checks every parameter once and
 /// precomputes the normalisations, so evaluation never divides by a parameter.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -186,36 +202,42 @@ impl<T: Real> Model<T> {
 
     /// Specular f_s (eq. 3 with G of eq. 4), unweighted, for a geometry.
     ///
-    /// Computed as `1/(8 pi sigma^2) * (exp(-x/2)/cos^2 alpha)^2 / Gden` with
-    /// `x = tan^2 alpha / (2 sigma^2)` and
-    /// `Gden = (cos_i cos_r)/G = max(cos_i cos_r, cos_b max(cos_i, cos_r) / (2 cos_a))`,
-    /// which has no 0*inf at grazing angles or at alpha -> 90 degrees. When
+    /// Computed as `1/(8 pi sigma^2) * (exp(-x/2) (1 + tan^2 alpha))^2 * G/(cos_i cos_r)`
+    /// with `x = tan^2 alpha / (2 sigma^2)`, using the geometry's precomputed `tan2_a`
+    /// and `g_term`: no 0*inf at grazing angles or at alpha -> 90 degrees. When
     /// `exp(-x/2)` would underflow to 0 the lobe is skipped and 0 returned.
     #[inline]
     pub fn specular(&self, g: &Geometry<T>) -> T {
-        let s2 = g.sin_a * g.sin_a;
-        let c2 = g.cos_a * g.cos_a;
-        // x/2 > EXP_UNDERFLOW  <=>  s2 * inv_2s2 > 2 * EXP_UNDERFLOW * c2 (no division,
-        // so cos_a = 0 is handled here too).
-        if s2 * self.spec_inv_2s2 > T::lit(2.0) * T::EXP_UNDERFLOW * c2 {
-            return T::zero();
+        self.specular_x(g).0
+    }
+
+    /// f_s and its exponent `x = tan^2 alpha / (2 sigma^2)` (0 when skipped).
+    #[inline]
+    fn specular_x(&self, g: &Geometry<T>) -> (T, T) {
+        let x = g.tan2_a * self.spec_inv_2s2;
+        // Also catches tan2_a = inf (alpha = 90 degrees).
+        if !(x <= T::lit(2.0) * T::EXP_UNDERFLOW) {
+            return (T::zero(), T::zero());
         }
-        let x = s2 / c2 * self.spec_inv_2s2;
-        let p = (-x * T::lit(0.5)).exp() / c2;
-        let gden =
-            (g.cos_i * g.cos_r).max(g.cos_b * g.cos_i.max(g.cos_r) / (T::lit(2.0) * g.cos_a));
-        self.spec_norm * p * p / gden
+        let p = (-x * T::lit(0.5)).exp() * (T::one() + g.tan2_a);
+        (self.spec_norm * p * p * g.g_term, x)
     }
 
     /// Directional diffuse f_dd (eq. 5), unweighted: a Gaussian in theta_r (radians).
     /// Skipped (0) when the exponential would underflow.
     #[inline]
     pub fn directional(&self, g: &Geometry<T>) -> T {
-        let x = g.theta_r * g.theta_r * self.dd_inv_2s2;
-        if x > T::EXP_UNDERFLOW {
-            return T::zero();
+        self.directional_y(g).0
+    }
+
+    /// f_dd and its exponent `y = theta_r^2 / (2 sigma_m^2)`.
+    #[inline]
+    fn directional_y(&self, g: &Geometry<T>) -> (T, T) {
+        let y = g.theta_r * g.theta_r * self.dd_inv_2s2;
+        if y > T::EXP_UNDERFLOW {
+            return (T::zero(), y);
         }
-        self.dd_norm * (-x).exp()
+        (self.dd_norm * (-y).exp(), y)
     }
 
     /// Evaluates every component that is on, and their weighted sum, for a geometry.
@@ -240,6 +262,47 @@ impl<T: Real> Model<T> {
             return Err(ModelError::Overflow);
         }
         Ok(Evaluation { f_s, f_dd, f_id, f })
+    }
+
+    /// Evaluates `f` and its derivatives with respect to the *logarithms* of the
+    /// parameters (the fitter's coordinates: `k = exp(u)` keeps every parameter
+    /// positive). Switched-off components contribute 0 to both.
+    ///
+    /// - d f / d ln k_s = k_s f_s, d f / d ln k_dd = k_dd f_dd, d f / d ln k_id = k_id
+    /// - d f / d ln sigma = k_s f_s (2x - 2), x = tan^2 alpha / (2 sigma^2)
+    /// - d f / d ln sigma_m = k_dd f_dd (2y - 1), y = theta_r^2 / (2 sigma_m^2)
+    pub fn eval_with_gradient(
+        &self,
+        g: &Geometry<T>,
+    ) -> Result<(Evaluation<T>, Gradient<T>), ModelError> {
+        let p = &self.params;
+        let c = self.components;
+        let zero = T::zero();
+        let two = T::lit(2.0);
+        let (f_s, x) = if c.specular && p.ks > zero {
+            self.specular_x(g)
+        } else {
+            (zero, zero)
+        };
+        let (f_dd, y) = if c.directional && p.kdd > zero {
+            self.directional_y(g)
+        } else {
+            (zero, zero)
+        };
+        let f_id = if c.ideal { T::one() } else { zero };
+        let (s, d, i) = (p.ks * f_s, p.kdd * f_dd, p.kid * f_id);
+        let f = s + d + i;
+        if !f.is_finite() {
+            return Err(ModelError::Overflow);
+        }
+        let grad = Gradient {
+            ln_ks: s,
+            ln_sigma: s * (two * x - two),
+            ln_kdd: d,
+            ln_sigma_m: d * (two * y - T::one()),
+            ln_kid: i,
+        };
+        Ok((Evaluation { f_s, f_dd, f_id, f }, grad))
     }
 
     /// Evaluates in the plane of incidence: `theta_i` in [0, 90] degrees, `theta_r`

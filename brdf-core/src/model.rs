@@ -215,8 +215,9 @@ impl<T: Real> Model<T> {
     #[inline]
     fn specular_x(&self, g: &Geometry<T>) -> (T, T) {
         let x = g.tan2_a * self.spec_inv_2s2;
-        // Also catches tan2_a = inf (alpha = 90 degrees).
-        if !(x <= T::lit(2.0) * T::EXP_UNDERFLOW) {
+        // x is never NaN (tan2_a in [0, inf], 1/(2 sigma^2) finite and > 0); this also
+        // catches tan2_a = inf (alpha = 90 degrees).
+        if x > T::lit(2.0) * T::EXP_UNDERFLOW {
             return (T::zero(), T::zero());
         }
         let p = (-x * T::lit(0.5)).exp() * (T::one() + g.tan2_a);

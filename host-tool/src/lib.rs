@@ -7,6 +7,8 @@ pub mod capture;
 pub mod device_cmds;
 pub mod error;
 pub mod eval;
+pub mod fit;
+pub mod fit_cmd;
 pub mod flash;
 pub mod host_plan;
 pub mod link;

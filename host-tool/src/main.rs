@@ -4,7 +4,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use gonio::error::{CliResult, EXIT_USAGE};
-use gonio::{device_cmds, eval, flash, ports};
+use gonio::{device_cmds, eval, fit_cmd, flash, ports};
 
 /// gonio: measure and model how metal surfaces reflect light.
 #[derive(Debug, Parser)]
@@ -32,6 +32,7 @@ enum Command {
     Info(device_cmds::InfoArgs),
     Capture(device_cmds::CaptureArgs),
     Simulate(device_cmds::SimulateArgs),
+    Fit(fit_cmd::FitArgs),
     Flash(flash::FlashArgs),
 }
 
@@ -42,6 +43,7 @@ fn run(cli: Cli) -> CliResult {
         Command::Info(args) => device_cmds::info(&args),
         Command::Capture(args) => device_cmds::run_capture(&args),
         Command::Simulate(args) => device_cmds::run_simulate(&args),
+        Command::Fit(args) => fit_cmd::run(&args),
         Command::Flash(args) => flash::run(&args),
     }
 }

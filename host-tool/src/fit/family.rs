@@ -1,0 +1,228 @@
+//! The nested model family and each member's parameter layout.
+
+use brdf_core::{Components, Model, Params};
+
+/// The models fitted, from the simplest up.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Kind {
+    /// Ideal diffuse only: f = k_id.
+    IdealDiffuse,
+    /// Torrance–Sparrow: f = k_s(theta_i) f_s + k_d, one k_s per incidence.
+    TorranceSparrow,
+    /// Three components, one k_s per incidence (as the paper fits it).
+    ThreeComponent,
+    /// Three components with ln k_s a quadratic in theta_i/90 (3 parameters).
+    ThreeSmooth,
+}
+
+impl Kind {
+    /// All kinds, simplest first.
+    pub const ALL: [Kind; 4] = [
+        Kind::IdealDiffuse,
+        Kind::TorranceSparrow,
+        Kind::ThreeComponent,
+        Kind::ThreeSmooth,
+    ];
+
+    /// The name used in reports and JSON.
+    pub fn name(self) -> &'static str {
+        match self {
+            Kind::IdealDiffuse => "ideal-diffuse",
+            Kind::TorranceSparrow => "torrance-sparrow",
+            Kind::ThreeComponent => "three-component",
+            Kind::ThreeSmooth => "three-component-smooth-ks",
+        }
+    }
+
+    /// The components it switches on.
+    pub fn components(self) -> Components {
+        match self {
+            Kind::IdealDiffuse => Components {
+                specular: false,
+                directional: false,
+                ideal: true,
+            },
+            Kind::TorranceSparrow => Components::TORRANCE_SPARROW,
+            Kind::ThreeComponent | Kind::ThreeSmooth => Components::ALL,
+        }
+    }
+
+    /// Has a specular lobe.
+    pub fn specular(self) -> bool {
+        self.components().specular
+    }
+
+    /// Has the directional-diffuse lobe.
+    pub fn directional(self) -> bool {
+        self.components().directional
+    }
+}
+
+/// One fitted coordinate (all are natural logarithms of positive parameters, except
+/// the smooth k_s coefficients, which are the coefficients of ln k_s).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Coord {
+    /// ln sigma.
+    Sigma,
+    /// ln sigma_m.
+    SigmaM,
+    /// ln k_dd.
+    Kdd,
+    /// ln k_id (k_d in the Torrance–Sparrow model).
+    Kid,
+    /// ln k_s of incidence j.
+    Ks(usize),
+    /// Coefficient c of ln k_s = c0 + c1 t + c2 t^2, t = theta_i / 90.
+    KsPoly(usize),
+}
+
+impl Coord {
+    /// Box bounds in the fitted coordinate (keeps every parameter representable).
+    pub fn bounds(self) -> (f64, f64) {
+        match self {
+            Coord::Sigma => (1e-4f64.ln(), 20f64.ln()),
+            Coord::SigmaM => (1e-3f64.ln(), 20f64.ln()),
+            Coord::Kdd | Coord::Kid | Coord::Ks(_) => (1e-12f64.ln(), 1e12f64.ln()),
+            Coord::KsPoly(0) => (1e-12f64.ln(), 1e12f64.ln()),
+            Coord::KsPoly(_) => (-60.0, 60.0),
+        }
+    }
+}
+
+/// Values of every parameter of a kind (fixed or free), in natural units.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Values {
+    /// sigma.
+    pub sigma: f64,
+    /// sigma_m (radians).
+    pub sigma_m: f64,
+    /// k_dd.
+    pub kdd: f64,
+    /// k_id (k_d for Torrance–Sparrow).
+    pub kid: f64,
+    /// k_s per incidence (per-angle kinds) or evaluated from the polynomial (smooth).
+    pub ks: Vec<f64>,
+    /// ln k_s polynomial coefficients (smooth kind only).
+    pub poly: Option<[f64; 3]>,
+}
+
+impl Values {
+    /// The brdf-core model at incidence `j` for `kind`.
+    pub fn model(&self, kind: Kind, j: usize) -> Option<Model<f64>> {
+        let p = Params {
+            ks: if kind.specular() { self.ks[j] } else { 0.0 },
+            sigma: self.sigma,
+            kdd: if kind.directional() { self.kdd } else { 0.0 },
+            sigma_m: self.sigma_m,
+            kid: self.kid,
+        };
+        Model::new(p, kind.components()).ok()
+    }
+
+    /// Sets the coordinate `c` to `u`.
+    pub fn set(&mut self, c: Coord, u: f64, incidences: &[f64]) {
+        match c {
+            Coord::Sigma => self.sigma = u.exp(),
+            Coord::SigmaM => self.sigma_m = u.exp(),
+            Coord::Kdd => self.kdd = u.exp(),
+            Coord::Kid => self.kid = u.exp(),
+            Coord::Ks(j) => self.ks[j] = u.exp(),
+            Coord::KsPoly(k) => {
+                let mut p = self.poly.unwrap_or([0.0; 3]);
+                p[k] = u;
+                self.poly = Some(p);
+                for (j, &ti) in incidences.iter().enumerate() {
+                    let t = ti / 90.0;
+                    self.ks[j] = (p[0] + p[1] * t + p[2] * t * t).exp();
+                }
+            }
+        }
+    }
+
+    /// The value of coordinate `c`.
+    pub fn get(&self, c: Coord) -> f64 {
+        match c {
+            Coord::Sigma => self.sigma.ln(),
+            Coord::SigmaM => self.sigma_m.ln(),
+            Coord::Kdd => self.kdd.ln(),
+            Coord::Kid => self.kid.ln(),
+            Coord::Ks(j) => self.ks[j].ln(),
+            Coord::KsPoly(k) => self.poly.map_or(0.0, |p| p[k]),
+        }
+    }
+}
+
+/// Parameters held fixed (`--fix name=value`), in natural units.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Fixed {
+    /// sigma.
+    pub sigma: Option<f64>,
+    /// sigma_m.
+    pub sigma_m: Option<f64>,
+    /// k_dd.
+    pub kdd: Option<f64>,
+    /// k_id.
+    pub kid: Option<f64>,
+    /// k_d (the Torrance–Sparrow constant).
+    pub kd: Option<f64>,
+}
+
+impl Fixed {
+    /// Parses `name=value` (names: sigma, sigma_m, kdd, kid, kd; also k_dd, k_id, k_d).
+    pub fn set(&mut self, spec: &str) -> Result<(), String> {
+        let (name, value) = spec
+            .split_once('=')
+            .ok_or_else(|| format!("--fix '{spec}': expected NAME=VALUE"))?;
+        let v: f64 = value
+            .trim()
+            .parse()
+            .map_err(|_| format!("--fix '{spec}': '{value}' is not a number"))?;
+        if !(v.is_finite() && v > 0.0) {
+            return Err(format!("--fix '{spec}': the value must be finite and > 0"));
+        }
+        let slot = match name.trim() {
+            "sigma" => &mut self.sigma,
+            "sigma_m" | "sigma-m" => &mut self.sigma_m,
+            "kdd" | "k_dd" => &mut self.kdd,
+            "kid" | "k_id" => &mut self.kid,
+            "kd" | "k_d" => &mut self.kd,
+            other => {
+                return Err(format!(
+                    "--fix: unknown parameter '{other}' (sigma, sigma_m, kdd, kid, kd)"
+                ));
+            }
+        };
+        *slot = Some(v);
+        Ok(())
+    }
+
+    /// The fixed value of a coordinate for a kind, if any.
+    pub fn of(&self, kind: Kind, c: Coord) -> Option<f64> {
+        match c {
+            Coord::Sigma => self.sigma,
+            Coord::SigmaM => self.sigma_m,
+            Coord::Kdd => self.kdd,
+            Coord::Kid if kind == Kind::TorranceSparrow => self.kd,
+            Coord::Kid => self.kid,
+            Coord::Ks(_) | Coord::KsPoly(_) => None,
+        }
+    }
+}
+
+/// Every coordinate of a kind, fixed or free.
+pub fn coords(kind: Kind, n_inc: usize) -> Vec<Coord> {
+    let mut c = Vec::new();
+    if kind.specular() {
+        c.push(Coord::Sigma);
+    }
+    if kind.directional() {
+        c.extend([Coord::SigmaM, Coord::Kdd]);
+    }
+    c.push(Coord::Kid);
+    match kind {
+        Kind::TorranceSparrow | Kind::ThreeComponent => c.extend((0..n_inc).map(Coord::Ks)),
+        Kind::ThreeSmooth => c.extend((0..3).map(Coord::KsPoly)),
+        Kind::IdealDiffuse => {}
+    }
+    c
+}

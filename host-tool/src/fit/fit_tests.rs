@@ -1,0 +1,404 @@
+//! Tests of the fitter on synthetic sweeps with known parameters.
+
+use super::family::{Coord, Values, coords};
+use super::solve::Problem;
+use super::*;
+use crate::sweep_file::Row;
+use brdf_core::sim::XorShift32;
+use brdf_core::{Geometry, Model, Params, Preset};
+use levenberg_marquardt::LeastSquaresProblem;
+
+/// The paper grid from a model per incidence, times (1 + noise N(0,1)).
+fn sweep(model_at: impl Fn(f64) -> Model<f64>, noise: f64, seed: u32) -> Vec<Row> {
+    let mut rng = XorShift32::new(seed);
+    let mut rows = Vec::new();
+    for i in 0..9 {
+        let ti = 10.0 * i as f64;
+        let m = model_at(ti);
+        for k in 0..17 {
+            let tr = -80.0 + 10.0 * k as f64;
+            let f = m.eval_in_plane(ti, tr).unwrap().f;
+            let y = f * (1.0 + noise * rng.normal() as f64);
+            rows.push(Row {
+                theta_i: ti,
+                theta_r: tr,
+                brdf: y,
+                std: None,
+                n: None,
+                seq: None,
+                t_ms: None,
+            });
+        }
+    }
+    rows
+}
+
+fn preset_sweep(name: &str, noise: f64, seed: u32) -> Vec<Row> {
+    let p = Preset::by_name(name).unwrap();
+    sweep(|ti| p.model(ti).unwrap(), noise, seed)
+}
+
+fn family(rows: &[Row]) -> FamilyFit {
+    let data = Dataset::from_rows(rows, true).unwrap();
+    fit_family(&data, &FitOptions::default(), &Kind::ALL).unwrap()
+}
+
+/// |fitted - true| in standard errors, for a scalar parameter.
+fn z(fit: &Fit, c: Coord, truth: f64) -> f64 {
+    let i = fit.free.iter().position(|&x| x == c).unwrap();
+    let se = fit.se_coord(i).expect("identifiable");
+    (fit.values.get(c) - truth.ln()).abs() / se
+}
+
+#[test]
+fn analytic_jacobian_matches_numeric() {
+    let rows = preset_sweep("cu-0.070", 0.01, 4);
+    let data = Dataset::from_rows(&rows, true).unwrap();
+    for kind in Kind::ALL {
+        for residual in [Residual::Log, Residual::Relative, Residual::Absolute] {
+            let free = coords(kind, data.incidences.len());
+            let mut values = Values {
+                sigma: 0.09,
+                sigma_m: 0.6,
+                kdd: 800.0,
+                kid: 30.0,
+                ks: (0..9).map(|j| 120.0 + 20.0 * j as f64).collect(),
+                poly: None,
+            };
+            if kind == Kind::ThreeSmooth {
+                for (k, c) in [4.9, 0.8, -0.2].into_iter().enumerate() {
+                    values.set(Coord::KsPoly(k), c, &data.incidences);
+                }
+            }
+            let mut p = Problem {
+                data: &data,
+                kind,
+                free,
+                values,
+                residual,
+                sqrt_w: vec![1.0; data.obs.len()],
+            };
+            let analytic = p.jacobian().unwrap();
+            let numeric = levenberg_marquardt::differentiate_numerically(&mut p).unwrap();
+            let scale = numeric.abs().max().max(1e-12);
+            let err = (analytic - &numeric).abs().max() / scale;
+            assert!(
+                err < 1e-5,
+                "{kind:?} {residual:?}: max relative difference {err:e}"
+            );
+        }
+    }
+}
+
+#[test]
+fn recovers_preset_parameters_within_their_standard_errors() {
+    for (name, noise, seed) in [
+        ("fe-0.115", 0.01, 1),
+        ("cu-0.070", 0.005, 2),
+        ("al-0.782", 0.02, 3),
+        ("al-0.142", 0.01, 9),
+    ] {
+        let p = Preset::by_name(name).unwrap();
+        let f = family(&preset_sweep(name, noise, seed));
+        let three = f.get(Kind::ThreeComponent).unwrap();
+        assert!(three.converged, "{name}");
+        for (c, truth) in [
+            (Coord::Sigma, p.sigma),
+            (Coord::SigmaM, 0.7),
+            (Coord::Kdd, 900.0),
+            (Coord::Kid, 25.0),
+        ] {
+            let zz = z(three, c, truth);
+            assert!(
+                zz < 3.0,
+                "{name} noise {noise}: {c:?} off by {zz:.2} standard errors ({})",
+                three.values.get(c).exp()
+            );
+        }
+        for (j, &ks) in p.ks_table.iter().enumerate() {
+            let zz = z(three, Coord::Ks(j), ks);
+            assert!(
+                zz < 3.5,
+                "{name}: k_s({}) off by {zz:.2} se ({} vs {ks})",
+                10 * j,
+                three.values.ks[j]
+            );
+        }
+        // The residual scatter matches the noise that was put in.
+        let rms = (three.ssr / three.n as f64).sqrt();
+        assert!(
+            (rms / noise - 1.0).abs() < 0.35,
+            "{name}: residual rms {rms} for noise {noise}"
+        );
+        assert!(
+            matches!(f.selected, Kind::ThreeComponent | Kind::ThreeSmooth),
+            "{name}: {:?}",
+            f.selected
+        );
+    }
+}
+
+#[test]
+fn recovers_an_arbitrary_parameter_set() {
+    let truth = Params {
+        ks: 0.0,
+        sigma: 0.3,
+        kdd: 300.0,
+        sigma_m: 0.45,
+        kid: 60.0,
+    };
+    let ks = |ti: f64| 40.0 + ti; // rises with incidence, like the paper's tables
+    let rows = sweep(
+        |ti| {
+            Model::three_component(Params {
+                ks: ks(ti),
+                ..truth
+            })
+            .unwrap()
+        },
+        0.005,
+        11,
+    );
+    let f = family(&rows);
+    let three = f.get(Kind::ThreeComponent).unwrap();
+    for (c, t) in [
+        (Coord::Sigma, 0.3),
+        (Coord::SigmaM, 0.45),
+        (Coord::Kdd, 300.0),
+        (Coord::Kid, 60.0),
+    ] {
+        assert!(
+            z(three, c, t) < 3.0,
+            "{c:?}: {} vs {t}",
+            three.values.get(c).exp()
+        );
+    }
+}
+
+#[test]
+fn torrance_sparrow_data_gets_no_directional_diffuse_term() {
+    for (seed, noise) in [(5, 0.01), (6, 0.02), (7, 0.005)] {
+        let rows = sweep(
+            |ti| Model::torrance_sparrow(100.0 + 2.0 * ti, 0.1, 12.0).unwrap(),
+            noise,
+            seed,
+        );
+        let f = family(&rows);
+        assert_eq!(
+            f.selected,
+            Kind::TorranceSparrow,
+            "seed {seed}: {:?}",
+            f.notes
+        );
+        assert!(
+            f.notes
+                .iter()
+                .any(|n| n.starts_with("directional diffuse: NOT supported")),
+            "{:?}",
+            f.notes
+        );
+        let ts = f.get(Kind::TorranceSparrow).unwrap();
+        assert!(z(ts, Coord::Sigma, 0.1) < 3.0 && z(ts, Coord::Kid, 12.0) < 3.0);
+    }
+}
+
+#[test]
+fn a_flat_sample_is_ideal_diffuse() {
+    let rows = sweep(
+        |_| {
+            Model::new(
+                Params {
+                    ks: 0.0,
+                    sigma: 1.0,
+                    kdd: 0.0,
+                    sigma_m: 1.0,
+                    kid: 40.0,
+                },
+                brdf_core::Components::ALL,
+            )
+            .unwrap()
+        },
+        0.01,
+        8,
+    );
+    let f = family(&rows);
+    assert_eq!(f.selected, Kind::IdealDiffuse);
+    assert!(
+        f.notes
+            .iter()
+            .any(|n| n.starts_with("specular lobe: NOT supported")),
+        "{:?}",
+        f.notes
+    );
+    let ideal = f.get(Kind::IdealDiffuse).unwrap();
+    assert!(z(ideal, Coord::Kid, 40.0) < 3.0);
+}
+
+#[test]
+fn paper_rmse_is_zero_for_exact_data_and_defined_per_incidence() {
+    let f = family(&preset_sweep("fe-0.115", 0.0, 1));
+    let three = f.get(Kind::ThreeComponent).unwrap();
+    assert!(three.rmse.unwrap() < 1e-6, "{:?}", three.rmse);
+    assert_eq!(three.rmse_by_inc.len(), 9);
+    // T-S cannot follow the directional diffuse lobe: visibly larger error.
+    let ts = f.get(Kind::TorranceSparrow).unwrap();
+    assert!(ts.rmse.unwrap() > 10.0 * three.rmse.unwrap().max(1e-9));
+}
+
+#[test]
+fn fixed_parameters_stay_fixed() {
+    let rows = preset_sweep("fe-0.115", 0.01, 1);
+    let data = Dataset::from_rows(&rows, true).unwrap();
+    let mut opts = FitOptions::default();
+    opts.fixed.set("sigma=0.115").unwrap();
+    opts.fixed.set("kid=25").unwrap();
+    let fit = fit_kind(&data, Kind::ThreeComponent, &opts).unwrap();
+    assert_eq!((fit.values.sigma, fit.values.kid), (0.115, 25.0));
+    assert!(!fit.free.contains(&Coord::Sigma) && !fit.free.contains(&Coord::Kid));
+    let mut fx = Fixed::default();
+    for (spec, msg) in [
+        ("sigma", "NAME=VALUE"),
+        ("sigma=x", "not a number"),
+        ("sigma=-1", "> 0"),
+        ("rho=1", "unknown parameter"),
+    ] {
+        assert!(fx.set(spec).unwrap_err().contains(msg), "{spec}");
+    }
+}
+
+#[test]
+fn robust_loss_resists_outliers() {
+    let mut rows = preset_sweep("fe-0.115", 0.005, 3);
+    for k in [5, 40, 77, 120] {
+        rows[k].brdf *= 3.0; // a bumped table, a reflection off a screw...
+    }
+    let data = Dataset::from_rows(&rows, true).unwrap();
+    let l2 = fit_kind(&data, Kind::ThreeComponent, &FitOptions::default()).unwrap();
+    let opts = FitOptions {
+        loss: Loss::Cauchy(0.02),
+        ..FitOptions::default()
+    };
+    let robust = fit_kind(&data, Kind::ThreeComponent, &opts).unwrap();
+    let err = |f: &Fit| (f.values.sigma / 0.115 - 1.0).abs() + (f.values.kdd / 900.0 - 1.0).abs();
+    assert!(err(&robust) < 0.02, "robust fit error {}", err(&robust));
+    assert!(
+        err(&robust) < err(&l2) / 3.0,
+        "robust {} vs l2 {}",
+        err(&robust),
+        err(&l2)
+    );
+}
+
+#[test]
+fn degenerate_inputs_are_clear_errors_or_flagged() {
+    // Too few points.
+    let rows = preset_sweep("fe-0.115", 0.0, 1);
+    assert!(
+        Dataset::from_rows(&rows[..2], true)
+            .unwrap_err()
+            .0
+            .contains("at least 3")
+    );
+    // Non-positive values with log residuals.
+    let mut bad = rows.clone();
+    bad[3].brdf = 0.0;
+    assert!(
+        Dataset::from_rows(&bad, true)
+            .unwrap_err()
+            .0
+            .contains("--residual absolute")
+    );
+    let mut nan = rows.clone();
+    nan[3].brdf = f64::NAN;
+    assert!(
+        Dataset::from_rows(&nan, false)
+            .unwrap_err()
+            .0
+            .contains("not finite")
+    );
+    let mut out = rows.clone();
+    out[3].theta_r = 95.0;
+    assert!(
+        Dataset::from_rows(&out, true)
+            .unwrap_err()
+            .0
+            .contains("theta_r = 95")
+    );
+    // One incidence angle: the smooth model cannot be fitted, the others can.
+    let one: Vec<Row> = rows.iter().filter(|r| r.theta_i == 40.0).copied().collect();
+    let f = family(&one);
+    assert!(f.get(Kind::ThreeSmooth).is_none());
+    assert!(
+        f.notes
+            .iter()
+            .any(|n| n.starts_with("three-component-smooth-ks: not fitted"))
+    );
+    assert!(f.get(Kind::ThreeComponent).is_some());
+    // All values equal: a constant, and the lobes are flagged or rejected.
+    let flat: Vec<Row> = rows.iter().map(|r| Row { brdf: 7.0, ..*r }).collect();
+    let f = family(&flat);
+    assert_eq!(f.selected, Kind::IdealDiffuse);
+    // No reading at the specular angle: RMSE for that incidence is undefined, flagged.
+    let no_spec: Vec<Row> = rows
+        .iter()
+        .filter(|r| !(r.theta_i == 20.0 && r.theta_r == 20.0))
+        .copied()
+        .collect();
+    let f = family(&no_spec);
+    let three = f.get(Kind::ThreeComponent).unwrap();
+    assert_eq!(three.rmse_by_inc[2], None);
+    assert!(three.rmse_by_inc[1].is_some());
+    assert!(
+        f.notes
+            .iter()
+            .any(|n| n.contains("no reading at theta_r = theta_i"))
+    );
+    let _ = Geometry::<f64>::in_plane(0.0, 0.0);
+}
+
+#[test]
+fn fitted_models_evaluate_between_incidences() {
+    let rows = preset_sweep("fe-0.115", 0.0, 1);
+    let f = family(&rows);
+    let three = f.get(Kind::ThreeComponent).unwrap();
+    let inc = &f.incidences;
+    assert!(
+        (three.ks_at(inc, 25.0) - 155.0).abs() < 0.5,
+        "{}",
+        three.ks_at(inc, 25.0)
+    );
+    assert!((three.ks_at(inc, -5.0) - 115.0).abs() < 0.5);
+    assert!((three.ks_at(inc, 85.0) - 260.0).abs() < 0.5);
+    let m = three.model_at(inc, 20.0).unwrap();
+    let want = Preset::by_name("fe-0.115")
+        .unwrap()
+        .model(20.0)
+        .unwrap()
+        .eval_in_plane(20.0, 20.0)
+        .unwrap()
+        .f;
+    assert!((m.eval_in_plane(20.0, 20.0).unwrap().f / want - 1.0).abs() < 1e-6);
+}
+
+#[test]
+fn standard_errors_print_to_two_significant_digits() {
+    assert_eq!(
+        report::fmt_se(0.1150712, Some(0.000412))
+            .split_whitespace()
+            .collect::<Vec<_>>(),
+        ["0.11507", "±", "0.00041"]
+    );
+    assert_eq!(
+        report::fmt_se(898.81449, Some(1.049))
+            .split_whitespace()
+            .collect::<Vec<_>>(),
+        ["898.8", "±", "1.0"]
+    );
+    assert_eq!(
+        report::fmt_se(115.4, Some(47.0))
+            .split_whitespace()
+            .collect::<Vec<_>>(),
+        ["115", "±", "47"]
+    );
+    assert!(report::fmt_se(3.0, None).contains("(n/d)"));
+}

@@ -1,0 +1,272 @@
+//! Fit results for people (a table) and for programs (the JSON contract of
+//! `gonio fit --json`).
+
+use serde_json::{Value, json};
+
+use super::family::{Coord, Kind};
+use super::{FamilyFit, Fit};
+
+/// A parameter's name in reports.
+pub fn coord_name(kind: Kind, c: Coord, incidences: &[f64]) -> String {
+    match c {
+        Coord::Sigma => "sigma".into(),
+        Coord::SigmaM => "sigma_m".into(),
+        Coord::Kdd => "k_dd".into(),
+        Coord::Kid if kind == Kind::TorranceSparrow => "k_d".into(),
+        Coord::Kid => "k_id".into(),
+        Coord::Ks(j) => format!("k_s({})", incidences[j]),
+        Coord::KsPoly(k) => format!("ln_ks_c{k}"),
+    }
+}
+
+/// Natural value and standard error (None: fixed or not identifiable) of a scalar
+/// parameter coordinate.
+fn scalar(fit: &Fit, c: Coord) -> (f64, Option<f64>) {
+    let v = fit.values.get(c).exp();
+    let se = fit
+        .free
+        .iter()
+        .position(|&x| x == c)
+        .and_then(|i| fit.se_coord(i))
+        .map(|s| v * s);
+    (v, se)
+}
+
+/// k_s per incidence with standard errors.
+pub fn ks_table(fit: &Fit, incidences: &[f64]) -> Vec<(f64, f64, Option<f64>)> {
+    incidences
+        .iter()
+        .enumerate()
+        .map(|(j, &ti)| {
+            let ks = fit.values.ks[j];
+            let se = match fit.kind {
+                Kind::ThreeSmooth => {
+                    // var(ln k_s) = g^T C g, g = (1, t, t^2) over the polynomial coordinates.
+                    let t = ti / 90.0;
+                    let idx: Option<Vec<usize>> = (0..3)
+                        .map(|k| fit.free.iter().position(|&c| c == Coord::KsPoly(k)))
+                        .collect();
+                    idx.filter(|ix| ix.iter().all(|&i| fit.identifiable[i]))
+                        .map(|ix| {
+                            let g = [1.0, t, t * t];
+                            let mut var = 0.0;
+                            for a in 0..3 {
+                                for b in 0..3 {
+                                    var += g[a] * g[b] * fit.cov[(ix[a], ix[b])];
+                                }
+                            }
+                            ks * var.max(0.0).sqrt()
+                        })
+                }
+                _ => fit
+                    .free
+                    .iter()
+                    .position(|&c| c == Coord::Ks(j))
+                    .and_then(|i| fit.se_coord(i))
+                    .map(|s| ks * s),
+            };
+            (ti, ks, se)
+        })
+        .collect()
+}
+
+fn num(x: f64) -> Value {
+    if x.is_finite() { json!(x) } else { Value::Null }
+}
+
+fn opt(x: Option<f64>) -> Value {
+    x.map_or(Value::Null, num)
+}
+
+/// One model as a JSON object.
+pub fn model_json(fit: &Fit, incidences: &[f64]) -> Value {
+    let mut params = serde_json::Map::new();
+    let mut errors = serde_json::Map::new();
+    let kind = fit.kind;
+    let mut scalars = Vec::new();
+    if kind.specular() {
+        scalars.push(Coord::Sigma);
+    }
+    if kind.directional() {
+        scalars.extend([Coord::SigmaM, Coord::Kdd]);
+    }
+    scalars.push(Coord::Kid);
+    for c in scalars {
+        let (v, se) = scalar(fit, c);
+        let name = coord_name(kind, c, incidences);
+        params.insert(name.clone(), num(v));
+        errors.insert(name, opt(se));
+    }
+    if kind.specular() {
+        let ks = ks_table(fit, incidences);
+        params.insert(
+            "k_s".into(),
+            json!(
+                ks.iter()
+                    .map(|(t, k, _)| vec![num(*t), num(*k)])
+                    .collect::<Vec<_>>()
+            ),
+        );
+        errors.insert(
+            "k_s".into(),
+            json!(
+                ks.iter()
+                    .map(|(t, _, s)| vec![num(*t), opt(*s)])
+                    .collect::<Vec<_>>()
+            ),
+        );
+        if let Some(p) = fit.values.poly {
+            params.insert("ln_ks_poly".into(), json!(p));
+        }
+    }
+    let names: Vec<String> = fit
+        .free
+        .iter()
+        .map(|&c| coord_name(kind, c, incidences))
+        .collect();
+    let k = fit.free.len();
+    let corr: Vec<Vec<Value>> = (0..k)
+        .map(|i| {
+            (0..k)
+                .map(|j| {
+                    if fit.identifiable[i] && fit.identifiable[j] {
+                        num(fit.cov[(i, j)] / (fit.cov[(i, i)] * fit.cov[(j, j)]).sqrt())
+                    } else {
+                        Value::Null
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    json!({
+        "name": kind.name(),
+        "params": params,
+        "std_errors": errors,
+        "rmse": opt(fit.rmse),
+        "rmse_by_theta_i": incidences.iter().zip(&fit.rmse_by_inc).map(|(t, r)| vec![num(*t), opt(*r)]).collect::<Vec<_>>(),
+        "aicc": num(fit.aicc()),
+        "bic": num(fit.bic()),
+        "n": fit.n,
+        "k": k,
+        "ssr": num(fit.ssr),
+        "converged": fit.converged,
+        "evaluations": fit.evaluations,
+        "correlations": {"names": names, "matrix": corr},
+    })
+}
+
+/// The whole result as the `gonio fit --json` object.
+pub fn family_json(f: &FamilyFit) -> Value {
+    json!({
+        "models": f.fits.iter().map(|m| model_json(m, &f.incidences)).collect::<Vec<_>>(),
+        "selected": f.selected.name(),
+        "notes": f.notes,
+        "fit_seconds": f.fit_seconds,
+    })
+}
+
+/// `value ± se` with the standard error to two significant digits and the value to
+/// the same decimal place; `(n/d)` when the data do not determine it.
+pub fn fmt_se(v: f64, se: Option<f64>) -> String {
+    match se {
+        Some(s) if s > 0.0 && s.is_finite() => {
+            let decimals = (1 - s.log10().floor() as i32).clamp(0, 12) as usize;
+            format!(
+                "{:>14} ± {:<10}",
+                format!("{v:.decimals$}"),
+                format!("{s:.decimals$}")
+            )
+        }
+        Some(_) => format!("{v:>14.6} ± {:<10}", 0),
+        None => format!("{v:>14.6}   {:<10}", "(n/d)"),
+    }
+}
+
+/// The readable table.
+pub fn family_table(f: &FamilyFit, residual: &str) -> String {
+    use std::fmt::Write;
+    let mut out = String::new();
+    let inc = &f.incidences;
+    for fit in &f.fits {
+        let mark = if fit.kind == f.selected {
+            "  <- selected"
+        } else {
+            ""
+        };
+        let _ = writeln!(
+            out,
+            "{} ({} free parameters){mark}",
+            fit.kind.name(),
+            fit.k()
+        );
+        let mut scalars = Vec::new();
+        if fit.kind.specular() {
+            scalars.push(Coord::Sigma);
+        }
+        if fit.kind.directional() {
+            scalars.extend([Coord::SigmaM, Coord::Kdd]);
+        }
+        scalars.push(Coord::Kid);
+        for c in scalars {
+            let (v, se) = scalar(fit, c);
+            let fixed = if fit.free.contains(&c) {
+                ""
+            } else {
+                " (fixed)"
+            };
+            let _ = writeln!(
+                out,
+                "  {:<10} {}{fixed}",
+                coord_name(fit.kind, c, inc),
+                fmt_se(v, se)
+            );
+        }
+        if fit.kind.specular() {
+            for (t, k, se) in ks_table(fit, inc) {
+                let _ = writeln!(out, "  {:<10} {}", format!("k_s({t})"), fmt_se(k, se));
+            }
+        }
+        let _ = writeln!(
+            out,
+            "  AICc {:.2}  BIC {:.2}  SSR({residual}) {:.4e}  n {}  RMSE {}\n",
+            fit.aicc(),
+            fit.bic(),
+            fit.ssr,
+            fit.n,
+            fit.rmse.map_or("n/d".into(), |r| format!("{r:.4}"))
+        );
+    }
+    // The paper's Table 3: RMSE1 (T–S) beside RMSE2 (three-component), normalised curves.
+    let ts = f.get(Kind::TorranceSparrow);
+    let three = f.get(Kind::ThreeComponent);
+    let _ = writeln!(out, "RMSE of normalised curves (as the paper's Table 3)");
+    let _ = writeln!(
+        out,
+        "  {:>8}  {:>12}  {:>16}",
+        "theta_i", "RMSE1 (T-S)", "RMSE2 (three)"
+    );
+    let cell = |fit: Option<&Fit>, j: usize| {
+        fit.and_then(|x| x.rmse_by_inc[j])
+            .map_or("n/d".to_string(), |r| format!("{r:.4}"))
+    };
+    for (j, t) in inc.iter().enumerate() {
+        let _ = writeln!(
+            out,
+            "  {:>8}  {:>12}  {:>16}",
+            t,
+            cell(ts, j),
+            cell(three, j)
+        );
+    }
+    let all = |fit: Option<&Fit>| {
+        fit.and_then(|x| x.rmse)
+            .map_or("n/d".to_string(), |r| format!("{r:.4}"))
+    };
+    let _ = writeln!(out, "  {:>8}  {:>12}  {:>16}\n", "all", all(ts), all(three));
+    let _ = writeln!(out, "selected by AICc: {}", f.selected.name());
+    for n in &f.notes {
+        let _ = writeln!(out, "  - {n}");
+    }
+    let _ = writeln!(out, "fit time: {:.3} ms", f.fit_seconds * 1e3);
+    out
+}

@@ -1,0 +1,546 @@
+//! Fitting one model: linear initialisation of the weights for each start, then
+//! Levenberg–Marquardt (the `levenberg-marquardt` crate, a MINPACK port) with the
+//! analytic Jacobian from brdf-core, robust losses by iteratively reweighting, and the
+//! covariance at the optimum.
+
+use brdf_core::Geometry;
+use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
+use nalgebra::{DMatrix, DVector, Dyn, Owned};
+
+use super::data::Dataset;
+use super::family::{Coord, Fixed, Kind, Values, coords};
+
+/// What the residuals measure.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Residual {
+    /// ln f - ln y: every decade of the curve counts alike (the default).
+    Log,
+    /// (f - y) / y.
+    Relative,
+    /// f - y, in the instrument's units.
+    Absolute,
+}
+
+/// How residuals are penalised.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Loss {
+    /// Least squares.
+    L2,
+    /// Huber: quadratic within `c`, linear beyond (in residual units).
+    Huber(f64),
+    /// Cauchy: log(1 + (r/c)^2); outliers far beyond `c` barely count.
+    Cauchy(f64),
+}
+
+/// Options of a fit.
+#[derive(Debug, Clone)]
+pub struct FitOptions {
+    /// Residual kind.
+    pub residual: Residual,
+    /// Loss.
+    pub loss: Loss,
+    /// Parameters held fixed.
+    pub fixed: Fixed,
+    /// Starting values of sigma tried.
+    pub sigma_starts: Vec<f64>,
+    /// Starting values of sigma_m tried.
+    pub sigma_m_starts: Vec<f64>,
+    /// How many of the best-ranked starts are refined by LM.
+    pub refine: usize,
+}
+
+impl Default for FitOptions {
+    fn default() -> Self {
+        FitOptions {
+            residual: Residual::Log,
+            loss: Loss::L2,
+            fixed: Fixed::default(),
+            sigma_starts: vec![0.02, 0.05, 0.1, 0.2, 0.4, 0.8],
+            sigma_m_starts: vec![0.3, 0.7, 1.5],
+            refine: 3,
+        }
+    }
+}
+
+/// A fitted model.
+#[derive(Debug, Clone)]
+pub struct Fit {
+    /// Which model.
+    pub kind: Kind,
+    /// Every parameter at the optimum.
+    pub values: Values,
+    /// Free coordinates, in the order of `cov`.
+    pub free: Vec<Coord>,
+    /// Covariance of the free coordinates (ln-parameters); `None` entries on the
+    /// diagonal's parameters mean "not identifiable from these data".
+    pub cov: DMatrix<f64>,
+    /// Per free coordinate: identifiable from the data.
+    pub identifiable: Vec<bool>,
+    /// Sum of squared residuals (of the chosen residual kind, unweighted).
+    pub ssr: f64,
+    /// Number of data points.
+    pub n: usize,
+    /// LM converged (by its ftol/xtol/gtol tests).
+    pub converged: bool,
+    /// Residual evaluations used.
+    pub evaluations: usize,
+    /// Per incidence: the paper's normalised RMSE (None without a reading at the
+    /// specular angle).
+    pub rmse_by_inc: Vec<Option<f64>>,
+    /// Normalised RMSE over all incidences that have one.
+    pub rmse: Option<f64>,
+}
+
+impl Fit {
+    /// Free parameters.
+    pub fn k(&self) -> usize {
+        self.free.len()
+    }
+
+    /// Akaike's criterion with the small-sample correction (infinite when n <= k + 1).
+    pub fn aicc(&self) -> f64 {
+        let (n, k) = (self.n as f64, self.k() as f64);
+        if n <= k + 1.0 {
+            return f64::INFINITY;
+        }
+        n * (self.ssr / n).max(1e-300).ln() + 2.0 * k + 2.0 * k * (k + 1.0) / (n - k - 1.0)
+    }
+
+    /// Bayesian information criterion.
+    pub fn bic(&self) -> f64 {
+        let (n, k) = (self.n as f64, self.k() as f64);
+        n * (self.ssr / n).max(1e-300).ln() + k * n.ln()
+    }
+
+    /// k_s at any incidence (degrees): the smooth model's curve, or for per-angle
+    /// models linear interpolation between the fitted incidences, clamped outside
+    /// them (as MODEL.md does for the paper's tables).
+    pub fn ks_at(&self, incidences: &[f64], theta_i: f64) -> f64 {
+        if let Some(p) = self.values.poly {
+            let t = theta_i / 90.0;
+            return (p[0] + p[1] * t + p[2] * t * t).exp();
+        }
+        let ks = &self.values.ks;
+        if ks.is_empty() {
+            return 0.0;
+        }
+        if theta_i <= incidences[0] {
+            return ks[0];
+        }
+        // theta_i is above the first incidence, so j >= 1.
+        match incidences.iter().position(|&t| t >= theta_i) {
+            None => ks[ks.len() - 1],
+            Some(j) => {
+                let (t0, t1) = (incidences[j - 1], incidences[j]);
+                let w = (theta_i - t0) / (t1 - t0);
+                ks[j - 1] + w * (ks[j] - ks[j - 1])
+            }
+        }
+    }
+
+    /// The fitted model at any incidence angle (degrees), for evaluating anywhere
+    /// (in the plane or in 3-D).
+    pub fn model_at(&self, incidences: &[f64], theta_i: f64) -> Option<brdf_core::Model<f64>> {
+        let mut v = self.values.clone();
+        v.ks = vec![self.ks_at(incidences, theta_i)];
+        v.poly = None;
+        v.model(self.kind, 0)
+    }
+
+    /// Standard error of a free coordinate (in its own units), if identifiable.
+    pub fn se_coord(&self, i: usize) -> Option<f64> {
+        self.identifiable[i].then(|| self.cov[(i, i)].max(0.0).sqrt())
+    }
+}
+
+pub(super) struct Problem<'a> {
+    pub(super) data: &'a Dataset,
+    pub(super) kind: Kind,
+    pub(super) free: Vec<Coord>,
+    pub(super) values: Values,
+    pub(super) residual: Residual,
+    /// Square roots of the IRLS weights.
+    pub(super) sqrt_w: Vec<f64>,
+}
+
+impl Problem<'_> {
+    fn models(&self) -> Option<Vec<brdf_core::Model<f64>>> {
+        (0..self.data.incidences.len())
+            .map(|j| self.values.model(self.kind, j))
+            .collect()
+    }
+
+    fn residual(&self, f: f64, y: f64) -> f64 {
+        match self.residual {
+            Residual::Log => f.max(1e-300).ln() - y.ln(),
+            Residual::Relative => f / y - 1.0,
+            Residual::Absolute => f - y,
+        }
+    }
+
+    fn raw_residuals(&self) -> Option<Vec<f64>> {
+        let models = self.models()?;
+        self.data
+            .obs
+            .iter()
+            .map(|o| {
+                models[o.inc]
+                    .eval(&o.geom)
+                    .ok()
+                    .map(|e| self.residual(e.f, o.y))
+            })
+            .collect()
+    }
+}
+
+impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
+    type ResidualStorage = Owned<f64, Dyn>;
+    type JacobianStorage = Owned<f64, Dyn, Dyn>;
+    type ParameterStorage = Owned<f64, Dyn>;
+
+    fn set_params(&mut self, x: &DVector<f64>) {
+        for (&c, &u) in self.free.iter().zip(x.iter()) {
+            let (lo, hi) = c.bounds();
+            self.values.set(c, u.clamp(lo, hi), &self.data.incidences);
+        }
+    }
+
+    fn params(&self) -> DVector<f64> {
+        DVector::from_iterator(
+            self.free.len(),
+            self.free.iter().map(|&c| self.values.get(c)),
+        )
+    }
+
+    fn residuals(&self) -> Option<DVector<f64>> {
+        let r = self.raw_residuals()?;
+        Some(DVector::from_iterator(
+            r.len(),
+            r.iter().zip(&self.sqrt_w).map(|(r, w)| r * w),
+        ))
+    }
+
+    fn jacobian(&self) -> Option<DMatrix<f64>> {
+        let models = self.models()?;
+        let (m, n) = (self.data.obs.len(), self.free.len());
+        let mut j = DMatrix::zeros(m, n);
+        for (row, o) in self.data.obs.iter().enumerate() {
+            let (e, g) = models[o.inc].eval_with_gradient(&o.geom).ok()?;
+            let scale = self.sqrt_w[row]
+                * match self.residual {
+                    Residual::Log => 1.0 / e.f.max(1e-300),
+                    Residual::Relative => 1.0 / o.y,
+                    Residual::Absolute => 1.0,
+                };
+            let t = o.theta_i / 90.0;
+            for (col, c) in self.free.iter().enumerate() {
+                let d = match *c {
+                    Coord::Sigma => g.ln_sigma,
+                    Coord::SigmaM => g.ln_sigma_m,
+                    Coord::Kdd => g.ln_kdd,
+                    Coord::Kid => g.ln_kid,
+                    Coord::Ks(k) if k == o.inc => g.ln_ks,
+                    Coord::Ks(_) => 0.0,
+                    Coord::KsPoly(p) => g.ln_ks * t.powi(p as i32),
+                };
+                j[(row, col)] = d * scale;
+            }
+        }
+        Some(j)
+    }
+}
+
+/// Initial values for a start: sigma and sigma_m given, the linear weights (k_s per
+/// incidence, k_dd, k_id) from a weighted linear least-squares solve.
+fn linear_start(
+    data: &Dataset,
+    kind: Kind,
+    fixed: &Fixed,
+    sigma: f64,
+    sigma_m: f64,
+) -> Option<Values> {
+    let n_inc = data.incidences.len();
+    let per_angle = kind.specular();
+    // Columns: k_s per incidence, k_dd, k_id (fixed ones move to the right-hand side).
+    let kd_fixed = fixed.of(kind, Coord::Kid);
+    let kdd_fixed = fixed.kdd;
+    let mut cols: Vec<&str> = Vec::new();
+    if per_angle {
+        cols.extend(std::iter::repeat_n("ks", n_inc));
+    }
+    let use_kdd = kind.directional() && kdd_fixed.is_none();
+    if use_kdd {
+        cols.push("kdd");
+    }
+    if kd_fixed.is_none() {
+        cols.push("kid");
+    }
+    let probe = Values {
+        sigma,
+        sigma_m,
+        kdd: 1.0,
+        kid: 1.0,
+        ks: vec![1.0; n_inc],
+        poly: None,
+    };
+    let unit = |j: usize| probe.model(Kind::ThreeComponent, j);
+    let models: Option<Vec<_>> = (0..n_inc).map(unit).collect();
+    let models = models?;
+    let m = data.obs.len();
+    let mut a = DMatrix::zeros(m, cols.len());
+    let mut b = DVector::zeros(m);
+    for (row, o) in data.obs.iter().enumerate() {
+        let fs = models[o.inc].specular(&o.geom);
+        let fdd = models[o.inc].directional(&o.geom);
+        let w = if o.y > 0.0 { 1.0 / o.y } else { 1.0 };
+        let mut col = 0;
+        if per_angle {
+            a[(row, o.inc)] = fs * w;
+            col = n_inc;
+        }
+        if use_kdd {
+            a[(row, col)] = fdd * w;
+            col += 1;
+        }
+        if kd_fixed.is_none() {
+            a[(row, col)] = w;
+        }
+        let mut rhs = o.y;
+        if kind.directional() {
+            if let Some(k) = kdd_fixed {
+                rhs -= k * fdd;
+            }
+        }
+        if let Some(k) = kd_fixed {
+            rhs -= k;
+        }
+        b[row] = rhs * w;
+    }
+    let sol = a.svd(true, true).solve(&b, 1e-12).ok()?;
+    let scale = data
+        .obs
+        .iter()
+        .map(|o| o.y.abs())
+        .fold(0.0, f64::max)
+        .max(1e-300);
+    let floor = 1e-6 * scale;
+    let mut v = Values {
+        sigma,
+        sigma_m,
+        kdd: kdd_fixed.unwrap_or(0.0),
+        kid: kd_fixed.unwrap_or(0.0),
+        ks: vec![floor; n_inc],
+        poly: None,
+    };
+    let mut col = 0;
+    if per_angle {
+        for j in 0..n_inc {
+            v.ks[j] = sol[j].max(floor);
+        }
+        col = n_inc;
+    }
+    if use_kdd {
+        v.kdd = sol[col].max(floor);
+        col += 1;
+    }
+    if kd_fixed.is_none() {
+        v.kid = sol[col].max(floor);
+    }
+    if !kind.directional() {
+        v.kdd = 1.0; // unused; any positive value keeps the model valid
+    }
+    if kind == Kind::ThreeSmooth {
+        // ln k_s = c0 + c1 t + c2 t^2 through the per-angle values.
+        let t: Vec<f64> = data.incidences.iter().map(|ti| ti / 90.0).collect();
+        let design = DMatrix::from_fn(n_inc, 3, |r, c| t[r].powi(c as i32));
+        let lnks = DVector::from_iterator(n_inc, v.ks.iter().map(|k| k.ln()));
+        let c = design.svd(true, true).solve(&lnks, 1e-12).ok()?;
+        for (k, cv) in c.iter().enumerate() {
+            v.set(Coord::KsPoly(k), *cv, &data.incidences);
+        }
+    }
+    Some(v)
+}
+
+fn cost(p: &Problem<'_>) -> f64 {
+    p.raw_residuals()
+        .map_or(f64::INFINITY, |r| r.iter().map(|x| x * x).sum())
+}
+
+/// Fits one model. `None` when the data cannot support it (fewer points than
+/// parameters, or every start failed).
+pub fn fit_kind(data: &Dataset, kind: Kind, opts: &FitOptions) -> Option<Fit> {
+    let all = coords(kind, data.incidences.len());
+    let free: Vec<Coord> = all
+        .iter()
+        .copied()
+        .filter(|&c| opts.fixed.of(kind, c).is_none())
+        .collect();
+    if free.is_empty() || data.obs.len() <= free.len() {
+        return None;
+    }
+    if kind == Kind::ThreeSmooth && data.incidences.len() < 3 {
+        return None;
+    }
+    let sigmas = opts
+        .fixed
+        .sigma
+        .map_or(opts.sigma_starts.clone(), |s| vec![s]);
+    let sigma_ms = if kind.directional() {
+        opts.fixed
+            .sigma_m
+            .map_or(opts.sigma_m_starts.clone(), |s| vec![s])
+    } else {
+        vec![opts.fixed.sigma_m.unwrap_or(1.0)]
+    };
+    let sigmas = if kind.specular() {
+        sigmas
+    } else {
+        vec![opts.fixed.sigma.unwrap_or(1.0)]
+    };
+    // Rank every start by its cost after the linear solve; refine the best few.
+    let mut starts: Vec<(f64, Values)> = Vec::new();
+    for &s in &sigmas {
+        for &sm in &sigma_ms {
+            if let Some(v) = linear_start(data, kind, &opts.fixed, s, sm) {
+                let p = Problem {
+                    data,
+                    kind,
+                    free: free.clone(),
+                    values: v.clone(),
+                    residual: opts.residual,
+                    sqrt_w: vec![1.0; data.obs.len()],
+                };
+                starts.push((cost(&p), v));
+            }
+        }
+    }
+    starts.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut best: Option<(f64, Problem<'_>, bool, usize)> = None;
+    for (_, v) in starts.into_iter().take(opts.refine.max(1)) {
+        let mut p = Problem {
+            data,
+            kind,
+            free: free.clone(),
+            values: v,
+            residual: opts.residual,
+            sqrt_w: vec![1.0; data.obs.len()],
+        };
+        let mut evals = 0;
+        let mut converged = false;
+        // IRLS for robust losses: a few reweighted least-squares passes.
+        let passes = if opts.loss == Loss::L2 { 1 } else { 6 };
+        for _ in 0..passes {
+            let (q, report) = LevenbergMarquardt::new().with_patience(60).minimize(p);
+            p = q;
+            evals += report.number_of_evaluations;
+            converged = report.termination.was_successful();
+            if opts.loss != Loss::L2 {
+                let r = p.raw_residuals()?;
+                p.sqrt_w = r
+                    .iter()
+                    .map(|&x| robust_weight(opts.loss, x).sqrt())
+                    .collect();
+            }
+        }
+        let c = cost(&p);
+        if c.is_finite() && best.as_ref().is_none_or(|b| c < b.0) {
+            best = Some((c, p, converged, evals));
+        }
+    }
+    let (ssr, p, converged, evaluations) = best?;
+    Some(finish(p, ssr, converged, evaluations))
+}
+
+fn robust_weight(loss: Loss, r: f64) -> f64 {
+    match loss {
+        Loss::L2 => 1.0,
+        Loss::Huber(c) => {
+            if r.abs() <= c {
+                1.0
+            } else {
+                c / r.abs()
+            }
+        }
+        Loss::Cauchy(c) => 1.0 / (1.0 + (r / c) * (r / c)),
+    }
+}
+
+fn finish(p: Problem<'_>, ssr: f64, converged: bool, evaluations: usize) -> Fit {
+    let n = p.data.obs.len();
+    let k = p.free.len();
+    let jac = p.jacobian().unwrap_or_else(|| DMatrix::zeros(n, k));
+    // Covariance s^2 (J^T J)^-1 through the SVD of J; directions with singular values
+    // below 1e-8 of the largest are not determined by the data.
+    let svd = jac.clone().svd(false, true);
+    let v_t = svd.v_t.clone().unwrap_or_else(|| DMatrix::identity(k, k));
+    let smax = svd.singular_values.iter().cloned().fold(0.0, f64::max);
+    let s2 = if n > k {
+        ssr / (n - k) as f64
+    } else {
+        f64::NAN
+    };
+    let mut cov = DMatrix::zeros(k, k);
+    let mut identifiable = vec![true; k];
+    for (idx, &sv) in svd.singular_values.iter().enumerate() {
+        let dir = v_t.row(idx);
+        if sv <= 1e-8 * smax || sv == 0.0 {
+            for (i, ok) in identifiable.iter_mut().enumerate() {
+                if dir[i].abs() > 1e-3 {
+                    *ok = false;
+                }
+            }
+            continue;
+        }
+        for i in 0..k {
+            for j in 0..k {
+                cov[(i, j)] += s2 * dir[i] * dir[j] / (sv * sv);
+            }
+        }
+    }
+    let (rmse_by_inc, rmse) = paper_rmse(p.data, p.kind, &p.values);
+    Fit {
+        kind: p.kind,
+        values: p.values,
+        free: p.free,
+        cov,
+        identifiable,
+        ssr,
+        n,
+        converged,
+        evaluations,
+        rmse_by_inc,
+        rmse,
+    }
+}
+
+/// RMSE as in the paper's Table 3: per incidence, measured values divided by the
+/// measured value at theta_r = theta_i, model values by the model's value there.
+pub fn paper_rmse(data: &Dataset, kind: Kind, v: &Values) -> (Vec<Option<f64>>, Option<f64>) {
+    let mut per = Vec::with_capacity(data.incidences.len());
+    let (mut sum, mut count) = (0.0, 0usize);
+    for (j, &ti) in data.incidences.iter().enumerate() {
+        let (Some(y_spec), Some(model)) = (data.specular_value(j), v.model(kind, j)) else {
+            per.push(None);
+            continue;
+        };
+        let Ok(f_spec) = Geometry::in_plane(ti, ti)
+            .and_then(|g| model.eval(&g))
+            .map(|e| e.f)
+        else {
+            per.push(None);
+            continue;
+        };
+        let (mut s, mut c) = (0.0, 0usize);
+        for o in data.obs.iter().filter(|o| o.inc == j) {
+            let f = model.eval(&o.geom).map(|e| e.f).unwrap_or(f64::NAN);
+            let d = o.y / y_spec - f / f_spec;
+            s += d * d;
+            c += 1;
+        }
+        sum += s;
+        count += c;
+        per.push(Some((s / c as f64).sqrt()));
+    }
+    (per, (count > 0).then(|| (sum / count as f64).sqrt()))
+}

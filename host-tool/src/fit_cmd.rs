@@ -8,6 +8,7 @@ use clap::{Args, ValueEnum};
 use crate::error::{CliError, CliResult};
 use crate::fit::{self, Dataset, FamilyFit, FitOptions, Fixed, Kind, Loss, Residual};
 use crate::sweep_file::read_sweep;
+use crate::{export, plot};
 
 /// Residual kind on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -161,13 +162,25 @@ pub fn fit_file(
 /// Runs `gonio fit`.
 pub fn run(args: &FitArgs) -> CliResult {
     let (opts, kinds) = options(args)?;
+    // Bad export specs are usage errors before any work is done.
+    let exports = args
+        .export
+        .iter()
+        .map(|e| export::parse_export(e))
+        .collect::<CliResult<Vec<_>>>()?;
     let (data, fam) = fit_file(&args.sweep, &opts, &kinds)?;
     let residual = match opts.residual {
         Residual::Log => "log",
         Residual::Relative => "rel",
         Residual::Absolute => "abs",
     };
-    write_outputs(args, &data, &fam)?;
+    if let Some(dir) = &args.plot {
+        plot::write_plots(dir, &data, &fam)?;
+    }
+    let kind = args.export_model.map_or(fam.selected, Kind::from);
+    for (format, path) in &exports {
+        export::write_export(*format, path, &fam, kind)?;
+    }
     let text = if args.json {
         let mut s =
             serde_json::to_string_pretty(&fit::report::family_json(&fam)).expect("JSON of numbers");
@@ -179,7 +192,16 @@ pub fn run(args: &FitArgs) -> CliResult {
     crate::output::write_stdout(text.as_bytes())
 }
 
-fn write_outputs(args: &FitArgs, data: &Dataset, fam: &FamilyFit) -> CliResult {
-    let _ = (args, data, fam);
-    Ok(())
+/// What `gonio demo` writes next to its sweep: plots in `dir/plots` and the selected
+/// model's parameters in `dir/fit.json`. Returns the paths written.
+pub fn write_files(
+    dir: &std::path::Path,
+    data: &Dataset,
+    fam: &FamilyFit,
+) -> CliResult<Vec<PathBuf>> {
+    let mut written = plot::write_plots(&dir.join("plots"), data, fam)?;
+    let params = dir.join("fit.json");
+    export::write_export(export::ExportFormat::Json, &params, fam, fam.selected)?;
+    written.push(params);
+    Ok(written)
 }

@@ -4,15 +4,18 @@
 
 pub mod angles;
 pub mod capture;
+pub mod demo;
 pub mod device_cmds;
 pub mod error;
 pub mod eval;
+pub mod export;
 pub mod fit;
 pub mod fit_cmd;
 pub mod flash;
 pub mod host_plan;
 pub mod link;
 pub mod output;
+pub mod plot;
 pub mod ports;
 pub mod progress;
 pub mod sim_device;

@@ -4,7 +4,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use gonio::error::{CliResult, EXIT_USAGE};
-use gonio::{device_cmds, eval, fit_cmd, flash, ports};
+use gonio::{demo, device_cmds, eval, fit_cmd, flash, ports};
 
 /// gonio: measure and model how metal surfaces reflect light.
 #[derive(Debug, Parser)]
@@ -33,6 +33,7 @@ enum Command {
     Capture(device_cmds::CaptureArgs),
     Simulate(device_cmds::SimulateArgs),
     Fit(fit_cmd::FitArgs),
+    Demo(demo::DemoArgs),
     Flash(flash::FlashArgs),
 }
 
@@ -44,6 +45,7 @@ fn run(cli: Cli) -> CliResult {
         Command::Capture(args) => device_cmds::run_capture(&args),
         Command::Simulate(args) => device_cmds::run_simulate(&args),
         Command::Fit(args) => fit_cmd::run(&args),
+        Command::Demo(args) => demo::run(&args),
         Command::Flash(args) => flash::run(&args),
     }
 }

@@ -1,0 +1,269 @@
+//! `gonio fit` and `gonio demo` as a user runs them: the JSON contract, the table, and
+//! bad input.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn gonio(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_gonio"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("gonio-fitcli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn simulated(d: &Path, material: &str) -> PathBuf {
+    let f = d.join(format!("{material}.csv"));
+    let out = gonio(&[
+        "simulate",
+        "--material",
+        material,
+        "--out",
+        f.to_str().unwrap(),
+        "-q",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    f
+}
+
+#[test]
+fn json_follows_the_contract() {
+    let d = dir("json");
+    let f = simulated(&d, "cu-0.070");
+    let out = gonio(&["fit", f.to_str().unwrap(), "--json"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value =
+        serde_json::from_slice(&out.stdout).expect("one JSON object on stdout");
+    let models = v["models"].as_array().unwrap();
+    let names: Vec<&str> = models.iter().map(|m| m["name"].as_str().unwrap()).collect();
+    assert_eq!(
+        names,
+        [
+            "ideal-diffuse",
+            "torrance-sparrow",
+            "three-component",
+            "three-component-smooth-ks"
+        ]
+    );
+    let three = &models[2];
+    for key in ["sigma", "sigma_m", "k_dd", "k_id"] {
+        assert!(three["params"][key].as_f64().unwrap() > 0.0, "{key}");
+        assert!(three["std_errors"][key].as_f64().unwrap() > 0.0, "{key}");
+    }
+    let ks = three["params"]["k_s"].as_array().unwrap();
+    assert_eq!(ks.len(), 9);
+    assert_eq!(ks[2][0].as_f64(), Some(20.0));
+    assert!(
+        (ks[2][1].as_f64().unwrap() / 165.0 - 1.0).abs() < 0.05,
+        "{ks:?}"
+    );
+    assert_eq!(three["std_errors"]["k_s"].as_array().unwrap().len(), 9);
+    assert_eq!(three["rmse_by_theta_i"].as_array().unwrap().len(), 9);
+    for key in ["rmse", "aicc", "bic"] {
+        assert!(three[key].is_number(), "{key}");
+    }
+    let ts = &models[1];
+    assert!(ts["params"]["k_d"].as_f64().unwrap() > 0.0 && ts["params"].get("k_dd").is_none());
+    assert_eq!(
+        v["selected"]
+            .as_str()
+            .map(|s| s.starts_with("three-component")),
+        Some(true)
+    );
+    assert!(v["fit_seconds"].as_f64().unwrap() > 0.0);
+    // The simulated cu-0.070 sample's sigma comes back.
+    assert!((three["params"]["sigma"].as_f64().unwrap() / 0.070 - 1.0).abs() < 0.02);
+}
+
+#[test]
+fn table_shows_parameters_and_the_papers_rmse_table() {
+    let d = dir("table");
+    let f = simulated(&d, "fe-0.115");
+    let out = gonio(&[
+        "fit",
+        f.to_str().unwrap(),
+        "--models",
+        "ts,three",
+        "--fix",
+        "kdd=900",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let t = String::from_utf8(out.stdout).unwrap();
+    for needle in [
+        "torrance-sparrow",
+        "three-component",
+        "k_dd",
+        "(fixed)",
+        "RMSE1 (T-S)",
+        "RMSE2 (three)",
+        "selected by AICc",
+    ] {
+        assert!(t.contains(needle), "missing {needle}:\n{t}");
+    }
+    assert!(!t.contains("ideal-diffuse ("), "only the models asked for");
+}
+
+#[test]
+fn bad_input_exits_2_with_one_line() {
+    let d = dir("bad");
+    let good = simulated(&d, "fe-0.115");
+    let write = |name: &str, text: &[u8]| {
+        let p = d.join(name);
+        std::fs::write(&p, text).unwrap();
+        p.to_str().unwrap().to_string()
+    };
+    let cases: Vec<(Vec<String>, &str)> = vec![
+        (vec!["fit".into(), "/nonexistent.csv".into()], "cannot read"),
+        (vec!["fit".into(), write("empty.csv", b"")], "no readings"),
+        (
+            vec!["fit".into(), write("cols.csv", b"theta_i,brdf\n1,2\n")],
+            "missing column 'theta_r'",
+        ),
+        (
+            vec![
+                "fit".into(),
+                write("nan.csv", b"theta_i,theta_r,brdf\n10,0,1\n10,5,nan\n"),
+            ],
+            ":3: brdf 'nan'",
+        ),
+        (
+            vec!["fit".into(), write("bin.csv", b"\x00\x01\x02\xff\n")],
+            "not UTF-8",
+        ),
+        (
+            vec![
+                "fit".into(),
+                write("few.csv", b"theta_i,theta_r,brdf\n10,0,1\n10,5,2\n"),
+            ],
+            "at least 3",
+        ),
+        (
+            vec![
+                "fit".into(),
+                write(
+                    "neg.csv",
+                    b"theta_i,theta_r,brdf\n10,0,1\n10,5,-2\n10,9,3\n",
+                ),
+            ],
+            "--residual absolute",
+        ),
+        (
+            vec![
+                "fit".into(),
+                write(
+                    "range.csv",
+                    b"theta_i,theta_r,brdf\n10,0,1\n10,95,2\n10,9,3\n",
+                ),
+            ],
+            "theta_r = 95",
+        ),
+        (
+            vec![
+                "fit".into(),
+                good.to_str().unwrap().into(),
+                "--fix".into(),
+                "sigma=-1".into(),
+            ],
+            "> 0",
+        ),
+        (
+            vec![
+                "fit".into(),
+                good.to_str().unwrap().into(),
+                "--fix".into(),
+                "rho=1".into(),
+            ],
+            "unknown parameter",
+        ),
+        (
+            vec![
+                "fit".into(),
+                good.to_str().unwrap().into(),
+                "--loss".into(),
+                "cauchy:0".into(),
+            ],
+            "scale",
+        ),
+        (
+            vec![
+                "fit".into(),
+                good.to_str().unwrap().into(),
+                "--loss".into(),
+                "tukey".into(),
+            ],
+            "--loss",
+        ),
+        (
+            vec![
+                "fit".into(),
+                good.to_str().unwrap().into(),
+                "--models".into(),
+                "four".into(),
+            ],
+            "four",
+        ),
+    ];
+    for (args, msg) in cases {
+        let a: Vec<&str> = args.iter().map(String::as_str).collect();
+        let out = gonio(&a);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{a:?}: {err}");
+        assert_eq!(err.lines().count(), 1, "{a:?}: {err}");
+        assert!(err.contains(msg), "{a:?}: {err}");
+        assert!(out.stdout.is_empty(), "{a:?}");
+    }
+}
+
+#[test]
+fn demo_recovers_the_sample_it_simulated() {
+    let d = dir("demo");
+    let out = gonio(&[
+        "demo",
+        "--dir",
+        d.to_str().unwrap(),
+        "-q",
+        "--material",
+        "al-0.782",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let t = String::from_utf8(out.stdout).unwrap();
+    assert!(
+        t.contains("153 readings of a simulated al-0.782 sample"),
+        "{t}"
+    );
+    let line = t
+        .lines()
+        .find(|l| l.trim_start().starts_with("sigma ") && l.contains("true"))
+        .unwrap();
+    let pct: f64 = line
+        .split('(')
+        .nth(1)
+        .unwrap()
+        .trim_end_matches(" %)")
+        .parse()
+        .unwrap();
+    assert!(pct.abs() < 2.0, "{line}");
+    assert!(d.join("al-0.782-sweep.csv").is_file());
+}

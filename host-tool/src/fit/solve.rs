@@ -32,6 +32,9 @@ pub enum Loss {
     Cauchy(f64),
 }
 
+/// A start is refined too when its linear-solve cost is within this factor of the best.
+pub const COMPETING_START: f64 = 2.0;
+
 /// Options of a fit.
 #[derive(Debug, Clone)]
 pub struct FitOptions {
@@ -45,8 +48,13 @@ pub struct FitOptions {
     pub sigma_starts: Vec<f64>,
     /// Starting values of sigma_m tried.
     pub sigma_m_starts: Vec<f64>,
-    /// How many of the best-ranked starts are refined by LM.
+    /// At most this many of the best-ranked starts are refined by LM: the best one,
+    /// and the next ones only while their cost after the linear solve is within
+    /// [`COMPETING_START`] times the best's (a second basin worth exploring).
     pub refine: usize,
+    /// LM's relative tolerance on the cost and on the parameters (ftol = xtol; gtol is
+    /// a hundredth of it). 1e-10 is far below any parameter's statistical uncertainty.
+    pub tol: f64,
 }
 
 impl Default for FitOptions {
@@ -58,6 +66,7 @@ impl Default for FitOptions {
             sigma_starts: vec![0.02, 0.05, 0.1, 0.2, 0.4, 0.8],
             sigma_m_starts: vec![0.3, 0.7, 1.5],
             refine: 3,
+            tol: 1e-10,
         }
     }
 }
@@ -316,7 +325,7 @@ fn linear_start(
         }
         b[row] = rhs * w;
     }
-    let sol = a.svd(true, true).solve(&b, 1e-12).ok()?;
+    let sol = solve_ls(a, &b)?;
     let scale = data
         .obs
         .iter()
@@ -360,6 +369,20 @@ fn linear_start(
         }
     }
     Some(v)
+}
+
+/// Least squares `min |A x - b|`: normal equations with Cholesky (tiny: one column per
+/// weight), the SVD only when they are too ill-conditioned to factor.
+fn solve_ls(a: DMatrix<f64>, b: &DVector<f64>) -> Option<DVector<f64>> {
+    let ata = a.tr_mul(&a);
+    let atb = a.tr_mul(b);
+    if let Some(ch) = ata.cholesky() {
+        let x = ch.solve(&atb);
+        if x.iter().all(|v| v.is_finite()) {
+            return Some(x);
+        }
+    }
+    a.svd(true, true).solve(b, 1e-12).ok()
 }
 
 fn cost(p: &Problem<'_>) -> f64 {
@@ -416,8 +439,13 @@ pub fn fit_kind(data: &Dataset, kind: Kind, opts: &FitOptions) -> Option<Fit> {
         }
     }
     starts.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let first = starts.first().map_or(f64::INFINITY, |s| s.0);
     let mut best: Option<(f64, Problem<'_>, bool, usize)> = None;
-    for (_, v) in starts.into_iter().take(opts.refine.max(1)) {
+    let competing = starts
+        .into_iter()
+        .enumerate()
+        .filter(|(k, s)| *k == 0 || s.0 <= COMPETING_START * first);
+    for (_, (_, v)) in competing.take(opts.refine.max(1)) {
         let mut p = Problem {
             data,
             kind,
@@ -431,7 +459,12 @@ pub fn fit_kind(data: &Dataset, kind: Kind, opts: &FitOptions) -> Option<Fit> {
         // IRLS for robust losses: a few reweighted least-squares passes.
         let passes = if opts.loss == Loss::L2 { 1 } else { 6 };
         for _ in 0..passes {
-            let (q, report) = LevenbergMarquardt::new().with_patience(60).minimize(p);
+            let lm = LevenbergMarquardt::new()
+                .with_ftol(opts.tol)
+                .with_xtol(opts.tol)
+                .with_gtol(opts.tol * 1e-2)
+                .with_patience(60);
+            let (q, report) = lm.minimize(p);
             p = q;
             evals += report.number_of_evaluations;
             converged = report.termination.was_successful();

@@ -4,6 +4,7 @@
 //!   Torrance–Sparrow baseline, generic over `f32`/`f64`.
 //! - [`geometry`]: in-plane and 3-D measurement geometry.
 //! - [`presets`]: the paper's materials.
+//! - [`fast`]: fast f32 evaluation (polynomial exp/sin, culling, batch grids).
 //! - [`protocol`] and [`frame`]: the wire protocol and its framing.
 //! - [`plan`]: sweep plans (paper, custom, adaptive).
 //! - [`ramp`] and [`axis`]: stepper motion of one arm.
@@ -19,6 +20,7 @@
 pub mod axis;
 pub mod controller;
 pub mod error;
+pub mod fast;
 pub mod float;
 pub mod frame;
 pub mod geometry;

@@ -3,7 +3,7 @@
 //! lost readings (never fills them in); turns Ctrl-C into Abort with a valid file;
 //! reconnects to a device that went away and measures only what is missing.
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeSet, VecDeque};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -348,6 +348,8 @@ impl<C: Connector> Run<'_, C> {
         let mut silent_since = Instant::now();
         let mut restarts = 0;
         let mut aborting: Option<Instant> = None;
+        // Events that arrived while waiting for a Pong: handled before new ones.
+        let mut pending: VecDeque<Event> = VecDeque::new();
         loop {
             if aborting.is_none() && self.interrupt.load(Ordering::Relaxed) {
                 if let Err(e) = self.send(link, &Command::Abort) {
@@ -358,14 +360,17 @@ impl<C: Connector> Run<'_, C> {
             if aborting.is_some_and(|t| t.elapsed() > Duration::from_secs(5)) {
                 return Ok(Outcome::Interrupted);
             }
-            let ev = match link.recv(Duration::from_millis(200)) {
-                Ok(ev) => ev,
-                Err(e) => return Ok(Outcome::Lost(e.to_string())),
+            let ev = match pending.pop_front() {
+                Some(ev) => Some(ev),
+                None => match link.recv(Duration::from_millis(200)) {
+                    Ok(ev) => ev,
+                    Err(e) => return Ok(Outcome::Lost(e.to_string())),
+                },
             };
             let Some(ev) = ev else {
                 if silent_since.elapsed() >= self.setup.event_timeout {
                     self.writer.counters().timeouts += 1;
-                    if !self.answers_ping(link)? {
+                    if !self.answers_ping(link, &mut pending)? {
                         return Ok(Outcome::Lost(format!(
                             "silent for {} s and no answer to Ping",
                             self.setup.event_timeout.as_secs()
@@ -449,7 +454,13 @@ impl<C: Connector> Run<'_, C> {
         }
     }
 
-    fn answers_ping(&mut self, link: &mut Link<C::T>) -> CliResult<bool> {
+    /// Pings the device; other events that arrive meanwhile (readings still on their
+    /// way) are kept in `pending`, never dropped.
+    fn answers_ping(
+        &mut self,
+        link: &mut Link<C::T>,
+        pending: &mut VecDeque<Event>,
+    ) -> CliResult<bool> {
         let token = 0x7069_6e67;
         if link.send(&Command::Ping(token)).is_err() {
             return Ok(false);
@@ -458,7 +469,8 @@ impl<C: Connector> Run<'_, C> {
         while Instant::now() < deadline {
             match link.recv(Duration::from_millis(100)) {
                 Ok(Some(Event::Pong(t))) if t == token => return Ok(true),
-                Ok(_) => {}
+                Ok(Some(ev)) => pending.push_back(ev),
+                Ok(None) => {}
                 Err(_) => return Ok(false),
             }
         }

@@ -9,6 +9,7 @@ pub mod device_cmds;
 pub mod error;
 pub mod eval;
 pub mod export;
+pub mod faulty;
 pub mod fit;
 pub mod fit_cmd;
 pub mod flash;

@@ -3,6 +3,7 @@
 #![deny(missing_docs)]
 
 pub mod angles;
+pub mod bench;
 pub mod capture;
 pub mod demo;
 pub mod device_cmds;

@@ -4,7 +4,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use gonio::error::{CliResult, EXIT_USAGE};
-use gonio::{demo, device_cmds, eval, fit_cmd, flash, ports};
+use gonio::{bench, demo, device_cmds, eval, fit_cmd, flash, ports};
 
 /// gonio: measure and model how metal surfaces reflect light.
 #[derive(Debug, Parser)]
@@ -34,6 +34,7 @@ enum Command {
     Simulate(device_cmds::SimulateArgs),
     Fit(fit_cmd::FitArgs),
     Demo(demo::DemoArgs),
+    Bench(bench::BenchArgs),
     Flash(flash::FlashArgs),
 }
 
@@ -46,6 +47,7 @@ fn run(cli: Cli) -> CliResult {
         Command::Simulate(args) => device_cmds::run_simulate(&args),
         Command::Fit(args) => fit_cmd::run(&args),
         Command::Demo(args) => demo::run(&args),
+        Command::Bench(args) => bench::run_cli(&args),
         Command::Flash(args) => flash::run(&args),
     }
 }

@@ -24,6 +24,8 @@ const USAGE: &str = "usage: cargo xtask <command>
   firmware --board qemu|stm32f411    build the release ELF, print its path last
   size                               build both boards, print sizes, check the budget
   qemu-e2e                           build the qemu image, run the end-to-end test
+  firmware-bench                     instructions and flash bytes per evaluation variant
+                                     on the Cortex-M4 (QEMU -icount)
   test                               setup, fmt, clippy, host tests (with qemu-e2e),
                                      firmware builds, clippy and size budget";
 
@@ -37,6 +39,7 @@ fn main() -> ExitCode {
         }
         ["size"] => size().map(|_| ()),
         ["qemu-e2e"] => qemu_e2e(),
+        ["firmware-bench"] => firmware_bench().map(|t| print!("{t}")),
         ["test"] => test_all(),
         ["help" | "--help" | "-h"] => {
             println!("{USAGE}");
@@ -192,6 +195,90 @@ fn size() -> Result<bool> {
     } else {
         Err("stm32f411 image over its size budget".into())
     }
+}
+
+/// Builds the `bench` image, runs it under QEMU with `-icount shift=0` and adds each
+/// variant's flash cost from the symbol table. Returns a Markdown table.
+fn firmware_bench() -> Result<String> {
+    let fw = root().join("firmware");
+    run(
+        &fw,
+        "cargo",
+        &["build", "--release", "--bin", "bench", "--features", "qemu"],
+    )?;
+    let elf = fw.join("target").join(THUMB).join("release/bench");
+    let out = command(&root(), "timeout", &["120", "qemu-system-arm"])
+        .args([
+            "-M",
+            "netduinoplus2",
+            "-icount",
+            "shift=0",
+            "-display",
+            "none",
+            "-monitor",
+            "none",
+        ])
+        .args([
+            "-serial",
+            "null",
+            "-semihosting-config",
+            "enable=on,target=native",
+            "-kernel",
+        ])
+        .arg(&elf)
+        .output()
+        .map_err(|e| format!("qemu-system-arm: {e}"))?;
+    if !out.status.success() {
+        return Err(format!(
+            "bench image failed: {}",
+            String::from_utf8_lossy(&out.stderr)
+        ));
+    }
+    let text = String::from_utf8_lossy(&out.stdout);
+    let nm = llvm_size()?.with_file_name("llvm-nm");
+    let syms = Command::new(nm)
+        .args(["--print-size", "--radix=d", "-C"])
+        .arg(&elf)
+        .output()
+        .map_err(|e| e.to_string())?;
+    let syms = String::from_utf8_lossy(&syms.stdout);
+    let size_of = |pat: &dyn Fn(&str) -> bool| -> u64 {
+        syms.lines()
+            .filter_map(|l| {
+                let f: Vec<&str> = l.splitn(4, ' ').collect();
+                (f.len() == 4 && pat(f[3])).then(|| f[1].parse::<u64>().unwrap_or(0))
+            })
+            .sum()
+    };
+    let libm_fns =
+        |s: &str| s.starts_with("libm::math::") && !s.contains("logf") && !s.contains("sqrt");
+    let flash_libm = size_of(&|s| s.starts_with("bench::eval_libm")) + size_of(&libm_fns);
+    let flash_fast = size_of(&|s| s.starts_with("bench::eval_fast"));
+    let mut table =
+        String::from("| variant | instructions / evaluation | flash (bytes) |\n|---|---|---|\n");
+    for line in text.lines().filter(|l| l.starts_with("variant ")) {
+        let f: Vec<&str> = line.split_whitespace().collect();
+        let (name, instr) = (f[1], f[3]);
+        let flash = if name.contains("libm") {
+            flash_libm
+        } else {
+            flash_fast
+        };
+        table.push_str(&format!("| {name} | {instr} | {flash} |\n"));
+    }
+    let cal = text
+        .lines()
+        .find(|l| l.starts_with("calibration"))
+        .unwrap_or("")
+        .to_string();
+    table.push_str(&format!(
+        "\nCortex-M4 (QEMU netduinoplus2, -icount shift=0, SysTick calibrated on 4096 nops: {}). \
+         Counts are instructions, not cycles. Flash: the evaluation function plus the libm \
+         functions it calls (libm) or the inlined fast path (fast); shared soft-float helpers \
+         not counted.\n",
+        cal.trim_start_matches("calibration ")
+    ));
+    Ok(table)
 }
 
 fn qemu_e2e() -> Result {

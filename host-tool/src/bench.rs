@@ -149,7 +149,8 @@ pub fn run(budget: Duration) -> Vec<VariantResult> {
         }
         s
     };
-    let scalar: Vec<(&str, Box<dyn Fn(f32, f32) -> f64>)> = vec![
+    type Eval<'a> = Box<dyn Fn(f32, f32) -> f64 + 'a>;
+    let scalar: Vec<(&str, Eval)> = vec![
         (
             "naive f64 (eq. 2-6 as written)",
             Box::new(|a, b| naive(&p64, a as f64, b as f64)),

@@ -3,7 +3,7 @@
 //! analytic Jacobian from brdf-core, robust losses by iteratively reweighting, and the
 //! covariance at the optimum.
 
-use brdf_core::Geometry;
+use brdf_core::{Geometry, Model, Params};
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::{DMatrix, DVector, Dyn, Owned};
 
@@ -162,6 +162,15 @@ impl Fit {
     }
 }
 
+/// One residual of the given kind.
+fn residual_of(kind: Residual, f: f64, y: f64) -> f64 {
+    match kind {
+        Residual::Log => f.max(1e-300).ln() - y.ln(),
+        Residual::Relative => f / y - 1.0,
+        Residual::Absolute => f - y,
+    }
+}
+
 pub(super) struct Problem<'a> {
     pub(super) data: &'a Dataset,
     pub(super) kind: Kind,
@@ -180,11 +189,7 @@ impl Problem<'_> {
     }
 
     fn residual(&self, f: f64, y: f64) -> f64 {
-        match self.residual {
-            Residual::Log => f.max(1e-300).ln() - y.ln(),
-            Residual::Relative => f / y - 1.0,
-            Residual::Absolute => f - y,
-        }
+        residual_of(self.residual, f, y)
     }
 
     fn raw_residuals(&self) -> Option<Vec<f64>> {
@@ -260,72 +265,81 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
 }
 
 /// Initial values for a start: sigma and sigma_m given, the linear weights (k_s per
-/// incidence, k_dd, k_id) from a weighted linear least-squares solve.
+/// incidence, k_dd, k_id) from a weighted (1/y) linear least-squares solve, and the cost
+/// of the result. The normal equations are accumulated row by row from their sparse
+/// structure (a row touches its incidence's k_s, k_dd and k_id), and the cost reuses
+/// the lobe values: one exp per lobe and point for the whole start.
 fn linear_start(
     data: &Dataset,
     kind: Kind,
     fixed: &Fixed,
+    residual: Residual,
     sigma: f64,
     sigma_m: f64,
-) -> Option<Values> {
+) -> Option<(Values, f64)> {
     let n_inc = data.incidences.len();
-    let per_angle = kind.specular();
-    // Columns: k_s per incidence, k_dd, k_id (fixed ones move to the right-hand side).
     let kd_fixed = fixed.of(kind, Coord::Kid);
     let kdd_fixed = fixed.kdd;
-    let mut cols: Vec<&str> = Vec::new();
-    if per_angle {
-        cols.extend(std::iter::repeat_n("ks", n_inc));
-    }
-    let use_kdd = kind.directional() && kdd_fixed.is_none();
-    if use_kdd {
-        cols.push("kdd");
-    }
-    if kd_fixed.is_none() {
-        cols.push("kid");
-    }
-    let probe = Values {
+    let unit = Model::three_component(Params {
+        ks: 1.0,
         sigma,
-        sigma_m,
         kdd: 1.0,
+        sigma_m,
         kid: 1.0,
-        ks: vec![1.0; n_inc],
-        poly: None,
-    };
-    let unit = |j: usize| probe.model(Kind::ThreeComponent, j);
-    let models: Option<Vec<_>> = (0..n_inc).map(unit).collect();
-    let models = models?;
-    let m = data.obs.len();
-    let mut a = DMatrix::zeros(m, cols.len());
-    let mut b = DVector::zeros(m);
-    for (row, o) in data.obs.iter().enumerate() {
-        let fs = models[o.inc].specular(&o.geom);
-        let fdd = models[o.inc].directional(&o.geom);
+    })
+    .ok()?;
+    let lobes: Vec<(f64, f64)> = data
+        .obs
+        .iter()
+        .map(|o| {
+            (
+                if kind.specular() {
+                    unit.specular(&o.geom)
+                } else {
+                    0.0
+                },
+                unit.directional(&o.geom),
+            )
+        })
+        .collect();
+    // Column layout: k_s per incidence, then k_dd, then k_id (fixed ones absent).
+    let ks_cols = if kind.specular() { n_inc } else { 0 };
+    let kdd_col = (kind.directional() && kdd_fixed.is_none()).then_some(ks_cols);
+    let kid_col = kd_fixed
+        .is_none()
+        .then_some(ks_cols + usize::from(kdd_col.is_some()));
+    let ncol = ks_cols + usize::from(kdd_col.is_some()) + usize::from(kid_col.is_some());
+    let mut ata = DMatrix::<f64>::zeros(ncol, ncol);
+    let mut atb = DVector::<f64>::zeros(ncol);
+    for (o, &(fs, fdd)) in data.obs.iter().zip(&lobes) {
         let w = if o.y > 0.0 { 1.0 / o.y } else { 1.0 };
-        let mut col = 0;
-        if per_angle {
-            a[(row, o.inc)] = fs * w;
-            col = n_inc;
+        let mut entries = [(0usize, 0.0f64); 3];
+        let mut ne = 0;
+        if kind.specular() {
+            entries[ne] = (o.inc, fs * w);
+            ne += 1;
         }
-        if use_kdd {
-            a[(row, col)] = fdd * w;
-            col += 1;
+        if let Some(c) = kdd_col {
+            entries[ne] = (c, fdd * w);
+            ne += 1;
         }
-        if kd_fixed.is_none() {
-            a[(row, col)] = w;
+        if let Some(c) = kid_col {
+            entries[ne] = (c, w);
+            ne += 1;
         }
         let mut rhs = o.y;
         if kind.directional() {
-            if let Some(k) = kdd_fixed {
-                rhs -= k * fdd;
+            rhs -= kdd_fixed.unwrap_or(0.0) * fdd;
+        }
+        rhs -= kd_fixed.unwrap_or(0.0);
+        for &(a, va) in &entries[..ne] {
+            atb[a] += va * rhs * w;
+            for &(b, vb) in &entries[..ne] {
+                ata[(a, b)] += va * vb;
             }
         }
-        if let Some(k) = kd_fixed {
-            rhs -= k;
-        }
-        b[row] = rhs * w;
     }
-    let sol = solve_ls(a, &b)?;
+    let sol = solve_normal(ata, &atb)?;
     let scale = data
         .obs
         .iter()
@@ -336,28 +350,19 @@ fn linear_start(
     let mut v = Values {
         sigma,
         sigma_m,
-        kdd: kdd_fixed.unwrap_or(0.0),
-        kid: kd_fixed.unwrap_or(0.0),
-        ks: vec![floor; n_inc],
+        kdd: kdd_col.map_or(kdd_fixed.unwrap_or(1.0), |c| sol[c].max(floor)),
+        kid: kid_col.map_or(kd_fixed.unwrap_or(0.0), |c| sol[c].max(floor)),
+        ks: (0..n_inc)
+            .map(|j| {
+                if j < ks_cols {
+                    sol[j].max(floor)
+                } else {
+                    floor
+                }
+            })
+            .collect(),
         poly: None,
     };
-    let mut col = 0;
-    if per_angle {
-        for j in 0..n_inc {
-            v.ks[j] = sol[j].max(floor);
-        }
-        col = n_inc;
-    }
-    if use_kdd {
-        v.kdd = sol[col].max(floor);
-        col += 1;
-    }
-    if kd_fixed.is_none() {
-        v.kid = sol[col].max(floor);
-    }
-    if !kind.directional() {
-        v.kdd = 1.0; // unused; any positive value keeps the model valid
-    }
     if kind == Kind::ThreeSmooth {
         // ln k_s = c0 + c1 t + c2 t^2 through the per-angle values.
         let t: Vec<f64> = data.incidences.iter().map(|ti| ti / 90.0).collect();
@@ -368,21 +373,33 @@ fn linear_start(
             v.set(Coord::KsPoly(k), *cv, &data.incidences);
         }
     }
-    Some(v)
+    let kdd = if kind.directional() { v.kdd } else { 0.0 };
+    let mut cost = 0.0;
+    for (o, &(fs, fdd)) in data.obs.iter().zip(&lobes) {
+        let ks = if kind.specular() { v.ks[o.inc] } else { 0.0 };
+        let r = residual_of(residual, ks * fs + kdd * fdd + v.kid, o.y);
+        cost += r * r;
+    }
+    Some((v, cost))
 }
 
-/// Least squares `min |A x - b|`: normal equations with Cholesky (tiny: one column per
-/// weight), the SVD only when they are too ill-conditioned to factor.
-fn solve_ls(a: DMatrix<f64>, b: &DVector<f64>) -> Option<DVector<f64>> {
-    let ata = a.tr_mul(&a);
-    let atb = a.tr_mul(b);
-    if let Some(ch) = ata.cholesky() {
-        let x = ch.solve(&atb);
-        if x.iter().all(|v| v.is_finite()) {
-            return Some(x);
+/// Solves the normal equations `A^T A x = A^T b` by Cholesky, with a tiny ridge when
+/// they are singular (a weight no point constrains).
+fn solve_normal(ata: DMatrix<f64>, atb: &DVector<f64>) -> Option<DVector<f64>> {
+    for ridge in [0.0, 1e-12, 1e-8] {
+        let mut m = ata.clone();
+        let tr = (0..m.nrows()).map(|i| m[(i, i)]).sum::<f64>().max(1e-300);
+        for i in 0..m.nrows() {
+            m[(i, i)] += ridge * tr;
+        }
+        if let Some(ch) = m.cholesky() {
+            let x = ch.solve(atb);
+            if x.iter().all(|v| v.is_finite()) {
+                return Some(x);
+            }
         }
     }
-    a.svd(true, true).solve(b, 1e-12).ok()
+    None
 }
 
 fn cost(p: &Problem<'_>) -> f64 {
@@ -425,16 +442,8 @@ pub fn fit_kind(data: &Dataset, kind: Kind, opts: &FitOptions) -> Option<Fit> {
     let mut starts: Vec<(f64, Values)> = Vec::new();
     for &s in &sigmas {
         for &sm in &sigma_ms {
-            if let Some(v) = linear_start(data, kind, &opts.fixed, s, sm) {
-                let p = Problem {
-                    data,
-                    kind,
-                    free: free.clone(),
-                    values: v.clone(),
-                    residual: opts.residual,
-                    sqrt_w: vec![1.0; data.obs.len()],
-                };
-                starts.push((cost(&p), v));
+            if let Some((v, c)) = linear_start(data, kind, &opts.fixed, opts.residual, s, sm) {
+                starts.push((c, v));
             }
         }
     }

@@ -230,6 +230,14 @@ pub struct BenchArgs {
     /// Seconds of timing per variant.
     #[arg(long, default_value_t = 0.3, value_name = "S")]
     pub seconds: f64,
+    /// Also run the slower studies: readings against fit error for uniform and
+    /// adaptive plans, and fit time against error across tolerances and start counts
+    /// (about half a minute).
+    #[arg(long)]
+    pub study: bool,
+    /// Write the speed-against-error chart of the variants as a PNG.
+    #[arg(long, value_name = "PNG")]
+    pub plot: Option<std::path::PathBuf>,
 }
 
 /// Runs `gonio bench`.
@@ -240,10 +248,47 @@ pub fn run_cli(args: &BenchArgs) -> crate::error::CliResult {
         ));
     }
     let rows = run(Duration::from_secs_f64(args.seconds));
-    let text = if args.json {
-        serde_json::to_string_pretty(&rows).expect("JSON of numbers") + "\n"
+    if let Some(png) = &args.plot {
+        crate::plot::speed_vs_error(png, &rows)?;
+    }
+    let (plans, fits) = if args.study {
+        (
+            Some(crate::bench_study::plan_study(3)?),
+            Some(crate::bench_study::fit_study()?),
+        )
     } else {
-        table(&rows)
+        (None, None)
+    };
+    let text = if args.json {
+        let v = serde_json::json!({"variants": rows, "plans": plans, "fits": fits});
+        serde_json::to_string_pretty(&v).expect("JSON of numbers") + "\n"
+    } else {
+        let mut t = table(&rows);
+        if let Some(plans) = &plans {
+            t.push_str(&format!(
+                "\n{:<10} {:<40} {:>9} {:>10}\n",
+                "material", "plan", "readings", "fit error"
+            ));
+            for p in plans {
+                t.push_str(&format!(
+                    "{:<10} {:<40} {:>9} {:>10.5}\n",
+                    p.material, p.plan, p.readings, p.fit_error
+                ));
+            }
+        }
+        if let Some(fits) = &fits {
+            t.push_str(&format!(
+                "\n{:>8} {:>7} {:>10} {:>12} {:>12}\n",
+                "tol", "starts", "us/fit", "RMSE", "SSR(log)"
+            ));
+            for f in fits {
+                t.push_str(&format!(
+                    "{:>8.0e} {:>7} {:>10.1} {:>12.6} {:>12.6e}\n",
+                    f.tol, f.starts, f.micros, f.rmse, f.ssr
+                ));
+            }
+        }
+        t
     };
     crate::output::write_stdout(text.as_bytes())
 }

@@ -26,6 +26,8 @@ const USAGE: &str = "usage: cargo xtask <command>
   qemu-e2e                           build the qemu image, run the end-to-end test
   firmware-bench                     instructions and flash bytes per evaluation variant
                                      on the Cortex-M4 (QEMU -icount)
+  perf-report                        regenerate docs/PERFORMANCE.md and its chart (needs
+                                     python3 with numpy and scipy; installs them if missing)
   test                               setup, fmt, clippy, host tests (with qemu-e2e),
                                      firmware builds, clippy and size budget";
 
@@ -40,6 +42,7 @@ fn main() -> ExitCode {
         ["size"] => size().map(|_| ()),
         ["qemu-e2e"] => qemu_e2e(),
         ["firmware-bench"] => firmware_bench().map(|t| print!("{t}")),
+        ["perf-report"] => perf_report(),
         ["test"] => test_all(),
         ["help" | "--help" | "-h"] => {
             println!("{USAGE}");
@@ -279,6 +282,139 @@ fn firmware_bench() -> Result<String> {
         cal.trim_start_matches("calibration ")
     ));
     Ok(table)
+}
+
+/// The number after `"key":` in a JSON text (enough for the flat outputs we read).
+fn json_number(text: &str, key: &str) -> Option<f64> {
+    let at = text.find(&format!("\"{key}\""))? + key.len() + 2;
+    let rest = text[at..].trim_start().strip_prefix(':')?.trim_start();
+    let end = rest
+        .find(|c: char| !(c.is_ascii_digit() || "+-.eE".contains(c)))
+        .unwrap_or(rest.len());
+    rest[..end].parse().ok()
+}
+
+fn output(dir: &Path, program: &str, args: &[&str]) -> Result<String> {
+    let out = command(dir, program, args)
+        .output()
+        .map_err(|e| format!("{program}: {e}"))?;
+    if !out.status.success() {
+        return Err(format!(
+            "`{program} {}` failed: {}",
+            args.join(" "),
+            String::from_utf8_lossy(&out.stderr)
+        ));
+    }
+    Ok(String::from_utf8_lossy(&out.stdout).into_owned())
+}
+
+/// Regenerates docs/PERFORMANCE.md and docs/speed_vs_error.png.
+fn perf_report() -> Result {
+    let root = root();
+    run(&root, "cargo", &["build", "--release", "-p", "host-tool"])?;
+    let gonio = root.join("target/release/gonio");
+    let gonio = gonio.to_str().ok_or("path")?;
+    if !works("python3", &["-c", "import numpy, scipy"]) {
+        run(
+            &root,
+            "python3",
+            &["-m", "pip", "install", "-q", "numpy", "scipy"],
+        )?;
+    }
+    let docs = root.join("docs");
+    let png = docs.join("speed_vs_error.png");
+    let bench = output(
+        &root,
+        gonio,
+        &[
+            "bench",
+            "--study",
+            "--seconds",
+            "1",
+            "--plot",
+            png.to_str().ok_or("path")?,
+        ],
+    )?;
+    let firmware = firmware_bench()?;
+    // gonio against scipy on the same simulated sweeps.
+    let tmp = std::env::temp_dir().join(format!("gonio-perf-{}", std::process::id()));
+    std::fs::create_dir_all(&tmp).map_err(|e| e.to_string())?;
+    let mut scipy = String::from(
+        "| sweep | gonio three-component (µs) | gonio all four models (µs) | scipy three-component (µs) | ratio (three) | RMSE gonio | RMSE scipy |\n|---|---|---|---|---|---|---|\n",
+    );
+    let mut ratios = Vec::new();
+    for material in ["fe-0.115", "cu-0.070", "al-0.782"] {
+        let sweep = tmp.join(format!("{material}.csv"));
+        let sweep = sweep.to_str().ok_or("path")?;
+        output(
+            &root,
+            gonio,
+            &[
+                "simulate",
+                "--material",
+                material,
+                "--out",
+                sweep,
+                "--force",
+                "-q",
+            ],
+        )?;
+        let best = |models: &str| -> Result<(f64, f64)> {
+            let mut t = f64::INFINITY;
+            let mut rmse = f64::NAN;
+            for _ in 0..15 {
+                let j = output(&root, gonio, &["fit", sweep, "--models", models, "--json"])?;
+                t = t.min(json_number(&j, "fit_seconds").ok_or("no fit_seconds")?);
+                rmse = json_number(&j, "rmse").unwrap_or(f64::NAN);
+            }
+            Ok((t * 1e6, rmse))
+        };
+        let (three_us, rmse_g) = best("three")?;
+        let (all_us, _) = best("ideal,ts,three,three-smooth")?;
+        let py = output(
+            &root,
+            "python3",
+            &[
+                root.join("bench/fit_scipy.py").to_str().ok_or("path")?,
+                sweep,
+                "--repeat",
+                "15",
+            ],
+        )?;
+        let scipy_us = json_number(&py, "seconds").ok_or("no seconds from scipy")? * 1e6;
+        let rmse_s = json_number(&py, "rmse").unwrap_or(f64::NAN);
+        ratios.push(scipy_us / three_us);
+        scipy.push_str(&format!(
+            "| {material} 9x17, 0.5 % noise | {three_us:.0} | {all_us:.0} | {scipy_us:.0} | {:.0}x | {rmse_g:.6} | {rmse_s:.6} |\n",
+            scipy_us / three_us
+        ));
+    }
+    let _ = std::fs::remove_dir_all(&tmp);
+    let cpu = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|c| {
+            c.lines()
+                .find(|l| l.starts_with("model name"))
+                .map(|l| l.split(':').nth(1).unwrap_or("").trim().to_string())
+        })
+        .unwrap_or_else(|| "unknown CPU".into());
+    let template = std::fs::read_to_string(docs.join("PERFORMANCE.template.md"))
+        .map_err(|e| format!("docs/PERFORMANCE.template.md: {e}"))?;
+    let report = template
+        .replace("{{CPU}}", &cpu)
+        .replace("{{BENCH}}", bench.trim_end())
+        .replace("{{FIRMWARE}}", firmware.trim_end())
+        .replace("{{SCIPY}}", scipy.trim_end())
+        .replace(
+            "{{SCIPY_MIN_RATIO}}",
+            &format!(
+                "{:.0}",
+                ratios.iter().cloned().fold(f64::INFINITY, f64::min)
+            ),
+        );
+    std::fs::write(docs.join("PERFORMANCE.md"), report).map_err(|e| e.to_string())?;
+    eprintln!("xtask: wrote docs/PERFORMANCE.md and docs/speed_vs_error.png");
+    Ok(())
 }
 
 fn qemu_e2e() -> Result {

@@ -335,6 +335,19 @@ mod tests {
     #[test]
     fn every_variant_is_measured_and_within_its_bound() {
         let rows = run(Duration::from_millis(5));
+        let png = std::env::temp_dir().join(format!("gonio-sve-{}.png", std::process::id()));
+        crate::plot::speed_vs_error(&png, &rows).unwrap();
+        let bytes = std::fs::read(&png).unwrap();
+        assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
+        // IHDR width and height.
+        assert_eq!(
+            (
+                u32::from_be_bytes(bytes[16..20].try_into().unwrap()),
+                u32::from_be_bytes(bytes[20..24].try_into().unwrap())
+            ),
+            (1100, 640)
+        );
+        let _ = std::fs::remove_file(&png);
         assert_eq!(rows.len(), 8);
         for r in &rows {
             assert!(r.ns_per_eval > 0.0 && r.ns_per_eval.is_finite(), "{r:?}");

@@ -3,8 +3,36 @@
 //! QEMU board, by `gonio simulate`/`gonio demo` and by tests.
 
 use crate::axis::{AxisPins, PinError};
-use crate::controller::{Detector, DetectorError};
+use crate::controller::{Controller, ControllerConfig, Detector, DetectorError};
+use crate::mechanics::{DETECTOR, SOURCE};
 use crate::presets::Preset;
+
+/// The simulated reference goniometer (arms as in [`crate::mechanics`]): shafts at 45
+/// (source) and 10 (detector) degrees, unknown to the controller until it homes, home
+/// switches at the arms' home angles, a laser pin that only remembers its level, and
+/// `sample` as the detector. The QEMU board and gonio's simulated devices are this.
+pub fn simulated_controller(
+    board: &'static str,
+    firmware: [u8; 3],
+    sample: VirtualSample,
+) -> Controller<SimArm, SimArm, SimPin, VirtualSample> {
+    let cfg = ControllerConfig {
+        board,
+        firmware,
+        source: SOURCE,
+        detector: DETECTOR,
+    };
+    Controller::new(
+        cfg,
+        SimArm::new(SOURCE.to_steps(45.0), SOURCE.to_steps(SOURCE.home_deg)),
+        SimArm::new(
+            DETECTOR.to_steps(10.0),
+            DETECTOR.to_steps(DETECTOR.home_deg),
+        ),
+        SimPin::default(),
+        sample,
+    )
+}
 
 /// A simulated step/dir driver on a shaft. The shaft's true position is in steps; the
 /// home switch is pressed at or below `switch_at`.

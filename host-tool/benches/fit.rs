@@ -4,33 +4,14 @@
 use std::hint::black_box;
 
 use brdf_core::Preset;
-use brdf_core::sim::XorShift32;
 use criterion::{Criterion, criterion_group, criterion_main};
+use gonio::fit::data::synthetic_paper_sweep;
 use gonio::fit::{Dataset, FitOptions, Kind, fit_family, fit_kind};
 use gonio::sweep_file::Row;
 
 fn paper_sweep(name: &str, noise: f64) -> Vec<Row> {
     let p = Preset::by_name(name).unwrap();
-    let mut rng = XorShift32::new(7);
-    let mut rows = Vec::new();
-    for i in 0..9 {
-        let ti = 10.0 * i as f64;
-        let m = p.model(ti).unwrap();
-        for k in 0..17 {
-            let tr = -80.0 + 10.0 * k as f64;
-            let y = m.eval_in_plane(ti, tr).unwrap().f * (1.0 + noise * rng.normal() as f64);
-            rows.push(Row {
-                theta_i: ti,
-                theta_r: tr,
-                brdf: y,
-                std: None,
-                n: None,
-                seq: None,
-                t_ms: None,
-            });
-        }
-    }
-    rows
+    synthetic_paper_sweep(|ti| p.model(ti).unwrap(), noise, 7)
 }
 
 fn bench(c: &mut Criterion) {

@@ -351,15 +351,24 @@ pub fn run_capture(args: &CaptureArgs) -> CliResult {
         args.port,
         setup.out.display()
     );
-    let flag = interrupt_flag();
-    let mut conn = SerialConnector::new(&args.port);
-    let report = capture(
-        &mut conn,
+    run_with(
+        SerialConnector::new(&args.port),
         &setup,
-        progress_for(args.out.quiet).as_mut(),
-        &flag,
-    )?;
-    finish(&report, &setup.out, &resume)
+        args.out.quiet,
+        &resume,
+    )
+}
+
+/// Captures through `conn` with Ctrl-C handling and progress, then reports.
+fn run_with<C: Connector>(
+    mut conn: C,
+    setup: &CaptureSetup,
+    quiet: bool,
+    resume: &str,
+) -> CliResult {
+    let flag = interrupt_flag();
+    let report = capture(&mut conn, setup, progress_for(quiet).as_mut(), &flag)?;
+    finish(&report, &setup.out, resume)
 }
 
 /// `gonio simulate`.
@@ -445,13 +454,6 @@ pub fn run_simulate(args: &SimulateArgs) -> CliResult {
         args.material,
         setup.out.display()
     );
-    let flag = interrupt_flag();
-    let mut conn = InProcessConnector::new(InProcessDevice::new(&cfg));
-    let report = capture(
-        &mut conn,
-        &setup,
-        progress_for(args.out.quiet).as_mut(),
-        &flag,
-    )?;
-    finish(&report, &setup.out, &resume)
+    let conn = InProcessConnector::new(InProcessDevice::new(&cfg));
+    run_with(conn, &setup, args.out.quiet, &resume)
 }

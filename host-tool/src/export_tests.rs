@@ -10,24 +10,7 @@ use brdf_core::Preset;
 
 fn rows() -> Vec<Row> {
     let p = Preset::by_name("fe-0.115").unwrap();
-    let mut rows = Vec::new();
-    for i in 0..9 {
-        let ti = 10.0 * i as f64;
-        let m = p.model(ti).unwrap();
-        for k in 0..17 {
-            let tr = -80.0 + 10.0 * k as f64;
-            rows.push(Row {
-                theta_i: ti,
-                theta_r: tr,
-                brdf: m.eval_in_plane(ti, tr).unwrap().f,
-                std: None,
-                n: None,
-                seq: None,
-                t_ms: None,
-            });
-        }
-    }
-    rows
+    crate::fit::data::synthetic_paper_sweep(|ti| p.model(ti).unwrap(), 0.0, 1)
 }
 
 fn fixture() -> &'static FamilyFit {

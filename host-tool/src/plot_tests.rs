@@ -8,35 +8,15 @@ use crate::error::EXIT_FAILED;
 use crate::fit::{FitOptions, fit_family};
 use crate::sweep_file::Row;
 use brdf_core::Preset;
-use brdf_core::sim::XorShift32;
 
 /// Paper-grid rows of a preset with 3 % multiplicative noise; `skip_specular` leaves the
 /// reading at theta_r = theta_i out at the listed incidences.
 fn rows(name: &str, skip_specular: &[f64]) -> Vec<Row> {
     let p = Preset::by_name(name).unwrap();
-    let mut rng = XorShift32::new(7);
-    let mut rows = Vec::new();
-    for i in 0..9 {
-        let ti = 10.0 * i as f64;
-        let m = p.model(ti).unwrap();
-        for k in 0..17 {
-            let tr = -80.0 + 10.0 * k as f64;
-            if tr == ti && skip_specular.contains(&ti) {
-                continue;
-            }
-            let f = m.eval_in_plane(ti, tr).unwrap().f;
-            rows.push(Row {
-                theta_i: ti,
-                theta_r: tr,
-                brdf: f * (1.0 + 0.03 * rng.normal() as f64),
-                std: None,
-                n: None,
-                seq: None,
-                t_ms: None,
-            });
-        }
-    }
-    rows
+    crate::fit::data::synthetic_paper_sweep(|ti| p.model(ti).unwrap(), 0.03, 7)
+        .into_iter()
+        .filter(|r| !(r.theta_r == r.theta_i && skip_specular.contains(&r.theta_i)))
+        .collect()
 }
 
 fn fixture() -> &'static (Dataset, FamilyFit) {

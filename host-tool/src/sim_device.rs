@@ -14,11 +14,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
-use brdf_core::controller::{Controller, ControllerConfig};
-use brdf_core::mechanics::{DETECTOR, SOURCE};
 use brdf_core::presets::Preset;
 use brdf_core::service::{Link as DeviceLink, Service};
-use brdf_core::sim::{SimArm, SimPin, VirtualSample};
+use brdf_core::sim::{SimArm, SimPin, VirtualSample, simulated_controller};
 
 use crate::link::Transport;
 
@@ -54,22 +52,8 @@ impl SimConfig {
     }
 
     fn service(&self) -> SimService {
-        let cfg = ControllerConfig {
-            board: "sim",
-            firmware: self.firmware,
-            source: SOURCE,
-            detector: DETECTOR,
-        };
-        Service::new(Controller::new(
-            cfg,
-            SimArm::new(SOURCE.to_steps(45.0), SOURCE.to_steps(SOURCE.home_deg)),
-            SimArm::new(
-                DETECTOR.to_steps(10.0),
-                DETECTOR.to_steps(DETECTOR.home_deg),
-            ),
-            SimPin::default(),
-            VirtualSample::new(self.preset, self.noise, self.seed),
-        ))
+        let sample = VirtualSample::new(self.preset, self.noise, self.seed);
+        Service::new(simulated_controller("sim", self.firmware, sample))
     }
 }
 

@@ -20,11 +20,9 @@
 
 use core::ptr::{read_volatile, write_volatile};
 
-use brdf_core::controller::{Controller, ControllerConfig};
-use brdf_core::mechanics::{DETECTOR, SOURCE};
 use brdf_core::presets::Preset;
 use brdf_core::service::{Link, Service};
-use brdf_core::sim::{SimArm, SimPin, VirtualSample};
+use brdf_core::sim::{VirtualSample, simulated_controller};
 use cortex_m_rt::{ExceptionFrame, entry, exception};
 use cortex_m_semihosting::{debug, hprintln};
 use firmware::FIRMWARE_VERSION;
@@ -85,20 +83,9 @@ impl Link for Usart1 {
 fn main() -> ! {
     let mut link = Usart1::init();
     let sample = Preset::by_name("fe-0.115").unwrap_or(&brdf_core::presets::PRESETS[4]);
-    let cfg = ControllerConfig {
-        board: "qemu",
-        firmware: FIRMWARE_VERSION,
-        source: SOURCE,
-        detector: DETECTOR,
-    };
-    let ctrl = Controller::new(
-        cfg,
-        SimArm::new(SOURCE.to_steps(45.0), SOURCE.to_steps(SOURCE.home_deg)),
-        SimArm::new(
-            DETECTOR.to_steps(10.0),
-            DETECTOR.to_steps(DETECTOR.home_deg),
-        ),
-        SimPin::default(),
+    let ctrl = simulated_controller(
+        "qemu",
+        FIRMWARE_VERSION,
         VirtualSample::new(sample, 0.005, 0x6F6E_6F67),
     );
     let mut service = Service::new(ctrl);

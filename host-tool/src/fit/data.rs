@@ -1,9 +1,41 @@
 //! Fit data: sweep rows checked and grouped by incidence, with the geometry of each
 //! point computed once.
 
-use brdf_core::Geometry;
+use brdf_core::sim::XorShift32;
+use brdf_core::{Geometry, Model};
 
 use crate::sweep_file::Row;
+
+/// A simulated paper sweep (theta_i 0..80 step 10, theta_r -80..80 step 10, degrees):
+/// `model_at(theta_i)` evaluated at each point times `1 + noise * n`, with `n`
+/// deterministic standard-normal noise from `seed`. For tests, benchmarks and studies.
+pub fn synthetic_paper_sweep(
+    model_at: impl Fn(f64) -> Model<f64>,
+    noise: f64,
+    seed: u32,
+) -> Vec<Row> {
+    let mut rng = XorShift32::new(seed);
+    let mut rows = Vec::with_capacity(153);
+    for i in 0..9 {
+        let ti = 10.0 * i as f64;
+        let m = model_at(ti);
+        for k in 0..17 {
+            let tr = -80.0 + 10.0 * k as f64;
+            let f = m.eval_in_plane(ti, tr).map_or(f64::NAN, |e| e.f);
+            let y = f * (1.0 + noise * rng.normal() as f64);
+            rows.push(Row {
+                theta_i: ti,
+                theta_r: tr,
+                brdf: y,
+                std: None,
+                n: None,
+                seq: None,
+                t_ms: None,
+            });
+        }
+    }
+    rows
+}
 
 /// One measured point.
 #[derive(Debug, Clone, Copy)]

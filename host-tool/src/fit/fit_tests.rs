@@ -4,33 +4,12 @@ use super::family::{Coord, Values, coords};
 use super::solve::Problem;
 use super::*;
 use crate::sweep_file::Row;
-use brdf_core::sim::XorShift32;
 use brdf_core::{Geometry, Model, Params, Preset};
 use levenberg_marquardt::LeastSquaresProblem;
 
 /// The paper grid from a model per incidence, times (1 + noise N(0,1)).
 fn sweep(model_at: impl Fn(f64) -> Model<f64>, noise: f64, seed: u32) -> Vec<Row> {
-    let mut rng = XorShift32::new(seed);
-    let mut rows = Vec::new();
-    for i in 0..9 {
-        let ti = 10.0 * i as f64;
-        let m = model_at(ti);
-        for k in 0..17 {
-            let tr = -80.0 + 10.0 * k as f64;
-            let f = m.eval_in_plane(ti, tr).unwrap().f;
-            let y = f * (1.0 + noise * rng.normal() as f64);
-            rows.push(Row {
-                theta_i: ti,
-                theta_r: tr,
-                brdf: y,
-                std: None,
-                n: None,
-                seq: None,
-                t_ms: None,
-            });
-        }
-    }
-    rows
+    data::synthetic_paper_sweep(model_at, noise, seed)
 }
 
 fn preset_sweep(name: &str, noise: f64, seed: u32) -> Vec<Row> {

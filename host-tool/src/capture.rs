@@ -87,6 +87,9 @@ pub struct CaptureReport {
     pub reconnects: u32,
 }
 
+/// How long to listen after a SweepDone for readings that come late.
+const LINGER: Duration = Duration::from_millis(200);
+
 enum Outcome {
     Done,
     Interrupted,
@@ -140,45 +143,77 @@ fn prepare<C: Connector>(conn: &mut C, setup: &CaptureSetup) -> CliResult<(Link<
             LinkError::Version { .. } => CliError::failed(e.to_string()),
             e => CliError::failed(e.to_string()),
         })?;
-    // A device that survived a lost link may still be sweeping: stop it.
-    link.send(&Command::Abort)
-        .map_err(|e| CliError::failed(e.to_string()))?;
-    wait_for(&mut link, Duration::from_secs(5), |e| {
-        matches!(e, Event::Status(_) | Event::SweepDone(_))
-    })?;
-    if !info.homed {
-        link.send(&Command::Home)
-            .map_err(|e| CliError::failed(e.to_string()))?;
-        match wait_for(&mut link, setup.home_timeout, |e| {
-            matches!(e, Event::Status(_) | Event::Error(_))
-        })? {
-            Event::Status(s) if s.homed => info.homed = true,
-            Event::Error(e) => {
-                return Err(CliError::failed(format!("homing failed: {}", e.detail)));
-            }
-            other => return Err(CliError::failed(format!("homing failed: {other:?}"))),
+    let send = |link: &mut Link<C::T>, cmd: &Command| {
+        link.send(cmd).map_err(|e| CliError::failed(e.to_string()))
+    };
+    // A device that survived a lost link may still be sweeping: stop it. On a noisy
+    // link the Abort or its answer may be lost: ask again.
+    let mut stopped = false;
+    for _ in 0..5 {
+        send(&mut link, &Command::Abort)?;
+        if recv_until(&mut link, Duration::from_secs(1), |e| {
+            matches!(e, Event::Status(_) | Event::SweepDone(_))
+        })?
+        .is_some()
+        {
+            stopped = true;
+            break;
         }
+    }
+    if !stopped {
+        return Err(CliError::failed("device did not answer Abort within 5 s"));
+    }
+    if !info.homed {
+        send(&mut link, &Command::Home)?;
+        let deadline = Instant::now() + setup.home_timeout;
+        // The Status that ends homing may be lost: every 2 s of silence ask with
+        // GetInfo (served while homing); a Home that never arrived is sent again
+        // (while homing, a second Home is only answered Busy).
+        loop {
+            if Instant::now() >= deadline {
+                return Err(CliError::failed(format!(
+                    "homing failed: not homed within {} s",
+                    setup.home_timeout.as_secs()
+                )));
+            }
+            match recv_until(&mut link, Duration::from_secs(2), |e| {
+                matches!(e, Event::Status(_) | Event::Error(_) | Event::Info(_))
+            })? {
+                Some(Event::Status(s)) if s.homed => break,
+                Some(Event::Info(i)) if i.homed => break,
+                Some(Event::Info(_)) => send(&mut link, &Command::Home)?,
+                Some(Event::Error(e))
+                    if matches!(
+                        e.code,
+                        ErrorCode::CorruptFrame | ErrorCode::UnknownCommand | ErrorCode::Busy
+                    ) => {}
+                Some(Event::Error(e)) => {
+                    return Err(CliError::failed(format!("homing failed: {}", e.detail)));
+                }
+                Some(_) => {}
+                None => send(&mut link, &Command::GetInfo)?,
+            }
+        }
+        info.homed = true;
     }
     Ok((link, info))
 }
 
-fn wait_for<T: Transport>(
+/// The first wanted event within `limit`, `None` if none came; a broken link is an error.
+fn recv_until<T: Transport>(
     link: &mut Link<T>,
     limit: Duration,
     want: impl Fn(&Event) -> bool,
-) -> CliResult<Event> {
+) -> CliResult<Option<Event>> {
     let deadline = Instant::now() + limit;
     while Instant::now() < deadline {
         match link.recv(Duration::from_millis(100)) {
-            Ok(Some(ev)) if want(&ev) => return Ok(ev),
+            Ok(Some(ev)) if want(&ev) => return Ok(Some(ev)),
             Ok(_) => {}
             Err(e) => return Err(CliError::failed(e.to_string())),
         }
     }
-    Err(CliError::failed(format!(
-        "device did not answer within {} s",
-        limit.as_secs()
-    )))
+    Ok(None)
 }
 
 /// Runs a capture. Returns the report; the caller turns an incomplete one into an
@@ -339,8 +374,12 @@ impl<C: Connector> Run<'_, C> {
     }
 
     fn one_sweep(&mut self, link: &mut Link<C::T>, sw: &DeviceSweep) -> CliResult<Outcome> {
-        let id = sw.plan.sweep_id;
-        if let Err(e) = self.send(link, &Command::StartSweep(sw.plan.clone())) {
+        let mut plan = sw.plan.clone();
+        let mut id = plan.sweep_id;
+        // Every id this sweep was started with: readings of an aborted start that were
+        // already on their way are still readings of these points.
+        let mut ids = vec![id];
+        if let Err(e) = self.send(link, &Command::StartSweep(plan.clone())) {
             return Ok(Outcome::Lost(e));
         }
         let mut expected = sw.plan.skip as u32;
@@ -348,8 +387,15 @@ impl<C: Connector> Run<'_, C> {
         let mut silent_since = Instant::now();
         let mut restarts = 0;
         let mut aborting: Option<Instant> = None;
+        // Abort sent to a device that went silent during the sweep.
+        let mut stopping = false;
+        // Sequence numbers skipped so far (counted as gaps unless they come late).
+        let mut skipped: BTreeSet<u32> = BTreeSet::new();
         // Events that arrived while waiting for a Pong: handled before new ones.
         let mut pending: VecDeque<Event> = VecDeque::new();
+        let mut lost: Option<String> = None;
+        // When the SweepDone came.
+        let mut finished: Option<Instant> = None;
         loop {
             if aborting.is_none() && self.interrupt.load(Ordering::Relaxed) {
                 if let Err(e) = self.send(link, &Command::Abort) {
@@ -360,9 +406,21 @@ impl<C: Connector> Run<'_, C> {
             if aborting.is_some_and(|t| t.elapsed() > Duration::from_secs(5)) {
                 return Ok(Outcome::Interrupted);
             }
+            if finished.is_some_and(|t| skipped.is_empty() || t.elapsed() >= LINGER) {
+                return Ok(Outcome::Done);
+            }
+            if pending.is_empty() {
+                if let Some(why) = lost.take() {
+                    return Ok(Outcome::Lost(why));
+                }
+            }
             let ev = match pending.pop_front() {
                 Some(ev) => Some(ev),
-                None => match link.recv(Duration::from_millis(200)) {
+                None => match link.recv(if finished.is_some() {
+                    LINGER
+                } else {
+                    Duration::from_millis(200)
+                }) {
                     Ok(ev) => ev,
                     Err(e) => return Ok(Outcome::Lost(e.to_string())),
                 },
@@ -371,17 +429,28 @@ impl<C: Connector> Run<'_, C> {
                 if silent_since.elapsed() >= self.setup.event_timeout {
                     self.writer.counters().timeouts += 1;
                     if !self.answers_ping(link, &mut pending)? {
-                        return Ok(Outcome::Lost(format!(
+                        // Lost, but what arrived while pinging is recorded first.
+                        lost = Some(format!(
                             "silent for {} s and no answer to Ping",
                             self.setup.event_timeout.as_secs()
-                        )));
+                        ));
+                        continue;
                     }
                     if !started {
                         // The StartSweep may have been lost on the way: send it again
                         // (a device already running it answers Busy, which is fine).
-                        if let Err(e) = self.send(link, &Command::StartSweep(sw.plan.clone())) {
+                        if let Err(e) = self.send(link, &Command::StartSweep(plan.clone())) {
                             return Ok(Outcome::Lost(e));
                         }
+                    } else if pending.is_empty() {
+                        // Alive, but silent while our sweep ran: its last events (the
+                        // SweepDone at least) were lost. Stop it; its answer (SweepDone
+                        // or, if it had finished, Status) ends this sweep, and the next
+                        // round measures what is missing.
+                        if let Err(e) = self.send(link, &Command::Abort) {
+                            return Ok(Outcome::Lost(e));
+                        }
+                        stopping = true;
                     }
                     silent_since = Instant::now();
                 }
@@ -389,43 +458,74 @@ impl<C: Connector> Run<'_, C> {
             };
             silent_since = Instant::now();
             match ev {
-                Event::Reading(r) if r.sweep_id == id => {
+                Event::Reading(r) if ids.contains(&r.sweep_id) => {
                     started = true;
                     if r.seq > expected {
                         self.writer.counters().gaps += (r.seq - expected) as u64;
+                        skipped.extend(expected..r.seq);
+                    } else if skipped.remove(&r.seq) {
+                        // Late (reordered), not lost.
+                        self.writer.counters().gaps -= 1;
                     }
                     expected = expected.max(r.seq + 1);
                     self.record(sw, &r)?;
                 }
                 Event::Progress(p) if p.sweep_id == id => started = true,
+                Event::Status(_) if stopping => {
+                    // The device had finished: the readings after the last one that
+                    // arrived were all sent and lost.
+                    let end = sw.plan.skip as u32 + sw.map.len() as u32;
+                    self.writer.counters().gaps += end.saturating_sub(expected) as u64;
+                    return Ok(Outcome::Done);
+                }
                 Event::SweepDone(d) if d.sweep_id == id => {
                     if d.next_seq > expected {
                         self.writer.counters().gaps += (d.next_seq - expected) as u64;
+                        skipped.extend(expected..d.next_seq);
+                        expected = d.next_seq;
                     }
                     if aborting.is_some() {
                         return Ok(Outcome::Interrupted);
                     }
+                    if stopping {
+                        return Ok(Outcome::Done);
+                    }
                     if d.aborted {
                         return Err(CliError::failed("the device aborted the sweep"));
                     }
-                    return Ok(Outcome::Done);
+                    // Readings still missing may yet come late (reordered on the way):
+                    // listen a little longer before the next round re-measures them.
+                    finished = Some(Instant::now());
                 }
                 Event::Error(e) if !started => match e.code {
-                    // Our StartSweep was corrupted on the way, or the device is still
-                    // busy with something: try again a few times.
+                    // Our StartSweep (or another command: these errors do not say
+                    // which) was corrupted on the way, or the device is still busy
+                    // with something: try again, up to 10 times on a noisy link.
                     ErrorCode::CorruptFrame | ErrorCode::UnknownCommand | ErrorCode::Busy
-                        if restarts < 3 =>
+                        if restarts < 10 =>
                     {
                         restarts += 1;
                         if e.code == ErrorCode::Busy {
                             if let Err(err) = self.send(link, &Command::Abort) {
                                 return Ok(Outcome::Lost(err));
                             }
+                            // The aborted run's SweepDone must not end the new one.
+                            plan.sweep_id = self.next_id;
+                            self.next_id += 1;
+                            id = plan.sweep_id;
+                            ids.push(id);
                         }
                         std::thread::sleep(Duration::from_millis(50));
-                        if let Err(err) = self.send(link, &Command::StartSweep(sw.plan.clone())) {
+                        if let Err(err) = self.send(link, &Command::StartSweep(plan.clone())) {
                             return Ok(Outcome::Lost(err));
                         }
+                    }
+                    ErrorCode::CorruptFrame | ErrorCode::UnknownCommand => {
+                        self.writer.set_status(Status::Failed)?;
+                        return Err(CliError::failed(format!(
+                            "the link corrupted the sweep command {restarts} times in a row ({}); check the cable, then continue with --resume",
+                            e.detail
+                        )));
                     }
                     _ => {
                         self.writer.set_status(Status::Failed)?;
@@ -462,16 +562,19 @@ impl<C: Connector> Run<'_, C> {
         pending: &mut VecDeque<Event>,
     ) -> CliResult<bool> {
         let token = 0x7069_6e67;
-        if link.send(&Command::Ping(token)).is_err() {
-            return Ok(false);
-        }
-        let deadline = Instant::now() + Duration::from_secs(3);
-        while Instant::now() < deadline {
-            match link.recv(Duration::from_millis(100)) {
-                Ok(Some(Event::Pong(t))) if t == token => return Ok(true),
-                Ok(Some(ev)) => pending.push_back(ev),
-                Ok(None) => {}
-                Err(_) => return Ok(false),
+        // Three tries: one Ping or Pong lost on a noisy link is not a lost device.
+        for _ in 0..3 {
+            if link.send(&Command::Ping(token)).is_err() {
+                return Ok(false);
+            }
+            let deadline = Instant::now() + Duration::from_secs(1);
+            while Instant::now() < deadline {
+                match link.recv(Duration::from_millis(100)) {
+                    Ok(Some(Event::Pong(t))) if t == token => return Ok(true),
+                    Ok(Some(ev)) => pending.push_back(ev),
+                    Ok(None) => {}
+                    Err(_) => return Ok(false),
+                }
             }
         }
         Ok(false)

@@ -221,8 +221,13 @@ impl<T: Transport> Link<T> {
                 }
             }
         }
-        self.send(&Command::GetInfo)?;
+        // Asked again every 500 ms: on a noisy link the GetInfo or the Info may be lost.
+        let mut ask_at = Instant::now();
         while Instant::now() < deadline {
+            if Instant::now() >= ask_at {
+                self.send(&Command::GetInfo)?;
+                ask_at = Instant::now() + Duration::from_millis(500);
+            }
             let slice = deadline
                 .saturating_duration_since(Instant::now())
                 .min(Duration::from_millis(50));

@@ -146,22 +146,33 @@ impl HostPlan {
     pub fn from_file(path: &Path, o: &SettingsOverride) -> CliResult<Self> {
         let text = std::fs::read_to_string(path)
             .map_err(|e| CliError::usage(format!("cannot read plan {}: {e}", path.display())))?;
-        let f: PlanFile = toml::from_str(&text).map_err(|e| {
-            CliError::usage(format!(
-                "plan {}: {}",
-                path.display(),
-                one_line(&e.to_string())
-            ))
-        })?;
+        Self::from_toml_str(&text, &path.display().to_string(), o)
+    }
+
+    /// Parses the text of a TOML plan file; `name` (its path) names it in messages and
+    /// in the sweep file's header.
+    pub fn from_toml_str(text: &str, name: &str, o: &SettingsOverride) -> CliResult<Self> {
+        let f: PlanFile = toml::from_str(text)
+            .map_err(|e| CliError::usage(format!("plan {name}: {}", one_line(&e.to_string()))))?;
+        Self::from_plan_file(f, name, o).map_err(|e| CliError {
+            // Name the file in every message about it.
+            message: match e.message.strip_prefix("plan: ") {
+                Some(m) => format!("plan {name}: {m}"),
+                None => e.message,
+            },
+            ..e
+        })
+    }
+
+    fn from_plan_file(f: PlanFile, name: &str, o: &SettingsOverride) -> CliResult<Self> {
         let s = settings(o, Some(&f))?;
         let e = exclusion(o, Some(&f))?;
-        let description = format!("file {}", path.display());
+        let description = format!("file {name}");
         match (&f.incidences, &f.detector, &f.points) {
             (Some(inc), Some(d), None) => {
                 if inc.len() > MAX_INCIDENCES {
                     return Err(CliError::usage(format!(
-                        "plan {}: at most {MAX_INCIDENCES} incidences",
-                        path.display()
+                        "plan {name}: at most {MAX_INCIDENCES} incidences"
                     )));
                 }
                 let grid = Grid::Custom {
@@ -183,8 +194,7 @@ impl HostPlan {
                 Self::from_points(description, points, s, e)
             }
             _ => Err(CliError::usage(format!(
-                "plan {}: give either `incidences` and `detector = {{ start, stop, step }}`, or `points`",
-                path.display()
+                "plan {name}: give either `incidences` and `detector = {{ start, stop, step }}`, or `points`"
             ))),
         }
     }

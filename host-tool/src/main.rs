@@ -60,6 +60,19 @@ fn main() -> ExitCode {
             let _ = e.print();
             return ExitCode::SUCCESS;
         }
+        Err(e) if e.kind() == clap::error::ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
+            // `gonio` alone: clap's text would be the whole help; say what is missing.
+            let names: Vec<String> = <Cli as clap::CommandFactory>::command()
+                .get_subcommands()
+                .map(|c| c.get_name().to_string())
+                .filter(|n| n != "help")
+                .collect();
+            eprintln!(
+                "gonio: missing subcommand: one of {} (see --help)",
+                names.join(", ")
+            );
+            return ExitCode::from(EXIT_USAGE);
+        }
         Err(e) => {
             // One clear line: clap's first paragraph (which may list missing arguments
             // on lines of their own), joined.

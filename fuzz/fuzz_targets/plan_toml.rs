@@ -1,0 +1,23 @@
+//! Arbitrary text as a TOML plan file: never panics, and an accepted plan has points inside the model's domain and splits into device sweeps.
+#![no_main]
+
+use std::collections::BTreeSet;
+
+use gonio::host_plan::HostPlan;
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|data: &[u8]| {
+    let Ok(text) = std::str::from_utf8(data) else {
+        return;
+    };
+    if let Ok(plan) = HostPlan::from_toml_str(text, "fuzz.toml", &Default::default()) {
+        assert!(!plan.points.is_empty());
+        for p in &plan.points {
+            assert!((0.0..=90.0).contains(&p.theta_i), "{p:?}");
+            assert!((-90.0..=90.0).contains(&p.theta_r), "{p:?}");
+        }
+        let sweeps = plan.sweeps_for(&BTreeSet::new(), 1);
+        let n: usize = sweeps.iter().map(|s| s.map.len()).sum();
+        assert_eq!(n, plan.points.len());
+    }
+});

@@ -152,6 +152,12 @@ pub fn fit_file(
     if sweep.rows.is_empty() {
         return Err(CliError::usage(format!("{}: no readings", path.display())));
     }
+    if let Some(max) = crate::sweep_file::looks_like_radians(&sweep.rows) {
+        eprintln!(
+            "gonio: warning: every angle in {} is within {max:.3}: are they radians? gonio reads degrees",
+            path.display()
+        );
+    }
     let data = Dataset::from_rows(&sweep.rows, opts.residual != Residual::Absolute)
         .map_err(|e| CliError::usage(format!("{}: {}", path.display(), e.0)))?;
     let fam = fit::fit_family(&data, opts, kinds)

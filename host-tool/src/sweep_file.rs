@@ -6,6 +6,7 @@
 //! # gonio sweep v1
 //! # status: complete     readings=0000153 missing=0000000 gaps=0000000 dropped=0000000 timeouts=0000000
 //! # device: qemu firmware 0.1.0 protocol 1
+//! # units: degrees
 //! # plan: paper
 //! # settings: samples=4 settle_ms=50 dark=false exclude_retro=0
 //! # started: 2026-11-22T00:15:02Z
@@ -158,6 +159,7 @@ impl SweepWriter {
         let mut text = String::from(first);
         text.push_str(&status_line(Status::Running, &Counters::default()));
         text.push_str(&format!("# device: {}\n", header.device));
+        text.push_str("# units: degrees\n");
         text.push_str(&format!("# plan: {}\n", header.plan));
         text.push_str(&format!("# settings: {}\n", header.settings));
         text.push_str(&format!(
@@ -305,6 +307,21 @@ pub fn read_sweep(path: &Path) -> Result<SweepData, CliError> {
         .map_err(|e| CliError::usage(format!("cannot read {}: {e}", path.display())))?;
     parse_sweep(&bytes)
         .map_err(|(line, msg)| CliError::usage(format!("{}:{line}: {msg}", path.display())))
+}
+
+/// The angle units a file may declare (`# units: ...`); anything else is refused rather
+/// than fitted with the wrong scale.
+pub const ANGLE_UNITS: [&str; 3] = ["degrees", "degree", "deg"];
+
+/// A hint that angles were written in radians: every angle within +-pi/2 (plus a
+/// rounding margin) while the file spans more than a few points. Returns the largest
+/// |angle| when that is so.
+pub fn looks_like_radians(rows: &[Row]) -> Option<f64> {
+    let max = rows
+        .iter()
+        .flat_map(|r| [r.theta_i.abs(), r.theta_r.abs()])
+        .fold(0.0, f64::max);
+    (rows.len() >= 5 && max > 0.0 && max <= std::f64::consts::FRAC_PI_2 + 1e-3).then_some(max)
 }
 
 /// Parses sweep file bytes; errors carry the 1-based line number.

@@ -170,3 +170,22 @@ fn tempdir() -> PathBuf {
     std::fs::create_dir_all(&d).unwrap();
     d
 }
+
+#[test]
+fn units_are_declared_and_radians_are_suspected() {
+    let dir = tempdir();
+    let path = dir.join("u.csv");
+    SweepWriter::create(&path, &header(), false).unwrap();
+    assert_eq!(read_sweep(&path).unwrap().meta["units"], "degrees");
+    assert!(parse_sweep(b"# units: Deg\ntheta_i,theta_r,brdf\n").is_ok());
+    let rad: Vec<Row> = (0..9)
+        .map(|k| Row {
+            theta_i: 0.35,
+            theta_r: -1.4 + 0.35 * k as f64,
+            ..row(0)
+        })
+        .collect();
+    assert_eq!(looks_like_radians(&rad), Some(1.4));
+    let deg: Vec<Row> = (0..9).map(row).collect();
+    assert_eq!(looks_like_radians(&deg), None);
+}

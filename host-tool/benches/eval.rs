@@ -4,11 +4,11 @@
 
 use std::hint::black_box;
 
+use brdf_core::Model;
 use brdf_core::fast::FastModel;
 use brdf_core::sim::XorShift32;
-use brdf_core::{Model, Params};
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use gonio::bench::{dense_grid, eval_grid, naive};
+use gonio::bench::{bench_params, dense_grid, eval_grid, naive};
 
 fn pairs(ti: &[f32], tr: &[f32]) -> Vec<(f32, f32)> {
     ti.iter()
@@ -17,20 +17,7 @@ fn pairs(ti: &[f32], tr: &[f32]) -> Vec<(f32, f32)> {
 }
 
 fn bench(c: &mut Criterion) {
-    let p64 = Params {
-        ks: 215.0,
-        sigma: 0.115,
-        kdd: 900.0,
-        sigma_m: 0.7,
-        kid: 25.0,
-    };
-    let p32 = Params {
-        ks: 215.0f32,
-        sigma: 0.115,
-        kdd: 900.0,
-        sigma_m: 0.7,
-        kid: 25.0,
-    };
+    let (p64, p32) = (bench_params::<f64>(), bench_params::<f32>());
     let m64 = Model::three_component(p64).unwrap();
     let m32 = Model::three_component(p32).unwrap();
     let fast = FastModel::new(&m32, 0.0);

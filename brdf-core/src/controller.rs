@@ -377,10 +377,7 @@ impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, 
             State::Idle => Tick::Idle,
             State::Homing(arm) => {
                 let arm = *arm;
-                let r = match arm {
-                    Arm::Detector => self.detector.tick(now_ms),
-                    Arm::Source => self.source.tick(now_ms),
-                };
+                let r = self.tick_arm(arm, now_ms);
                 match r {
                     Ok(Tick::Wait(us)) => Tick::Wait(us),
                     Ok(Tick::Idle) if arm == Arm::Detector => {
@@ -401,10 +398,8 @@ impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, 
                 }
             }
             State::Jogging(arm) => {
-                let r = match arm {
-                    Arm::Detector => self.detector.tick(now_ms),
-                    Arm::Source => self.source.tick(now_ms),
-                };
+                let arm = *arm;
+                let r = self.tick_arm(arm, now_ms);
                 match r {
                     Ok(Tick::Wait(us)) => Tick::Wait(us),
                     Ok(Tick::Idle) => {
@@ -416,6 +411,14 @@ impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, 
                 }
             }
             State::Sweep(_) => self.sweep_tick(now_us),
+        }
+    }
+
+    /// One tick of one arm.
+    fn tick_arm(&mut self, arm: Arm, now_ms: u32) -> Result<Tick, AxisError> {
+        match arm {
+            Arm::Source => self.source.tick(now_ms),
+            Arm::Detector => self.detector.tick(now_ms),
         }
     }
 
@@ -470,10 +473,7 @@ impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, 
                     Arm::Detector
                 };
                 let now_ms = (now_us / 1000) as u32;
-                let r = match arm {
-                    Arm::Source => self.source.tick(now_ms),
-                    Arm::Detector => self.detector.tick(now_ms),
-                };
+                let r = self.tick_arm(arm, now_ms);
                 match r {
                     Ok(Tick::Wait(us)) => Tick::Wait(us),
                     Ok(Tick::Idle) => {

@@ -2,34 +2,18 @@
 #![no_main]
 
 use brdf_core::axis::Tick;
-use brdf_core::controller::{Controller, ControllerConfig};
 use brdf_core::frame::MAX_FRAME_LEN;
 use brdf_core::mechanics::{DETECTOR, SOURCE};
 use brdf_core::presets::Preset;
-use brdf_core::sim::{SimArm, SimPin, VirtualSample};
+use brdf_core::sim::{VirtualSample, simulated_controller};
 use libfuzzer_sys::fuzz_target;
 
 /// Ticks allowed per input (simulated motion is one tick per step).
 const TICKS: u32 = 60_000;
 
 fuzz_target!(|data: &[u8]| {
-    let cfg = ControllerConfig {
-        board: "fuzz",
-        firmware: [0, 0, 0],
-        source: SOURCE,
-        detector: DETECTOR,
-    };
     let fe = Preset::by_name("fe-0.115").unwrap();
-    let mut c = Controller::new(
-        cfg,
-        SimArm::new(SOURCE.to_steps(45.0), SOURCE.to_steps(SOURCE.home_deg)),
-        SimArm::new(
-            DETECTOR.to_steps(10.0),
-            DETECTOR.to_steps(DETECTOR.home_deg),
-        ),
-        SimPin::default(),
-        VirtualSample::new(fe, 0.005, 1),
-    );
+    let mut c = simulated_controller("fuzz", [0, 0, 0], VirtualSample::new(fe, 0.005, 1));
     let mut now = 0u64;
     let mut ticks = 0u32;
     let mut buf = [0u8; MAX_FRAME_LEN];

@@ -209,8 +209,9 @@ impl Fixed {
     }
 }
 
-/// Every coordinate of a kind, fixed or free.
-pub fn coords(kind: Kind, n_inc: usize) -> Vec<Coord> {
+/// The scalar coordinates of a kind (sigma, sigma_m, k_dd, k_id as it has them), in
+/// report order.
+pub fn scalar_coords(kind: Kind) -> Vec<Coord> {
     let mut c = Vec::new();
     if kind.specular() {
         c.push(Coord::Sigma);
@@ -219,6 +220,12 @@ pub fn coords(kind: Kind, n_inc: usize) -> Vec<Coord> {
         c.extend([Coord::SigmaM, Coord::Kdd]);
     }
     c.push(Coord::Kid);
+    c
+}
+
+/// Every coordinate of a kind, fixed or free.
+pub fn coords(kind: Kind, n_inc: usize) -> Vec<Coord> {
+    let mut c = scalar_coords(kind);
     match kind {
         Kind::TorranceSparrow | Kind::ThreeComponent => c.extend((0..n_inc).map(Coord::Ks)),
         Kind::ThreeSmooth => c.extend((0..3).map(Coord::KsPoly)),

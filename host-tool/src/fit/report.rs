@@ -3,7 +3,7 @@
 
 use serde_json::{Value, json};
 
-use super::family::{Coord, Kind};
+use super::family::{Coord, Kind, scalar_coords};
 use super::{FamilyFit, Fit};
 
 /// A parameter's name in reports.
@@ -83,15 +83,7 @@ pub fn model_json(fit: &Fit, incidences: &[f64]) -> Value {
     let mut params = serde_json::Map::new();
     let mut errors = serde_json::Map::new();
     let kind = fit.kind;
-    let mut scalars = Vec::new();
-    if kind.specular() {
-        scalars.push(Coord::Sigma);
-    }
-    if kind.directional() {
-        scalars.extend([Coord::SigmaM, Coord::Kdd]);
-    }
-    scalars.push(Coord::Kid);
-    for c in scalars {
+    for c in scalar_coords(kind) {
         let (v, se) = scalar(fit, c);
         let name = coord_name(kind, c, incidences);
         params.insert(name.clone(), num(v));
@@ -199,15 +191,7 @@ pub fn family_table(f: &FamilyFit, residual: &str) -> String {
             fit.kind.name(),
             fit.k()
         );
-        let mut scalars = Vec::new();
-        if fit.kind.specular() {
-            scalars.push(Coord::Sigma);
-        }
-        if fit.kind.directional() {
-            scalars.extend([Coord::SigmaM, Coord::Kdd]);
-        }
-        scalars.push(Coord::Kid);
-        for c in scalars {
+        for c in scalar_coords(fit.kind) {
             let (v, se) = scalar(fit, c);
             let fixed = if fit.free.contains(&c) {
                 ""

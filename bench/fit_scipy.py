@@ -2,7 +2,7 @@
 """Fit the three-component model to a gonio sweep file with scipy.optimize.least_squares,
 the way a lab would without gonio, for the speed comparison in docs/PERFORMANCE.md.
 
-Same model (MODEL.md eq. 2-6), same residuals as `gonio fit` (ln f - ln y), same
+Same model (docs/model.md eq. 2-6), same residuals as `gonio fit` (ln f - ln y), same
 coordinates (logarithms of sigma, sigma_m, k_dd, k_id and one k_s per incidence), a
 generic starting point, scipy's default finite-difference Jacobian and 'trf' method.
 Prints one JSON object: seconds per fit (best of --repeat), cost, the paper's

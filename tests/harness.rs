@@ -32,7 +32,7 @@ pub fn qemu_elf() -> PathBuf {
         .expect("run cargo to build the qemu firmware");
     assert!(
         status.success(),
-        "building the qemu firmware failed (run `cargo xtask setup` first?)"
+        "building the qemu firmware failed (`cargo xtask firmware --board qemu` installs the thumb target and flip-link)"
     );
     fw.join("target/thumbv7em-none-eabihf/release/qemu")
 }

@@ -1,4 +1,4 @@
-//! The three-component BRDF (eq. 2-6 of MODEL.md) and the Torrance–Sparrow baseline,
+//! The three-component BRDF (eq. 2-6 of docs/model.md) and the Torrance–Sparrow baseline,
 //! generic over `f32`/`f64`, validated at construction and stable on every hard case.
 //!
 //! BRDF values are in the paper's relative units (sr^-1 up to the instrument's scale).

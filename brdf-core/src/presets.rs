@@ -7,7 +7,7 @@ use crate::model::{Model, Params};
 /// Incidence angles (degrees) at which the paper tabulates k_s: 0, 10, ..., 80.
 pub const KS_TABLE_STEP_DEG: f64 = 10.0;
 
-/// A material preset from the paper's tables (MODEL.md).
+/// A material preset from the paper's tables (docs/model.md).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Preset {
     /// The preset's name, e.g. `"fe-0.115"`.
@@ -20,7 +20,7 @@ pub struct Preset {
     pub ks_table: [f64; 9],
 }
 
-/// All presets, in the order of MODEL.md's table.
+/// All presets, in the order of the table in docs/model.md.
 pub const PRESETS: [Preset; 5] = [
     Preset {
         name: "al-0.087",

@@ -1,7 +1,7 @@
 //! The bench subcommands that talk to a goniometer: `gonio info`, `gonio capture` and
 //! `gonio simulate` (the same capture against a simulated device).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
@@ -14,6 +14,7 @@ use crate::capture::{CaptureReport, CaptureSetup, Connector, capture};
 use crate::error::{CliError, CliResult};
 use crate::host_plan::{DEFAULT_ADAPTIVE_BUDGET, HostPlan, SettingsOverride};
 use crate::link::{Link, LinkError, SerialTransport};
+use crate::ports;
 use crate::progress::{self, Progress, Quiet};
 use crate::sim_device::{InProcessDevice, PtyDevice, SimConfig};
 use crate::sweep_file::Status;
@@ -36,17 +37,7 @@ impl SerialConnector {
 }
 
 fn usb_serial_of(path: &str) -> Option<String> {
-    let real = std::fs::canonicalize(path).ok()?;
-    serialport::available_ports()
-        .ok()?
-        .into_iter()
-        .find_map(|p| {
-            let same = std::fs::canonicalize(&p.port_name).ok()? == real;
-            match p.port_type {
-                serialport::SerialPortType::UsbPort(u) if same => u.serial_number,
-                _ => None,
-            }
-        })
+    ports::usb_serial_of(&ports::available_ports().ok()?, Path::new(path))
 }
 
 impl Connector for SerialConnector {
@@ -58,15 +49,12 @@ impl Connector for SerialConnector {
             Err(e) => {
                 // The device may be back under another name: find it by serial number.
                 let serial = self.usb_serial.clone().ok_or(e)?;
-                let ports = serialport::available_ports()
+                let infos = ports::available_ports()
                     .map_err(|e| LinkError::Io(std::io::Error::other(e)))?;
-                let found = ports.into_iter().find(|p| {
-                    matches!(&p.port_type, serialport::SerialPortType::UsbPort(u) if u.serial_number.as_deref() == Some(&serial))
-                });
-                let p = found.ok_or(LinkError::Timeout(
+                let p = ports::find_by_usb_serial(&infos, &serial).ok_or(LinkError::Timeout(
                     "device with that USB serial number not present",
                 ))?;
-                self.path = p.port_name;
+                self.path = p.port_name.clone();
                 Ok(Link::new(SerialTransport::open(&self.path)?))
             }
         }

@@ -1,6 +1,7 @@
 //! `gonio ports`: lists the serial ports and marks the ones that look like our firmware.
 
 use std::fmt::Write as _;
+use std::path::Path;
 
 use clap::Args;
 use serialport::{SerialPortInfo, SerialPortType};
@@ -87,6 +88,39 @@ pub fn looks_like_gonio(vid: u16, pid: u16, product: Option<&str>) -> Likeness {
     } else {
         Likeness::No
     }
+}
+
+/// The system's serial ports. Without libudev, serialport reads `/sys/class/tty` on
+/// Linux and panics when it is absent (a container without sysfs): that is an error here.
+pub fn available_ports() -> Result<Vec<SerialPortInfo>, String> {
+    if cfg!(target_os = "linux") && !Path::new("/sys/class/tty").is_dir() {
+        return Err("/sys/class/tty is missing (sysfs not mounted?)".into());
+    }
+    serialport::available_ports().map_err(|e| e.to_string())
+}
+
+/// The USB serial number of the port at `path`, if `infos` lists it as a USB port.
+/// Paths are compared after resolving symlinks, so `/dev/serial/by-id/...` names the
+/// same port as the `/dev/ttyACM0` it points to.
+pub fn usb_serial_of(infos: &[SerialPortInfo], path: &Path) -> Option<String> {
+    let real = std::fs::canonicalize(path).ok()?;
+    infos.iter().find_map(|p| match &p.port_type {
+        SerialPortType::UsbPort(u) if std::fs::canonicalize(&p.port_name).ok()? == real => {
+            u.serial_number.clone()
+        }
+        _ => None,
+    })
+}
+
+/// The USB port whose serial number is `serial`: how a device that came back under
+/// another name (`/dev/ttyACM1` after `/dev/ttyACM0`) is found again.
+pub fn find_by_usb_serial<'a>(
+    infos: &'a [SerialPortInfo],
+    serial: &str,
+) -> Option<&'a SerialPortInfo> {
+    infos.iter().find(|p| {
+        matches!(&p.port_type, SerialPortType::UsbPort(u) if u.serial_number.as_deref() == Some(serial))
+    })
 }
 
 /// One listed port, ready to print.
@@ -254,7 +288,7 @@ pub fn json(rows: &[PortRow]) -> String {
 
 /// Runs `gonio ports`.
 pub fn run(args: &PortsArgs) -> CliResult {
-    let mut infos = serialport::available_ports()
+    let mut infos = available_ports()
         .map_err(|e| CliError::failed(format!("cannot list serial ports: {e}")))?;
     infos.sort_by(|a, b| a.port_name.cmp(&b.port_name));
     let rows: Vec<PortRow> = infos.iter().map(PortRow::from_info).collect();
@@ -319,6 +353,148 @@ mod tests {
             looks_like_gonio(0x16c0, 0x27dd, Some("gonio goniometer v2")),
             Likeness::No
         );
+    }
+
+    // What serialport reports is tested on constructed `SerialPortInfo`s, not on a fake
+    // sysfs tree: without libudev, serialport 4.10.1 enumerates Linux ports in
+    // `posix/enumerate.rs` by reading the hard-coded `/sys/class/tty/` (and checking
+    // `/dev/NAME` exists), and its sysfs readers (`read_port_type`,
+    // `read_usb_port_info`) are private, with no way to give them another root. Only a
+    // mount namespace with a bind mount over /sys/class/tty (root only) could fake one.
+    // What it reads there: `idVendor`/`idProduct` (hex), `product`, `manufacturer` and
+    // `serial` of the USB device, the raw strings, which is what these infos hold.
+    fn usb_info(
+        port: &str,
+        vid: u16,
+        pid: u16,
+        product: Option<&str>,
+        serial: Option<&str>,
+    ) -> SerialPortInfo {
+        SerialPortInfo {
+            port_name: port.into(),
+            port_type: SerialPortType::UsbPort(serialport::UsbPortInfo {
+                vid,
+                pid,
+                serial_number: serial.map(Into::into),
+                manufacturer: Some("gonio".into()),
+                product: product.map(Into::into),
+                interface: Some(0),
+            }),
+        }
+    }
+
+    #[test]
+    fn rows_from_port_infos_mark_the_board() {
+        let infos = [
+            usb_info(
+                "/dev/ttyACM0",
+                0x16c0,
+                0x27dd,
+                Some("gonio goniometer"),
+                Some("3F0041000C51333034353235"),
+            ),
+            usb_info("/dev/ttyACM1", 0x16c0, 0x27dd, None, Some("1")),
+            usb_info(
+                "/dev/ttyACM2",
+                0x16c0,
+                0x27dd,
+                Some("Some Other Gadget"),
+                None,
+            ),
+            SerialPortInfo {
+                port_name: "/dev/ttyS0".into(),
+                port_type: SerialPortType::PciPort,
+            },
+            SerialPortInfo {
+                port_name: "/dev/rfcomm0".into(),
+                port_type: SerialPortType::BluetoothPort,
+            },
+        ];
+        let rows: Vec<PortRow> = infos.iter().map(PortRow::from_info).collect();
+        let marks: Vec<Likeness> = rows.iter().map(|r| r.gonio).collect();
+        assert_eq!(
+            marks,
+            [
+                Likeness::Yes,
+                Likeness::Maybe,
+                Likeness::No,
+                Likeness::No,
+                Likeness::No
+            ]
+        );
+        assert_eq!(rows[0].vid_pid, Some((0x16c0, 0x27dd)));
+        assert_eq!(
+            rows[0].serial_number.as_deref(),
+            Some("3F0041000C51333034353235")
+        );
+        assert_eq!(rows[0].product.as_deref(), Some("gonio goniometer"));
+        assert_eq!(
+            rows.iter().map(|r| r.kind).collect::<Vec<_>>(),
+            ["usb", "usb", "usb", "pci", "bluetooth"]
+        );
+        assert_eq!(rows[3].vid_pid, None);
+    }
+
+    #[test]
+    fn a_lost_device_is_found_again_by_usb_serial_number() {
+        let infos = [
+            SerialPortInfo {
+                port_name: "/dev/ttyS0".into(),
+                port_type: SerialPortType::PciPort,
+            },
+            usb_info(
+                "/dev/ttyACM0",
+                0x0483,
+                0x374b,
+                Some("STM32 STLink"),
+                Some("066DFF"),
+            ),
+            usb_info(
+                "/dev/ttyACM3",
+                0x16c0,
+                0x27dd,
+                Some("gonio goniometer"),
+                Some("3F0041"),
+            ),
+        ];
+        let found = find_by_usb_serial(&infos, "3F0041").unwrap();
+        assert_eq!(found.port_name, "/dev/ttyACM3");
+        assert_eq!(
+            find_by_usb_serial(&infos, "066DFF").unwrap().port_name,
+            "/dev/ttyACM0"
+        );
+        // Exact match only: no prefix, no other device, no port without a number.
+        assert!(find_by_usb_serial(&infos, "3F00").is_none());
+        assert!(find_by_usb_serial(&infos, "").is_none());
+        let none = [usb_info("/dev/ttyACM0", 0x16c0, 0x27dd, None, None)];
+        assert!(find_by_usb_serial(&none, "3F0041").is_none());
+    }
+
+    #[test]
+    fn the_serial_number_of_a_path_follows_symlinks() {
+        let dir = std::env::temp_dir().join(format!("gonio-ports-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let dev = dir.join("ttyACM0");
+        std::fs::write(&dev, b"").unwrap();
+        let by_id = dir.join("usb-gonio_gonio_goniometer_3F0041-if00");
+        let _ = std::fs::remove_file(&by_id);
+        std::os::unix::fs::symlink(&dev, &by_id).unwrap();
+        let other = dir.join("ttyACM1");
+        std::fs::write(&other, b"").unwrap();
+        let infos = [
+            usb_info(other.to_str().unwrap(), 0x16c0, 0x27dd, None, Some("OTHER")),
+            usb_info(
+                dev.to_str().unwrap(),
+                0x16c0,
+                0x27dd,
+                Some("gonio goniometer"),
+                Some("3F0041"),
+            ),
+        ];
+        assert_eq!(usb_serial_of(&infos, &dev).as_deref(), Some("3F0041"));
+        assert_eq!(usb_serial_of(&infos, &by_id).as_deref(), Some("3F0041"));
+        assert_eq!(usb_serial_of(&infos, &dir.join("missing")), None);
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     fn row(port: &str, product: Option<&str>, gonio: Likeness) -> PortRow {

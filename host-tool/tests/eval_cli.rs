@@ -1,5 +1,5 @@
 //! `gonio eval` as a user runs it: output contract, negative angle forms, bad input.
-#![allow(clippy::excessive_precision)] // reference values copied verbatim from MODEL.md
+#![allow(clippy::excessive_precision)] // reference values copied verbatim from docs/model.md
 
 use std::process::Command;
 

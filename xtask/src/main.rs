@@ -1,15 +1,17 @@
-//! `cargo xtask`: the project's build and test entry points.
+//! `cargo xtask`: the project's build and test entry points (`cargo xtask --help`).
 //!
-//! - `cargo xtask setup`: installs what the build needs (thumb target, llvm-tools,
-//!   flip-link, qemu-system-arm, libudev-dev).
-//! - `cargo xtask firmware --board qemu|stm32f411`: builds the release ELF and prints
-//!   its path as the last line of stdout.
-//! - `cargo xtask size`: builds both boards and checks the stm32f411 size budget.
-//! - `cargo xtask qemu-e2e`: builds the qemu image and runs the end-to-end test.
-//! - `cargo xtask test`: everything CI runs.
+//! Every command installs the Rust-side tools it needs when they are missing (thumb
+//! target, flip-link, llvm-tools; QEMU through apt-get), so none needs `setup` first.
+
+mod perf;
+mod tools;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
+
+use clap::{Parser, Subcommand, ValueEnum};
+
+use tools::{ensure_firmware_tools, ensure_qemu, llvm_tool};
 
 const THUMB: &str = "thumbv7em-none-eabihf";
 /// Size budget of the stm32f411 release image (issue: flash text+data, static RAM).
@@ -18,37 +20,112 @@ const RAM_BUDGET: u64 = 16 * 1024;
 
 type Result<T = ()> = std::result::Result<T, String>;
 
-const USAGE: &str = "usage: cargo xtask <command>
-  setup                              install the thumb target, llvm-tools, flip-link,
-                                     qemu-system-arm and libudev-dev when missing
-  firmware --board qemu|stm32f411    build the release ELF, print its path last
-  size                               build both boards, print sizes, check the budget
-  qemu-e2e                           build the qemu image, run the end-to-end test
-  firmware-bench                     instructions and flash bytes per evaluation variant
-                                     on the Cortex-M4 (QEMU -icount)
-  perf-report                        regenerate docs/PERFORMANCE.md and its chart (needs
-                                     python3 with numpy and scipy; installs them if missing)
-  test                               setup, fmt, clippy, host tests (with qemu-e2e),
-                                     firmware builds, clippy and size budget";
+/// The project's build and test entry points.
+#[derive(Debug, Parser)]
+#[command(
+    name = "cargo xtask",
+    bin_name = "cargo xtask",
+    about = "Build the firmware, check its size, run the QEMU end-to-end test and CI",
+    long_about = "Build the firmware, check its size, run the QEMU end-to-end test and \
+everything CI runs.\n\n\
+Each command installs what it needs when it is missing: the Rust target \
+thumbv7em-none-eabihf (rustup target add), the flip-link linker (cargo install flip-link \
+--locked), rustup's llvm-tools (for sizes and symbols) and, for the commands that run \
+QEMU, qemu-system-arm (apt-get, needs root). `setup` installs all of them at once.\n\n\
+Exit status: 0 success, 2 failure or bad usage (message on stderr)."
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Cmd,
+}
+
+#[derive(Debug, Subcommand)]
+enum Cmd {
+    /// Install everything the other commands need, when missing: the thumb target,
+    /// llvm-tools, flip-link and qemu-system-arm.
+    Setup,
+    /// Build a board's release firmware ELF and print its path as the last line of
+    /// stdout (firmware/target/thumbv7em-none-eabihf/release/BOARD).
+    Firmware {
+        /// The board to build for: `stm32f411` (WeAct Black Pill, USB CDC) or `qemu`
+        /// (QEMU's netduinoplus2, USART1 on a pseudo-terminal).
+        #[arg(long, value_enum)]
+        board: Board,
+    },
+    /// Build both boards, print flash and static RAM sizes, and fail if the stm32f411
+    /// image exceeds its budget (64 KiB flash, 16 KiB RAM).
+    Size,
+    /// Build the qemu image and run the end-to-end tests (package gonio-e2e) against it.
+    QemuE2e,
+    /// Instructions and flash bytes per evaluation variant on the Cortex-M4 (the bench
+    /// image under QEMU -icount), as a Markdown table.
+    FirmwareBench,
+    /// Regenerate docs/PERFORMANCE.md and docs/speed_vs_error.png (gonio bench, the
+    /// firmware bench, gonio fit against scipy; installs numpy and scipy with pip if missing).
+    PerfReport,
+    /// Everything CI runs: setup, fmt and clippy (workspace and firmware), the thumb
+    /// build of brdf-core, the size budget, and all workspace tests with the qemu image
+    /// (so the end-to-end tests run too).
+    Test,
+}
+
+/// A firmware board (a binary and a feature of the `firmware` package).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum Board {
+    /// WeAct Black Pill STM32F411CE, USB CDC.
+    Stm32f411,
+    /// QEMU netduinoplus2, USART1 over a pseudo-terminal.
+    Qemu,
+}
+
+impl Board {
+    fn name(self) -> &'static str {
+        match self {
+            Board::Stm32f411 => "stm32f411",
+            Board::Qemu => "qemu",
+        }
+    }
+}
+
+/// Parses the arguments; `--help` prints and exits 0, bad usage is one line and exit 2.
+fn parse() -> std::result::Result<Cli, ExitCode> {
+    match Cli::try_parse() {
+        Ok(cli) => Ok(cli),
+        Err(e) if !e.use_stderr() => {
+            let _ = e.print();
+            Err(ExitCode::SUCCESS)
+        }
+        Err(e) => {
+            // clap's first paragraph, on one line.
+            let text = e.to_string();
+            let what: Vec<&str> = text
+                .lines()
+                .take_while(|l| !l.trim().is_empty())
+                .map(str::trim)
+                .collect();
+            let what = what.join(" ");
+            eprintln!(
+                "xtask: {} (see cargo xtask --help)",
+                what.trim_start_matches("error: ")
+            );
+            Err(ExitCode::from(2))
+        }
+    }
+}
 
 fn main() -> ExitCode {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let args: Vec<&str> = args.iter().map(String::as_str).collect();
-    let result = match args.as_slice() {
-        ["setup"] => setup(),
-        ["firmware", "--board", board] | ["firmware", "--board=", board] => {
-            firmware(board).map(|p| println!("{}", p.display()))
-        }
-        ["size"] => size().map(|_| ()),
-        ["qemu-e2e"] => qemu_e2e(),
-        ["firmware-bench"] => firmware_bench().map(|t| print!("{t}")),
-        ["perf-report"] => perf_report(),
-        ["test"] => test_all(),
-        ["help" | "--help" | "-h"] => {
-            println!("{USAGE}");
-            Ok(())
-        }
-        _ => Err(USAGE.to_string()),
+    let cli = match parse() {
+        Ok(cli) => cli,
+        Err(code) => return code,
+    };
+    let result = match cli.command {
+        Cmd::Setup => setup(),
+        Cmd::Firmware { board } => firmware(board).map(|p| println!("{}", p.display())),
+        Cmd::Size => size(),
+        Cmd::QemuE2e => qemu_e2e(),
+        Cmd::FirmwareBench => perf::firmware_bench().map(|t| print!("{t}")),
+        Cmd::PerfReport => perf::perf_report(),
+        Cmd::Test => test_all(),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -85,71 +162,23 @@ fn run(dir: &Path, program: &str, args: &[&str]) -> Result {
     }
 }
 
-fn works(program: &str, args: &[&str]) -> bool {
-    Command::new(program)
-        .args(args)
-        .output()
-        .map(|o| o.status.success())
-        .unwrap_or(false)
-}
-
-fn llvm_size() -> Result<PathBuf> {
-    let out = Command::new("rustc")
-        .args(["--print", "sysroot"])
-        .output()
-        .map_err(|e| e.to_string())?;
-    let sysroot = String::from_utf8_lossy(&out.stdout).trim().to_string();
-    let host = Command::new("rustc")
-        .args(["-vV"])
-        .output()
-        .map_err(|e| e.to_string())?;
-    let host = String::from_utf8_lossy(&host.stdout)
-        .lines()
-        .find_map(|l| l.strip_prefix("host: ").map(str::to_string))
-        .ok_or("rustc -vV printed no host")?;
-    Ok(PathBuf::from(sysroot)
-        .join("lib/rustlib")
-        .join(host)
-        .join("bin/llvm-size"))
-}
-
-/// Installs what the build needs when missing. apt needs root (CI and these machines
-/// run as root); elsewhere install qemu-system-arm and libudev-dev yourself.
+/// Installs everything the commands need, when missing (each command also installs
+/// its own needs). The system library libudev is not needed: gonio enumerates serial
+/// ports from sysfs.
 fn setup() -> Result {
     let root = root();
-    run(&root, "rustup", &["target", "add", THUMB])?;
-    if !llvm_size()?.exists() {
-        run(&root, "rustup", &["component", "add", "llvm-tools"])?;
-    }
-    if !works("flip-link", &["--version"]) {
-        run(&root, "cargo", &["install", "flip-link", "--locked"])?;
-    }
-    let need_qemu = !works("qemu-system-arm", &["--version"]);
-    let need_udev = !works("pkg-config", &["--exists", "libudev"]);
-    if need_qemu || need_udev {
-        run(&root, "apt-get", &["update", "-qq"])?;
-        run(
-            &root,
-            "apt-get",
-            &[
-                "install",
-                "-y",
-                "-qq",
-                "qemu-system-arm",
-                "libudev-dev",
-                "pkg-config",
-            ],
-        )?;
-    }
-    Ok(())
+    ensure_firmware_tools(&root)?;
+    llvm_tool(&root, "llvm-size")?;
+    ensure_qemu(&root)
 }
 
-/// Builds a board's release ELF; returns its path.
-fn firmware(board: &str) -> Result<PathBuf> {
-    if !matches!(board, "qemu" | "stm32f411") {
-        return Err(format!("unknown board '{board}' (qemu or stm32f411)"));
-    }
-    let fw = root().join("firmware");
+/// Builds a board's release ELF, installing the target and linker first when missing;
+/// returns its path.
+fn firmware(board: Board) -> Result<PathBuf> {
+    let root = root();
+    ensure_firmware_tools(&root)?;
+    let board = board.name();
+    let fw = root.join("firmware");
     run(
         &fw,
         "cargo",
@@ -160,7 +189,7 @@ fn firmware(board: &str) -> Result<PathBuf> {
 
 /// (text, data, bss) of an ELF, from llvm-size's Berkeley format.
 fn sizes(elf: &Path) -> Result<(u64, u64, u64)> {
-    let out = Command::new(llvm_size()?)
+    let out = Command::new(llvm_tool(&root(), "llvm-size")?)
         .arg(elf)
         .output()
         .map_err(|e| format!("llvm-size: {e}"))?;
@@ -177,10 +206,11 @@ fn sizes(elf: &Path) -> Result<(u64, u64, u64)> {
     Ok((v[0], v[1], v[2]))
 }
 
-fn size() -> Result<bool> {
+fn size() -> Result {
     let mut ok = true;
-    for board in ["qemu", "stm32f411"] {
+    for board in [Board::Qemu, Board::Stm32f411] {
         let elf = firmware(board)?;
+        let board = board.name();
         let (text, data, bss) = sizes(&elf)?;
         let (flash, ram) = (text + data, data + bss);
         println!(
@@ -194,231 +224,15 @@ fn size() -> Result<bool> {
         }
     }
     if ok {
-        Ok(true)
+        Ok(())
     } else {
         Err("stm32f411 image over its size budget".into())
     }
 }
 
-/// Builds the `bench` image, runs it under QEMU with `-icount shift=0` and adds each
-/// variant's flash cost from the symbol table. Returns a Markdown table.
-fn firmware_bench() -> Result<String> {
-    let fw = root().join("firmware");
-    run(
-        &fw,
-        "cargo",
-        &["build", "--release", "--bin", "bench", "--features", "qemu"],
-    )?;
-    let elf = fw.join("target").join(THUMB).join("release/bench");
-    let out = command(&root(), "timeout", &["120", "qemu-system-arm"])
-        .args([
-            "-M",
-            "netduinoplus2",
-            "-icount",
-            "shift=0",
-            "-display",
-            "none",
-            "-monitor",
-            "none",
-        ])
-        .args([
-            "-serial",
-            "null",
-            "-semihosting-config",
-            "enable=on,target=native",
-            "-kernel",
-        ])
-        .arg(&elf)
-        .output()
-        .map_err(|e| format!("qemu-system-arm: {e}"))?;
-    if !out.status.success() {
-        return Err(format!(
-            "bench image failed: {}",
-            String::from_utf8_lossy(&out.stderr)
-        ));
-    }
-    let text = String::from_utf8_lossy(&out.stdout);
-    let nm = llvm_size()?.with_file_name("llvm-nm");
-    let syms = Command::new(nm)
-        .args(["--print-size", "--radix=d", "-C"])
-        .arg(&elf)
-        .output()
-        .map_err(|e| e.to_string())?;
-    let syms = String::from_utf8_lossy(&syms.stdout);
-    let size_of = |pat: &dyn Fn(&str) -> bool| -> u64 {
-        syms.lines()
-            .filter_map(|l| {
-                let f: Vec<&str> = l.splitn(4, ' ').collect();
-                (f.len() == 4 && pat(f[3])).then(|| f[1].parse::<u64>().unwrap_or(0))
-            })
-            .sum()
-    };
-    let libm_fns =
-        |s: &str| s.starts_with("libm::math::") && !s.contains("logf") && !s.contains("sqrt");
-    let flash_libm = size_of(&|s| s.starts_with("bench::eval_libm")) + size_of(&libm_fns);
-    let flash_fast = size_of(&|s| s.starts_with("bench::eval_fast"));
-    let mut table =
-        String::from("| variant | instructions / evaluation | flash (bytes) |\n|---|---|---|\n");
-    for line in text.lines().filter(|l| l.starts_with("variant ")) {
-        let f: Vec<&str> = line.split_whitespace().collect();
-        let (name, instr) = (f[1], f[3]);
-        let flash = if name.contains("libm") {
-            flash_libm
-        } else {
-            flash_fast
-        };
-        table.push_str(&format!("| {name} | {instr} | {flash} |\n"));
-    }
-    let cal = text
-        .lines()
-        .find(|l| l.starts_with("calibration"))
-        .unwrap_or("")
-        .to_string();
-    table.push_str(&format!(
-        "\nCortex-M4 (QEMU netduinoplus2, -icount shift=0, SysTick calibrated on 4096 nops: {}). \
-         Counts are instructions, not cycles. Flash: the evaluation function plus the libm \
-         functions it calls (libm) or the inlined fast path (fast); shared soft-float helpers \
-         not counted.\n",
-        cal.trim_start_matches("calibration ")
-    ));
-    Ok(table)
-}
-
-/// The number after `"key":` in a JSON text (enough for the flat outputs we read).
-fn json_number(text: &str, key: &str) -> Option<f64> {
-    let at = text.find(&format!("\"{key}\""))? + key.len() + 2;
-    let rest = text[at..].trim_start().strip_prefix(':')?.trim_start();
-    let end = rest
-        .find(|c: char| !(c.is_ascii_digit() || "+-.eE".contains(c)))
-        .unwrap_or(rest.len());
-    rest[..end].parse().ok()
-}
-
-fn output(dir: &Path, program: &str, args: &[&str]) -> Result<String> {
-    let out = command(dir, program, args)
-        .output()
-        .map_err(|e| format!("{program}: {e}"))?;
-    if !out.status.success() {
-        return Err(format!(
-            "`{program} {}` failed: {}",
-            args.join(" "),
-            String::from_utf8_lossy(&out.stderr)
-        ));
-    }
-    Ok(String::from_utf8_lossy(&out.stdout).into_owned())
-}
-
-/// Regenerates docs/PERFORMANCE.md and docs/speed_vs_error.png.
-fn perf_report() -> Result {
-    let root = root();
-    run(&root, "cargo", &["build", "--release", "-p", "host-tool"])?;
-    let gonio = root.join("target/release/gonio");
-    let gonio = gonio.to_str().ok_or("path")?;
-    if !works("python3", &["-c", "import numpy, scipy"]) {
-        run(
-            &root,
-            "python3",
-            &["-m", "pip", "install", "-q", "numpy", "scipy"],
-        )?;
-    }
-    let docs = root.join("docs");
-    let png = docs.join("speed_vs_error.png");
-    let bench = output(
-        &root,
-        gonio,
-        &[
-            "bench",
-            "--study",
-            "--seconds",
-            "1",
-            "--plot",
-            png.to_str().ok_or("path")?,
-        ],
-    )?;
-    let firmware = firmware_bench()?;
-    // gonio against scipy on the same simulated sweeps.
-    let tmp = std::env::temp_dir().join(format!("gonio-perf-{}", std::process::id()));
-    std::fs::create_dir_all(&tmp).map_err(|e| e.to_string())?;
-    let mut scipy = String::from(
-        "| sweep | gonio three-component (µs) | gonio all four models (µs) | scipy three-component (µs) | ratio (three) | RMSE gonio | RMSE scipy |\n|---|---|---|---|---|---|---|\n",
-    );
-    let mut ratios = Vec::new();
-    for material in ["fe-0.115", "cu-0.070", "al-0.782"] {
-        let sweep = tmp.join(format!("{material}.csv"));
-        let sweep = sweep.to_str().ok_or("path")?;
-        output(
-            &root,
-            gonio,
-            &[
-                "simulate",
-                "--material",
-                material,
-                "--out",
-                sweep,
-                "--force",
-                "-q",
-            ],
-        )?;
-        let best = |models: &str| -> Result<(f64, f64)> {
-            let mut t = f64::INFINITY;
-            let mut rmse = f64::NAN;
-            for _ in 0..15 {
-                let j = output(&root, gonio, &["fit", sweep, "--models", models, "--json"])?;
-                t = t.min(json_number(&j, "fit_seconds").ok_or("no fit_seconds")?);
-                rmse = json_number(&j, "rmse").unwrap_or(f64::NAN);
-            }
-            Ok((t * 1e6, rmse))
-        };
-        let (three_us, rmse_g) = best("three")?;
-        let (all_us, _) = best("ideal,ts,three,three-smooth")?;
-        let py = output(
-            &root,
-            "python3",
-            &[
-                root.join("bench/fit_scipy.py").to_str().ok_or("path")?,
-                sweep,
-                "--repeat",
-                "15",
-            ],
-        )?;
-        let scipy_us = json_number(&py, "seconds").ok_or("no seconds from scipy")? * 1e6;
-        let rmse_s = json_number(&py, "rmse").unwrap_or(f64::NAN);
-        ratios.push(scipy_us / three_us);
-        scipy.push_str(&format!(
-            "| {material} 9x17, 0.5 % noise | {three_us:.0} | {all_us:.0} | {scipy_us:.0} | {:.0}x | {rmse_g:.6} | {rmse_s:.6} |\n",
-            scipy_us / three_us
-        ));
-    }
-    let _ = std::fs::remove_dir_all(&tmp);
-    let cpu = std::fs::read_to_string("/proc/cpuinfo")
-        .ok()
-        .and_then(|c| {
-            c.lines()
-                .find(|l| l.starts_with("model name"))
-                .map(|l| l.split(':').nth(1).unwrap_or("").trim().to_string())
-        })
-        .unwrap_or_else(|| "unknown CPU".into());
-    let template = std::fs::read_to_string(docs.join("PERFORMANCE.template.md"))
-        .map_err(|e| format!("docs/PERFORMANCE.template.md: {e}"))?;
-    let report = template
-        .replace("{{CPU}}", &cpu)
-        .replace("{{BENCH}}", bench.trim_end())
-        .replace("{{FIRMWARE}}", firmware.trim_end())
-        .replace("{{SCIPY}}", scipy.trim_end())
-        .replace(
-            "{{SCIPY_MIN_RATIO}}",
-            &format!(
-                "{:.0}",
-                ratios.iter().cloned().fold(f64::INFINITY, f64::min)
-            ),
-        );
-    std::fs::write(docs.join("PERFORMANCE.md"), report).map_err(|e| e.to_string())?;
-    eprintln!("xtask: wrote docs/PERFORMANCE.md and docs/speed_vs_error.png");
-    Ok(())
-}
-
 fn qemu_e2e() -> Result {
-    let elf = firmware("qemu")?;
+    ensure_qemu(&root())?;
+    let elf = firmware(Board::Qemu)?;
     let status = command(&root(), "cargo", &["test", "-p", "gonio-e2e"])
         .env("GONIO_QEMU_ELF", &elf)
         .status()
@@ -471,7 +285,7 @@ fn test_all() -> Result {
         &["build", "--release", "-p", "brdf-core", "--target", THUMB],
     )?;
     size()?;
-    let elf = firmware("qemu")?;
+    let elf = firmware(Board::Qemu)?;
     let status = command(&root, "cargo", &["test", "--workspace"])
         .env("GONIO_QEMU_ELF", &elf)
         .status()
@@ -481,4 +295,70 @@ fn test_all() -> Result {
     }
     eprintln!("xtask: all checks passed");
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    fn parse(args: &[&str]) -> std::result::Result<Cmd, clap::Error> {
+        Cli::try_parse_from(std::iter::once("xtask").chain(args.iter().copied())).map(|c| c.command)
+    }
+
+    #[test]
+    fn both_forms_of_board_parse() {
+        for args in [
+            &["firmware", "--board", "qemu"][..],
+            &["firmware", "--board=qemu"],
+        ] {
+            assert!(matches!(
+                parse(args).unwrap(),
+                Cmd::Firmware { board: Board::Qemu }
+            ));
+        }
+        assert!(matches!(
+            parse(&["firmware", "--board=stm32f411"]).unwrap(),
+            Cmd::Firmware {
+                board: Board::Stm32f411
+            }
+        ));
+        assert!(matches!(parse(&["qemu-e2e"]).unwrap(), Cmd::QemuE2e));
+        assert!(matches!(parse(&["perf-report"]).unwrap(), Cmd::PerfReport));
+    }
+
+    #[test]
+    fn bad_usage_is_an_error_that_names_the_problem() {
+        let e = parse(&["firmware", "--board", "esp32"]).unwrap_err();
+        assert!(e.to_string().contains("esp32"), "{e}");
+        assert!(parse(&["firmware"]).is_err());
+        assert!(parse(&["flash"]).is_err());
+    }
+
+    #[test]
+    fn help_explains_every_subcommand() {
+        Cli::command().debug_assert();
+        let help = Cli::command().render_long_help().to_string();
+        for sub in Cli::command().get_subcommands() {
+            assert!(
+                sub.get_about().is_some_and(|a| a.to_string().len() > 20),
+                "{} has no explanation",
+                sub.get_name()
+            );
+            assert!(help.contains(sub.get_name()), "{help}");
+        }
+        let fw = Cli::command()
+            .find_subcommand_mut("firmware")
+            .unwrap()
+            .render_long_help()
+            .to_string();
+        assert!(fw.contains("stm32f411") && fw.contains("qemu"), "{fw}");
+    }
+
+    #[test]
+    fn board_names_are_the_firmware_features() {
+        for b in Board::value_variants() {
+            assert_eq!(b.to_possible_value().unwrap().get_name(), b.name());
+        }
+    }
 }

@@ -123,7 +123,7 @@ impl Fit {
 
     /// k_s at any incidence (degrees): the smooth model's curve, or for per-angle
     /// models linear interpolation between the fitted incidences, clamped outside
-    /// them (as MODEL.md does for the paper's tables).
+    /// them (as docs/model.md does for the paper's tables).
     pub fn ks_at(&self, incidences: &[f64], theta_i: f64) -> f64 {
         if let Some(p) = self.values.poly {
             let t = theta_i / 90.0;

@@ -1,0 +1,302 @@
+//! The performance report: instruction counts of the firmware's evaluation variants
+//! under QEMU, and gonio's fitter timed against scipy's on the same sweeps.
+
+use std::path::Path;
+use std::process::Command;
+
+use serde_json::Value;
+
+use crate::tools::{ensure_firmware_tools, ensure_qemu, llvm_tool, works};
+use crate::{Result, THUMB, command, root, run};
+
+/// Builds the `bench` image, runs it under QEMU with `-icount shift=0` and adds each
+/// variant's flash cost from the symbol table. Returns a Markdown table.
+pub fn firmware_bench() -> Result<String> {
+    let root = root();
+    ensure_firmware_tools(&root)?;
+    ensure_qemu(&root)?;
+    let nm = llvm_tool(&root, "llvm-nm")?;
+    let fw = root.join("firmware");
+    run(
+        &fw,
+        "cargo",
+        &["build", "--release", "--bin", "bench", "--features", "qemu"],
+    )?;
+    let elf = fw.join("target").join(THUMB).join("release/bench");
+    let out = command(&root, "timeout", &["120", "qemu-system-arm"])
+        .args([
+            "-M",
+            "netduinoplus2",
+            "-icount",
+            "shift=0",
+            "-display",
+            "none",
+            "-monitor",
+            "none",
+        ])
+        .args([
+            "-serial",
+            "null",
+            "-semihosting-config",
+            "enable=on,target=native",
+            "-kernel",
+        ])
+        .arg(&elf)
+        .output()
+        .map_err(|e| format!("qemu-system-arm: {e}"))?;
+    if !out.status.success() {
+        return Err(format!(
+            "bench image failed: {}",
+            String::from_utf8_lossy(&out.stderr)
+        ));
+    }
+    let text = String::from_utf8_lossy(&out.stdout);
+    let syms = Command::new(nm)
+        .args(["--print-size", "--radix=d", "-C"])
+        .arg(&elf)
+        .output()
+        .map_err(|e| e.to_string())?;
+    let syms = String::from_utf8_lossy(&syms.stdout);
+    let size_of = |pat: &dyn Fn(&str) -> bool| -> u64 {
+        syms.lines()
+            .filter_map(|l| {
+                let f: Vec<&str> = l.splitn(4, ' ').collect();
+                (f.len() == 4 && pat(f[3])).then(|| f[1].parse::<u64>().unwrap_or(0))
+            })
+            .sum()
+    };
+    let libm_fns =
+        |s: &str| s.starts_with("libm::math::") && !s.contains("logf") && !s.contains("sqrt");
+    let flash_libm = size_of(&|s| s.starts_with("bench::eval_libm")) + size_of(&libm_fns);
+    let flash_fast = size_of(&|s| s.starts_with("bench::eval_fast"));
+    let mut table =
+        String::from("| variant | instructions / evaluation | flash (bytes) |\n|---|---|---|\n");
+    for line in text.lines().filter(|l| l.starts_with("variant ")) {
+        let f: Vec<&str> = line.split_whitespace().collect();
+        let (name, instr) = (f[1], f[3]);
+        let flash = if name.contains("libm") {
+            flash_libm
+        } else {
+            flash_fast
+        };
+        table.push_str(&format!("| {name} | {instr} | {flash} |\n"));
+    }
+    let cal = text
+        .lines()
+        .find(|l| l.starts_with("calibration"))
+        .unwrap_or("")
+        .to_string();
+    table.push_str(&format!(
+        "\nCortex-M4 (QEMU netduinoplus2, -icount shift=0, SysTick calibrated on 4096 nops: {}). \
+         Counts are instructions, not cycles. Flash: the evaluation function plus the libm \
+         functions it calls (libm) or the inlined fast path (fast); shared soft-float helpers \
+         not counted.\n",
+        cal.trim_start_matches("calibration ")
+    ));
+    Ok(table)
+}
+
+/// Parses what a tool printed as one JSON object.
+fn parse_json(text: &str, what: &str) -> Result<Value> {
+    serde_json::from_str(text.trim()).map_err(|e| format!("{what} printed no JSON object: {e}"))
+}
+
+/// The number at `pointer` (RFC 6901, e.g. `/fit_seconds`) in `v`. A JSON `null`
+/// (gonio and the scipy script write one for an undefined RMSE) reads as NaN.
+fn number(v: &Value, pointer: &str, what: &str) -> Result<f64> {
+    match v.pointer(pointer) {
+        Some(Value::Null) => Ok(f64::NAN),
+        Some(x) => x
+            .as_f64()
+            .ok_or_else(|| format!("{what}: {pointer} is not a number ({x})")),
+        None => Err(format!("{what}: no {pointer} in its JSON")),
+    }
+}
+
+/// `gonio fit --json`: (fit seconds, RMSE of the model called `model`). The RMSE is
+/// that model's own entry in `models`, whichever model gonio selected.
+fn gonio_fit_result(text: &str, model: &str) -> Result<(f64, f64)> {
+    let v = parse_json(text, "gonio fit --json")?;
+    let seconds = number(&v, "/fit_seconds", "gonio fit --json")?;
+    let fit = v["models"]
+        .as_array()
+        .and_then(|m| m.iter().find(|m| m["name"] == model))
+        .ok_or_else(|| format!("gonio fit --json: no model named {model}"))?;
+    Ok((seconds, number(fit, "/rmse", "gonio fit --json")?))
+}
+
+/// `bench/fit_scipy.py`: (best seconds, RMSE).
+fn scipy_fit_result(text: &str) -> Result<(f64, f64)> {
+    let v = parse_json(text, "bench/fit_scipy.py")?;
+    Ok((
+        number(&v, "/seconds", "bench/fit_scipy.py")?,
+        number(&v, "/rmse", "bench/fit_scipy.py")?,
+    ))
+}
+
+fn output(dir: &Path, program: &str, args: &[&str]) -> Result<String> {
+    let out = command(dir, program, args)
+        .output()
+        .map_err(|e| format!("{program}: {e}"))?;
+    if !out.status.success() {
+        return Err(format!(
+            "`{program} {}` failed: {}",
+            args.join(" "),
+            String::from_utf8_lossy(&out.stderr)
+        ));
+    }
+    Ok(String::from_utf8_lossy(&out.stdout).into_owned())
+}
+
+/// Regenerates docs/PERFORMANCE.md and docs/speed_vs_error.png.
+pub fn perf_report() -> Result {
+    let root = root();
+    run(&root, "cargo", &["build", "--release", "-p", "host-tool"])?;
+    let gonio = root.join("target/release/gonio");
+    let gonio = gonio.to_str().ok_or("path")?;
+    if !works("python3", &["-c", "import numpy, scipy"]) {
+        run(
+            &root,
+            "python3",
+            &["-m", "pip", "install", "-q", "numpy", "scipy"],
+        )?;
+    }
+    let docs = root.join("docs");
+    let png = docs.join("speed_vs_error.png");
+    let bench = output(
+        &root,
+        gonio,
+        &[
+            "bench",
+            "--study",
+            "--seconds",
+            "1",
+            "--plot",
+            png.to_str().ok_or("path")?,
+        ],
+    )?;
+    let firmware = firmware_bench()?;
+    // gonio against scipy on the same simulated sweeps.
+    let tmp = std::env::temp_dir().join(format!("gonio-perf-{}", std::process::id()));
+    std::fs::create_dir_all(&tmp).map_err(|e| e.to_string())?;
+    let mut scipy = String::from(
+        "| sweep | gonio three-component (µs) | gonio all four models (µs) | scipy three-component (µs) | ratio (three) | RMSE gonio | RMSE scipy |\n|---|---|---|---|---|---|---|\n",
+    );
+    let mut ratios = Vec::new();
+    for material in ["fe-0.115", "cu-0.070", "al-0.782"] {
+        let sweep = tmp.join(format!("{material}.csv"));
+        let sweep = sweep.to_str().ok_or("path")?;
+        output(
+            &root,
+            gonio,
+            &[
+                "simulate",
+                "--material",
+                material,
+                "--out",
+                sweep,
+                "--force",
+                "-q",
+            ],
+        )?;
+        // Best of 15 fit times; the RMSE is the three-component model's.
+        let best = |models: &str| -> Result<(f64, f64)> {
+            let mut t = f64::INFINITY;
+            let mut rmse = f64::NAN;
+            for _ in 0..15 {
+                let j = output(&root, gonio, &["fit", sweep, "--models", models, "--json"])?;
+                let (seconds, r) = gonio_fit_result(&j, "three-component")?;
+                t = t.min(seconds);
+                rmse = r;
+            }
+            Ok((t * 1e6, rmse))
+        };
+        let (three_us, rmse_g) = best("three")?;
+        let (all_us, _) = best("ideal,ts,three,three-smooth")?;
+        let py = output(
+            &root,
+            "python3",
+            &[
+                root.join("bench/fit_scipy.py").to_str().ok_or("path")?,
+                sweep,
+                "--repeat",
+                "15",
+            ],
+        )?;
+        let (scipy_s, rmse_s) = scipy_fit_result(&py)?;
+        let scipy_us = scipy_s * 1e6;
+        ratios.push(scipy_us / three_us);
+        scipy.push_str(&format!(
+            "| {material} 9x17, 0.5 % noise | {three_us:.0} | {all_us:.0} | {scipy_us:.0} | {:.0}x | {rmse_g:.6} | {rmse_s:.6} |\n",
+            scipy_us / three_us
+        ));
+    }
+    let _ = std::fs::remove_dir_all(&tmp);
+    let cpu = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|c| {
+            c.lines()
+                .find(|l| l.starts_with("model name"))
+                .map(|l| l.split(':').nth(1).unwrap_or("").trim().to_string())
+        })
+        .unwrap_or_else(|| "unknown CPU".into());
+    let template = std::fs::read_to_string(docs.join("PERFORMANCE.template.md"))
+        .map_err(|e| format!("docs/PERFORMANCE.template.md: {e}"))?;
+    let report = template
+        .replace("{{CPU}}", &cpu)
+        .replace("{{BENCH}}", bench.trim_end())
+        .replace("{{FIRMWARE}}", firmware.trim_end())
+        .replace("{{SCIPY}}", scipy.trim_end())
+        .replace(
+            "{{SCIPY_MIN_RATIO}}",
+            &format!(
+                "{:.0}",
+                ratios.iter().cloned().fold(f64::INFINITY, f64::min)
+            ),
+        );
+    std::fs::write(docs.join("PERFORMANCE.md"), report).map_err(|e| e.to_string())?;
+    eprintln!("xtask: wrote docs/PERFORMANCE.md and docs/speed_vs_error.png");
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The shape of `gonio fit --json` (host-tool's fit/report.rs): the selected model
+    /// first would have fooled a scraper taking the first "rmse" in the text.
+    const FIT: &str = r#"{"models": [
+        {"name": "torrance-sparrow", "params": {"rmse": 9.0}, "rmse": 0.5, "n": 153},
+        {"name": "three-component", "params": {"sigma": 0.115}, "rmse": 0.0123,
+         "rmse_by_theta_i": [[0.0, 0.01]], "n": 153}
+      ], "selected": "torrance-sparrow", "notes": [], "fit_seconds": 0.00042}"#;
+
+    #[test]
+    fn reads_the_named_models_rmse_and_the_fit_time() {
+        assert_eq!(
+            gonio_fit_result(FIT, "three-component").unwrap(),
+            (0.00042, 0.0123)
+        );
+        assert_eq!(
+            gonio_fit_result(FIT, "torrance-sparrow").unwrap(),
+            (0.00042, 0.5)
+        );
+        let err = gonio_fit_result(FIT, "ideal-diffuse").unwrap_err();
+        assert!(err.contains("no model named ideal-diffuse"), "{err}");
+    }
+
+    #[test]
+    fn null_rmse_is_nan_and_missing_fields_are_errors() {
+        let (s, r) =
+            scipy_fit_result(r#"{"seconds": 0.01, "cost_ssr": 1.0, "rmse": null}"#).unwrap();
+        assert_eq!(s, 0.01);
+        assert!(r.is_nan());
+        assert!(
+            scipy_fit_result(r#"{"rmse": 0.1}"#)
+                .unwrap_err()
+                .contains("/seconds")
+        );
+        assert!(scipy_fit_result("Traceback (most recent call last)").is_err());
+        assert!(gonio_fit_result(r#"{"fit_seconds": "soon"}"#, "x").is_err());
+    }
+}

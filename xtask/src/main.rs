@@ -11,7 +11,7 @@ use std::process::{Command, ExitCode};
 
 use clap::{Parser, Subcommand, ValueEnum};
 
-use tools::{ensure_firmware_tools, ensure_qemu, llvm_tool};
+use tools::{ensure_firmware_tools, ensure_lint_tools, ensure_qemu, llvm_tool};
 
 const THUMB: &str = "thumbv7em-none-eabihf";
 /// Size budget of the stm32f411 release image (issue: flash text+data, static RAM).
@@ -63,7 +63,7 @@ enum Cmd {
     /// Regenerate docs/PERFORMANCE.md and docs/speed_vs_error.png (gonio bench, the
     /// firmware bench, gonio fit against scipy; installs numpy and scipy with pip if missing).
     PerfReport,
-    /// Everything CI runs: setup, fmt and clippy (workspace and firmware), the thumb
+    /// Everything CI runs: setup (and rustfmt, clippy), fmt and clippy (workspace and firmware), the thumb
     /// build of brdf-core, the size budget, and all workspace tests with the qemu image
     /// (so the end-to-end tests run too).
     Test,
@@ -247,6 +247,7 @@ fn qemu_e2e() -> Result {
 fn test_all() -> Result {
     setup()?;
     let root = root();
+    ensure_lint_tools(&root)?;
     let fw = root.join("firmware");
     run(&root, "cargo", &["fmt", "--all", "--", "--check"])?;
     run(&fw, "cargo", &["fmt", "--", "--check"])?;

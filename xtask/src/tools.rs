@@ -132,6 +132,18 @@ pub fn ensure_qemu(root: &Path) -> Result {
     }
 }
 
+/// rustfmt and clippy, which `test` runs (absent from rustup's minimal profile).
+pub fn ensure_lint_tools(root: &Path) -> Result {
+    if works("cargo", &["fmt", "--version"]) && works("cargo", &["clippy", "--version"]) {
+        return Ok(());
+    }
+    rustup(
+        root,
+        &["component", "add", "rustfmt", "clippy"],
+        "rustfmt or clippy",
+    )
+}
+
 /// What the firmware build needs: the thumb target and flip-link.
 pub fn ensure_firmware_tools(root: &Path) -> Result {
     ensure_thumb_target(root)?;

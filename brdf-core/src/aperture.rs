@@ -32,6 +32,23 @@ pub const MAX_NODES: usize = 48;
 pub const MAX_APERTURE_DEG: f64 = 20.0;
 
 /// A detector acceptance and its quadrature nodes, ready to average any member.
+///
+/// ```
+/// use brdf_core::aperture::Aperture;
+/// use brdf_core::member::Member;
+/// use brdf_core::member_model::{MemberModel, MemberParams};
+///
+/// let member = Member::parse("specular:ggx+specular-haze:beckmann+ideal-diffuse").unwrap();
+/// // Widths: core sigma, haze sigma, sigma_m (unused here); every amplitude starts at 1.
+/// let params = MemberParams::<f64>::start(&member, 0.005, 0.15, 0.7);
+/// let model = MemberModel::new(&params).unwrap();
+/// let ap = Aperture::for_model(1.0, &model).unwrap();
+/// let (e, grad) = ap.average_with_gradient(&model, 41.4, 41.9).unwrap();
+/// // e.basis: the columns of the linear solve; grad: the nonlinear Jacobian.
+/// assert!(e.basis.core > 0.0 && grad.core.ln_sigma.is_finite());
+/// // The detector blurs the sharp core: its average is below the point value.
+/// assert!(e.basis.core < model.eval_in_plane(41.4, 41.4).unwrap().basis.core);
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct Aperture<T> {
     half_angle_deg: T,

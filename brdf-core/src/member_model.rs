@@ -246,10 +246,11 @@ struct Directional<T> {
 /// use brdf_core::member::Member;
 /// use brdf_core::member_model::{Ks, LobeParams, MemberModel, MemberParams, DirectionalParams};
 ///
-/// // A sharp GGX core on a wide Beckmann haze, plus the paper's two diffuse terms.
-/// let member = Member::parse("specular:ggx+specular-haze:beckmann+directional-diffuse+ideal-diffuse").unwrap();
+/// // A sharp GGX core on a wide Beckmann haze with a smooth k_s(theta_i), plus the
+/// // paper's two diffuse terms.
+/// let member = Member::parse("specular:ggx+specular-haze:beckmann:smooth-ks+directional-diffuse+ideal-diffuse").unwrap();
 /// let params = MemberParams {
-///     core: Some(LobeParams { dist: Distribution::Ggx, ks: Ks::PerIncidence(2.0), sigma: 0.005 }),
+///     core: Some(LobeParams { dist: Distribution::Ggx, ks: Ks::PerIncidence(2.0f64), sigma: 0.005 }),
 ///     haze: Some(LobeParams { dist: Distribution::Beckmann, ks: Ks::Smooth(SmoothKs { c: [-3.0, 0.5, 0.0] }), sigma: 0.15 }),
 ///     directional: Some(DirectionalParams { kdd: 0.01, sigma_m: 0.7 }),
 ///     ideal: Some(1e-4),
@@ -262,7 +263,7 @@ struct Directional<T> {
 /// let sum = a.core * e.basis.core + a.haze * e.basis.haze + a.directional * e.basis.directional + a.ideal * e.basis.ideal;
 /// assert!((e.f - sum).abs() <= 1e-12 * e.f);
 /// assert!(grad.core.ln_sigma.is_finite());
-/// assert_eq!(member.name().as_str(), "specular:ggx+specular-haze:beckmann+directional-diffuse+ideal-diffuse");
+/// assert_eq!(member.name().as_str(), "specular:ggx+specular-haze:beckmann:smooth-ks+directional-diffuse+ideal-diffuse");
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MemberModel<T> {

@@ -54,6 +54,15 @@ pub enum ModelError {
     Overflow,
     /// No preset by that name.
     UnknownPreset,
+    /// A member with a haze lobe but no core lobe.
+    HazeWithoutCore,
+    /// A detector-aperture quadrature asked for more nodes than it holds.
+    TooManyNodes {
+        /// Nodes asked for.
+        asked: usize,
+        /// The most it holds.
+        max: usize,
+    },
 }
 
 impl fmt::Display for ModelError {
@@ -82,6 +91,12 @@ impl fmt::Display for ModelError {
                 "w_i + w_r = 0 (source and detector grazing and opposite): the half vector is undefined"
             ),
             ModelError::Overflow => write!(f, "the BRDF value overflows this float precision"),
+            ModelError::HazeWithoutCore => {
+                write!(f, "a specular-haze lobe needs a core specular lobe")
+            }
+            ModelError::TooManyNodes { asked, max } => {
+                write!(f, "{asked} quadrature nodes asked for, at most {max}")
+            }
             ModelError::UnknownPreset => write!(
                 f,
                 "unknown preset (known: al-0.087, al-0.142, al-0.782, cu-0.070, fe-0.115)"

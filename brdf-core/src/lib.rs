@@ -2,6 +2,9 @@
 //!
 //! - [`model`]: the three-component BRDF for metals (Wang et al. 2016) and the
 //!   Torrance–Sparrow baseline, generic over `f32`/`f64`.
+//! - [`member`], [`member_model`], [`lobe`], [`aperture`]: the model family built from
+//!   components (Beckmann and GGX lobes, a haze lobe, the diffuse terms, smooth k_s),
+//!   its names, its evaluation with basis and gradient, and detector-aperture averaging.
 //! - [`geometry`]: in-plane and 3-D measurement geometry.
 //! - [`presets`]: the paper's materials.
 //! - [`fast`]: fast f32 evaluation (polynomial exp/sin, culling, batch grids).
@@ -17,6 +20,7 @@
 #![cfg_attr(not(test), no_std)]
 #![deny(missing_docs)]
 
+pub mod aperture;
 pub mod axis;
 pub mod controller;
 pub mod error;
@@ -24,7 +28,10 @@ pub mod fast;
 pub mod float;
 pub mod frame;
 pub mod geometry;
+pub mod lobe;
 pub mod mechanics;
+pub mod member;
+pub mod member_model;
 pub mod model;
 pub mod plan;
 pub mod presets;

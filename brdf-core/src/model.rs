@@ -6,6 +6,7 @@
 use crate::error::ModelError;
 use crate::float::Real;
 use crate::geometry::Geometry;
+use crate::lobe::{beckmann_blinn, check_weight, check_width, directional_gauss};
 
 /// The paper's directional-diffuse weight k_dd, fitted for all its samples.
 pub const KDD_PAPER: f64 = 900.0;
@@ -117,40 +118,6 @@ pub struct Model<T> {
     dd_inv_2s2: T,
 }
 
-fn check_weight<T: Real>(what: &'static str, k: T) -> Result<T, ModelError> {
-    if !k.is_finite() {
-        return Err(ModelError::NotFinite { what });
-    }
-    if k < T::zero() {
-        return Err(ModelError::Negative {
-            what,
-            value: k.widen(),
-        });
-    }
-    Ok(k)
-}
-
-/// Checks a lobe width and returns (1/(2 w^2), w): both must be finite and non-zero in `T`.
-fn check_width<T: Real>(what: &'static str, w: T) -> Result<T, ModelError> {
-    if !w.is_finite() {
-        return Err(ModelError::NotFinite { what });
-    }
-    if w <= T::zero() {
-        return Err(ModelError::NotPositive {
-            what,
-            value: w.widen(),
-        });
-    }
-    let inv = T::one() / (T::lit(2.0) * w * w);
-    if !inv.is_finite() || inv <= T::zero() || !(T::one() / w).is_finite() {
-        return Err(ModelError::Unrepresentable {
-            what,
-            value: w.widen(),
-        });
-    }
-    Ok(inv)
-}
-
 impl<T: Real> Model<T> {
     /// Builds a model with the chosen components. Parameters of switched-off components
     /// are still checked for finiteness and sign, so a bad value never hides.
@@ -214,14 +181,7 @@ impl<T: Real> Model<T> {
     /// f_s and its exponent `x = tan^2 alpha / (2 sigma^2)` (0 when skipped).
     #[inline]
     fn specular_x(&self, g: &Geometry<T>) -> (T, T) {
-        let x = g.tan2_a * self.spec_inv_2s2;
-        // x is never NaN (tan2_a in [0, inf], 1/(2 sigma^2) finite and > 0); this also
-        // catches tan2_a = inf (alpha = 90 degrees).
-        if x > T::lit(2.0) * T::EXP_UNDERFLOW {
-            return (T::zero(), T::zero());
-        }
-        let p = (-x * T::lit(0.5)).exp() * (T::one() + g.tan2_a);
-        (self.spec_norm * p * p * g.g_term, x)
+        beckmann_blinn(g, self.spec_inv_2s2, self.spec_norm)
     }
 
     /// Directional diffuse f_dd (eq. 5), unweighted: a Gaussian in theta_r (radians).
@@ -234,11 +194,7 @@ impl<T: Real> Model<T> {
     /// f_dd and its exponent `y = theta_r^2 / (2 sigma_m^2)`.
     #[inline]
     fn directional_y(&self, g: &Geometry<T>) -> (T, T) {
-        let y = g.theta_r * g.theta_r * self.dd_inv_2s2;
-        if y > T::EXP_UNDERFLOW {
-            return (T::zero(), y);
-        }
-        (self.dd_norm * (-y).exp(), y)
+        directional_gauss(g, self.dd_inv_2s2, self.dd_norm)
     }
 
     /// Evaluates every component that is on, and their weighted sum, for a geometry.

@@ -1,0 +1,258 @@
+//! A member averaged over a circular detector acceptance (half-angle in degrees) around
+//! the nominal in-plane outgoing direction, with a product quadrature of stated error.
+//!
+//! The detector collects `<f> = (1/Omega) * integral over the cone of f d omega`, Omega =
+//! 2 pi (1 - cos A). With rho the angle from the nominal direction and psi the azimuth
+//! about it, d omega = d u d psi with u = 1 - cos rho in [0, 1 - cos A]:
+//! - u: Gauss–Legendre with `n_radial` nodes (the solid-angle weight is exact);
+//! - psi: the midpoint rule with `n_azimuth` nodes on [0, pi], using the plane of
+//!   incidence's mirror symmetry (equivalent to 2 n_azimuth nodes on the full circle;
+//!   spectrally accurate for a periodic integrand).
+//!
+//! Because the psi-average of a smooth integrand is a smooth function of rho^2 (odd
+//! harmonics cancel), it is smooth in u, so Gauss–Legendre converges fast. Error,
+//! measured for a Gaussian lobe of angular standard deviation s against a 90 x 300
+//! rule, at every offset of the lobe from the nominal direction, relative to the
+//! averaged peak, with kappa = A/s and n = [`Aperture::order`]`(kappa)` = ceil(4 +
+//! 2.75 kappa) nodes in both directions: < 1e-7 for kappa <= 16 (n <= 48 =
+//! [`MAX_NODES`]); beyond, with n capped at 48, 2.6e-4 at kappa = 24 and 1e-2 at
+//! kappa = 32. Parts of the cone below the horizon (nominal direction within A of
+//! +-90 degrees) collect nothing and count as 0. The average of a constant is exact
+//! (the weights sum to 1 to rounding).
+
+use crate::error::ModelError;
+use crate::float::{Real, deg_to_rad};
+use crate::geometry::{Geometry, check_angle, direction};
+use crate::member_model::{MemberEval, MemberGradient, MemberModel, Parts};
+
+/// Most nodes in either direction of the quadrature.
+pub const MAX_NODES: usize = 48;
+
+/// Largest accepted aperture half-angle, degrees.
+pub const MAX_APERTURE_DEG: f64 = 20.0;
+
+/// A detector acceptance and its quadrature nodes, ready to average any member.
+///
+/// ```
+/// use brdf_core::aperture::Aperture;
+/// use brdf_core::member::Member;
+/// use brdf_core::member_model::{MemberModel, MemberParams};
+///
+/// let member = Member::parse("specular:ggx+specular-haze:beckmann+ideal-diffuse").unwrap();
+/// // Widths: core sigma, haze sigma, sigma_m (unused here); every amplitude starts at 1.
+/// let params = MemberParams::<f64>::start(&member, 0.005, 0.15, 0.7);
+/// let model = MemberModel::new(&params).unwrap();
+/// let ap = Aperture::for_model(1.0, &model).unwrap();
+/// let (e, grad) = ap.average_with_gradient(&model, 41.4, 41.9).unwrap();
+/// // e.basis: the columns of the linear solve; grad: the nonlinear Jacobian.
+/// assert!(e.basis.core > 0.0 && grad.core.ln_sigma.is_finite());
+/// // The detector blurs the sharp core: its average is below the point value.
+/// assert!(e.basis.core < model.eval_in_plane(41.4, 41.4).unwrap().basis.core);
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+pub struct Aperture<T> {
+    half_angle_deg: T,
+    n_radial: usize,
+    n_azimuth: usize,
+    cos_rho: [T; MAX_NODES],
+    sin_rho: [T; MAX_NODES],
+    /// Gauss–Legendre weight / 2 / n_azimuth: all weights sum to 1.
+    weight: [T; MAX_NODES],
+    cos_psi: [T; MAX_NODES],
+    sin_psi: [T; MAX_NODES],
+}
+
+/// The `k`-th of `n` Gauss–Legendre nodes on [-1, 1] and its weight, by Newton's
+/// method on the three-term recurrence (in f64; nodes converge to rounding).
+pub(crate) fn gauss_legendre(n: usize, k: usize) -> (f64, f64) {
+    let nf = n as f64;
+    let mut x = libm::cos(core::f64::consts::PI * (k as f64 + 0.75) / (nf + 0.5));
+    let mut dp = 1.0;
+    for _ in 0..100 {
+        let (mut p0, mut p1) = (1.0, x);
+        for j in 2..=n {
+            let jf = j as f64;
+            let p2 = ((2.0 * jf - 1.0) * x * p1 - (jf - 1.0) * p0) / jf;
+            p0 = p1;
+            p1 = p2;
+        }
+        dp = nf * (x * p1 - p0) / (x * x - 1.0);
+        let dx = p1 / dp;
+        x -= dx;
+        if dx.abs() < 1e-16 {
+            break;
+        }
+    }
+    (x, 2.0 / ((1.0 - x * x) * dp * dp))
+}
+
+impl<T: Real> Aperture<T> {
+    /// The quadrature order for kappa = aperture half-angle / narrowest lobe width
+    /// (both radians): ceil(4 + 2.75 kappa), in [4, 48].
+    pub fn order(kappa: f64) -> usize {
+        let n = if kappa.is_finite() {
+            libm::ceil(4.0 + 2.75 * kappa.max(0.0))
+        } else {
+            MAX_NODES as f64
+        };
+        (n as usize).clamp(4, MAX_NODES)
+    }
+
+    /// An aperture of half-angle `aperture_deg` (degrees, in [0, 20]) with the given
+    /// node counts (each in [1, 48]). A zero aperture evaluates the nominal direction.
+    pub fn new(aperture_deg: T, n_radial: usize, n_azimuth: usize) -> Result<Self, ModelError> {
+        let a = check_angle("aperture", aperture_deg, 0.0, MAX_APERTURE_DEG)?;
+        for n in [n_radial, n_azimuth] {
+            if n == 0 || n > MAX_NODES {
+                return Err(ModelError::TooManyNodes {
+                    asked: n,
+                    max: MAX_NODES,
+                });
+            }
+        }
+        let z = T::zero();
+        let mut ap = Aperture {
+            half_angle_deg: a,
+            n_radial,
+            n_azimuth,
+            cos_rho: [z; MAX_NODES],
+            sin_rho: [z; MAX_NODES],
+            weight: [z; MAX_NODES],
+            cos_psi: [z; MAX_NODES],
+            sin_psi: [z; MAX_NODES],
+        };
+        // u_max = 1 - cos A = 2 sin^2(A/2), without cancellation.
+        let half = libm::sin(a.widen().to_radians() / 2.0);
+        let u_max = 2.0 * half * half;
+        for k in 0..n_radial {
+            let (x, w) = gauss_legendre(n_radial, k);
+            let u = u_max * (1.0 + x) / 2.0;
+            ap.cos_rho[k] = T::lit(1.0 - u);
+            ap.sin_rho[k] = T::lit(libm::sqrt(u * (2.0 - u)));
+            ap.weight[k] = T::lit(w / 2.0 / n_azimuth as f64);
+        }
+        for j in 0..n_azimuth {
+            let psi = core::f64::consts::PI * (j as f64 + 0.5) / n_azimuth as f64;
+            ap.cos_psi[j] = T::lit(libm::cos(psi));
+            ap.sin_psi[j] = T::lit(libm::sin(psi));
+        }
+        Ok(ap)
+    }
+
+    /// An aperture whose order suits lobes no narrower than `width_rad` (radians of
+    /// theta_r): [`Aperture::order`] of kappa = A / width in both directions.
+    pub fn for_width(aperture_deg: T, width_rad: T) -> Result<Self, ModelError> {
+        let kappa = deg_to_rad(aperture_deg).widen() / width_rad.widen();
+        let n = Self::order(kappa);
+        Self::new(aperture_deg, n, n)
+    }
+
+    /// An aperture whose order suits `model`'s narrowest component
+    /// ([`MemberModel::narrowest_width`]); one node when nothing varies.
+    pub fn for_model(aperture_deg: T, model: &MemberModel<T>) -> Result<Self, ModelError> {
+        match model.narrowest_width() {
+            Some(w) => Self::for_width(aperture_deg, w),
+            None => Self::new(aperture_deg, 1, 1),
+        }
+    }
+
+    /// The half-angle, degrees.
+    pub fn half_angle_deg(&self) -> T {
+        self.half_angle_deg
+    }
+
+    /// (radial, azimuthal) node counts; the cost is their product in evaluations.
+    pub fn nodes(&self) -> (usize, usize) {
+        (self.n_radial, self.n_azimuth)
+    }
+
+    /// The member averaged over the aperture at incidence `theta_i` and nominal signed
+    /// `theta_r` (degrees, in-plane, + on the specular side): basis and value.
+    pub fn average(
+        &self,
+        model: &MemberModel<T>,
+        theta_i_deg: T,
+        theta_r_deg: T,
+    ) -> Result<MemberEval<T>, ModelError> {
+        self.average_impl(model, theta_i_deg, theta_r_deg, None)
+    }
+
+    /// [`Aperture::average`] and the averaged gradient (the average of the gradients,
+    /// with the same nodes), in [`MemberModel::eval_with_gradient`]'s coordinates.
+    pub fn average_with_gradient(
+        &self,
+        model: &MemberModel<T>,
+        theta_i_deg: T,
+        theta_r_deg: T,
+    ) -> Result<(MemberEval<T>, MemberGradient<T>), ModelError> {
+        let mut g = MemberGradient::default();
+        let e = self.average_impl(model, theta_i_deg, theta_r_deg, Some(&mut g))?;
+        Ok((e, g))
+    }
+
+    fn average_impl(
+        &self,
+        model: &MemberModel<T>,
+        theta_i_deg: T,
+        theta_r_deg: T,
+        mut grad: Option<&mut MemberGradient<T>>,
+    ) -> Result<MemberEval<T>, ModelError> {
+        if self.half_angle_deg == T::zero() {
+            let g = Geometry::in_plane(theta_i_deg, theta_r_deg)?;
+            return match grad {
+                Some(out) => {
+                    let (e, g) = model.eval_with_gradient(theta_i_deg, &g)?;
+                    *out = g;
+                    Ok(e)
+                }
+                None => model.eval(theta_i_deg, &g),
+            };
+        }
+        let tr = check_angle("theta_r", theta_r_deg, -90.0, 90.0)?;
+        let w_i = direction("theta_i", theta_i_deg, "phi_i", T::lit(180.0))?;
+        let (s, c) = (deg_to_rad(tr).sin(), crate::float::cos_deg(tr));
+        // Nominal direction w0 (azimuth 0 for + theta_r), e1 toward larger theta_r, e2 = y.
+        let w0 = [s, T::zero(), c];
+        let e1 = [c, T::zero(), -s];
+        let mut basis = Parts::default();
+        let mut f = T::zero();
+        for k in 0..self.n_radial {
+            let (cr, sr, wk) = (self.cos_rho[k], self.sin_rho[k], self.weight[k]);
+            for j in 0..self.n_azimuth {
+                let (a, b) = (sr * self.cos_psi[j], sr * self.sin_psi[j]);
+                let z = cr * w0[2] + a * e1[2];
+                if z < T::zero() {
+                    continue; // below the horizon: no light reaches the detector there
+                }
+                let w = [cr * w0[0] + a * e1[0], b, z];
+                let g = match Geometry::from_vectors(w_i, w) {
+                    Ok(g) => g,
+                    // w = -w_i: one point on the horizon, of measure zero.
+                    Err(ModelError::NoHalfVector) => continue,
+                    Err(e) => return Err(e),
+                };
+                let e = match grad.as_deref_mut() {
+                    Some(out) => {
+                        let (e, gr) = model.eval_with_gradient(theta_i_deg, &g)?;
+                        out.add_scaled(wk, &gr);
+                        e
+                    }
+                    None => model.eval(theta_i_deg, &g)?,
+                };
+                f = f + wk * e.f;
+                basis.core = basis.core + wk * e.basis.core;
+                basis.haze = basis.haze + wk * e.basis.haze;
+                basis.directional = basis.directional + wk * e.basis.directional;
+                basis.ideal = basis.ideal + wk * e.basis.ideal;
+            }
+        }
+        if !f.is_finite() {
+            return Err(ModelError::Overflow);
+        }
+        Ok(MemberEval { basis, f })
+    }
+}
+
+#[cfg(test)]
+#[path = "aperture_tests.rs"]
+mod tests;

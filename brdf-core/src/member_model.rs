@@ -1,0 +1,453 @@
+//! Parameters and evaluation of any [`Member`]: the value, the per-component basis the
+//! fitter's linear solve needs, and the gradient in log coordinates.
+//!
+//! For fixed widths (sigma, sigma_haze, sigma_m) and fixed smooth-k_s shapes the model
+//! is linear in its amplitudes: `f = A_core b_core + A_haze b_haze + k_dd b_dd + k_id b_id`
+//! ([`MemberEval::basis`] holds the b's, [`MemberModel::amplitudes`] the A's).
+
+use crate::error::ModelError;
+use crate::float::Real;
+use crate::geometry::Geometry;
+use crate::lobe::{Distribution, Lobe, SmoothKs, check_weight, check_width, directional_gauss};
+use crate::member::{KsForm, LobeSpec, Member};
+
+/// A lobe's k_s: a value for the reading's incidence, or the smooth k_s(theta_i).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Ks<T> {
+    /// k_s for the incidence being evaluated (>= 0), as the paper tabulates it.
+    PerIncidence(T),
+    /// `ln k_s = c0 + c1 t + c2 t^2`, t = theta_i / 90.
+    Smooth(SmoothKs<T>),
+}
+
+impl<T> Ks<T> {
+    /// The form of this k_s.
+    pub fn form(&self) -> KsForm {
+        match self {
+            Ks::PerIncidence(_) => KsForm::PerIncidence,
+            Ks::Smooth(_) => KsForm::Smooth,
+        }
+    }
+}
+
+/// One specular lobe's parameters.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LobeParams<T> {
+    /// The slope distribution.
+    pub dist: Distribution,
+    /// Its weight.
+    pub ks: Ks<T>,
+    /// Its width sigma (dimensionless, > 0; m = sqrt(2) sigma).
+    pub sigma: T,
+}
+
+impl<T: Real> LobeParams<T> {
+    /// The lobe's shape in a member.
+    pub fn spec(&self) -> LobeSpec {
+        LobeSpec {
+            dist: self.dist,
+            ks: self.ks.form(),
+        }
+    }
+}
+
+/// The directional-diffuse parameters (eq. 5).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DirectionalParams<T> {
+    /// Weight k_dd (>= 0).
+    pub kdd: T,
+    /// Width sigma_m, radians of theta_r (> 0).
+    pub sigma_m: T,
+}
+
+/// The parameters of a member; a component is on exactly when its entry is `Some`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MemberParams<T> {
+    /// The core specular lobe.
+    pub core: Option<LobeParams<T>>,
+    /// The haze lobe (needs `core`).
+    pub haze: Option<LobeParams<T>>,
+    /// The directional diffuse term.
+    pub directional: Option<DirectionalParams<T>>,
+    /// The ideal diffuse weight k_id (>= 0).
+    pub ideal: Option<T>,
+}
+
+impl<T: Real> MemberParams<T> {
+    /// The member these parameters describe.
+    pub fn member(&self) -> Member {
+        Member {
+            core: self.core.map(|l| l.spec()),
+            haze: self.haze.map(|l| l.spec()),
+            directional: self.directional.is_some(),
+            ideal: self.ideal.is_some(),
+        }
+    }
+
+    /// Starting parameters for `member`: every k_s, k_dd and k_id = 1 (smooth k_s: all
+    /// c = 0), the given widths for whichever components are on.
+    pub fn start(member: &Member, sigma: T, sigma_haze: T, sigma_m: T) -> Self {
+        let lobe = |spec: LobeSpec, sigma: T| LobeParams {
+            dist: spec.dist,
+            ks: match spec.ks {
+                KsForm::PerIncidence => Ks::PerIncidence(T::one()),
+                KsForm::Smooth => Ks::Smooth(SmoothKs { c: [T::zero(); 3] }),
+            },
+            sigma,
+        };
+        MemberParams {
+            core: member.core.map(|s| lobe(s, sigma)),
+            haze: member.haze.map(|s| lobe(s, sigma_haze)),
+            directional: member.directional.then_some(DirectionalParams {
+                kdd: T::one(),
+                sigma_m,
+            }),
+            ideal: member.ideal.then_some(T::one()),
+        }
+    }
+}
+
+/// Four numbers, one per component (0 for a component that is off): the basis values
+/// or the amplitudes.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Parts<T> {
+    /// The core specular lobe.
+    pub core: T,
+    /// The haze lobe.
+    pub haze: T,
+    /// The directional diffuse term.
+    pub directional: T,
+    /// The ideal diffuse term.
+    pub ideal: T,
+}
+
+/// One evaluation of a member.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MemberEval<T> {
+    /// Per-component basis values (1/sr): the lobe f_s (times exp(c1 t + c2 t^2) for a
+    /// smooth k_s), f_dd, and 1 for the ideal diffuse; 0 for a component that is off.
+    /// Computed whatever the amplitude, so a linear solve can use them.
+    pub basis: Parts<T>,
+    /// The BRDF: sum of amplitude x basis over the components that are on.
+    pub f: T,
+}
+
+/// Derivatives with respect to one specular lobe's parameters.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct LobeGradient<T> {
+    /// d f / d ln k_s (per incidence) or d f / d c0 (smooth): the lobe's term.
+    pub ln_ks: T,
+    /// d f / d ln sigma.
+    pub ln_sigma: T,
+    /// d f / d c1 (smooth k_s only, else 0).
+    pub c1: T,
+    /// d f / d c2 (smooth k_s only, else 0).
+    pub c2: T,
+}
+
+/// Derivatives of f with respect to the logarithms of the parameters (and the smooth
+/// k_s coefficients, which are already logarithmic). Off components read 0.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct MemberGradient<T> {
+    /// The core lobe.
+    pub core: LobeGradient<T>,
+    /// The haze lobe.
+    pub haze: LobeGradient<T>,
+    /// d f / d ln k_dd.
+    pub ln_kdd: T,
+    /// d f / d ln sigma_m.
+    pub ln_sigma_m: T,
+    /// d f / d ln k_id.
+    pub ln_kid: T,
+}
+
+impl<T: Real> MemberGradient<T> {
+    /// `self + w * other`, component by component (for averaging).
+    pub fn add_scaled(&mut self, w: T, o: &MemberGradient<T>) {
+        for (a, b) in [(&mut self.core, &o.core), (&mut self.haze, &o.haze)] {
+            a.ln_ks = a.ln_ks + w * b.ln_ks;
+            a.ln_sigma = a.ln_sigma + w * b.ln_sigma;
+            a.c1 = a.c1 + w * b.c1;
+            a.c2 = a.c2 + w * b.c2;
+        }
+        self.ln_kdd = self.ln_kdd + w * o.ln_kdd;
+        self.ln_sigma_m = self.ln_sigma_m + w * o.ln_sigma_m;
+        self.ln_kid = self.ln_kid + w * o.ln_kid;
+    }
+}
+
+/// A validated specular lobe with its weight.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct WeightedLobe<T> {
+    lobe: Lobe<T>,
+    ks: Ks<T>,
+}
+
+impl<T: Real> WeightedLobe<T> {
+    fn new(
+        p: &LobeParams<T>,
+        ks_name: &'static str,
+        sigma_name: &'static str,
+    ) -> Result<Self, ModelError> {
+        match p.ks {
+            Ks::PerIncidence(k) => {
+                check_weight(ks_name, k)?;
+            }
+            Ks::Smooth(s) => s.check(ks_name)?,
+        }
+        Ok(WeightedLobe {
+            lobe: Lobe::new(p.dist, p.sigma, sigma_name)?,
+            ks: p.ks,
+        })
+    }
+
+    /// (basis, weighted term, d ln f_s / d ln sigma) at t = theta_i / 90.
+    #[inline]
+    fn eval(&self, g: &Geometry<T>, t: T) -> (T, T, T) {
+        let (fs, dlog) = self.lobe.value_dlog(g);
+        match self.ks {
+            Ks::PerIncidence(k) => (fs, if k > T::zero() { k * fs } else { T::zero() }, dlog),
+            Ks::Smooth(s) => (s.shape_at_t(t) * fs, s.ks_at_t(t) * fs, dlog),
+        }
+    }
+
+    fn amplitude(&self) -> T {
+        match self.ks {
+            Ks::PerIncidence(k) => k,
+            Ks::Smooth(s) => s.c[0].exp(),
+        }
+    }
+
+    fn gradient(&self, term: T, dlog: T, t: T) -> LobeGradient<T> {
+        let smooth = matches!(self.ks, Ks::Smooth(_));
+        LobeGradient {
+            ln_ks: term,
+            ln_sigma: term * dlog,
+            c1: if smooth { term * t } else { T::zero() },
+            c2: if smooth { term * t * t } else { T::zero() },
+        }
+    }
+}
+
+/// The directional diffuse term, validated.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Directional<T> {
+    kdd: T,
+    inv_2s2: T,
+    norm: T,
+}
+
+/// A validated member, ready to evaluate. Built once from [`MemberParams`]; evaluation
+/// never divides by a parameter and is finite and >= 0 on every geometry (or returns
+/// [`ModelError::Overflow`] when the value itself does not fit the float type).
+///
+/// ```
+/// use brdf_core::lobe::{Distribution, SmoothKs};
+/// use brdf_core::member::Member;
+/// use brdf_core::member_model::{Ks, LobeParams, MemberModel, MemberParams, DirectionalParams};
+///
+/// // A sharp GGX core on a wide Beckmann haze with a smooth k_s(theta_i), plus the
+/// // paper's two diffuse terms.
+/// let member = Member::parse("specular:ggx+specular-haze:beckmann:smooth-ks+directional-diffuse+ideal-diffuse").unwrap();
+/// let params = MemberParams {
+///     core: Some(LobeParams { dist: Distribution::Ggx, ks: Ks::PerIncidence(2.0f64), sigma: 0.005 }),
+///     haze: Some(LobeParams { dist: Distribution::Beckmann, ks: Ks::Smooth(SmoothKs { c: [-3.0, 0.5, 0.0] }), sigma: 0.15 }),
+///     directional: Some(DirectionalParams { kdd: 0.01, sigma_m: 0.7 }),
+///     ideal: Some(1e-4),
+/// };
+/// assert_eq!(params.member(), member);
+/// let model = MemberModel::new(&params).unwrap();
+/// let (e, grad) = model.eval_in_plane_with_gradient(41.4, 41.0).unwrap();
+/// // Linear in the amplitudes: f = sum of amplitude x basis.
+/// let a = model.amplitudes();
+/// let sum = a.core * e.basis.core + a.haze * e.basis.haze + a.directional * e.basis.directional + a.ideal * e.basis.ideal;
+/// assert!((e.f - sum).abs() <= 1e-12 * e.f);
+/// assert!(grad.core.ln_sigma.is_finite());
+/// assert_eq!(member.name().as_str(), "specular:ggx+specular-haze:beckmann:smooth-ks+directional-diffuse+ideal-diffuse");
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MemberModel<T> {
+    params: MemberParams<T>,
+    core: Option<WeightedLobe<T>>,
+    haze: Option<WeightedLobe<T>>,
+    directional: Option<Directional<T>>,
+    ideal: Option<T>,
+}
+
+impl<T: Real> MemberModel<T> {
+    /// Validates the parameters: weights finite and >= 0, smooth coefficients finite,
+    /// widths finite, > 0 and representable; a haze needs a core lobe.
+    pub fn new(params: &MemberParams<T>) -> Result<Self, ModelError> {
+        if params.haze.is_some() && params.core.is_none() {
+            return Err(ModelError::HazeWithoutCore);
+        }
+        let core = match &params.core {
+            Some(p) => Some(WeightedLobe::new(p, "k_s", "sigma")?),
+            None => None,
+        };
+        let haze = match &params.haze {
+            Some(p) => Some(WeightedLobe::new(p, "k_s_haze", "sigma_haze")?),
+            None => None,
+        };
+        let directional = match &params.directional {
+            Some(d) => {
+                check_weight("k_dd", d.kdd)?;
+                let inv_2s2 = check_width("sigma_m", d.sigma_m)?;
+                Some(Directional {
+                    kdd: d.kdd,
+                    inv_2s2,
+                    // As in Model::new, so the paper's members agree bit for bit.
+                    norm: T::one() / ((T::lit(2.0) * T::PI()).sqrt() * d.sigma_m),
+                })
+            }
+            None => None,
+        };
+        let ideal = match params.ideal {
+            Some(k) => Some(check_weight("k_id", k)?),
+            None => None,
+        };
+        Ok(MemberModel {
+            params: *params,
+            core,
+            haze,
+            directional,
+            ideal,
+        })
+    }
+
+    /// The parameters the model was built from.
+    pub fn params(&self) -> &MemberParams<T> {
+        &self.params
+    }
+
+    /// The member (which components are on).
+    pub fn member(&self) -> Member {
+        self.params.member()
+    }
+
+    /// The linear amplitudes: per-incidence k_s or exp(c0) for each lobe, k_dd, k_id
+    /// (0 for components that are off).
+    pub fn amplitudes(&self) -> Parts<T> {
+        let z = T::zero();
+        Parts {
+            core: self.core.map_or(z, |l| l.amplitude()),
+            haze: self.haze.map_or(z, |l| l.amplitude()),
+            directional: self.directional.map_or(z, |d| d.kdd),
+            ideal: self.ideal.unwrap_or(z),
+        }
+    }
+
+    /// The narrowest angular width among the components that are on, radians of
+    /// theta_r: 2 sigma for a lobe, sigma_m for the directional diffuse; `None` when
+    /// only the ideal diffuse is on. Sets the detector-aperture quadrature's order.
+    pub fn narrowest_width(&self) -> Option<T> {
+        let mut w: Option<T> = None;
+        let mut take = |x: T| w = Some(w.map_or(x, |v: T| v.min(x)));
+        if let Some(l) = self.core {
+            take(l.lobe.angular_width());
+        }
+        if let Some(l) = self.haze {
+            take(l.lobe.angular_width());
+        }
+        if let Some(d) = self.directional {
+            take(d.sigma_m());
+        }
+        w
+    }
+
+    /// Evaluates at a geometry; `theta_i_deg` is the incidence `g` was made for (degrees,
+    /// in [0, 90]) and only sets the smooth k_s.
+    pub fn eval(&self, theta_i_deg: T, g: &Geometry<T>) -> Result<MemberEval<T>, ModelError> {
+        self.eval_impl(theta_i_deg, g, None)
+    }
+
+    /// [`MemberModel::eval`] and the gradient with respect to the log-parameters:
+    /// d f/d ln k = k b for every amplitude; d f/d ln sigma = term x d ln f_s/d ln sigma
+    /// (see [`Lobe::value_dlog`]); d f/d ln sigma_m = k_dd f_dd (2y - 1); d f/d c1 =
+    /// term t, d f/d c2 = term t^2.
+    pub fn eval_with_gradient(
+        &self,
+        theta_i_deg: T,
+        g: &Geometry<T>,
+    ) -> Result<(MemberEval<T>, MemberGradient<T>), ModelError> {
+        let mut grad = MemberGradient::default();
+        let e = self.eval_impl(theta_i_deg, g, Some(&mut grad))?;
+        Ok((e, grad))
+    }
+
+    /// Evaluates in the plane of incidence: `theta_i` in [0, 90] degrees, `theta_r`
+    /// signed in [-90, 90] degrees (positive on the specular side).
+    pub fn eval_in_plane(
+        &self,
+        theta_i_deg: T,
+        theta_r_deg: T,
+    ) -> Result<MemberEval<T>, ModelError> {
+        self.eval(theta_i_deg, &Geometry::in_plane(theta_i_deg, theta_r_deg)?)
+    }
+
+    /// [`MemberModel::eval_in_plane`] with the gradient.
+    pub fn eval_in_plane_with_gradient(
+        &self,
+        theta_i_deg: T,
+        theta_r_deg: T,
+    ) -> Result<(MemberEval<T>, MemberGradient<T>), ModelError> {
+        self.eval_with_gradient(theta_i_deg, &Geometry::in_plane(theta_i_deg, theta_r_deg)?)
+    }
+
+    fn eval_impl(
+        &self,
+        theta_i_deg: T,
+        g: &Geometry<T>,
+        grad: Option<&mut MemberGradient<T>>,
+    ) -> Result<MemberEval<T>, ModelError> {
+        let z = T::zero();
+        let t = SmoothKs::t(theta_i_deg)?;
+        let mut basis = Parts::default();
+        let (mut s, mut h, mut d, mut i) = (z, z, z, z);
+        let (mut ds, mut dh, mut y) = (z, z, z);
+        if let Some(l) = &self.core {
+            (basis.core, s, ds) = l.eval(g, t);
+        }
+        if let Some(l) = &self.haze {
+            (basis.haze, h, dh) = l.eval(g, t);
+        }
+        if let Some(dd) = &self.directional {
+            let (fdd, yy) = directional_gauss(g, dd.inv_2s2, dd.norm);
+            basis.directional = fdd;
+            y = yy;
+            d = if dd.kdd > z { dd.kdd * fdd } else { z };
+        }
+        if let Some(k) = self.ideal {
+            basis.ideal = T::one();
+            i = k;
+        }
+        // In Model's order (k_s f_s + k_dd f_dd + k_id), the haze adding exactly 0 when off.
+        let f = s + h + d + i;
+        if !f.is_finite() || !basis.core.is_finite() || !basis.haze.is_finite() {
+            return Err(ModelError::Overflow);
+        }
+        if let Some(gr) = grad {
+            if let Some(l) = &self.core {
+                gr.core = l.gradient(s, ds, t);
+            }
+            if let Some(l) = &self.haze {
+                gr.haze = l.gradient(h, dh, t);
+            }
+            gr.ln_kdd = d;
+            gr.ln_sigma_m = d * (T::lit(2.0) * y - T::one());
+            gr.ln_kid = i;
+        }
+        Ok(MemberEval { basis, f })
+    }
+}
+
+impl<T: Real> Directional<T> {
+    /// sigma_m back from 1/(2 sigma_m^2).
+    fn sigma_m(&self) -> T {
+        (T::lit(0.5) / self.inv_2s2).sqrt()
+    }
+}
+
+#[cfg(test)]
+#[path = "member_tests.rs"]
+mod tests;

@@ -4,6 +4,9 @@
 use brdf_core::albedo::{Grid, Rule, albedo, model_brdf, preset_brdf, reciprocity};
 use brdf_core::{Model, PRESETS};
 
+/// A BRDF closure behind a reference, so different closures share one table.
+type Brdf<'a> = &'a dyn Fn(&[f64; 3], &[f64; 3]) -> Result<f64, brdf_core::ModelError>;
+
 fn main() {
     println!("Directional albedo of the paper's presets (relative units x sr), default rule:");
     println!("| preset | theta_i | rho | error estimate | rho f32 / rho f64 - 1 |");
@@ -28,7 +31,7 @@ fn main() {
     let sharp = Model::torrance_sparrow(1.0, 0.005, 0.0).unwrap();
     let fe = brdf_core::Preset::by_name("fe-0.115").unwrap();
     let al = brdf_core::Preset::by_name("al-0.782").unwrap();
-    let cases: [(&str, &dyn Fn(&[f64; 3], &[f64; 3]) -> Result<f64, _>, f64); 4] = [
+    let cases: [(&str, Brdf, f64); 4] = [
         ("f_s sigma=0.005, 70 deg", &model_brdf(&sharp), 70.0),
         ("fe-0.115, 30 deg", &preset_brdf::<f64>(fe), 30.0),
         ("al-0.782, 60 deg", &preset_brdf::<f64>(al), 60.0),

@@ -14,12 +14,14 @@
 //! - [`controller`]: the goniometer state machine; [`service`]: the loop that connects
 //!   it to a link; [`mechanics`]: the reference goniometer's arms.
 //! - [`sim`]: simulated arms and a virtual sample.
+//! - [`albedo`]: physical checks of any BRDF: directional albedo (with an error bound) and reciprocity.
 //!
 //! Units: angles in degrees at every public interface (radians only inside), BRDF in
 //! the paper's relative units.
 #![cfg_attr(not(test), no_std)]
 #![deny(missing_docs)]
 
+pub mod albedo;
 pub mod aperture;
 pub mod axis;
 pub mod controller;

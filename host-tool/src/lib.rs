@@ -5,6 +5,7 @@
 pub mod angles;
 pub mod bench;
 pub mod bench_study;
+pub mod calibrate;
 pub mod capture;
 pub mod demo;
 pub mod device_cmds;

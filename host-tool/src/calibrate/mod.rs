@@ -1,0 +1,27 @@
+//! From relative readings to the BRDF in 1/sr (issue 17): the instrument constant K of
+//! V = K f(theta_i, theta_r) cos(theta_r), K = (detector gain) x P_i x Omega, estimated
+//! from readings of a reference standard, and the conversions that use it.
+//!
+//! - [`standard`]: the reference standard (Lambertian R, or a certified table).
+//! - [`estimate`]: [`calibrate`]: K by weighted least squares, u(K), the residual table.
+//! - [`instrument`]: the instrument file (TOML), [`to_absolute`] and [`absolute_parameters`].
+//!
+//! Engine only: plain slices of [`Reading`] in, values out, errors as
+//! [`CalibrationError`] (one line each). Angles in degrees (theta_r signed, positive on
+//! the specular side); readings in the instrument's units; BRDF out in 1/sr.
+//! docs/units.md explains the equation and what to measure for an absolute result.
+
+pub mod error;
+pub mod estimate;
+pub mod instrument;
+pub mod standard;
+
+pub use error::CalibrationError;
+pub use estimate::{Calibration, Quantity, Reading, ResidualRow, calibrate};
+pub use instrument::{
+    AbsoluteParam, FittedParam, Instrument, ParamKind, absolute_parameters, now_utc, to_absolute,
+};
+pub use standard::{ReflectanceTable, Standard};
+
+#[cfg(test)]
+mod sim_tests;

@@ -11,6 +11,8 @@
 //! - [`controller`]: the goniometer state machine; [`service`]: the loop that connects
 //!   it to a link; [`mechanics`]: the reference goniometer's arms.
 //! - [`sim`]: simulated arms and a virtual sample.
+//! - [`identity`]: constants firmware and host share: the paper grid, USB identity,
+//!   firmware version.
 //!
 //! Units: angles in degrees at every public interface (radians only inside), BRDF in
 //! the paper's relative units.
@@ -24,6 +26,7 @@ pub mod fast;
 pub mod float;
 pub mod frame;
 pub mod geometry;
+pub mod identity;
 pub mod mechanics;
 pub mod model;
 pub mod plan;

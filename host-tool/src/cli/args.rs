@@ -144,48 +144,56 @@ impl ValueEnum for EvalModel {
     }
 }
 
-/// Parses `--loss`.
-pub fn parse_loss(s: &str) -> CliResult<Loss> {
-    let scale = |c: &str| -> CliResult<f64> {
+/// Parses `--loss` (a clap value parser: a bad value is a usage error before any work).
+pub fn parse_loss(s: &str) -> Result<Loss, String> {
+    let scale = |c: &str| -> Result<f64, String> {
         match c.parse::<f64>() {
             Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
-            _ => Err(CliError::usage(format!(
-                "--loss {s}: the scale must be a number > 0"
-            ))),
+            _ => Err(format!("--loss {s}: the scale must be a number > 0")),
         }
     };
     match s.split_once(':') {
         None if s == "l2" => Ok(Loss::L2),
         Some(("huber", c)) => Ok(Loss::Huber(scale(c)?)),
         Some(("cauchy", c)) => Ok(Loss::Cauchy(scale(c)?)),
-        _ => Err(CliError::usage(format!(
-            "--loss '{s}': use l2, huber:C or cauchy:C"
-        ))),
+        _ => Err(format!("--loss '{s}': use l2, huber:C or cauchy:C")),
     }
 }
 
-/// Parses `json=PATH`, `merl=PATH` or `csv=PATH` (format case-insensitive).
-pub fn parse_export(spec: &str) -> CliResult<(ExportFormat, PathBuf)> {
+/// Parses `json=PATH`, `merl=PATH` or `csv=PATH` (format case-insensitive; a clap
+/// value parser).
+pub fn parse_export(spec: &str) -> Result<(ExportFormat, PathBuf), String> {
     let expected = "expected json=PATH, merl=PATH or csv=PATH";
     let (format, path) = spec
         .split_once('=')
-        .ok_or_else(|| CliError::usage(format!("export '{spec}': {expected}")))?;
+        .ok_or_else(|| format!("export '{spec}': {expected}"))?;
     let format = match format.trim().to_ascii_lowercase().as_str() {
         "json" => ExportFormat::Json,
         "merl" => ExportFormat::Merl,
         "csv" => ExportFormat::Csv,
         other => {
-            return Err(CliError::usage(format!(
+            return Err(format!(
                 "export '{spec}': unknown format '{other}' ({expected})"
-            )));
+            ));
         }
     };
     if path.trim().is_empty() {
-        return Err(CliError::usage(format!(
+        return Err(format!(
             "export '{spec}': no file name after '=' ({expected})"
-        )));
+        ));
     }
     Ok((format, PathBuf::from(path)))
+}
+
+/// A list of angles in degrees, as `--theta-r` gives it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Angles(pub Vec<f64>);
+
+/// `--theta-r` as a clap value parser (see [`parse_angles`]).
+pub fn theta_r_angles(spec: &str) -> Result<Angles, String> {
+    parse_angles("--theta-r", spec)
+        .map(Angles)
+        .map_err(|e| e.message)
 }
 
 /// Most angles one list may expand to.
@@ -325,17 +333,12 @@ mod tests {
         assert_eq!(parse_export("csv=grid.csv").unwrap().0, ExportFormat::Csv);
         for bad in ["json", "png=x.png", "csv=", "=x"] {
             let e = parse_export(bad).unwrap_err();
-            assert_eq!(e.code, super::super::error::EXIT_USAGE, "{bad}");
-            assert!(
-                e.message.contains("json=PATH, merl=PATH or csv=PATH"),
-                "{bad}: {}",
-                e.message
-            );
+            // A value parser's error: clap reports it as bad usage (exit 2).
+            assert!(e.contains("json=PATH, merl=PATH or csv=PATH"), "{bad}: {e}");
         }
         assert!(
             parse_export("png=x.png")
                 .unwrap_err()
-                .message
                 .contains("unknown format 'png'")
         );
     }

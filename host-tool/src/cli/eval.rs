@@ -4,7 +4,7 @@ use brdf_core::model::{KDD_PAPER, KID_PAPER, SIGMA_M_PAPER};
 use brdf_core::{Model, Params, Preset, Real};
 use clap::{Args, ValueEnum};
 
-use super::args::{EvalModel, parse_angles};
+use super::args::{Angles, EvalModel, theta_r_angles};
 use super::error::{CliError, CliResult};
 use super::output::write_stdout;
 use crate::fit::Kind;
@@ -72,8 +72,13 @@ pub struct EvalArgs {
     /// Detector angles in degrees, signed, in [-90, 90]: `a,b,c` or `start:stop:step`
     /// (stop included), or a mix. Negative values work as `--theta-r=-80:80:10` and as
     /// `--theta-r -80:80:10`.
-    #[arg(long = "theta-r", value_name = "SPEC", allow_hyphen_values = true)]
-    pub theta_r: String,
+    #[arg(
+        long = "theta-r",
+        value_name = "SPEC",
+        allow_hyphen_values = true,
+        value_parser = theta_r_angles
+    )]
+    pub theta_r: Angles,
     /// Float precision of the evaluation (f32 is what the firmware uses).
     #[arg(long, value_enum, default_value_t = Precision::F64)]
     pub precision: Precision,
@@ -81,11 +86,11 @@ pub struct EvalArgs {
 
 /// Runs `gonio eval`: validates everything first, so bad input prints nothing on stdout.
 pub fn run(args: &EvalArgs) -> CliResult {
-    let theta_r = parse_angles("--theta-r", &args.theta_r)?;
+    let theta_r = &args.theta_r.0;
     let mut csv = String::from("theta_i,theta_r,brdf\n");
     match args.precision {
-        Precision::F64 => rows::<f64>(args, &theta_r, &mut csv)?,
-        Precision::F32 => rows::<f32>(args, &theta_r, &mut csv)?,
+        Precision::F64 => rows::<f64>(args, theta_r, &mut csv)?,
+        Precision::F32 => rows::<f32>(args, theta_r, &mut csv)?,
     }
     write_stdout(csv.as_bytes())
 }

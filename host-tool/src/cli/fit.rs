@@ -8,7 +8,8 @@ use clap::{Args, ValueEnum};
 use super::args::{ModelArg, parse_export, parse_loss};
 use super::error::{CliError, CliResult};
 use super::output::write_stdout;
-use crate::fit::{self, Dataset, FamilyFit, FitOptions, Fixed, Kind, Residual};
+use crate::export::ExportFormat;
+use crate::fit::{self, Dataset, FamilyFit, FitOptions, Fixed, Kind, Loss, Residual};
 use crate::sweep_file::{looks_like_radians, read_sweep};
 use crate::{export, plot};
 
@@ -51,8 +52,8 @@ pub struct FitArgs {
     pub plot: Option<PathBuf>,
     /// Export the selected (or --export-model) fit: json=PATH (parameters),
     /// merl=PATH (MERL binary table), csv=PATH (in-plane grid). Repeatable.
-    #[arg(long, value_name = "FORMAT=PATH")]
-    pub export: Vec<String>,
+    #[arg(long, value_name = "FORMAT=PATH", value_parser = parse_export)]
+    pub export: Vec<(ExportFormat, PathBuf)>,
     /// Which fitted model to export [default: the selected one].
     #[arg(long = "export-model", value_enum, value_name = "MODEL")]
     pub export_model: Option<ModelArg>,
@@ -61,8 +62,8 @@ pub struct FitArgs {
     pub residual: ResidualArg,
     /// Loss: l2, huber:C or cauchy:C (C in residual units, e.g. cauchy:0.05 for log
     /// residuals: readings off by more than ~5 % count less).
-    #[arg(long, default_value = "l2", value_name = "LOSS")]
-    pub loss: String,
+    #[arg(long, default_value = "l2", value_name = "LOSS", value_parser = parse_loss)]
+    pub loss: Loss,
     /// Hold a parameter fixed: sigma, sigma_m, kdd, kid or kd, e.g. --fix sigma=0.115.
     /// Repeatable.
     #[arg(long = "fix", value_name = "NAME=VALUE")]
@@ -85,7 +86,7 @@ pub fn options(args: &FitArgs) -> CliResult<(FitOptions, Vec<Kind>)> {
     };
     let opts = FitOptions {
         residual,
-        loss: parse_loss(&args.loss)?,
+        loss: args.loss,
         fixed,
         ..FitOptions::default()
     };
@@ -126,12 +127,6 @@ pub fn fit_file(
 /// Runs `gonio fit`.
 pub fn run(args: &FitArgs) -> CliResult {
     let (opts, kinds) = options(args)?;
-    // Bad export specs are usage errors before any work is done.
-    let exports = args
-        .export
-        .iter()
-        .map(|e| parse_export(e))
-        .collect::<CliResult<Vec<_>>>()?;
     let (data, fam) = fit_file(&args.sweep, &opts, &kinds)?;
     let residual = match opts.residual {
         Residual::Log => "log",
@@ -142,7 +137,7 @@ pub fn run(args: &FitArgs) -> CliResult {
         plot::write_plots(dir, &data, &fam)?;
     }
     let kind = args.export_model.map_or(fam.selected, |m| m.0);
-    for (format, path) in &exports {
+    for (format, path) in &args.export {
         export::write_export(*format, path, &fam, kind)?;
     }
     let text = if args.json {

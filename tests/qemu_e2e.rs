@@ -5,9 +5,10 @@
 use std::time::{Duration, Instant};
 
 use brdf_core::frame;
+use brdf_core::identity::paper_point;
 use brdf_core::presets::Preset;
 use brdf_core::protocol::*;
-use gonio::link::{Link, SerialTransport};
+use gonio::device::{FramedLink, SerialTransport};
 use gonio_e2e::{Qemu, qemu_elf};
 
 const SETTINGS: PointSettings = PointSettings {
@@ -18,7 +19,7 @@ const SETTINGS: PointSettings = PointSettings {
 
 /// Events until `done` says stop (or panics after `limit`).
 fn collect(
-    link: &mut Link<SerialTransport>,
+    link: &mut FramedLink<SerialTransport>,
     limit: Duration,
     mut done: impl FnMut(&Event) -> bool,
 ) -> Vec<Event> {
@@ -61,7 +62,7 @@ fn firmware_in_qemu_serves_gonio_over_a_pty() {
     let elf = qemu_elf();
     let mut qemu = Qemu::start(&elf, Duration::from_secs(600));
     // Opened exactly as `gonio capture --port` opens a port.
-    let mut link = Link::new(SerialTransport::open(&qemu.pty).expect("open pty"));
+    let mut link = FramedLink::new(SerialTransport::open(&qemu.pty).expect("open pty"));
     let info = link.handshake(Duration::from_secs(20)).expect("handshake");
     assert_eq!(
         (info.protocol, info.board.as_str()),
@@ -140,8 +141,7 @@ fn firmware_in_qemu_serves_gonio_over_a_pty() {
     let fe = Preset::by_name("fe-0.115").unwrap();
     for (n, x) in r.iter().enumerate() {
         assert_eq!((x.sweep_id, x.seq, x.n), (11, n as u32, 4));
-        assert_eq!(x.theta_i, 10.0 * (n / 17) as f32, "{x:?}");
-        assert_eq!(x.theta_r, -80.0 + 10.0 * (n % 17) as f32, "{x:?}");
+        assert_eq!((x.theta_i, x.theta_r), paper_point(n), "{x:?}");
         let model = fe.model(x.theta_i as f64).unwrap();
         let want = model
             .eval_in_plane(x.theta_i as f64, x.theta_r as f64)
@@ -239,11 +239,9 @@ fn firmware_in_qemu_serves_gonio_over_a_pty() {
 
 #[test]
 fn gonio_capture_engine_against_the_firmware() {
-    use gonio::capture::{CaptureSetup, capture};
-    use gonio::device_cmds::SerialConnector;
-    use gonio::host_plan::HostPlan;
-    use gonio::progress::Quiet;
-    use gonio::sweep_file::{Status, read_sweep};
+    use gonio::capture::{CaptureSetup, HostPlan, Quiet, capture};
+    use gonio::device::SerialConnector;
+    use gonio::sweep_file::{SweepStatus, read_sweep};
     use std::sync::atomic::AtomicBool;
 
     let elf = qemu_elf();
@@ -259,7 +257,7 @@ fn gonio_capture_engine_against_the_firmware() {
     setup.handshake_timeout = Duration::from_secs(20);
     let mut conn = SerialConnector::new(&qemu.pty);
     let report = capture(&mut conn, &setup, &mut Quiet, &AtomicBool::new(false)).expect("capture");
-    assert_eq!(report.status, Status::Complete);
+    assert_eq!(report.status, SweepStatus::Complete);
     assert_eq!(report.info.board.as_str(), "qemu");
     let data = read_sweep(&out).unwrap();
     assert_eq!(data.rows.len(), 153);

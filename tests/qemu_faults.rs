@@ -8,13 +8,11 @@ use std::time::{Duration, Instant};
 
 use brdf_core::frame;
 use brdf_core::protocol::{Arm, Command, ErrorCode, Event, Reading};
-use gonio::capture::{CaptureSetup, Connector, capture};
-use gonio::device_cmds::SerialConnector;
-use gonio::faulty::{FaultRates, FaultStats, FaultyTransport};
-use gonio::host_plan::HostPlan;
-use gonio::link::{Link, LinkError, SerialTransport};
-use gonio::progress::{Progress, Quiet};
-use gonio::sweep_file::{Status, read_sweep};
+use gonio::capture::{CaptureSetup, HostPlan, ProgressSink, Quiet, capture};
+use gonio::device::{FramedLink, SerialConnector, SerialTransport};
+use gonio::sweep_file::{SweepStatus, read_sweep};
+use gonio::testing::faults::{FaultRates, FaultStats};
+use gonio::testing::{FaultyConnector, assert_each_point_once, paper_index};
 use gonio_e2e::{Qemu, qemu_elf};
 
 fn scratch(name: &str) -> PathBuf {
@@ -37,66 +35,30 @@ fn setup(out: &Path) -> CaptureSetup {
     s
 }
 
-fn paper_index(theta_i: f64, theta_r: f64) -> u32 {
-    ((theta_i / 10.0).round() * 17.0 + ((theta_r + 80.0) / 10.0).round()) as u32
-}
-
-/// The serial port of a QEMU, behind a [`FaultyTransport`].
-struct NoisyQemu {
-    pty: String,
-    rates: FaultRates,
-    connections: u64,
-    stats: Arc<Mutex<FaultStats>>,
-}
-
-impl Connector for NoisyQemu {
-    type T = FaultyTransport<SerialTransport>;
-
-    fn connect(&mut self) -> Result<Link<Self::T>, LinkError> {
-        self.connections += 1;
-        Ok(Link::new(FaultyTransport::new(
-            SerialTransport::open(&self.pty)?,
-            self.rates,
-            77 + self.connections,
-            self.stats.clone(),
-        )))
-    }
-
-    fn can_reconnect(&self) -> bool {
-        true
-    }
-}
-
 #[test]
 fn capture_from_the_firmware_through_bit_noise() {
     let qemu = Qemu::start(&qemu_elf(), Duration::from_secs(300));
     let d = scratch("noise");
     let out = d.join("fe.csv");
     let stats = Arc::new(Mutex::new(FaultStats::default()));
-    let mut conn = NoisyQemu {
-        pty: qemu.pty.clone(),
-        rates: FaultRates {
+    let pty = qemu.pty.clone();
+    let mut conn = FaultyConnector::new(
+        || SerialTransport::open(&pty),
+        FaultRates {
             bit_flip: 1e-3,
             host_bit_flip: 4e-3,
             ..FaultRates::default()
         },
-        connections: 0,
-        stats: stats.clone(),
-    };
+        77,
+        stats.clone(),
+    );
     let started = Instant::now();
     let report = capture(&mut conn, &setup(&out), &mut Quiet, &AtomicBool::new(false))
         .expect("capture through noise");
     let st = stats.lock().unwrap().clone();
-    assert_eq!(report.status, Status::Complete);
+    assert_eq!(report.status, SweepStatus::Complete);
     let data = read_sweep(&out).unwrap();
-    let seqs: Vec<u32> = data.rows.iter().map(|r| r.seq.unwrap()).collect();
-    let mut sorted = seqs.clone();
-    sorted.sort();
-    assert_eq!(
-        sorted,
-        (0..153).collect::<Vec<_>>(),
-        "each point exactly once"
-    );
+    assert_each_point_once(&data.rows, 153, "through bit noise");
     let mut first: BTreeMap<u32, Reading> = BTreeMap::new();
     for r in &st.intact_readings {
         first
@@ -145,7 +107,7 @@ fn point(link: &Path, pty: &str) {
     std::fs::rename(&tmp, link).unwrap();
 }
 
-impl Progress for PullThePlug {
+impl ProgressSink for PullThePlug {
     fn start(&mut self, _: u64, _: u64) {}
     fn reading(&mut self, done: u64, _: f32, _: f32) {
         if done == self.at && !self.done {
@@ -181,16 +143,10 @@ fn capture_survives_the_firmware_being_killed_mid_sweep() {
     let report = capture(&mut conn, &setup(&out), &mut plug, &AtomicBool::new(false))
         .expect("capture across a restart");
     assert!(plug.done);
-    assert_eq!(report.status, Status::Complete);
+    assert_eq!(report.status, SweepStatus::Complete);
     assert_eq!(report.reconnects, 1);
     let data = read_sweep(&out).unwrap();
-    let mut seqs: Vec<u32> = data.rows.iter().map(|r| r.seq.unwrap()).collect();
-    seqs.sort();
-    assert_eq!(
-        seqs,
-        (0..153).collect::<Vec<_>>(),
-        "each point exactly once"
-    );
+    assert_each_point_once(&data.rows, 153, "after QEMU was killed");
     eprintln!(
         "QEMU killed after 40 readings: complete after 1 reconnect, status {:?}, {:.1} s",
         data.counters,
@@ -201,9 +157,9 @@ fn capture_survives_the_firmware_being_killed_mid_sweep() {
 #[test]
 fn firmware_answers_bad_commands_with_errors_and_keeps_serving() {
     let qemu = Qemu::start(&qemu_elf(), Duration::from_secs(120));
-    let mut link = Link::new(SerialTransport::open(&qemu.pty).unwrap());
+    let mut link = FramedLink::new(SerialTransport::open(&qemu.pty).unwrap());
     link.handshake(Duration::from_secs(20)).unwrap();
-    let next_error = |link: &mut Link<SerialTransport>| -> ErrorCode {
+    let next_error = |link: &mut FramedLink<SerialTransport>| -> ErrorCode {
         let deadline = Instant::now() + Duration::from_secs(60);
         while Instant::now() < deadline {
             if let Some(Event::Error(e)) = link.recv(Duration::from_millis(200)).unwrap() {

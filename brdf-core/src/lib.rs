@@ -15,6 +15,8 @@
 //!   it to a link; [`mechanics`]: the reference goniometer's arms.
 //! - [`sim`]: simulated arms and a virtual sample.
 //! - [`albedo`]: physical checks of any BRDF: directional albedo (with an error bound) and reciprocity.
+//! - [`identity`]: constants firmware and host share: the paper grid, USB identity,
+//!   firmware version.
 //!
 //! Units: angles in degrees at every public interface (radians only inside), BRDF in
 //! the paper's relative units.
@@ -30,6 +32,7 @@ pub mod fast;
 pub mod float;
 pub mod frame;
 pub mod geometry;
+pub mod identity;
 pub mod lobe;
 pub mod mechanics;
 pub mod member;

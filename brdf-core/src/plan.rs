@@ -4,6 +4,7 @@
 use core::fmt;
 
 use crate::float::Real;
+use crate::identity::{PAPER_DETECTOR, PAPER_INCIDENCES};
 use crate::model::Model;
 use crate::protocol::{ArmLimits, Grid, MAX_PLAN_POINTS, Point, PointSettings, SweepPlan};
 
@@ -205,15 +206,15 @@ impl PlanCursor {
         loop {
             let p = match &plan.grid {
                 Grid::Paper => {
-                    if self.leg >= 9 {
+                    if self.leg >= PAPER_INCIDENCES.len() {
                         return None;
                     }
                     let p = Point {
-                        theta_i: 10.0 * self.leg as f32,
-                        theta_r: -80.0 + 10.0 * self.k as f32,
+                        theta_i: PAPER_INCIDENCES[self.leg],
+                        theta_r: PAPER_DETECTOR[self.k as usize],
                     };
                     self.k += 1;
-                    if self.k == 17 {
+                    if self.k as usize == PAPER_DETECTOR.len() {
                         self.k = 0;
                         self.leg += 1;
                     }

@@ -4,5 +4,5 @@
 #![no_std]
 #![deny(missing_docs)]
 
-/// Firmware version reported in the handshake (major, minor, patch).
-pub const FIRMWARE_VERSION: [u8; 3] = [0, 1, 0];
+/// Firmware version reported in the handshake (major, minor, patch), from Cargo.
+pub use brdf_core::identity::FIRMWARE_VERSION;

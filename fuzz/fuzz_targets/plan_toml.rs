@@ -3,7 +3,7 @@
 
 use std::collections::BTreeSet;
 
-use gonio::host_plan::HostPlan;
+use gonio::capture::HostPlan;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

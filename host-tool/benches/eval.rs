@@ -6,6 +6,7 @@ use std::hint::black_box;
 
 use brdf_core::Model;
 use brdf_core::fast::FastModel;
+use brdf_core::identity::{PAPER_DETECTOR, PAPER_INCIDENCES};
 use brdf_core::sim::XorShift32;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use gonio::bench::{bench_params, dense_grid, eval_grid, naive};
@@ -22,8 +23,8 @@ fn bench(c: &mut Criterion) {
     let m32 = Model::three_component(p32).unwrap();
     let fast = FastModel::new(&m32, 0.0);
     let cull = FastModel::new(&m32, 1e-3);
-    let paper_i: Vec<f32> = (0..9).map(|k| 10.0 * k as f32).collect();
-    let paper_r: Vec<f32> = (0..17).map(|k| -80.0 + 10.0 * k as f32).collect();
+    let paper_i = PAPER_INCIDENCES.to_vec();
+    let paper_r = PAPER_DETECTOR.to_vec();
     let (dense_i, dense_r) = dense_grid();
     let mut rng = XorShift32::new(12345);
     let random: Vec<(f32, f32)> = (0..50_000)

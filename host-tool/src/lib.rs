@@ -1,26 +1,32 @@
-//! The gonio host library: talking to the goniometer (serial or in-process), and
-//! everything the `gonio` command does with what it receives.
+//! The gonio host library: the engines behind the `gonio` command, each in a module
+//! named after its concept, and the command line over them.
+//!
+//! | module | what lives there |
+//! |---|---|
+//! | [`cli`] | one file per command (clap arguments and `run`), shared argument groups, [`cli::CliError`] and exit codes |
+//! | [`device`] | talking to a goniometer: byte [`device::Transport`]s, the [`device::FramedLink`] and handshake, serial ports, simulated devices, port discovery |
+//! | [`capture`] | the capture engine: host plans, the per-sweep state, progress display |
+//! | [`sweep_file`] | the sweep file format: reading, writing row by row, resuming |
+//! | [`fit`] | fitting the nested model family to a sweep, reports |
+//! | [`export`] | a fitted model as JSON, a MERL table or an in-plane CSV grid |
+//! | [`plot`] | PNG and SVG figures of a fit against its data |
+//! | [`bench`] | evaluation variants, the slower studies, their tables and chart |
+//! | [`flash`] | flashing the firmware through a debug probe (probe-rs) |
+//! | `testing` | test support (feature `testing`): link fault injection, a faulty connector, shared assertions |
+//!
+//! Engines know nothing of the command line: each returns its own error type, which
+//! [`cli::error`] turns into an exit status and one line on stderr.
 #![deny(missing_docs)]
 
-pub mod angles;
 pub mod bench;
-pub mod bench_study;
 pub mod calibrate;
 pub mod capture;
-pub mod demo;
-pub mod device_cmds;
-pub mod error;
-pub mod eval;
+pub mod cli;
+pub mod device;
 pub mod export;
-pub mod faulty;
 pub mod fit;
-pub mod fit_cmd;
 pub mod flash;
-pub mod host_plan;
-pub mod link;
-pub mod output;
 pub mod plot;
-pub mod ports;
-pub mod progress;
-pub mod sim_device;
 pub mod sweep_file;
+#[cfg(feature = "testing")]
+pub mod testing;

@@ -3,8 +3,9 @@
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use gonio::error::{CliResult, EXIT_USAGE};
-use gonio::{bench, demo, device_cmds, eval, fit_cmd, flash, ports};
+use gonio::cli::{
+    CliResult, EXIT_USAGE, bench, capture, demo, eval, fit, flash, info, ports, simulate,
+};
 
 /// gonio: measure and model how metal surfaces reflect light.
 #[derive(Debug, Parser)]
@@ -29,10 +30,10 @@ struct Cli {
 enum Command {
     Eval(eval::EvalArgs),
     Ports(ports::PortsArgs),
-    Info(device_cmds::InfoArgs),
-    Capture(device_cmds::CaptureArgs),
-    Simulate(device_cmds::SimulateArgs),
-    Fit(fit_cmd::FitArgs),
+    Info(info::InfoArgs),
+    Capture(capture::CaptureArgs),
+    Simulate(simulate::SimulateArgs),
+    Fit(fit::FitArgs),
     Demo(demo::DemoArgs),
     Bench(bench::BenchArgs),
     Flash(flash::FlashArgs),
@@ -42,12 +43,12 @@ fn run(cli: Cli) -> CliResult {
     match cli.command {
         Command::Eval(args) => eval::run(&args),
         Command::Ports(args) => ports::run(&args),
-        Command::Info(args) => device_cmds::info(&args),
-        Command::Capture(args) => device_cmds::run_capture(&args),
-        Command::Simulate(args) => device_cmds::run_simulate(&args),
-        Command::Fit(args) => fit_cmd::run(&args),
+        Command::Info(args) => info::run(&args),
+        Command::Capture(args) => capture::run(&args),
+        Command::Simulate(args) => simulate::run(&args),
+        Command::Fit(args) => fit::run(&args),
         Command::Demo(args) => demo::run(&args),
-        Command::Bench(args) => bench::run_cli(&args),
+        Command::Bench(args) => bench::run(&args),
         Command::Flash(args) => flash::run(&args),
     }
 }

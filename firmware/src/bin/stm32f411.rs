@@ -55,6 +55,7 @@
 
 use brdf_core::axis::StepDirPins;
 use brdf_core::controller::{Controller, ControllerConfig, Detector, DetectorError};
+use brdf_core::identity::{USB_MANUFACTURER, USB_PID, USB_PRODUCT, USB_VID};
 use brdf_core::mechanics;
 use brdf_core::service::{Link, Service};
 use cortex_m_rt::entry;
@@ -82,11 +83,7 @@ use usbd_serial::SerialPort;
 /// Board name reported in the handshake.
 const BOARD: &str = "stm32f411";
 /// USB vendor/product: the pid.codes (V-USB) shared CDC-ACM pair.
-const USB_VID_PID: UsbVidPid = UsbVidPid(0x16c0, 0x27dd);
-/// USB manufacturer string.
-const USB_MANUFACTURER: &str = "gonio";
-/// USB product string; the host tool finds the board by it.
-const USB_PRODUCT: &str = "gonio goniometer";
+const USB_VID_PID: UsbVidPid = UsbVidPid(USB_VID, USB_PID);
 /// Step pulse width (A4988 >= 1 us, DRV8825 >= 1.9 us, TMC2209 >= 0.1 us).
 const STEP_PULSE_NS: u32 = 2_000;
 /// Direction setup time before the next step edge (DRV8825 >= 650 ns, A4988 >= 200 ns).

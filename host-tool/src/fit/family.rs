@@ -24,14 +24,44 @@ impl Kind {
         Kind::ThreeSmooth,
     ];
 
-    /// The name used in reports and JSON.
-    pub fn name(self) -> &'static str {
+    /// Every name of this model (its row of the vocabulary table).
+    pub const fn names(self) -> Names {
         match self {
-            Kind::IdealDiffuse => "ideal-diffuse",
-            Kind::TorranceSparrow => "torrance-sparrow",
-            Kind::ThreeComponent => "three-component",
-            Kind::ThreeSmooth => "three-component-smooth-ks",
+            Kind::IdealDiffuse => Names {
+                cli: "ideal",
+                report: "ideal-diffuse",
+                figure: "ideal diffuse",
+                help: "f = k_id.",
+            },
+            Kind::TorranceSparrow => Names {
+                cli: "ts",
+                report: "torrance-sparrow",
+                figure: "Torrance–Sparrow",
+                help: "Torrance–Sparrow: k_s(theta_i) f_s + k_d.",
+            },
+            Kind::ThreeComponent => Names {
+                cli: "three",
+                report: "three-component",
+                figure: "three-component",
+                help: "Three components: k_s f_s + k_dd f_dd + k_id (eq. 2), one k_s per incidence.",
+            },
+            Kind::ThreeSmooth => Names {
+                cli: "three-smooth",
+                report: "three-component-smooth-ks",
+                figure: "three-component, smooth k_s",
+                help: "Three components, ln k_s quadratic in theta_i.",
+            },
         }
+    }
+
+    /// The canonical name, used in reports, JSON and messages.
+    pub const fn name(self) -> &'static str {
+        self.names().report
+    }
+
+    /// The kind whose command-line name is `cli`.
+    pub fn from_cli_name(cli: &str) -> Option<Kind> {
+        Kind::ALL.into_iter().find(|k| k.names().cli == cli)
     }
 
     /// The components it switches on.
@@ -56,6 +86,21 @@ impl Kind {
     pub fn directional(self) -> bool {
         self.components().directional
     }
+}
+
+/// The names of one model: what the user types, what reports, JSON and messages say,
+/// what figures say, and its one-line description. Every one of them comes from
+/// [`Kind::names`], the single table of this vocabulary.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Names {
+    /// On the command line (`fit --models`, `fit --export-model`, `eval --model`).
+    pub cli: &'static str,
+    /// Canonical: reports, JSON, messages.
+    pub report: &'static str,
+    /// Figure titles and legends.
+    pub figure: &'static str,
+    /// One line for `--help`.
+    pub help: &'static str,
 }
 
 /// One fitted coordinate (all are natural logarithms of positive parameters, except

@@ -16,7 +16,7 @@ pub mod solve;
 use std::time::Instant;
 
 pub use data::Dataset;
-pub use family::{Fixed, Kind};
+pub use family::{Fixed, Kind, Names};
 pub use solve::{Fit, FitOptions, Loss, Residual, fit_kind};
 
 /// Every model of the family fitted to one dataset.

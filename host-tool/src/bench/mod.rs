@@ -1,0 +1,13 @@
+//! Benchmarks behind `gonio bench` and docs/PERFORMANCE.md: the evaluation
+//! [`variants`] (speed against error), the slower [`study`] runs (readings against fit
+//! error, fit time against error), their text [`table`]s and the speed-against-error
+//! [`chart`].
+
+pub mod chart;
+pub mod study;
+pub mod table;
+pub mod variants;
+
+pub use chart::speed_vs_error;
+pub use study::{FitResultRow, PlanResult, StudyError, fit_study, plan_study};
+pub use variants::{VariantResult, bench_params, dense_grid, eval_grid, naive, run};

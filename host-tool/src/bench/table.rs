@@ -1,0 +1,52 @@
+//! The text tables `gonio bench` prints: variants, and the studies when run.
+
+use super::{FitResultRow, PlanResult, VariantResult};
+
+/// The variants table `gonio bench` prints.
+pub fn variants_table(rows: &[VariantResult]) -> String {
+    let mut s = format!(
+        "{:<34} {:>10} {:>12} {:>16} {:>10}\n",
+        "variant", "ns/eval", "M evals/s", "max rel. error", "vs naive"
+    );
+    for r in rows {
+        s.push_str(&format!(
+            "{:<34} {:>10.2} {:>12.1} {:>16.2e} {:>9.1}x\n",
+            r.variant, r.ns_per_eval, r.m_evals_per_s, r.max_rel_error, r.speedup_vs_naive
+        ));
+    }
+    s.push_str(
+        "grid: theta_i 0..85, theta_r -85..85 degrees, step 0.5 (58,311 points); one core; \
+                errors against the f64 reference\n",
+    );
+    s
+}
+
+/// The plan study's table (readings against fit error).
+pub fn plans_table(plans: &[PlanResult]) -> String {
+    let mut t = format!(
+        "\n{:<10} {:<40} {:>9} {:>10}\n",
+        "material", "plan", "readings", "fit error"
+    );
+    for p in plans {
+        t.push_str(&format!(
+            "{:<10} {:<40} {:>9} {:>10.5}\n",
+            p.material, p.plan, p.readings, p.fit_error
+        ));
+    }
+    t
+}
+
+/// The fit study's table (time against error across tolerances and starts).
+pub fn fits_table(fits: &[FitResultRow]) -> String {
+    let mut t = format!(
+        "\n{:>8} {:>7} {:>10} {:>12} {:>12}\n",
+        "tol", "starts", "us/fit", "RMSE", "SSR(log)"
+    );
+    for f in fits {
+        t.push_str(&format!(
+            "{:>8.0e} {:>7} {:>10.1} {:>12.6} {:>12.6e}\n",
+            f.tol, f.starts, f.micros, f.rmse, f.ssr
+        ));
+    }
+    t
+}

@@ -1,0 +1,544 @@
+//! The capture engine: runs a plan on a device and writes every reading to the sweep
+//! file as it arrives. Counts sequence gaps, dropped frames and silences; re-measures
+//! lost readings (never fills them in); turns Ctrl-C into Abort with a valid file;
+//! reconnects to a device that went away and measures only what is missing.
+
+use std::collections::{BTreeSet, VecDeque};
+use std::fmt;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use brdf_core::protocol::{Command, ErrorCode, Event, Info, Reading};
+
+use crate::device::{Connector, FramedLink, LinkError, Transport};
+use crate::sweep_file::{Counters, Header, Row, SweepFileError, SweepStatus, SweepWriter};
+
+pub mod plan;
+pub mod progress;
+mod sweep;
+
+use sweep::{Outcome, Step, SweepState};
+
+pub use plan::{DEFAULT_ADAPTIVE_BUDGET, DeviceSweep, HostPlan, PlanError, SettingsOverride};
+pub use progress::{ProgressSink, Quiet};
+
+/// Why a capture could not run or went wrong.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum CaptureError {
+    /// The plan cannot be run (bad input, before anything is measured).
+    Plan(PlanError),
+    /// The sweep file cannot be created, resumed or written.
+    File(SweepFileError),
+    /// The device failed, refused, or was lost for good. The file is valid and says so.
+    Device(String),
+}
+
+impl fmt::Display for CaptureError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            CaptureError::Plan(e) => e.fmt(f),
+            CaptureError::File(e) => e.fmt(f),
+            CaptureError::Device(m) => f.write_str(m),
+        }
+    }
+}
+
+impl std::error::Error for CaptureError {}
+
+impl From<PlanError> for CaptureError {
+    fn from(e: PlanError) -> Self {
+        CaptureError::Plan(e)
+    }
+}
+
+impl From<SweepFileError> for CaptureError {
+    fn from(e: SweepFileError) -> Self {
+        CaptureError::File(e)
+    }
+}
+
+impl From<LinkError> for CaptureError {
+    fn from(e: LinkError) -> Self {
+        CaptureError::Device(e.to_string())
+    }
+}
+
+type Result<T = (), E = CaptureError> = std::result::Result<T, E>;
+
+/// How to run a capture.
+#[derive(Debug, Clone)]
+pub struct CaptureSetup {
+    /// The plan (ignored with `resume`: the file's plan is used).
+    pub plan: Option<HostPlan>,
+    /// The sweep file.
+    pub out: PathBuf,
+    /// Continue the plan recorded in `out`, measuring only the missing points.
+    pub resume: bool,
+    /// Overwrite `out` if it exists.
+    pub force: bool,
+    /// Also append every received byte to this file (raw frame log for replay).
+    pub raw: Option<PathBuf>,
+    /// A device silent this long is pinged; if it does not answer, it is lost.
+    pub event_timeout: Duration,
+    /// How long to wait for a lost device to come back.
+    pub reconnect_for: Duration,
+    /// Rounds of re-measuring readings lost on the link.
+    pub retries: u32,
+    /// Handshake timeout.
+    pub handshake_timeout: Duration,
+    /// Time allowed for homing.
+    pub home_timeout: Duration,
+}
+
+impl CaptureSetup {
+    /// Defaults for a plan and output file.
+    pub fn new(plan: Option<HostPlan>, out: PathBuf) -> Self {
+        CaptureSetup {
+            plan,
+            out,
+            resume: false,
+            force: false,
+            raw: None,
+            event_timeout: Duration::from_secs(30),
+            reconnect_for: Duration::from_secs(60),
+            retries: 3,
+            handshake_timeout: Duration::from_secs(10),
+            home_timeout: Duration::from_secs(180),
+        }
+    }
+}
+
+/// What a capture did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CaptureReport {
+    /// How it ended.
+    pub status: SweepStatus,
+    /// Final counters (as in the file's status line).
+    pub counters: Counters,
+    /// Plan points still without a reading.
+    pub missing: Vec<u32>,
+    /// Plan points in all.
+    pub total: usize,
+    /// The device's handshake.
+    pub info: Info,
+    /// Times the link was re-established.
+    pub reconnects: u32,
+}
+
+struct Run<'a, C: Connector> {
+    conn: &'a mut C,
+    setup: &'a CaptureSetup,
+    plan: HostPlan,
+    writer: SweepWriter,
+    present: BTreeSet<u32>,
+    progress: &'a mut dyn ProgressSink,
+    interrupt: &'a AtomicBool,
+    next_id: u32,
+    reconnects: u32,
+    dropped_before: u64,
+}
+
+/// The f64 nearest to an f32's shortest decimal form: the file then shows
+/// `10102.495`, not `10102.4951171875`, and parsing it as f32 gives the device's value.
+fn shortest(x: f32) -> f64 {
+    x.to_string().parse().unwrap_or(x as f64)
+}
+
+fn device_line(info: &Info) -> String {
+    let [a, b, c] = info.firmware;
+    format!(
+        "{} firmware {a}.{b}.{c} protocol {}",
+        info.board, info.protocol
+    )
+}
+
+/// Opens the link, handshakes, stops anything the device was still doing and homes it
+/// if needed.
+fn prepare<C: Connector>(conn: &mut C, setup: &CaptureSetup) -> Result<(FramedLink<C::T>, Info)> {
+    let mut link = conn.connect()?;
+    if let Some(raw) = &setup.raw {
+        let f = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(raw)
+            .map_err(|e| CaptureError::Device(format!("{}: {e}", raw.display())))?;
+        link.set_raw_log(Box::new(f));
+    }
+    let mut info = link.handshake(setup.handshake_timeout)?;
+    let send =
+        |link: &mut FramedLink<C::T>, cmd: &Command| link.send(cmd).map_err(CaptureError::from);
+    // A device that survived a lost link may still be sweeping: stop it. On a noisy
+    // link the Abort or its answer may be lost: ask again.
+    let mut stopped = false;
+    for _ in 0..5 {
+        send(&mut link, &Command::Abort)?;
+        if recv_until(&mut link, Duration::from_secs(1), |e| {
+            matches!(e, Event::Status(_) | Event::SweepDone(_))
+        })?
+        .is_some()
+        {
+            stopped = true;
+            break;
+        }
+    }
+    if !stopped {
+        return Err(CaptureError::Device(
+            "device did not answer Abort within 5 s".into(),
+        ));
+    }
+    if !info.homed {
+        send(&mut link, &Command::Home)?;
+        let deadline = Instant::now() + setup.home_timeout;
+        // The Status that ends homing may be lost: every 2 s of silence ask with
+        // GetInfo (served while homing); a Home that never arrived is sent again
+        // (while homing, a second Home is only answered Busy).
+        loop {
+            if Instant::now() >= deadline {
+                return Err(CaptureError::Device(format!(
+                    "homing failed: not homed within {} s",
+                    setup.home_timeout.as_secs()
+                )));
+            }
+            match recv_until(&mut link, Duration::from_secs(2), |e| {
+                matches!(e, Event::Status(_) | Event::Error(_) | Event::Info(_))
+            })? {
+                Some(Event::Status(s)) if s.homed => break,
+                Some(Event::Info(i)) if i.homed => break,
+                Some(Event::Info(_)) => send(&mut link, &Command::Home)?,
+                Some(Event::Error(e))
+                    if matches!(
+                        e.code,
+                        ErrorCode::CorruptFrame | ErrorCode::UnknownCommand | ErrorCode::Busy
+                    ) => {}
+                Some(Event::Error(e)) => {
+                    return Err(CaptureError::Device(format!("homing failed: {}", e.detail)));
+                }
+                Some(_) => {}
+                None => send(&mut link, &Command::GetInfo)?,
+            }
+        }
+        info.homed = true;
+    }
+    Ok((link, info))
+}
+
+/// The first wanted event within `limit`, `None` if none came; a broken link is an error.
+fn recv_until<T: Transport>(
+    link: &mut FramedLink<T>,
+    limit: Duration,
+    want: impl Fn(&Event) -> bool,
+) -> Result<Option<Event>> {
+    let deadline = Instant::now() + limit;
+    while Instant::now() < deadline {
+        match link.recv(Duration::from_millis(100)) {
+            Ok(Some(ev)) if want(&ev) => return Ok(Some(ev)),
+            Ok(_) => {}
+            Err(e) => return Err(e.into()),
+        }
+    }
+    Ok(None)
+}
+
+/// Runs a capture. Returns the report; the caller turns an incomplete one into an
+/// exit status. Bad input (a plan outside the device's travel, an existing file without
+/// `--force`) is an error before anything is measured.
+pub fn capture<C: Connector>(
+    conn: &mut C,
+    setup: &CaptureSetup,
+    progress: &mut dyn ProgressSink,
+    interrupt: &AtomicBool,
+) -> Result<CaptureReport> {
+    let (mut link, info) = prepare(conn, setup)?;
+    let (writer, plan, present) = if setup.resume {
+        let (writer, data) = SweepWriter::resume(&setup.out)?;
+        let plan = HostPlan::from_recorded(
+            data.meta
+                .get("plan")
+                .map(String::as_str)
+                .unwrap_or("recorded"),
+            &data.points,
+            data.meta.get("settings").map(String::as_str).unwrap_or(""),
+        )?;
+        let present: BTreeSet<u32> = data.rows.iter().filter_map(|r| r.seq).collect();
+        (writer, plan, present)
+    } else {
+        let plan = setup
+            .plan
+            .clone()
+            .ok_or_else(|| PlanError::from("no plan given"))?;
+        plan.check_limits(&info.source, &info.detector)?;
+        let header = Header {
+            device: device_line(&info),
+            plan: plan.description.clone(),
+            settings: plan.settings_words(),
+            points: plan.points.iter().map(|p| (p.theta_i, p.theta_r)).collect(),
+        };
+        (
+            SweepWriter::create(&setup.out, &header, setup.force)?,
+            plan,
+            BTreeSet::new(),
+        )
+    };
+    plan.check_limits(&info.source, &info.detector)?;
+    let first_id = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_secs() as u32)
+        .unwrap_or(1);
+    let mut run = Run {
+        conn,
+        setup,
+        plan,
+        writer,
+        present,
+        progress,
+        interrupt,
+        next_id: first_id,
+        reconnects: 0,
+        dropped_before: 0,
+    };
+    run.progress
+        .start(run.plan.points.len() as u64, run.present.len() as u64);
+    let status = run.all_rounds(&mut link);
+    run.progress.finish();
+    let status = status?;
+    run.writer.counters().dropped = run.dropped_before + link.stats().dropped() as u64;
+    run.writer.set_status(status)?;
+    let missing: Vec<u32> = (0..run.plan.points.len() as u32)
+        .filter(|k| !run.present.contains(k))
+        .collect();
+    Ok(CaptureReport {
+        status,
+        counters: *run.writer.counters(),
+        missing,
+        total: run.plan.points.len(),
+        info,
+        reconnects: run.reconnects,
+    })
+}
+
+impl<C: Connector> Run<'_, C> {
+    fn all_rounds(&mut self, link: &mut FramedLink<C::T>) -> Result<SweepStatus> {
+        let mut round = 0;
+        loop {
+            let sweeps = self.plan.sweeps_for(&self.present, self.next_id);
+            if sweeps.is_empty() {
+                return Ok(SweepStatus::Complete);
+            }
+            if round > self.setup.retries {
+                self.progress.note(&format!(
+                    "capture: {} readings still missing after {} rounds of re-measuring",
+                    sweeps.iter().map(|s| s.map.len()).sum::<usize>(),
+                    self.setup.retries
+                ));
+                return Ok(SweepStatus::Failed);
+            }
+            if round > 0 {
+                let n: usize = sweeps.iter().map(|s| s.map.len()).sum();
+                self.progress.note(&format!(
+                    "capture: re-measuring {n} readings lost on the link"
+                ));
+            }
+            round += 1;
+            for sw in sweeps {
+                self.next_id = sw.plan.sweep_id + 1;
+                match self.one_sweep(link, &sw)? {
+                    Outcome::Done => {}
+                    Outcome::Interrupted => return Ok(SweepStatus::Interrupted),
+                    Outcome::Lost(why) => {
+                        self.reconnect(link, &why)?;
+                        round = 0; // the loss was the link's, not a reading's
+                        break;
+                    }
+                }
+            }
+        }
+    }
+
+    fn reconnect(&mut self, link: &mut FramedLink<C::T>, why: &str) -> Result {
+        self.dropped_before += link.stats().dropped() as u64;
+        if !self.conn.can_reconnect() {
+            self.writer.set_status(SweepStatus::Failed)?;
+            return Err(CaptureError::Device(format!("device lost: {why}")));
+        }
+        self.progress.note(&format!(
+            "capture: device lost ({why}); waiting up to {} s for it to come back",
+            self.setup.reconnect_for.as_secs()
+        ));
+        let deadline = Instant::now() + self.setup.reconnect_for;
+        loop {
+            if self.interrupt.load(Ordering::Relaxed) {
+                self.writer.set_status(SweepStatus::Interrupted)?;
+                return Err(CaptureError::Device(
+                    "interrupted while waiting for the device; continue with --resume".into(),
+                ));
+            }
+            match prepare(self.conn, self.setup) {
+                Ok((l, _)) => {
+                    *link = l;
+                    self.reconnects += 1;
+                    self.progress
+                        .note("capture: device is back; measuring what is missing");
+                    return Ok(());
+                }
+                Err(e) if Instant::now() >= deadline => {
+                    self.writer.set_status(SweepStatus::Failed)?;
+                    return Err(CaptureError::Device(format!(
+                        "device lost ({why}) and not back within {} s ({e}); continue later with --resume",
+                        self.setup.reconnect_for.as_secs()
+                    )));
+                }
+                Err(_) => std::thread::sleep(Duration::from_millis(250)),
+            }
+        }
+    }
+
+    fn send(&mut self, link: &mut FramedLink<C::T>, cmd: &Command) -> Result<(), String> {
+        link.send(cmd).map_err(|e| e.to_string())
+    }
+
+    /// Runs one device sweep: sends it, follows it with a [`SweepState`] and records
+    /// its readings; pings a silent device and stops a sweep whose end was lost.
+    fn one_sweep(&mut self, link: &mut FramedLink<C::T>, sw: &DeviceSweep) -> Result<Outcome> {
+        let mut state = SweepState::new(sw);
+        if let Err(e) = self.send(link, &Command::StartSweep(state.plan.clone())) {
+            return Ok(Outcome::Lost(e));
+        }
+        let mut silent_since = Instant::now();
+        // Events that arrived while waiting for a Pong: handled before new ones.
+        let mut pending: VecDeque<Event> = VecDeque::new();
+        // The device is lost, but what arrived while pinging is recorded first.
+        let mut lost: Option<String> = None;
+        loop {
+            if state.abort_sent_at.is_none() && self.interrupt.load(Ordering::Relaxed) {
+                if let Err(e) = self.send(link, &Command::Abort) {
+                    return Ok(Outcome::Lost(e));
+                }
+                state.abort_sent_at = Some(Instant::now());
+            }
+            if let Some(outcome) = state.over_at(Instant::now()) {
+                return Ok(outcome);
+            }
+            if pending.is_empty() {
+                if let Some(why) = lost.take() {
+                    return Ok(Outcome::Lost(why));
+                }
+            }
+            let ev = match pending.pop_front() {
+                Some(ev) => Some(ev),
+                None => match link.recv(state.recv_timeout()) {
+                    Ok(ev) => ev,
+                    Err(e) => return Ok(Outcome::Lost(e.to_string())),
+                },
+            };
+            let Some(ev) = ev else {
+                if silent_since.elapsed() >= self.setup.event_timeout {
+                    self.writer.counters().timeouts += 1;
+                    if !self.answers_ping(link, &mut pending)? {
+                        lost = Some(format!(
+                            "silent for {} s and no answer to Ping",
+                            self.setup.event_timeout.as_secs()
+                        ));
+                        continue;
+                    }
+                    if !state.started {
+                        // The StartSweep may have been lost on the way: send it again
+                        // (a device already running it answers Busy, which is fine).
+                        if let Err(e) = self.send(link, &Command::StartSweep(state.plan.clone())) {
+                            return Ok(Outcome::Lost(e));
+                        }
+                    } else if pending.is_empty() {
+                        // Alive, but silent while our sweep ran: its last events (the
+                        // SweepDone at least) were lost. Stop it; its answer ends this
+                        // sweep, and the next round measures what is missing.
+                        if let Err(e) = self.send(link, &Command::Abort) {
+                            return Ok(Outcome::Lost(e));
+                        }
+                        state.stop_sent = true;
+                    }
+                    silent_since = Instant::now();
+                }
+                continue;
+            };
+            silent_since = Instant::now();
+            let step = state.on_event(
+                ev,
+                &mut self.writer.counters().gaps,
+                &mut self.next_id,
+                Instant::now(),
+            );
+            match step {
+                Step::Wait => {}
+                Step::Record(r) => self.record(sw, &r)?,
+                Step::End(outcome) => return Ok(outcome),
+                Step::Restart { abort_first } => {
+                    if abort_first {
+                        if let Err(e) = self.send(link, &Command::Abort) {
+                            return Ok(Outcome::Lost(e));
+                        }
+                    }
+                    std::thread::sleep(Duration::from_millis(50));
+                    if let Err(e) = self.send(link, &Command::StartSweep(state.plan.clone())) {
+                        return Ok(Outcome::Lost(e));
+                    }
+                }
+                Step::Fail { why, mark_failed } => {
+                    if mark_failed {
+                        self.writer.set_status(SweepStatus::Failed)?;
+                    }
+                    return Err(CaptureError::Device(why));
+                }
+            }
+        }
+    }
+
+    /// Pings the device; other events that arrive meanwhile (readings still on their
+    /// way) are kept in `pending`, never dropped.
+    fn answers_ping(
+        &mut self,
+        link: &mut FramedLink<C::T>,
+        pending: &mut VecDeque<Event>,
+    ) -> Result<bool> {
+        let token = 0x7069_6e67;
+        // Three tries: one Ping or Pong lost on a noisy link is not a lost device.
+        for _ in 0..3 {
+            if link.send(&Command::Ping(token)).is_err() {
+                return Ok(false);
+            }
+            let deadline = Instant::now() + Duration::from_secs(1);
+            while Instant::now() < deadline {
+                match link.recv(Duration::from_millis(100)) {
+                    Ok(Some(Event::Pong(t))) if t == token => return Ok(true),
+                    Ok(Some(ev)) => pending.push_back(ev),
+                    Ok(None) => {}
+                    Err(_) => return Ok(false),
+                }
+            }
+        }
+        Ok(false)
+    }
+
+    fn record(&mut self, sw: &DeviceSweep, r: &Reading) -> Result {
+        let Some(seq) = sw.host_seq(r.seq) else {
+            return Ok(());
+        };
+        if !self.present.insert(seq) {
+            return Ok(()); // a duplicate: already in the file
+        }
+        self.writer.append(&Row {
+            theta_i: shortest(r.theta_i),
+            theta_r: shortest(r.theta_r),
+            brdf: shortest(r.value),
+            std: Some(shortest(r.std)),
+            n: Some(r.n as u32),
+            seq: Some(seq),
+            t_ms: Some(r.t_ms as u64),
+        })?;
+        self.progress
+            .reading(self.present.len() as u64, r.theta_i, r.theta_r);
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests;

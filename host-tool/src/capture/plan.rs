@@ -1,0 +1,431 @@
+//! Sweep plans on the host: `paper`, a TOML plan file, or an adaptive plan from a
+//! prior; expanded to the list of points the sweep file records, and split into the
+//! device plans that measure whatever is still missing.
+
+use std::collections::BTreeSet;
+use std::fmt;
+use std::path::Path;
+
+use brdf_core::Preset;
+use brdf_core::identity::PAPER_INCIDENCES;
+use brdf_core::plan::adaptive;
+use brdf_core::protocol::{
+    ArmLimits, Grid, MAX_INCIDENCES, MAX_PLAN_POINTS, Point, PointSettings, SweepPlan,
+};
+use serde::Deserialize;
+
+/// A plan that cannot be run: bad settings, a bad plan file, points outside the model's
+/// domain or a device's travel. One line; always bad input.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct PlanError(pub String);
+
+impl fmt::Display for PlanError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for PlanError {}
+
+type Result<T = (), E = PlanError> = std::result::Result<T, E>;
+
+/// A plan as the host sees it: every point (after the exclusion zone) in order, the
+/// per-point settings, and the compact device grid when there is one.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HostPlan {
+    /// One line for the file header (`paper`, `file plan.toml`, `adaptive ...`).
+    pub description: String,
+    /// All points, in measurement order; a reading's `seq` indexes this list.
+    pub points: Vec<Point>,
+    /// Per-point settings.
+    pub settings: PointSettings,
+    /// Exclusion half-width around retro-reflection (degrees).
+    pub exclude_retro_deg: f32,
+    /// The plan in its compact device form, when it has one (paper, custom grids).
+    compact: Option<Grid>,
+}
+
+/// One device sweep and, for each reading `seq` it will send, the host plan index.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DeviceSweep {
+    /// What to send with StartSweep.
+    pub plan: SweepPlan,
+    /// `map[device_seq - plan.skip]` is the host plan index.
+    pub map: Vec<u32>,
+}
+
+impl DeviceSweep {
+    /// The host plan index of a device reading's `seq`, if it belongs to this sweep.
+    pub fn host_seq(&self, device_seq: u32) -> Option<u32> {
+        let k = device_seq.checked_sub(self.plan.skip as u32)?;
+        self.map.get(k as usize).copied()
+    }
+}
+
+/// Settings given on the command line; `None` keeps the plan file's or the default.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct SettingsOverride {
+    /// `--samples`.
+    pub samples: Option<u16>,
+    /// `--settle` (ms).
+    pub settle_ms: Option<u16>,
+    /// `--exclude-retro` (degrees, half-width).
+    pub exclude_retro: Option<f32>,
+    /// `--dark`.
+    pub dark: bool,
+}
+
+/// Default detector samples averaged per point.
+pub const DEFAULT_SAMPLES: u16 = 4;
+/// Default settle time (ms).
+pub const DEFAULT_SETTLE_MS: u16 = 50;
+/// Default readings budget of an adaptive plan: about half the paper's 153.
+pub const DEFAULT_ADAPTIVE_BUDGET: usize = 77;
+
+/// A TOML plan file.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PlanFile {
+    incidences: Option<Vec<f32>>,
+    detector: Option<DetectorRange>,
+    points: Option<Vec<[f32; 2]>>,
+    exclude_retro: Option<f32>,
+    samples: Option<u16>,
+    settle_ms: Option<u16>,
+    dark: Option<bool>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DetectorRange {
+    start: f32,
+    stop: f32,
+    step: f32,
+}
+
+/// The model domain used to check plans before any device is involved.
+const DOMAIN_SOURCE: ArmLimits = ArmLimits {
+    min_deg: 0.0,
+    max_deg: 90.0,
+    steps_per_deg: 1.0,
+};
+const DOMAIN_DETECTOR: ArmLimits = ArmLimits {
+    min_deg: -90.0,
+    max_deg: 90.0,
+    steps_per_deg: 1.0,
+};
+
+fn settings(o: &SettingsOverride, file: Option<&PlanFile>) -> Result<PointSettings> {
+    let samples = o
+        .samples
+        .or(file.and_then(|f| f.samples))
+        .unwrap_or(DEFAULT_SAMPLES);
+    if samples == 0 {
+        return Err(PlanError::from("samples must be >= 1"));
+    }
+    Ok(PointSettings {
+        samples,
+        settle_ms: o
+            .settle_ms
+            .or(file.and_then(|f| f.settle_ms))
+            .unwrap_or(DEFAULT_SETTLE_MS),
+        dark: o.dark || file.and_then(|f| f.dark).unwrap_or(false),
+    })
+}
+
+fn exclusion(o: &SettingsOverride, file: Option<&PlanFile>) -> Result<f32> {
+    let e = o
+        .exclude_retro
+        .or(file.and_then(|f| f.exclude_retro))
+        .unwrap_or(0.0);
+    if !(e.is_finite() && e >= 0.0) {
+        return Err(PlanError::from(format!(
+            "exclusion half-width must be >= 0 degrees (got {e})"
+        )));
+    }
+    Ok(e)
+}
+
+impl HostPlan {
+    /// The paper's 9 x 17 grid.
+    pub fn paper(o: &SettingsOverride) -> Result<Self> {
+        Self::from_grid(
+            "plan",
+            "paper".into(),
+            Grid::Paper,
+            settings(o, None)?,
+            exclusion(o, None)?,
+        )
+    }
+
+    /// Reads a TOML plan file (see the README for its keys).
+    pub fn from_file(path: &Path, o: &SettingsOverride) -> Result<Self> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| PlanError::from(format!("cannot read plan {}: {e}", path.display())))?;
+        Self::from_toml_str(&text, &path.display().to_string(), o)
+    }
+
+    /// Parses the text of a TOML plan file; `name` (its path) names it in messages and
+    /// in the sweep file's header.
+    pub fn from_toml_str(text: &str, name: &str, o: &SettingsOverride) -> Result<Self> {
+        let f: PlanFile = toml::from_str(text)
+            .map_err(|e| PlanError::from(format!("plan {name}: {}", one_line(&e.to_string()))))?;
+        Self::from_plan_file(f, name, o)
+    }
+
+    fn from_plan_file(f: PlanFile, name: &str, o: &SettingsOverride) -> Result<Self> {
+        let s = settings(o, Some(&f))?;
+        let e = exclusion(o, Some(&f))?;
+        let description = format!("file {name}");
+        match (&f.incidences, &f.detector, &f.points) {
+            (Some(inc), Some(d), None) => {
+                if inc.len() > MAX_INCIDENCES {
+                    return Err(PlanError::from(format!(
+                        "plan {name}: at most {MAX_INCIDENCES} incidences"
+                    )));
+                }
+                let grid = Grid::Custom {
+                    incidences: heapless::Vec::from_slice(inc).expect("length checked"),
+                    start: d.start,
+                    stop: d.stop,
+                    step: d.step,
+                };
+                Self::from_grid(&format!("plan {name}"), description, grid, s, e)
+            }
+            (None, None, Some(points)) => {
+                let points: Vec<Point> = points
+                    .iter()
+                    .map(|[i, r]| Point {
+                        theta_i: *i,
+                        theta_r: *r,
+                    })
+                    .collect();
+                Self::from_points(&format!("plan {name}"), description, points, s, e)
+            }
+            _ => Err(PlanError::from(format!(
+                "plan {name}: give either `incidences` and `detector = {{ start, stop, step }}`, or `points`"
+            ))),
+        }
+    }
+
+    /// An adaptive plan: readings placed densely where the prior's curve bends.
+    pub fn adaptive(prior: &str, budget: usize, o: &SettingsOverride) -> Result<Self> {
+        let preset = Preset::by_name(prior)
+            .map_err(|e| PlanError::from(format!("--prior '{prior}': {e}")))?;
+        let e = exclusion(o, None)?;
+        let plan = adaptive::<f64>(
+            0,
+            &PAPER_INCIDENCES,
+            -80.0,
+            80.0,
+            budget,
+            0.5,
+            e,
+            settings(o, None)?,
+            |ti| preset.model(ti as f64).ok(),
+        )
+        .map_err(|err| PlanError::from(format!("adaptive plan with budget {budget}: {err}")))?;
+        let Grid::Points(points) = &plan.grid else {
+            unreachable!("adaptive plans are point lists")
+        };
+        Self::from_points(
+            "plan",
+            format!("adaptive prior={prior} budget={budget}"),
+            points.to_vec(),
+            plan.settings,
+            e,
+        )
+    }
+
+    /// `what` names the plan in messages (`plan`, `plan FILE`).
+    fn from_grid(
+        what: &str,
+        description: String,
+        grid: Grid,
+        settings: PointSettings,
+        exclude: f32,
+    ) -> Result<Self> {
+        let plan = SweepPlan {
+            sweep_id: 0,
+            grid,
+            exclude_retro_deg: exclude,
+            settings,
+            skip: 0,
+        };
+        plan.validate(&DOMAIN_SOURCE, &DOMAIN_DETECTOR)
+            .map_err(|e| PlanError(format!("{what}: {e}")))?;
+        Ok(HostPlan {
+            description,
+            points: plan.points().collect(),
+            settings,
+            exclude_retro_deg: exclude,
+            compact: Some(plan.grid),
+        })
+    }
+
+    /// `what` names the plan in messages (`plan`, `plan FILE`).
+    fn from_points(
+        what: &str,
+        description: String,
+        points: Vec<Point>,
+        settings: PointSettings,
+        exclude: f32,
+    ) -> Result<Self> {
+        let mut kept = Vec::with_capacity(points.len());
+        for chunk in points.chunks(MAX_PLAN_POINTS) {
+            let plan = SweepPlan {
+                sweep_id: 0,
+                grid: Grid::Points(heapless::Vec::from_slice(chunk).expect("chunk fits")),
+                exclude_retro_deg: exclude,
+                settings,
+                skip: 0,
+            };
+            match plan.validate(&DOMAIN_SOURCE, &DOMAIN_DETECTOR) {
+                Ok(_) | Err(brdf_core::plan::PlanError::Empty) => kept.extend(plan.points()),
+                Err(e) => return Err(PlanError(format!("{what}: {e}"))),
+            }
+        }
+        if kept.is_empty() {
+            return Err(PlanError(format!("{what}: no point to measure")));
+        }
+        Ok(HostPlan {
+            description,
+            points: kept,
+            settings,
+            exclude_retro_deg: exclude,
+            compact: None,
+        })
+    }
+
+    /// Checks the plan against a device's arm limits.
+    pub fn check_limits(&self, source: &ArmLimits, detector: &ArmLimits) -> Result {
+        let within = |deg: f32, l: &ArmLimits| deg >= l.min_deg && deg <= l.max_deg;
+        for p in &self.points {
+            if !within(p.theta_i, source) {
+                return Err(PlanError::from(format!(
+                    "theta_i {} is outside the source arm's travel [{}, {}]",
+                    p.theta_i, source.min_deg, source.max_deg
+                )));
+            }
+            if !within(p.theta_r, detector) {
+                return Err(PlanError::from(format!(
+                    "theta_r {} is outside the detector arm's travel [{}, {}]",
+                    p.theta_r, detector.min_deg, detector.max_deg
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// `settings` words for the file header.
+    pub fn settings_words(&self) -> String {
+        format!(
+            "samples={} settle_ms={} dark={} exclude_retro={}",
+            self.settings.samples,
+            self.settings.settle_ms,
+            self.settings.dark,
+            self.exclude_retro_deg
+        )
+    }
+
+    /// The device sweeps that measure every point not in `present`, in plan order:
+    /// the compact grid when nothing or only a prefix is done, otherwise point lists of
+    /// at most `MAX_PLAN_POINTS`. `first_id` numbers them.
+    pub fn sweeps_for(&self, present: &BTreeSet<u32>, first_id: u32) -> Vec<DeviceSweep> {
+        let n = self.points.len() as u32;
+        let missing: Vec<u32> = (0..n).filter(|k| !present.contains(k)).collect();
+        if missing.is_empty() {
+            return Vec::new();
+        }
+        let prefix = missing[0];
+        let is_suffix = missing.len() as u32 == n - prefix;
+        if let (Some(grid), true) = (&self.compact, is_suffix) {
+            if let Ok(skip) = u16::try_from(prefix) {
+                let plan = SweepPlan {
+                    sweep_id: first_id,
+                    grid: grid.clone(),
+                    exclude_retro_deg: self.exclude_retro_deg,
+                    settings: self.settings,
+                    skip,
+                };
+                return vec![DeviceSweep { plan, map: missing }];
+            }
+        }
+        missing
+            .chunks(MAX_PLAN_POINTS)
+            .enumerate()
+            .map(|(k, chunk)| {
+                let pts: heapless::Vec<Point, MAX_PLAN_POINTS> =
+                    chunk.iter().map(|&s| self.points[s as usize]).collect();
+                DeviceSweep {
+                    plan: SweepPlan {
+                        sweep_id: first_id + k as u32,
+                        grid: Grid::Points(pts),
+                        // Already applied when the points were listed.
+                        exclude_retro_deg: 0.0,
+                        settings: self.settings,
+                        skip: 0,
+                    },
+                    map: chunk.to_vec(),
+                }
+            })
+            .collect()
+    }
+
+    /// Rebuilds the plan a sweep file recorded (for `--resume`).
+    pub fn from_recorded(
+        description: &str,
+        points: &[(f32, f32)],
+        settings_words: &str,
+    ) -> Result<Self> {
+        let mut s = PointSettings {
+            samples: DEFAULT_SAMPLES,
+            settle_ms: DEFAULT_SETTLE_MS,
+            dark: false,
+        };
+        let mut exclude = 0.0;
+        for w in settings_words.split_whitespace() {
+            let bad = || PlanError::from(format!("sweep file: bad setting '{w}'"));
+            match w.split_once('=').ok_or_else(bad)? {
+                ("samples", v) => s.samples = v.parse().map_err(|_| bad())?,
+                ("settle_ms", v) => s.settle_ms = v.parse().map_err(|_| bad())?,
+                ("dark", v) => s.dark = v.parse().map_err(|_| bad())?,
+                ("exclude_retro", v) => exclude = v.parse().map_err(|_| bad())?,
+                _ => return Err(bad()),
+            }
+        }
+        let pts: Vec<Point> = points
+            .iter()
+            .map(|&(theta_i, theta_r)| Point { theta_i, theta_r })
+            .collect();
+        let mut plan = Self::from_points("plan", description.to_string(), pts, s, 0.0)?;
+        plan.exclude_retro_deg = exclude;
+        if description == "paper" {
+            let paper = Self::from_grid("plan", "paper".into(), Grid::Paper, s, exclude)?;
+            if paper.points == plan.points {
+                return Ok(paper);
+            }
+        }
+        Ok(plan)
+    }
+}
+
+fn one_line(s: &str) -> String {
+    s.split_whitespace().collect::<Vec<_>>().join(" ")
+}
+
+#[cfg(test)]
+#[path = "plan_tests.rs"]
+mod tests;
+
+impl From<String> for PlanError {
+    fn from(m: String) -> Self {
+        PlanError(m)
+    }
+}
+
+impl From<&str> for PlanError {
+    fn from(m: &str) -> Self {
+        PlanError(m.to_string())
+    }
+}

@@ -1,0 +1,345 @@
+//! Argument groups shared by several commands (`--plan ...`, `--out ...`) and the
+//! parsers of structured values (`--theta-r` angle lists, `--loss`, `--export`,
+//! `--material/--noise`).
+
+use std::path::PathBuf;
+
+use brdf_core::Preset;
+use brdf_core::protocol::MAX_PLAN_POINTS;
+use clap::builder::PossibleValue;
+use clap::{Args, ValueEnum};
+
+use super::error::{CliError, CliResult};
+use crate::capture::{DEFAULT_ADAPTIVE_BUDGET, HostPlan, SettingsOverride};
+use crate::device::SimConfig;
+use crate::export::ExportFormat;
+use crate::fit::{Kind, Loss};
+
+/// Which plan to run; shared by `capture`, `simulate` and `demo`.
+#[derive(Debug, Clone, Args)]
+pub struct PlanArgs {
+    /// `paper` (the paper's 9 x 17 grid), `adaptive` (readings placed where a prior's
+    /// curve bends; needs --prior), or a TOML plan file (see the README).
+    #[arg(long, default_value = "paper", value_name = "paper|FILE.toml|adaptive")]
+    pub plan: String,
+    /// Prior material for `--plan adaptive` (al-0.087, al-0.142, al-0.782, cu-0.070, fe-0.115).
+    #[arg(long, value_name = "PRESET")]
+    pub prior: Option<String>,
+    /// Readings budget of `--plan adaptive` (at most 240).
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_ADAPTIVE_BUDGET)]
+    pub budget: usize,
+    /// Half-width (degrees) of the zone around retro-reflection (theta_r = -theta_i)
+    /// that is skipped because the detector would block the beam.
+    #[arg(long = "exclude-retro", value_name = "DEG")]
+    pub exclude_retro: Option<f32>,
+    /// Detector samples averaged per reading [default 4].
+    #[arg(long, value_name = "N")]
+    pub samples: Option<u16>,
+    /// Settle time after the arms stop, in milliseconds [default 50].
+    #[arg(long, value_name = "MS")]
+    pub settle: Option<u16>,
+    /// Also sample with the laser off at every point and subtract that dark level.
+    #[arg(long)]
+    pub dark: bool,
+}
+
+impl PlanArgs {
+    /// The host plan these arguments describe.
+    pub fn plan(&self) -> CliResult<HostPlan> {
+        let o = SettingsOverride {
+            samples: self.samples,
+            settle_ms: self.settle,
+            exclude_retro: self.exclude_retro,
+            dark: self.dark,
+        };
+        match self.plan.as_str() {
+            "paper" => Ok(HostPlan::paper(&o)?),
+            "adaptive" => {
+                let prior = self.prior.as_deref().ok_or_else(|| {
+                    CliError::usage(
+                        "--plan adaptive needs --prior PRESET (the material you expect)",
+                    )
+                })?;
+                if self.budget > MAX_PLAN_POINTS {
+                    return Err(CliError::usage(format!(
+                        "--budget must be <= {MAX_PLAN_POINTS}"
+                    )));
+                }
+                Ok(HostPlan::adaptive(prior, self.budget, &o)?)
+            }
+            file => Ok(HostPlan::from_file(std::path::Path::new(file), &o)?),
+        }
+    }
+}
+
+/// Options of the sweep file, shared by `capture` and `simulate`.
+#[derive(Debug, Clone, Args)]
+pub struct OutArgs {
+    /// The sweep file (CSV) to write.
+    #[arg(long, value_name = "SWEEP.csv")]
+    pub out: Option<PathBuf>,
+    /// Continue the sweep in --out: measure only the points it is missing.
+    #[arg(long)]
+    pub resume: bool,
+    /// Overwrite --out if it exists.
+    #[arg(long, conflicts_with = "resume")]
+    pub force: bool,
+    /// Also append every byte received from the device to this file (for replay).
+    #[arg(long, value_name = "FILE")]
+    pub raw: Option<PathBuf>,
+    /// No progress output.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// The simulated device's configuration from `--material/--noise/--seed`.
+pub fn sim_config(material: &str, noise: f32, seed: u32) -> CliResult<SimConfig> {
+    let preset = Preset::by_name(material)
+        .map_err(|e| CliError::usage(format!("--material '{material}': {e}")))?;
+    if !(noise.is_finite() && (0.0..0.5).contains(&noise)) {
+        return Err(CliError::usage(format!(
+            "--noise must be in [0, 0.5) (got {noise})"
+        )));
+    }
+    Ok(SimConfig::new(preset, noise, seed))
+}
+
+/// A model on the command line (`fit --models`, `fit --export-model`): its name and
+/// help come from the vocabulary table, [`Kind::names`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ModelArg(pub Kind);
+
+impl ValueEnum for ModelArg {
+    fn value_variants<'a>() -> &'a [Self] {
+        const ALL: [ModelArg; 4] = [
+            ModelArg(Kind::ALL[0]),
+            ModelArg(Kind::ALL[1]),
+            ModelArg(Kind::ALL[2]),
+            ModelArg(Kind::ALL[3]),
+        ];
+        &ALL
+    }
+
+    fn to_possible_value(&self) -> Option<PossibleValue> {
+        let n = self.0.names();
+        Some(PossibleValue::new(n.cli).help(n.help))
+    }
+}
+
+/// The models `gonio eval` evaluates (three-component, Torrance–Sparrow), named as in
+/// [`ModelArg`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct EvalModel(pub Kind);
+
+impl ValueEnum for EvalModel {
+    fn value_variants<'a>() -> &'a [Self] {
+        &[
+            EvalModel(Kind::ThreeComponent),
+            EvalModel(Kind::TorranceSparrow),
+        ]
+    }
+
+    fn to_possible_value(&self) -> Option<PossibleValue> {
+        ModelArg(self.0).to_possible_value()
+    }
+}
+
+/// Parses `--loss` (a clap value parser: a bad value is a usage error before any work).
+pub fn parse_loss(s: &str) -> Result<Loss, String> {
+    let scale = |c: &str| -> Result<f64, String> {
+        match c.parse::<f64>() {
+            Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+            _ => Err(format!("--loss {s}: the scale must be a number > 0")),
+        }
+    };
+    match s.split_once(':') {
+        None if s == "l2" => Ok(Loss::L2),
+        Some(("huber", c)) => Ok(Loss::Huber(scale(c)?)),
+        Some(("cauchy", c)) => Ok(Loss::Cauchy(scale(c)?)),
+        _ => Err(format!("--loss '{s}': use l2, huber:C or cauchy:C")),
+    }
+}
+
+/// Parses `json=PATH`, `merl=PATH` or `csv=PATH` (format case-insensitive; a clap
+/// value parser).
+pub fn parse_export(spec: &str) -> Result<(ExportFormat, PathBuf), String> {
+    let expected = "expected json=PATH, merl=PATH or csv=PATH";
+    let (format, path) = spec
+        .split_once('=')
+        .ok_or_else(|| format!("export '{spec}': {expected}"))?;
+    let format = match format.trim().to_ascii_lowercase().as_str() {
+        "json" => ExportFormat::Json,
+        "merl" => ExportFormat::Merl,
+        "csv" => ExportFormat::Csv,
+        other => {
+            return Err(format!(
+                "export '{spec}': unknown format '{other}' ({expected})"
+            ));
+        }
+    };
+    if path.trim().is_empty() {
+        return Err(format!(
+            "export '{spec}': no file name after '=' ({expected})"
+        ));
+    }
+    Ok((format, PathBuf::from(path)))
+}
+
+/// A list of angles in degrees, as `--theta-r` gives it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Angles(pub Vec<f64>);
+
+/// `--theta-r` as a clap value parser (see [`parse_angles`]).
+pub fn theta_r_angles(spec: &str) -> Result<Angles, String> {
+    parse_angles("--theta-r", spec)
+        .map(Angles)
+        .map_err(|e| e.message)
+}
+
+/// Most angles one list may expand to.
+pub const MAX_ANGLES: usize = 1_000_000;
+
+/// Parses `SPEC`: a comma-separated list of degrees, or `start:stop:step` with the stop
+/// included when it falls on the grid (within 1e-9 of a step). A negative step counts down.
+/// Items may mix both forms: `-80:-20:10,0,20:80:10`.
+pub fn parse_angles(what: &str, spec: &str) -> CliResult<Vec<f64>> {
+    let mut out = Vec::new();
+    for item in spec.split(',') {
+        let item = item.trim();
+        if item.is_empty() {
+            return Err(CliError::usage(format!("{what}: empty item in '{spec}'")));
+        }
+        let parts: Vec<&str> = item.split(':').collect();
+        match parts.as_slice() {
+            [one] => out.push(number(what, one)?),
+            [start, stop, step] => range(
+                what,
+                number(what, start)?,
+                number(what, stop)?,
+                number(what, step)?,
+                &mut out,
+            )?,
+            _ => {
+                return Err(CliError::usage(format!(
+                    "{what}: '{item}' is neither a number nor start:stop:step"
+                )));
+            }
+        }
+        if out.len() > MAX_ANGLES {
+            return Err(CliError::usage(format!(
+                "{what}: more than {MAX_ANGLES} angles"
+            )));
+        }
+    }
+    Ok(out)
+}
+
+fn number(what: &str, s: &str) -> CliResult<f64> {
+    let v: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| CliError::usage(format!("{what}: '{s}' is not a number")))?;
+    if !v.is_finite() {
+        return Err(CliError::usage(format!(
+            "{what}: '{s}' is not a finite number"
+        )));
+    }
+    Ok(v)
+}
+
+fn range(what: &str, start: f64, stop: f64, step: f64, out: &mut Vec<f64>) -> CliResult {
+    if step == 0.0 {
+        return Err(CliError::usage(format!("{what}: step must not be 0")));
+    }
+    let steps = (stop - start) / step;
+    if steps < -1e-9 {
+        return Err(CliError::usage(format!(
+            "{what}: step {step} does not lead from {start} to {stop}"
+        )));
+    }
+    let n = (steps + 1e-9).floor();
+    if n >= MAX_ANGLES as f64 {
+        return Err(CliError::usage(format!(
+            "{what}: more than {MAX_ANGLES} angles"
+        )));
+    }
+    let n = n as usize;
+    for k in 0..=n {
+        // Computed from the start each time (no accumulated error); the stop itself is
+        // exact when it lies on the grid.
+        let v = if k == n && (start + k as f64 * step - stop).abs() <= 1e-9 * step.abs() {
+            stop
+        } else {
+            start + k as f64 * step
+        };
+        out.push(v);
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lists_ranges_and_mixes() {
+        assert_eq!(parse_angles("t", "10").unwrap(), vec![10.0]);
+        assert_eq!(parse_angles("t", "-5, 0,5").unwrap(), vec![-5.0, 0.0, 5.0]);
+        let r = parse_angles("t", "-80:80:10").unwrap();
+        assert_eq!(r.len(), 17);
+        assert_eq!((r[0], r[8], r[16]), (-80.0, 0.0, 80.0));
+        assert_eq!(parse_angles("t", "0:1:0.1").unwrap().last(), Some(&1.0));
+        assert_eq!(
+            parse_angles("t", "0:1:0.3").unwrap(),
+            vec![0.0, 0.3, 0.6, 0.8999999999999999]
+        );
+        assert_eq!(
+            parse_angles("t", "10:0:-5,40").unwrap(),
+            vec![10.0, 5.0, 0.0, 40.0]
+        );
+        assert_eq!(parse_angles("t", "3:3:1").unwrap(), vec![3.0]);
+    }
+
+    #[test]
+    fn bad_specs_say_what_is_wrong() {
+        for (spec, msg) in [
+            ("", "empty item"),
+            ("1,,2", "empty item"),
+            ("abc", "'abc' is not a number"),
+            ("nan", "not a finite number"),
+            ("0:inf:1", "not a finite number"),
+            ("0:10", "neither a number nor start:stop:step"),
+            ("0:10:0", "step must not be 0"),
+            ("10:0:1", "does not lead from 10 to 0"),
+            ("0:1e9:1e-3", "more than"),
+        ] {
+            let err = parse_angles("--theta-r", spec).unwrap_err();
+            assert_eq!(err.code, 2);
+            assert!(err.message.contains(msg), "{spec}: {}", err.message);
+            assert!(err.message.starts_with("--theta-r"), "{}", err.message);
+        }
+    }
+
+    #[test]
+    fn parses_format_and_path() {
+        assert_eq!(
+            parse_export("json=out/m.json").unwrap(),
+            (ExportFormat::Json, PathBuf::from("out/m.json"))
+        );
+        assert_eq!(
+            parse_export("MERL=a=b.binary").unwrap(),
+            (ExportFormat::Merl, PathBuf::from("a=b.binary"))
+        );
+        assert_eq!(parse_export("csv=grid.csv").unwrap().0, ExportFormat::Csv);
+        for bad in ["json", "png=x.png", "csv=", "=x"] {
+            let e = parse_export(bad).unwrap_err();
+            // A value parser's error: clap reports it as bad usage (exit 2).
+            assert!(e.contains("json=PATH, merl=PATH or csv=PATH"), "{bad}: {e}");
+        }
+        assert!(
+            parse_export("png=x.png")
+                .unwrap_err()
+                .contains("unknown format 'png'")
+        );
+    }
+}

@@ -1,0 +1,157 @@
+//! `gonio capture`: measures a sweep on a goniometer into a sweep file; Ctrl-C and a
+//! lost device leave a valid file that `--resume` continues. Also the capture steps
+//! `gonio simulate` shares.
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+use clap::Args;
+
+use super::args::{OutArgs, PlanArgs};
+use super::error::{CliError, CliResult};
+use crate::capture::{CaptureReport, CaptureSetup, capture, progress};
+use crate::device::{Connector, SerialConnector};
+use crate::sweep_file::SweepStatus;
+
+/// `gonio capture`.
+#[derive(Debug, Args)]
+#[command(
+    allow_negative_numbers = true,
+    about = "Measure a sweep on a goniometer and write it to a CSV file",
+    long_about = "Measure a sweep on a goniometer and write it to a CSV file as the readings arrive (each row is \
+synced to disk, so a crash or unplug loses nothing that arrived).\n\n\
+The device is homed first if needed. Sequence gaps, dropped frames and silences are counted and written to the \
+file's `# status` line; readings lost on the link are measured again, never filled in. Ctrl-C stops the arms \
+and leaves a valid file; --resume continues it. A device that disappears is waited for (--reconnect seconds, \
+found again by path or USB serial number) and the sweep continues where it stopped.",
+    after_help = "Examples:\n  gonio capture --port /dev/ttyACM0 --out fe.csv\n  \
+gonio capture --port /dev/ttyACM0 --plan adaptive --prior fe-0.115 --out fe-adaptive.csv\n  \
+gonio capture --port /dev/ttyACM0 --plan plan.toml --exclude-retro 3 --samples 16 --out fe.csv\n  \
+gonio capture --port /dev/ttyACM0 --resume --out fe.csv"
+)]
+pub struct CaptureArgs {
+    /// Serial port of the device (e.g. /dev/ttyACM0; see `gonio ports`).
+    #[arg(long)]
+    pub port: String,
+    /// Which plan to run.
+    #[command(flatten)]
+    pub plan: PlanArgs,
+    /// Where the readings go.
+    #[command(flatten)]
+    pub out: OutArgs,
+    /// Seconds of silence after which the device is pinged (and, if it does not
+    /// answer, considered lost).
+    #[arg(long = "event-timeout", default_value_t = 30, value_name = "S")]
+    pub event_timeout: u64,
+    /// Seconds to wait for a lost device to come back before giving up.
+    #[arg(long, default_value_t = 60, value_name = "S")]
+    pub reconnect: u64,
+}
+
+/// The flag Ctrl-C sets.
+pub(super) fn interrupt_flag() -> Arc<AtomicBool> {
+    let flag = Arc::new(AtomicBool::new(false));
+    let f = flag.clone();
+    // A second Ctrl-C while the arms are being stopped ends the program at once (the
+    // file stays valid: every row is already on disk).
+    let _ = ctrlc::set_handler(move || {
+        if f.swap(true, Ordering::Relaxed) {
+            eprintln!("gonio: interrupted again, exiting now");
+            std::process::exit(1);
+        }
+    });
+    flag
+}
+
+/// The capture setup of `--plan ...` and `--out ...`.
+pub(super) fn setup_from(plan: &PlanArgs, out: &OutArgs) -> CliResult<CaptureSetup> {
+    let path = out
+        .out
+        .clone()
+        .ok_or_else(|| CliError::usage("--out SWEEP.csv is required"))?;
+    let plan = if out.resume { None } else { Some(plan.plan()?) };
+    if out.resume && !path.exists() {
+        return Err(CliError::usage(format!(
+            "--resume: {} does not exist",
+            path.display()
+        )));
+    }
+    let mut setup = CaptureSetup::new(plan, path);
+    setup.resume = out.resume;
+    setup.force = out.force;
+    setup.raw = out.raw.clone();
+    Ok(setup)
+}
+
+fn finish(report: &CaptureReport, out: &std::path::Path, resume: &str) -> CliResult {
+    let c = &report.counters;
+    let links = format!(
+        "{} gaps, {} dropped frames, {} timeouts{}",
+        c.gaps,
+        c.dropped,
+        c.timeouts,
+        if report.reconnects > 0 {
+            format!(", {} reconnects", report.reconnects)
+        } else {
+            String::new()
+        }
+    );
+    let done = report.total - report.missing.len();
+    match report.status {
+        SweepStatus::Complete => {
+            eprintln!(
+                "gonio: {done}/{} readings in {} ({links})",
+                report.total,
+                out.display()
+            );
+            Ok(())
+        }
+        SweepStatus::Interrupted => Err(CliError::failed(format!(
+            "interrupted: {done}/{} readings in {}; continue with: {resume}",
+            report.total,
+            out.display()
+        ))),
+        _ => Err(CliError::failed(format!(
+            "{} of {} readings still missing in {} ({links}); continue with: {resume}",
+            report.missing.len(),
+            report.total,
+            out.display()
+        ))),
+    }
+}
+
+/// Runs `gonio capture`.
+pub fn run(args: &CaptureArgs) -> CliResult {
+    let mut setup = setup_from(&args.plan, &args.out)?;
+    setup.event_timeout = Duration::from_secs(args.event_timeout.max(1));
+    setup.reconnect_for = Duration::from_secs(args.reconnect);
+    let resume = format!(
+        "gonio capture --port {} --resume --out {}",
+        args.port,
+        setup.out.display()
+    );
+    run_with(
+        SerialConnector::new(&args.port),
+        &setup,
+        args.out.quiet,
+        &resume,
+    )
+}
+
+/// Captures through `conn` with Ctrl-C handling and progress, then reports.
+pub(super) fn run_with<C: Connector>(
+    mut conn: C,
+    setup: &CaptureSetup,
+    quiet: bool,
+    resume: &str,
+) -> CliResult {
+    let flag = interrupt_flag();
+    let report = capture(
+        &mut conn,
+        setup,
+        progress::for_stderr(quiet).as_mut(),
+        &flag,
+    )?;
+    finish(&report, &setup.out, resume)
+}

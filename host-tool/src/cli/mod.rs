@@ -1,0 +1,18 @@
+//! The command line: one file per command, each only its clap arguments and a `run`
+//! that calls the engines; [`args`] holds the argument groups and value parsers several
+//! commands share. Exit codes and [`CliError`] exist only here.
+
+pub mod args;
+pub mod bench;
+pub mod capture;
+pub mod demo;
+pub mod error;
+pub mod eval;
+pub mod fit;
+pub mod flash;
+pub mod info;
+pub mod output;
+pub mod ports;
+pub mod simulate;
+
+pub use error::{CliError, CliResult, EXIT_FAILED, EXIT_USAGE};

@@ -1,0 +1,88 @@
+//! `gonio simulate`: the same capture against a simulated goniometer, in-process or
+//! served on a pseudo-terminal.
+
+use std::sync::atomic::Ordering;
+use std::time::Duration;
+
+use clap::Args;
+
+use super::args::{OutArgs, PlanArgs, sim_config};
+use super::capture::{interrupt_flag, run_with, setup_from};
+use super::error::{CliError, CliResult};
+use super::output::write_stdout;
+use crate::device::{InProcessConnector, InProcessDevice, PtyDevice};
+
+/// `gonio simulate`.
+#[derive(Debug, Args)]
+#[command(
+    allow_negative_numbers = true,
+    about = "Capture a sweep from a simulated goniometer (no hardware needed)",
+    long_about = "Capture a sweep from a simulated goniometer: the same brdf-core controller as the firmware, with \
+simulated arms and a virtual sample (a preset's three-component model times Gaussian noise), through the same \
+capture code as a real device. Simulated time: motion and settle times cost nothing.\n\n\
+With --pty the simulated device serves a pseudo-terminal instead, until Ctrl-C, so that `gonio capture --port` \
+can be tried against it; its path is printed on stdout.",
+    after_help = "Examples:\n  gonio simulate --material fe-0.115 --out fe-sim.csv\n  \
+gonio simulate --material cu-0.070 --noise 0.01 --seed 7 --plan adaptive --prior cu-0.070 --out cu.csv\n  \
+gonio simulate --material al-0.782 --pty"
+)]
+pub struct SimulateArgs {
+    /// The virtual sample: al-0.087, al-0.142, al-0.782, cu-0.070 or fe-0.115.
+    #[arg(long, value_name = "PRESET")]
+    pub material: String,
+    /// Relative noise of each detector sample (0.005 = 0.5 %).
+    #[arg(long, default_value_t = 0.005, value_name = "REL")]
+    pub noise: f32,
+    /// Seed of the deterministic noise.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u32,
+    /// Serve the simulated device on a pseudo-terminal instead of capturing.
+    #[arg(long, conflicts_with_all = ["out", "resume"])]
+    pub pty: bool,
+    /// With --pty: run this many times faster than real time (1 = a real instrument's
+    /// pace; default: as fast as possible).
+    #[arg(long, requires = "pty", value_name = "X")]
+    pub speed: Option<f64>,
+    /// Which plan to run.
+    #[command(flatten)]
+    pub plan: PlanArgs,
+    /// Where the readings go.
+    #[command(flatten)]
+    pub out: OutArgs,
+}
+
+/// Runs `gonio simulate`.
+pub fn run(args: &SimulateArgs) -> CliResult {
+    let mut cfg = sim_config(&args.material, args.noise, args.seed)?;
+    if let Some(speed) = args.speed {
+        if !(speed.is_finite() && speed > 0.0) {
+            return Err(CliError::usage(format!(
+                "--speed must be > 0 (got {speed})"
+            )));
+        }
+        cfg.speed = Some(speed);
+    }
+    if args.pty {
+        let dev = PtyDevice::start(&cfg)
+            .map_err(|e| CliError::failed(format!("cannot open a pseudo-terminal: {e}")))?;
+        write_stdout(format!("{}\n", dev.path().display()).as_bytes())?;
+        eprintln!(
+            "gonio: simulated {} goniometer on {}; Ctrl-C to stop",
+            args.material,
+            dev.path().display()
+        );
+        let flag = interrupt_flag();
+        while !flag.load(Ordering::Relaxed) {
+            std::thread::sleep(Duration::from_millis(100));
+        }
+        return Ok(());
+    }
+    let setup = setup_from(&args.plan, &args.out)?;
+    let resume = format!(
+        "gonio simulate --material {} --resume --out {}",
+        args.material,
+        setup.out.display()
+    );
+    let conn = InProcessConnector::new(InProcessDevice::new(&cfg));
+    run_with(conn, &setup, args.out.quiet, &resume)
+}

@@ -1,0 +1,198 @@
+//! The host end of the wire protocol: a [`Transport`] (byte pipe to a device), the
+//! [`FramedLink`] over it (framing, the handshake with its version check, receive
+//! statistics) and [`LinkError`].
+
+use std::collections::VecDeque;
+use std::fmt;
+use std::io::{self, Write};
+use std::time::{Duration, Instant};
+
+use brdf_core::frame::{self, FrameDecoder, FrameError, FrameStats, MAX_FRAME_LEN};
+use brdf_core::protocol::{Command, Event, Info, PROTOCOL_VERSION, peek_info_version};
+
+/// A byte pipe to a device.
+pub trait Transport {
+    /// Sends all of `bytes`.
+    fn send(&mut self, bytes: &[u8]) -> io::Result<()>;
+    /// Receives what arrives within `timeout` into `buf`; `Ok(0)` when nothing came.
+    fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<usize>;
+}
+
+/// Why talking to the device failed.
+#[derive(Debug)]
+pub enum LinkError {
+    /// The port could not be opened.
+    Open {
+        /// Port path.
+        path: String,
+        /// What the OS said.
+        reason: String,
+    },
+    /// Reading or writing failed (e.g. the device was unplugged).
+    Io(io::Error),
+    /// Nothing arrived in time.
+    Timeout(&'static str),
+    /// The device speaks another protocol version.
+    Version {
+        /// The device's version.
+        device: u16,
+    },
+}
+
+impl fmt::Display for LinkError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            LinkError::Open { path, reason } => write!(f, "cannot open {path}: {reason}"),
+            LinkError::Io(e) => write!(f, "device link failed: {e}"),
+            LinkError::Timeout(what) => write!(f, "device did not answer: {what}"),
+            LinkError::Version { device } if *device > PROTOCOL_VERSION => write!(
+                f,
+                "device speaks protocol v{device}, this gonio speaks v{PROTOCOL_VERSION}: update gonio"
+            ),
+            LinkError::Version { device } => write!(
+                f,
+                "device speaks protocol v{device}, this gonio speaks v{PROTOCOL_VERSION}: update the firmware (gonio flash)"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for LinkError {}
+
+impl From<io::Error> for LinkError {
+    fn from(e: io::Error) -> Self {
+        LinkError::Io(e)
+    }
+}
+
+/// Frames over a transport: commands out, events in, with counters of what was
+/// dropped and an optional log of every raw byte received.
+pub struct FramedLink<T> {
+    transport: T,
+    decoder: FrameDecoder<MAX_FRAME_LEN>,
+    inbox: VecDeque<Event>,
+    raw_log: Option<Box<dyn Write + Send>>,
+    foreign_version: Option<u16>,
+}
+
+impl<T: Transport> FramedLink<T> {
+    /// Wraps a transport.
+    pub fn new(transport: T) -> Self {
+        FramedLink {
+            transport,
+            decoder: FrameDecoder::new(),
+            inbox: VecDeque::new(),
+            raw_log: None,
+            foreign_version: None,
+        }
+    }
+
+    /// Logs every received byte to `w` (a raw frame log for later replay).
+    pub fn set_raw_log(&mut self, w: Box<dyn Write + Send>) {
+        self.raw_log = Some(w);
+    }
+
+    /// The transport.
+    pub fn transport(&mut self) -> &mut T {
+        &mut self.transport
+    }
+
+    /// Frames received and dropped (CRC, COBS, too long, undecodable).
+    pub fn stats(&self) -> FrameStats {
+        self.decoder.stats()
+    }
+
+    /// Sends one command.
+    pub fn send(&mut self, cmd: &Command) -> Result<(), LinkError> {
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let n = frame::encode(cmd, &mut buf).expect("every command fits MAX_FRAME_LEN");
+        self.transport.send(&buf[..n])?;
+        Ok(())
+    }
+
+    /// Sends raw bytes (tests of the device's robustness).
+    pub fn send_raw(&mut self, bytes: &[u8]) -> Result<(), LinkError> {
+        self.transport.send(bytes)?;
+        Ok(())
+    }
+
+    /// The next event, waiting at most `timeout`; `Ok(None)` if none came. Dropped
+    /// frames are counted in [`FramedLink::stats`], never returned.
+    pub fn recv(&mut self, timeout: Duration) -> Result<Option<Event>, LinkError> {
+        let deadline = Instant::now() + timeout;
+        let mut buf = [0u8; 4096];
+        loop {
+            if let Some(ev) = self.inbox.pop_front() {
+                return Ok(Some(ev));
+            }
+            let left = deadline.saturating_duration_since(Instant::now());
+            let n = self.transport.recv(&mut buf, left)?;
+            if let Some(log) = &mut self.raw_log {
+                log.write_all(&buf[..n])?;
+            }
+            for &b in &buf[..n] {
+                match self.decoder.push::<Event>(b) {
+                    Some(Ok(ev)) => self.inbox.push_back(ev),
+                    Some(Err(FrameError::Decode)) => {
+                        // Intact but not ours: a device of another protocol version
+                        // still shows its version in an Info.
+                        if let Some(v) = peek_info_version(self.decoder.undecoded_payload()) {
+                            self.foreign_version = Some(v);
+                        }
+                    }
+                    Some(Err(_)) | None => {}
+                }
+            }
+            if self.inbox.is_empty() && Instant::now() >= deadline {
+                return Ok(None);
+            }
+        }
+    }
+
+    /// Handshake: Ping every 50 ms until the matching Pong (bytes sent before the
+    /// device listens are lost), then GetInfo; checks the protocol version. Events
+    /// other than the awaited ones are dropped.
+    pub fn handshake(&mut self, timeout: Duration) -> Result<Info, LinkError> {
+        let deadline = Instant::now() + timeout;
+        let token = 0x676F_6E69; // "goni"
+        'ping: loop {
+            if Instant::now() >= deadline {
+                return Err(LinkError::Timeout("no Pong to Ping"));
+            }
+            // Flush line noise in front of the first frame.
+            self.send_raw(&[0])?;
+            self.send(&Command::Ping(token))?;
+            let wait_until = Instant::now() + Duration::from_millis(50);
+            while Instant::now() < wait_until {
+                if let Some(Event::Pong(t)) = self.recv(Duration::from_millis(10))? {
+                    if t == token {
+                        break 'ping;
+                    }
+                }
+            }
+        }
+        // Asked again every 500 ms: on a noisy link the GetInfo or the Info may be lost.
+        let mut ask_at = Instant::now();
+        while Instant::now() < deadline {
+            if Instant::now() >= ask_at {
+                self.send(&Command::GetInfo)?;
+                ask_at = Instant::now() + Duration::from_millis(500);
+            }
+            let slice = deadline
+                .saturating_duration_since(Instant::now())
+                .min(Duration::from_millis(50));
+            if let Some(Event::Info(info)) = self.recv(slice)? {
+                if info.protocol != PROTOCOL_VERSION {
+                    return Err(LinkError::Version {
+                        device: info.protocol,
+                    });
+                }
+                return Ok(info);
+            }
+            if let Some(device) = self.foreign_version {
+                return Err(LinkError::Version { device });
+            }
+        }
+        Err(LinkError::Timeout("no Info to GetInfo"))
+    }
+}

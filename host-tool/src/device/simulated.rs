@@ -1,0 +1,258 @@
+//! Simulated goniometers on the host: the brdf-core controller with simulated arms and
+//! a virtual sample, run by the same service loop as the firmware, reachable either
+//! in-process (a [`Transport`] and its [`InProcessConnector`], for `gonio simulate` and
+//! `gonio demo`) or on a pseudo-terminal (for trying `gonio capture --port` without hardware, and for tests).
+//! Time is simulated: waits cost no wall time.
+
+use std::collections::VecDeque;
+use std::fs::File;
+use std::io::{self, Read, Write};
+use std::os::fd::{AsRawFd, FromRawFd};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+use brdf_core::identity::FIRMWARE_VERSION;
+use brdf_core::presets::Preset;
+use brdf_core::service::{Link, Service};
+use brdf_core::sim::{SimArm, SimPin, VirtualSample, simulated_controller};
+
+use super::Connector;
+use super::link::{FramedLink, LinkError, Transport};
+
+/// The simulated controller type.
+pub type SimService = Service<SimArm, SimArm, SimPin, VirtualSample>;
+
+/// What the simulated device measures.
+#[derive(Debug, Clone, Copy)]
+pub struct SimConfig {
+    /// The sample's material.
+    pub preset: &'static Preset,
+    /// Relative noise of each detector sample (0.005 = 0.5 %).
+    pub noise: f32,
+    /// Seed of the deterministic noise.
+    pub seed: u32,
+    /// Firmware version the simulated device reports.
+    pub firmware: [u8; 3],
+    /// On a pty: run this many times faster than real time (`None`: as fast as
+    /// possible, waits cost nothing). In-process devices always run as fast as possible.
+    pub speed: Option<f64>,
+}
+
+impl SimConfig {
+    /// A simulated device measuring `preset` with relative `noise`.
+    pub fn new(preset: &'static Preset, noise: f32, seed: u32) -> Self {
+        SimConfig {
+            preset,
+            noise,
+            seed,
+            firmware: FIRMWARE_VERSION,
+            speed: None,
+        }
+    }
+
+    fn service(&self) -> SimService {
+        let sample = VirtualSample::new(self.preset, self.noise, self.seed);
+        Service::new(simulated_controller("sim", self.firmware, sample))
+    }
+}
+
+struct Queues<'a> {
+    rx: &'a mut VecDeque<u8>,
+    tx: &'a mut VecDeque<u8>,
+}
+
+impl Link for Queues<'_> {
+    fn read(&mut self, buf: &mut [u8]) -> usize {
+        let n = buf.len().min(self.rx.len());
+        for (b, x) in buf.iter_mut().zip(self.rx.drain(..n)) {
+            *b = x;
+        }
+        n
+    }
+
+    fn write(&mut self, bytes: &[u8]) -> usize {
+        self.tx.extend(bytes);
+        bytes.len()
+    }
+}
+
+/// A simulated device in this process, on simulated time.
+pub struct InProcessDevice {
+    service: SimService,
+    to_device: VecDeque<u8>,
+    from_device: VecDeque<u8>,
+    now_us: u64,
+}
+
+impl InProcessDevice {
+    /// A fresh device (arms not homed).
+    pub fn new(cfg: &SimConfig) -> Self {
+        InProcessDevice {
+            service: cfg.service(),
+            to_device: VecDeque::new(),
+            from_device: VecDeque::new(),
+            now_us: 0,
+        }
+    }
+}
+
+impl Transport for InProcessDevice {
+    fn send(&mut self, bytes: &[u8]) -> io::Result<()> {
+        self.to_device.extend(bytes);
+        Ok(())
+    }
+
+    fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<usize> {
+        // Run the device until it has something to say; with nothing to do, wait like
+        // a quiet device would (bounded by a millisecond so callers stay responsive).
+        for _ in 0..1_000_000 {
+            if !self.from_device.is_empty() {
+                let n = buf.len().min(self.from_device.len());
+                for (b, x) in buf.iter_mut().zip(self.from_device.drain(..n)) {
+                    *b = x;
+                }
+                return Ok(n);
+            }
+            let mut q = Queues {
+                rx: &mut self.to_device,
+                tx: &mut self.from_device,
+            };
+            match self.service.poll(&mut q, self.now_us) {
+                Some(at) => self.now_us = self.now_us.max(at),
+                None if self.from_device.is_empty() && self.to_device.is_empty() => {
+                    std::thread::sleep(timeout.min(Duration::from_millis(1)));
+                    return Ok(0);
+                }
+                None => {}
+            }
+        }
+        Ok(0)
+    }
+}
+
+/// A simulated device serving a pseudo-terminal from a thread. Dropping it closes the
+/// pty, which the other end sees as an unplugged device.
+pub struct PtyDevice {
+    path: PathBuf,
+    stop: Arc<AtomicBool>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl PtyDevice {
+    /// Opens a pty pair and starts serving it. The slave path is [`PtyDevice::path`].
+    pub fn start(cfg: &SimConfig) -> io::Result<Self> {
+        use nix::fcntl::{FcntlArg, FdFlag, OFlag, fcntl};
+        use nix::sys::termios::{SetArg, cfmakeraw, tcgetattr, tcsetattr};
+        let pty = nix::pty::openpty(None, None).map_err(io::Error::from)?;
+        // SAFETY: openpty returned two fresh descriptors that nothing else owns.
+        let (master, slave) =
+            unsafe { (File::from_raw_fd(pty.master), File::from_raw_fd(pty.slave)) };
+        let mut t = tcgetattr(slave.as_raw_fd()).map_err(io::Error::from)?;
+        cfmakeraw(&mut t);
+        tcsetattr(slave.as_raw_fd(), SetArg::TCSANOW, &t).map_err(io::Error::from)?;
+        fcntl(master.as_raw_fd(), FcntlArg::F_SETFL(OFlag::O_NONBLOCK)).map_err(io::Error::from)?;
+        // Not inherited by child processes: a child holding the master would keep the
+        // pty alive after the device is dropped, and clients would never see it go.
+        for fd in [master.as_raw_fd(), slave.as_raw_fd()] {
+            fcntl(fd, FcntlArg::F_SETFD(FdFlag::FD_CLOEXEC)).map_err(io::Error::from)?;
+        }
+        let path = nix::unistd::ttyname(slave.as_raw_fd()).map_err(io::Error::from)?;
+        let stop = Arc::new(AtomicBool::new(false));
+        let flag = stop.clone();
+        let mut service = cfg.service();
+        let speed = cfg.speed.filter(|s| s.is_finite() && *s > 0.0);
+        let thread = std::thread::spawn(move || {
+            // The slave stays open here too, so reads of the master do not fail while
+            // no client has the port open.
+            let _slave = slave;
+            let mut port = PtyMaster(master);
+            let started = std::time::Instant::now();
+            let mut now_us = 0u64;
+            while !flag.load(Ordering::Relaxed) {
+                if let Some(speed) = speed {
+                    now_us = now_us.max((started.elapsed().as_secs_f64() * speed * 1e6) as u64);
+                }
+                match (service.poll(&mut port, now_us), speed) {
+                    (Some(at), None) => now_us = now_us.max(at),
+                    (Some(at), Some(speed)) if at > now_us => {
+                        let wall = Duration::from_secs_f64((at - now_us) as f64 / speed / 1e6);
+                        port.wait_readable(wall.min(Duration::from_millis(20)));
+                    }
+                    (Some(_), Some(_)) => {}
+                    (None, _) => port.wait_readable(Duration::from_millis(20)),
+                }
+                if service.sending() {
+                    // The client is not reading: do not spin.
+                    std::thread::sleep(Duration::from_millis(1));
+                }
+            }
+        });
+        Ok(PtyDevice {
+            path,
+            stop,
+            thread: Some(thread),
+        })
+    }
+
+    /// The pty path to open (e.g. `/dev/pts/3`).
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+}
+
+impl Drop for PtyDevice {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+struct PtyMaster(File);
+
+impl PtyMaster {
+    fn wait_readable(&self, timeout: Duration) {
+        use nix::poll::{PollFd, PollFlags, poll};
+        let mut fds = [PollFd::new(self.0.as_raw_fd(), PollFlags::POLLIN)];
+        let _ = poll(&mut fds, timeout.as_millis() as i32);
+    }
+}
+
+impl Link for PtyMaster {
+    fn read(&mut self, buf: &mut [u8]) -> usize {
+        self.0.read(buf).unwrap_or(0)
+    }
+
+    fn write(&mut self, bytes: &[u8]) -> usize {
+        self.0.write(bytes).unwrap_or(0)
+    }
+}
+
+/// The in-process simulated device (cannot get lost).
+pub struct InProcessConnector(Option<InProcessDevice>);
+
+impl Connector for InProcessConnector {
+    type T = InProcessDevice;
+
+    fn connect(&mut self) -> Result<FramedLink<InProcessDevice>, LinkError> {
+        self.0
+            .take()
+            .map(FramedLink::new)
+            .ok_or(LinkError::Timeout("the simulated device is gone"))
+    }
+
+    fn can_reconnect(&self) -> bool {
+        false
+    }
+}
+
+impl InProcessConnector {
+    /// Wraps a simulated device.
+    pub fn new(device: InProcessDevice) -> Self {
+        InProcessConnector(Some(device))
+    }
+}

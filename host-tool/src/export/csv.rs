@@ -1,0 +1,36 @@
+//! The CSV export: the fitted model on an in-plane grid, in the sweep-file format.
+
+use std::io::{self, Write};
+
+use crate::fit::{FamilyFit, Fit};
+
+/// The in-plane grid: `theta_i` 0..90 and `theta_r` -90..90 in 1-degree steps, without
+/// the singular point theta_i = theta_r = 90 (no half vector). k_s at each theta_i from
+/// [`Fit::model_at`]. A few `#` metadata lines precede the header, as in a sweep file.
+pub(super) fn write_csv(w: &mut impl Write, fam: &FamilyFit, fit: &Fit) -> io::Result<()> {
+    writeln!(w, "# gonio model export v1")?;
+    writeln!(w, "# model: {}", fit.kind.name())?;
+    writeln!(
+        w,
+        "# units: angles in degrees (theta_r signed, positive on the specular side), brdf in the paper's relative units"
+    )?;
+    writeln!(w, "theta_i,theta_r,brdf")?;
+    for ti in 0..=90 {
+        let ti = f64::from(ti);
+        let model = fit
+            .model_at(&fam.incidences, ti)
+            .ok_or_else(|| io::Error::other(format!("no valid model at theta_i = {ti}")))?;
+        for tr in -90..=90 {
+            let tr = f64::from(tr);
+            if ti == 90.0 && tr == 90.0 {
+                continue;
+            }
+            let f = model
+                .eval_in_plane(ti, tr)
+                .map_err(|e| io::Error::other(format!("theta_i {ti}, theta_r {tr}: {e}")))?
+                .f;
+            writeln!(w, "{ti},{tr},{f}")?;
+        }
+    }
+    Ok(())
+}

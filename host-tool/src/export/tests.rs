@@ -1,0 +1,277 @@
+//! Tests of the exports on a synthetic fit (the fe-0.115 preset on the paper grid).
+
+use std::sync::OnceLock;
+
+use std::path::PathBuf;
+
+use serde_json::Value;
+
+use super::merl::*;
+use super::*;
+use crate::fit::{Dataset, FitOptions, fit_family};
+use crate::sweep_file::{Row, read_sweep};
+use brdf_core::Preset;
+
+fn rows() -> Vec<Row> {
+    let p = Preset::by_name("fe-0.115").unwrap();
+    crate::fit::data::synthetic_paper_sweep(|ti| p.model(ti).unwrap(), 0.0, 1)
+}
+
+fn fixture() -> &'static FamilyFit {
+    static F: OnceLock<FamilyFit> = OnceLock::new();
+    F.get_or_init(|| {
+        let data = Dataset::from_rows(&rows(), true).unwrap();
+        fit_family(&data, &FitOptions::default(), &Kind::ALL).unwrap()
+    })
+}
+
+fn tempdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("gonio-export-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn rel(a: f64, b: f64) -> f64 {
+    (a - b).abs() / b.abs().max(1e-300)
+}
+
+#[test]
+fn an_unfitted_model_is_a_usage_error_naming_the_fitted_ones() {
+    let data = Dataset::from_rows(&rows(), true).unwrap();
+    let fam = fit_family(&data, &FitOptions::default(), &[Kind::TorranceSparrow]).unwrap();
+    let dir = tempdir("unfitted");
+    let path = dir.join("m.json");
+    let e = write_export(ExportFormat::Json, &path, &fam, Kind::ThreeComponent).unwrap_err();
+    assert!(matches!(e, ExportError::NotFitted(_)), "bad input: {e}");
+    assert!(e.to_string().contains("three-component"), "{e}");
+    assert!(
+        e.to_string().contains("fitted models: torrance-sparrow"),
+        "{e}"
+    );
+    assert!(!path.exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn json_has_parameters_units_and_incidences() {
+    let fam = fixture();
+    let dir = tempdir("json");
+    let path = dir.join("m.json");
+    write_export(ExportFormat::Json, &path, fam, Kind::ThreeComponent).unwrap();
+    let v: Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    assert_eq!(v["model"], "three-component");
+    assert_eq!(v["name"], "three-component");
+    let fit = fam.get(Kind::ThreeComponent).unwrap();
+    assert!(rel(v["params"]["sigma"].as_f64().unwrap(), fit.values.sigma) < 1e-12);
+    assert!(rel(v["params"]["sigma_m"].as_f64().unwrap(), fit.values.sigma_m) < 1e-12);
+    assert_eq!(v["params"]["k_s"].as_array().unwrap().len(), 9);
+    assert_eq!(v["incidences"].as_array().unwrap().len(), 9);
+    assert_eq!(v["incidences"][2].as_f64().unwrap(), 20.0);
+    assert!(v["units"]["sigma_m"].as_str().unwrap().contains("radians"));
+    assert!(v["units"]["angles"].as_str().unwrap().contains("degrees"));
+    assert!(v["units"]["brdf"].as_str().unwrap().contains("relative"));
+    assert_eq!(v["selected"], fam.selected == Kind::ThreeComponent);
+    assert!(!dir.join("m.json.tmp").exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn csv_grid_reads_back_as_a_sweep_file() {
+    let fam = fixture();
+    let fit = fam.get(Kind::ThreeComponent).unwrap();
+    let dir = tempdir("csv");
+    let path = dir.join("grid.csv");
+    write_export(ExportFormat::Csv, &path, fam, Kind::ThreeComponent).unwrap();
+    let data = read_sweep(&path).unwrap();
+    assert_eq!(data.columns, ["theta_i", "theta_r", "brdf"]);
+    assert_eq!(
+        data.meta.get("model").map(String::as_str),
+        Some("three-component")
+    );
+    assert_eq!(data.rows.len(), 91 * 181 - 1);
+    assert!(
+        !data
+            .rows
+            .iter()
+            .any(|r| r.theta_i == 90.0 && r.theta_r == 90.0)
+    );
+    assert_eq!((data.rows[0].theta_i, data.rows[0].theta_r), (0.0, -90.0));
+    let last = data.rows.last().unwrap();
+    assert_eq!((last.theta_i, last.theta_r), (90.0, 89.0));
+    for r in data.rows.iter().step_by(97) {
+        let f = fit
+            .model_at(&fam.incidences, r.theta_i)
+            .unwrap()
+            .eval_in_plane(r.theta_i, r.theta_r)
+            .unwrap()
+            .f;
+        assert_eq!(r.brdf, f, "theta_i {} theta_r {}", r.theta_i, r.theta_r);
+    }
+    // At a fitted incidence the grid is the fitted model itself.
+    let m20 = fit.values.model(Kind::ThreeComponent, 2).unwrap();
+    let r = data
+        .rows
+        .iter()
+        .find(|r| r.theta_i == 20.0 && r.theta_r == 20.0)
+        .unwrap();
+    assert!(rel(r.brdf, m20.eval_in_plane(20.0, 20.0).unwrap().f) < 1e-12);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Cell index in file order.
+fn cell(i: usize, j: usize, k: usize) -> usize {
+    k + j * MERL_DIMS[2] + i * MERL_DIMS[2] * MERL_DIMS[1]
+}
+
+/// Polar and azimuth (radians) of a unit vector.
+fn angles(w: [f64; 3]) -> (f64, f64) {
+    (w[2].clamp(-1.0, 1.0).acos(), w[1].atan2(w[0]))
+}
+
+#[test]
+fn merl_file_layout_scales_and_read_back() {
+    let fam = fixture();
+    let fit = fam.get(Kind::ThreeComponent).unwrap();
+    let dir = tempdir("merl");
+    let path = dir.join("fe.binary");
+    write_export(ExportFormat::Merl, &path, fam, Kind::ThreeComponent).unwrap();
+    let bytes = std::fs::read(&path).unwrap();
+    assert_eq!(bytes.len(), 12 + 3 * 8 * 90 * 90 * 180);
+    assert_eq!(&bytes[..12], &[90, 0, 0, 0, 90, 0, 0, 0, 180, 0, 0, 0]);
+    // Stored R of the first cell is value * 1500.
+    let stored_r = f64::from_le_bytes(bytes[12..20].try_into().unwrap());
+    let table = MerlTable::read(&path).unwrap();
+    assert!(rel(stored_r, table.channels[0][0] * 1500.0) < 1e-15);
+    assert!(table.channels[0][0] > 0.0);
+    // Grey: the three channels agree after the reader's scales.
+    for idx in (0..MERL_LEN).step_by(997) {
+        let [r, g, b] = [0, 1, 2].map(|c| table.channels[c][idx]);
+        assert!(
+            rel(g, r) < 1e-14 && rel(b, r) < 1e-14,
+            "cell {idx}: {r} {g} {b}"
+        );
+    }
+
+    // Lookups of directions (just inside a cell, away from the reader's truncation edge)
+    // equal a direct evaluation of the fitted model at those directions.
+    let nudge = 1e-9;
+    for (i, j, k) in [
+        (0, 20, 0),
+        (30, 25, 0),
+        (45, 10, 0),
+        (30, 30, 90),
+        (60, 40, 45),
+        (20, 60, 170),
+        (70, 15, 120),
+        (10, 5, 179),
+    ] {
+        let (w_in, w_out) = half_diff_to_vectors(
+            merl_theta_half(i) + nudge,
+            0.3, // any phi_half: the table is isotropic
+            merl_theta_diff(j) + nudge,
+            merl_phi_diff(k) + nudge,
+        );
+        let ((ti, pi), (to, po)) = (angles(w_in), angles(w_out));
+        let got = table.lookup(ti, pi, to, po);
+        assert_eq!(
+            got[0],
+            table.channels[0][cell(i, j, k)],
+            "lookup of ({i},{j},{k}) hits its cell"
+        );
+        let direct = fit
+            .model_at(&fam.incidences, ti.to_degrees())
+            .unwrap()
+            .eval_vectors(w_in, w_out)
+            .unwrap()
+            .f;
+        for (c, v) in got.iter().enumerate() {
+            assert!(
+                rel(*v, direct) < 1e-6,
+                "({i},{j},{k}) channel {c}: {v} vs {direct}"
+            );
+        }
+    }
+
+    // phi_diff = 0 is the plane of incidence: theta_i = theta_d + theta_h and
+    // theta_r = theta_d - theta_h (signed), checked against the in-plane evaluation.
+    for (i, j) in [(0usize, 20usize), (30, 25), (45, 10), (60, 30), (0, 0)] {
+        let th = 90.0 * (i as f64 / 90.0).powi(2);
+        let td = j as f64;
+        let (ti, tr) = (td + th, td - th);
+        let want = fit
+            .model_at(&fam.incidences, ti)
+            .unwrap()
+            .eval_in_plane(ti, tr)
+            .unwrap()
+            .f;
+        let got = table.channels[0][cell(i, j, 0)];
+        assert!(
+            rel(got, want) < 1e-9,
+            "({i},{j},0): {got} vs {want} (theta_i {ti}, theta_r {tr})"
+        );
+    }
+
+    // Below the horizon: 0 in every channel. theta_h 88, theta_d 89, phi_d 0 puts the
+    // incoming direction at 177 degrees from the normal.
+    for c in 0..3 {
+        assert_eq!(table.channels[c][cell(89, 89, 0)], MERL_INVALID);
+    }
+    // ... while phi_d = 90 there is still above it.
+    assert!(table.channels[0][cell(89, 89, 90)] > 0.0);
+    assert!(!dir.join("fe.binary.tmp").exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn conversions_round_trip_like_the_reference_code() {
+    for &(th, td, pd) in &[
+        (0.1, 0.4, 0.7),
+        (0.9, 0.2, -2.0),
+        (0.5, 1.2, 3.0),
+        (0.0, 0.3, 0.0),
+    ] {
+        let (w_in, w_out) = half_diff_to_vectors(th, 0.0, td, pd);
+        let ((ti, pi), (to, po)) = (angles(w_in), angles(w_out));
+        let [h, ph, d, p] = std_to_half_diff(ti, pi, to, po);
+        assert!((h - th).abs() < 1e-12, "{th} -> {h}");
+        assert!((d - td).abs() < 1e-12, "{td} -> {d}");
+        if th > 0.0 {
+            // (phi_half and phi_diff are undefined at theta_half = 0)
+            assert!(ph.abs() < 1e-9, "{th}: phi_half {ph}");
+            assert!((p - pd).abs() < 1e-9, "{pd} -> {p}");
+        }
+    }
+    // rotate_vector is a rotation: x about z by 90 degrees is y.
+    let r = rotate_vector([1.0, 0.0, 0.0], NORMAL, std::f64::consts::FRAC_PI_2);
+    assert!((r[0]).abs() < 1e-15 && (r[1] - 1.0).abs() < 1e-15 && r[2].abs() < 1e-15);
+    // The reader's non-linear theta_half index inverts the writer's grid.
+    for i in [1usize, 10, 45, 89] {
+        let ind = merl_index(merl_theta_half(i) + 1e-12, 0.0, 0.0);
+        assert_eq!(ind / (MERL_DIMS[1] * MERL_DIMS[2]), i);
+    }
+}
+
+#[test]
+fn an_unwritable_path_fails_naming_it_and_leaves_no_file() {
+    let fam = fixture();
+    let dir = tempdir("unwritable");
+    let missing = dir.join("no-such-dir").join("m.csv");
+    let e = write_export(ExportFormat::Csv, &missing, fam, Kind::ThreeComponent).unwrap_err();
+    assert!(matches!(e, ExportError::Write(_)), "failed: {e}");
+    assert!(
+        e.to_string().contains(&missing.display().to_string()),
+        "{e}"
+    );
+    assert!(!e.to_string().contains('\n'));
+    // A path that is a directory: the temporary file is written, the rename fails, and
+    // the temporary file is removed again.
+    let target = dir.join("taken");
+    std::fs::create_dir(&target).unwrap();
+    let e = write_export(ExportFormat::Json, &target, fam, Kind::ThreeComponent).unwrap_err();
+    assert!(matches!(e, ExportError::Write(_)), "failed: {e}");
+    assert!(e.to_string().contains("taken"), "{e}");
+    assert!(!dir.join("taken.tmp").exists());
+    assert!(target.is_dir());
+    std::fs::remove_dir_all(&dir).unwrap();
+}

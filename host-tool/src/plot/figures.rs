@@ -1,0 +1,339 @@
+//! The figures as data, independent of the backend that draws them: the per-incidence
+//! normalised curves and the overview, with their legends and notes.
+
+use plotters::style::RGBColor;
+
+use crate::fit::{Dataset, FamilyFit, Kind};
+
+/// Label of the y axis of the normalised figures.
+pub(super) const Y_DESC_NORMALISED: &str = "BRDF / BRDF(theta_r = theta_i)";
+
+/// Label of the y axis of the overview.
+pub(super) const Y_DESC_ABSOLUTE: &str = "BRDF (relative units)";
+
+/// An angle for a file name or a label: `20`, `22.5`.
+pub(super) fn angle_text(t: f64) -> String {
+    if t == t.round() && t.abs() < 1e9 {
+        format!("{}", t.round() as i64)
+    } else {
+        format!("{t}")
+    }
+}
+
+/// A model's name in figures (from the vocabulary table).
+pub(super) fn display_name(kind: Kind) -> &'static str {
+    kind.names().figure
+}
+
+/// The colour a model is drawn in.
+pub(super) fn model_color(kind: Kind) -> RGBColor {
+    match kind {
+        Kind::IdealDiffuse => RGBColor(120, 120, 120),
+        Kind::TorranceSparrow => RGBColor(230, 120, 20),
+        Kind::ThreeComponent => RGBColor(30, 90, 200),
+        Kind::ThreeSmooth => RGBColor(40, 150, 70),
+    }
+}
+
+/// What a legend entry shows beside its text.
+#[derive(Debug, Clone, Copy)]
+pub(super) enum Swatch {
+    /// A line of a colour and width.
+    Line(RGBColor, u32),
+    /// A dashed grey line (the specular guide).
+    Guide,
+    /// A filled circle.
+    Marker(RGBColor),
+    /// A circle on a line (overview: points and curve of one incidence).
+    Both(RGBColor),
+}
+
+/// A curve in chart coordinates.
+#[derive(Debug, Clone)]
+pub(super) struct Curve {
+    pub(super) color: RGBColor,
+    pub(super) width: u32,
+    pub(super) points: Vec<(f64, f64)>,
+}
+
+/// Measured points in chart coordinates.
+#[derive(Debug, Clone)]
+pub(super) struct Markers {
+    pub(super) color: RGBColor,
+    pub(super) points: Vec<(f64, f64)>,
+}
+
+/// A figure, independent of the backend that draws it.
+#[derive(Debug, Clone)]
+pub(super) struct Figure {
+    pub(super) title: String,
+    pub(super) subtitles: Vec<String>,
+    pub(super) y_desc: &'static str,
+    pub(super) curves: Vec<Curve>,
+    pub(super) markers: Vec<Markers>,
+    /// A dashed vertical guide at this theta_r (the specular direction).
+    pub(super) guide: Option<f64>,
+    pub(super) legend: Vec<(Swatch, String)>,
+    /// Small print under the legend.
+    pub(super) notes: Vec<String>,
+}
+
+/// Splits `text` into lines of at most `width` characters at spaces (a longer word
+/// stays whole).
+pub(super) fn wrap(text: &str, width: usize) -> Vec<String> {
+    let mut lines = Vec::new();
+    let mut line = String::new();
+    for word in text.split_whitespace() {
+        if !line.is_empty() && line.chars().count() + 1 + word.chars().count() > width {
+            lines.push(std::mem::take(&mut line));
+        }
+        if !line.is_empty() {
+            line.push(' ');
+        }
+        line.push_str(word);
+    }
+    if !line.is_empty() {
+        lines.push(line);
+    }
+    lines
+}
+
+/// Positive finite values only (a log axis shows nothing else).
+pub(super) fn plottable(p: &(f64, f64)) -> bool {
+    p.1.is_finite() && p.1 > 0.0
+}
+
+/// The per-incidence figure of incidence `j` of `fam`.
+pub(super) fn incidence_figure(data: &Dataset, fam: &FamilyFit, j: usize) -> Figure {
+    let ti = fam.incidences[j];
+    let mut subtitles = Vec::new();
+    let mut notes = Vec::new();
+    let mut legend = Vec::new();
+    // Measured points of this incidence (data and fit normally share the incidences).
+    let jd = data.incidences.iter().position(|&t| (t - ti).abs() < 1e-6);
+    let mut obs: Vec<(f64, f64)> = jd
+        .map(|jd| {
+            data.obs
+                .iter()
+                .filter(|o| o.inc == jd)
+                .map(|o| (o.theta_r, o.y))
+                .collect()
+        })
+        .unwrap_or_default();
+    obs.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let spec = jd
+        .and_then(|jd| data.specular_value(jd))
+        .filter(|&y| y > 0.0);
+    let reference = match spec {
+        Some(y) => Some(y),
+        None => {
+            let max = obs.iter().map(|p| p.1).fold(f64::NEG_INFINITY, f64::max);
+            if obs.is_empty() {
+                subtitles.push("No readings at this incidence.".to_string());
+                None
+            } else if max > 0.0 {
+                let at = obs.iter().find(|p| p.1 == max).map_or(0.0, |p| p.0);
+                subtitles.push(format!(
+                    "No reading at theta_r = theta_i: measured points divided by their largest value \
+                     ({max:.4} at theta_r = {}).",
+                    angle_text(at)
+                ));
+                Some(max)
+            } else {
+                subtitles.push(
+                    "No positive reading at this incidence: nothing to normalise.".to_string(),
+                );
+                None
+            }
+        }
+    };
+    let measured: Vec<(f64, f64)> = match reference {
+        Some(r) => obs.iter().map(|&(x, y)| (x, y / r)).collect(),
+        None => Vec::new(),
+    };
+    let hidden = measured.iter().filter(|p| !plottable(p)).count();
+    let measured: Vec<(f64, f64)> = measured.into_iter().filter(plottable).collect();
+    // The paper's two models, and the selected one if it is neither.
+    let mut kinds = vec![Kind::TorranceSparrow, Kind::ThreeComponent];
+    if !kinds.contains(&fam.selected) {
+        kinds.push(fam.selected);
+    }
+    let mut curves = Vec::new();
+    let mut rmse_parts = Vec::new();
+    for kind in kinds {
+        let Some(fit) = fam.get(kind) else { continue };
+        let selected = kind == fam.selected;
+        let mark = if selected { " (selected)" } else { "" };
+        let rmse = fit.rmse_by_inc.get(j).copied().flatten();
+        rmse_parts.push(format!(
+            "{}{mark} {}",
+            display_name(kind),
+            rmse.map_or("n/d".to_string(), |r| format!("{r:.4}"))
+        ));
+        let Some(model) = fit.model_at(&fam.incidences, ti) else {
+            notes.push(format!(
+                "{}: no model at this incidence",
+                display_name(kind)
+            ));
+            continue;
+        };
+        let raw: Vec<(f64, f64)> = (-180..=180)
+            .map(|k| k as f64 * 0.5)
+            .filter_map(|tr| model.eval_in_plane(ti, tr).ok().map(|e| (tr, e.f)))
+            .collect();
+        let at_spec = model
+            .eval_in_plane(ti, ti)
+            .ok()
+            .map(|e| e.f)
+            .filter(|f| f.is_finite() && *f > 0.0);
+        let norm = match at_spec {
+            Some(f) => f,
+            None => {
+                notes.push(format!(
+                    "{}: no value at theta_r = theta_i; divided by its maximum",
+                    display_name(kind)
+                ));
+                raw.iter().map(|p| p.1).fold(0.0, f64::max)
+            }
+        };
+        if norm <= 0.0 {
+            continue;
+        }
+        let width = if selected { 3 } else { 2 };
+        let color = model_color(kind);
+        curves.push(Curve {
+            color,
+            width,
+            points: raw
+                .into_iter()
+                .map(|(x, y)| (x, y / norm))
+                .filter(plottable)
+                .collect(),
+        });
+        legend.push((
+            Swatch::Line(color, width),
+            format!("{}{mark}", display_name(kind)),
+        ));
+    }
+    let black = RGBColor(0, 0, 0);
+    legend.insert(0, (Swatch::Marker(black), "measured".to_string()));
+    legend.push((Swatch::Guide, "theta_r = theta_i (specular)".to_string()));
+    subtitles.insert(
+        0,
+        format!("RMSE of the normalised curves: {}", rmse_parts.join(", ")),
+    );
+    notes.insert(
+        0,
+        "Each curve is divided by its own value at theta_r = theta_i; log axis.".to_string(),
+    );
+    if hidden > 0 {
+        notes.push(format!("{hidden} reading(s) <= 0 not shown (log axis)."));
+    }
+    Figure {
+        title: format!(
+            "Normalised in-plane BRDF, theta_i = {} degrees",
+            angle_text(ti)
+        ),
+        subtitles,
+        y_desc: Y_DESC_NORMALISED,
+        curves,
+        markers: vec![Markers {
+            color: black,
+            points: measured,
+        }],
+        guide: Some(ti),
+        legend,
+        notes,
+    }
+}
+
+/// Colour `k` of `n` along a dark purple -> blue -> teal -> green -> gold -> red scale
+/// (every stop dark enough to read on white).
+pub(super) fn ramp_color(k: usize, n: usize) -> RGBColor {
+    const STOPS: [(f64, f64, f64); 6] = [
+        (68.0, 1.0, 84.0),
+        (59.0, 82.0, 139.0),
+        (33.0, 145.0, 140.0),
+        (53.0, 160.0, 80.0),
+        (200.0, 150.0, 0.0),
+        (215.0, 50.0, 30.0),
+    ];
+    let t = if n <= 1 {
+        0.0
+    } else {
+        k as f64 / (n - 1) as f64
+    };
+    let pos = t * (STOPS.len() - 1) as f64;
+    let i = (pos.floor() as usize).min(STOPS.len() - 2);
+    let w = pos - i as f64;
+    let (a, b) = (STOPS[i], STOPS[i + 1]);
+    let mix = |x: f64, y: f64| (x + (y - x) * w).round().clamp(0.0, 255.0) as u8;
+    RGBColor(mix(a.0, b.0), mix(a.1, b.1), mix(a.2, b.2))
+}
+
+/// The overview: every incidence, measured points and the selected model, in the
+/// instrument's units.
+pub(super) fn overview_figure(data: &Dataset, fam: &FamilyFit) -> Figure {
+    let n = fam.incidences.len();
+    let fit = fam.get(fam.selected);
+    let mut curves = Vec::new();
+    let mut markers = Vec::new();
+    let mut legend = Vec::new();
+    let mut hidden = 0;
+    for (j, &ti) in fam.incidences.iter().enumerate() {
+        let color = ramp_color(j, n);
+        if let Some(jd) = data.incidences.iter().position(|&t| (t - ti).abs() < 1e-6) {
+            let mut pts: Vec<(f64, f64)> = data
+                .obs
+                .iter()
+                .filter(|o| o.inc == jd)
+                .map(|o| (o.theta_r, o.y))
+                .collect();
+            pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+            hidden += pts.iter().filter(|p| !plottable(p)).count();
+            markers.push(Markers {
+                color,
+                points: pts.into_iter().filter(plottable).collect(),
+            });
+        }
+        if let Some(model) = fit.and_then(|f| f.model_at(&fam.incidences, ti)) {
+            let points = (-180..=180)
+                .map(|k| k as f64 * 0.5)
+                .filter_map(|tr| model.eval_in_plane(ti, tr).ok().map(|e| (tr, e.f)))
+                .filter(plottable)
+                .collect();
+            curves.push(Curve {
+                color,
+                width: 2,
+                points,
+            });
+        }
+        legend.push((
+            Swatch::Both(color),
+            format!("theta_i = {} degrees", angle_text(ti)),
+        ));
+    }
+    let name = display_name(fam.selected);
+    let rmse = fit
+        .and_then(|f| f.rmse)
+        .map_or("n/d".to_string(), |r| format!("{r:.4}"));
+    let mut notes = vec![
+        "Points: measured.".to_string(),
+        format!("Lines: {name} (selected)."),
+    ];
+    if hidden > 0 {
+        notes.push(format!("{hidden} reading(s) <= 0 not shown (log axis)."));
+    }
+    Figure {
+        title: format!("In-plane BRDF at every incidence: measured and {name}"),
+        subtitles: vec![format!(
+            "Selected model: {name}; RMSE of the normalised curves over all incidences {rmse}"
+        )],
+        y_desc: Y_DESC_ABSOLUTE,
+        curves,
+        markers,
+        guide: None,
+        legend,
+        notes,
+    }
+}

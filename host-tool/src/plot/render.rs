@@ -1,0 +1,268 @@
+//! Drawing a [`Figure`]: title lines, the log-scale chart, the legend panel; saved as
+//! PNG (through [`CrispText`]) and SVG.
+
+use std::path::{Path, PathBuf};
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters_backend::text_anchor::{HPos, Pos, VPos};
+
+use super::PlotError;
+use super::figures::{Figure, Swatch, angle_text, wrap};
+use super::text::CrispText;
+
+/// The font family every text style names; DejaVu Sans is registered under it.
+pub(crate) const FONT: &str = "sans-serif";
+
+/// Width of the legend panel on the right of every figure.
+const LEGEND_WIDTH: u32 = 330;
+
+/// Label of the x axis.
+const X_DESC: &str = "theta_r (degrees)";
+
+/// Tick values of a log axis over `lo..hi`: 1-2-5 style labels while few decades are
+/// shown, fewer beyond; and the 1..9 multiples of each decade for light grid lines
+/// (up to five decades).
+pub(super) fn log_ticks(lo: f64, hi: f64) -> (Vec<f64>, Vec<f64>) {
+    let decades = (hi / lo).log10();
+    let mantissas: &[f64] = if decades <= 1.5 {
+        &[1.0, 1.5, 2.0, 3.0, 5.0, 7.0]
+    } else if decades <= 3.0 {
+        &[1.0, 2.0, 5.0]
+    } else if decades <= 5.0 {
+        &[1.0, 3.0]
+    } else {
+        &[1.0]
+    };
+    let every = (decades / 6.0).ceil().max(1.0) as i32;
+    let (e0, e1) = (lo.log10().floor() as i32, hi.log10().ceil() as i32);
+    let (mut bold, mut light) = (Vec::new(), Vec::new());
+    for e in e0..=e1 {
+        let unit = 10f64.powi(e);
+        if (e - e0) % every == 0 {
+            bold.extend(
+                mantissas
+                    .iter()
+                    .map(|m| m * unit)
+                    .filter(|v| (lo..=hi).contains(v)),
+            );
+        }
+        if decades <= 5.0 {
+            light.extend(
+                (1..10)
+                    .map(|m| f64::from(m) * unit)
+                    .filter(|v| (lo..=hi).contains(v)),
+            );
+        }
+    }
+    (bold, light)
+}
+
+/// A tick label: `0.02`, `1.5`, `300`, `1e-5`.
+pub(super) fn tick_text(v: f64) -> String {
+    if (1e-3..1e6).contains(&v) {
+        let r = (v * 1e6).round() / 1e6;
+        format!("{r}")
+    } else {
+        format!("{v:.0e}")
+    }
+}
+
+/// The y range of a figure: every plotted value with some room above and below.
+fn y_range(fig: &Figure) -> (f64, f64) {
+    let ys = fig
+        .curves
+        .iter()
+        .flat_map(|c| c.points.iter())
+        .chain(fig.markers.iter().flat_map(|m| m.points.iter()))
+        .map(|p| p.1);
+    let (lo, hi) = ys.fold((f64::INFINITY, 0.0f64), |(lo, hi), y| {
+        (lo.min(y), hi.max(y))
+    });
+    if !(lo.is_finite() && hi > 0.0) {
+        return (0.1, 10.0);
+    }
+    (lo / 1.6, hi * 1.8)
+}
+
+/// Saves a figure as `<stem>.png` and `<stem>.svg` in `dir`.
+pub(super) fn save_both(
+    dir: &Path,
+    stem: &str,
+    fig: &Figure,
+    size: (u32, u32),
+    written: &mut Vec<PathBuf>,
+) -> Result<(), PlotError> {
+    let png = dir.join(format!("{stem}.png"));
+    let fail = |path: &Path, e: String| {
+        PlotError(one_line(&format!(
+            "cannot write the plot {}: {e}",
+            path.display()
+        )))
+    };
+    {
+        let root = CrispText::new(BitMapBackend::new(&png, size))
+            .map_err(|e| fail(&png, e))?
+            .into_drawing_area();
+        render(&root, fig)
+            .and_then(|()| root.present().map_err(|e| e.to_string()))
+            .map_err(|e| fail(&png, e))?;
+    }
+    written.push(png);
+    let svg = dir.join(format!("{stem}.svg"));
+    let mut text = String::new();
+    {
+        let root = SVGBackend::with_string(&mut text, size).into_drawing_area();
+        render(&root, fig)
+            .and_then(|()| root.present().map_err(|e| e.to_string()))
+            .map_err(|e| fail(&svg, e))?;
+    }
+    std::fs::write(&svg, text).map_err(|e| fail(&svg, e.to_string()))?;
+    written.push(svg);
+    Ok(())
+}
+
+/// Draws a figure: title lines on top, the chart, the legend panel on the right.
+fn render<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, fig: &Figure) -> Result<(), String> {
+    let err = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    let black = RGBColor(0, 0, 0);
+    root.fill(&WHITE).map_err(err)?;
+    let (w, _) = root.dim_in_pixel();
+    let top = 44 + 22 * fig.subtitles.len() as u32;
+    let (head, body) = root.split_vertically(top);
+    let title_style = (FONT, 22).into_font().color(&black);
+    head.draw(&Text::new(fig.title.clone(), (16, 12), title_style))
+        .map_err(err)?;
+    let sub_style = (FONT, 15).into_font().color(&RGBColor(60, 60, 60));
+    for (k, s) in fig.subtitles.iter().enumerate() {
+        head.draw(&Text::new(
+            s.clone(),
+            (16, 42 + 22 * k as i32),
+            sub_style.clone(),
+        ))
+        .map_err(err)?;
+    }
+    let (plot_area, legend_area) = body.split_horizontally(w - LEGEND_WIDTH);
+
+    let (lo, hi) = y_range(fig);
+    let (y_bold, y_light) = log_ticks(lo, hi);
+    let mut chart = ChartBuilder::on(&plot_area)
+        .margin_top(10)
+        .margin_left(10)
+        .margin_right(20)
+        .margin_bottom(10)
+        .x_label_area_size(50)
+        .y_label_area_size(80)
+        .build_cartesian_2d(
+            -90f64..90f64,
+            (lo..hi)
+                .log_scale()
+                .with_key_points(y_bold)
+                .with_light_points(y_light),
+        )
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_labels(19)
+        .x_max_light_lines(1)
+        .x_desc(X_DESC)
+        .y_desc(fig.y_desc)
+        .axis_desc_style((FONT, 18))
+        .label_style((FONT, 15))
+        .x_label_formatter(&|v| angle_text(*v))
+        .y_label_formatter(&|v| tick_text(*v))
+        .bold_line_style(RGBColor(225, 225, 225))
+        .light_line_style(RGBColor(240, 240, 240))
+        .draw()
+        .map_err(err)?;
+    let grey = RGBColor(140, 140, 140);
+    if let Some(x) = fig.guide {
+        chart
+            .draw_series(DashedLineSeries::new(
+                vec![(x, lo), (x, hi)],
+                6,
+                5,
+                grey.stroke_width(1),
+            ))
+            .map_err(err)?;
+    }
+    for c in &fig.curves {
+        chart
+            .draw_series(LineSeries::new(
+                c.points.iter().copied(),
+                c.color.stroke_width(c.width),
+            ))
+            .map_err(err)?;
+    }
+    for m in &fig.markers {
+        chart
+            .draw_series(
+                m.points
+                    .iter()
+                    .map(|&p| Circle::new(p, 4, m.color.filled())),
+            )
+            .map_err(err)?;
+    }
+
+    // The legend panel: one row per entry, then the notes in small print.
+    let text_style = (FONT, 15)
+        .into_font()
+        .color(&black)
+        .pos(Pos::new(HPos::Left, VPos::Center));
+    let row = 26;
+    let y0 = 24;
+    for (k, (swatch, label)) in fig.legend.iter().enumerate() {
+        let y = y0 + row * k as i32;
+        let (x0, x1) = (8, 40);
+        match *swatch {
+            Swatch::Line(c, width) => legend_area
+                .draw(&PathElement::new(
+                    vec![(x0, y), (x1, y)],
+                    c.stroke_width(width),
+                ))
+                .map_err(err)?,
+            Swatch::Guide => {
+                for s in (x0..x1).step_by(11) {
+                    legend_area
+                        .draw(&PathElement::new(
+                            vec![(s, y), ((s + 6).min(x1), y)],
+                            grey.stroke_width(1),
+                        ))
+                        .map_err(err)?;
+                }
+            }
+            Swatch::Marker(c) => legend_area
+                .draw(&Circle::new(((x0 + x1) / 2, y), 4, c.filled()))
+                .map_err(err)?,
+            Swatch::Both(c) => {
+                legend_area
+                    .draw(&PathElement::new(vec![(x0, y), (x1, y)], c.stroke_width(2)))
+                    .map_err(err)?;
+                legend_area
+                    .draw(&Circle::new(((x0 + x1) / 2, y), 4, c.filled()))
+                    .map_err(err)?;
+            }
+        }
+        legend_area
+            .draw(&Text::new(label.clone(), (x1 + 8, y), text_style.clone()))
+            .map_err(err)?;
+    }
+    let note_style = (FONT, 13).into_font().color(&RGBColor(80, 80, 80));
+    let y_notes = y0 + row * fig.legend.len() as i32 + 12;
+    let lines: Vec<String> = fig.notes.iter().flat_map(|n| wrap(n, 38)).collect();
+    for (k, n) in lines.iter().enumerate() {
+        legend_area
+            .draw(&Text::new(
+                n.clone(),
+                (8, y_notes + 18 * k as i32),
+                note_style.clone(),
+            ))
+            .map_err(err)?;
+    }
+    Ok(())
+}
+
+/// Errors as one line (plotters' messages may span several).
+pub(crate) fn one_line(s: &str) -> String {
+    s.split_whitespace().collect::<Vec<_>>().join(" ")
+}

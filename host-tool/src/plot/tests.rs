@@ -1,0 +1,199 @@
+//! Tests of the figures on a synthetic fit (the fe-0.115 preset on the paper grid).
+
+use std::path::PathBuf;
+use std::sync::OnceLock;
+
+use super::*;
+use crate::fit::{FitOptions, Kind, fit_family};
+use crate::sweep_file::Row;
+use brdf_core::Preset;
+
+/// Paper-grid rows of a preset with 3 % multiplicative noise; `skip_specular` leaves the
+/// reading at theta_r = theta_i out at the listed incidences.
+fn rows(name: &str, skip_specular: &[f64]) -> Vec<Row> {
+    let p = Preset::by_name(name).unwrap();
+    crate::fit::data::synthetic_paper_sweep(|ti| p.model(ti).unwrap(), 0.03, 7)
+        .into_iter()
+        .filter(|r| !(r.theta_r == r.theta_i && skip_specular.contains(&r.theta_i)))
+        .collect()
+}
+
+fn fixture() -> &'static (Dataset, FamilyFit) {
+    static F: OnceLock<(Dataset, FamilyFit)> = OnceLock::new();
+    F.get_or_init(|| {
+        let data = Dataset::from_rows(&rows("fe-0.115", &[]), true).unwrap();
+        let fam = fit_family(&data, &FitOptions::default(), &Kind::ALL).unwrap();
+        (data, fam)
+    })
+}
+
+fn tempdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("gonio-plot-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+/// Width and height from a PNG's signature and IHDR chunk.
+fn png_size(bytes: &[u8]) -> (u32, u32) {
+    assert!(bytes.len() > 33, "too short for a PNG");
+    assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "PNG signature");
+    assert_eq!(&bytes[12..16], b"IHDR", "first chunk is IHDR");
+    let be = |b: &[u8]| u32::from_be_bytes([b[0], b[1], b[2], b[3]]);
+    (be(&bytes[16..20]), be(&bytes[20..24]))
+}
+
+#[test]
+fn writes_one_png_and_svg_per_incidence_and_an_overview() {
+    let (data, fam) = fixture();
+    let dir = tempdir("all");
+    let files = write_plots(&dir, data, fam).unwrap();
+    let names: Vec<String> = files
+        .iter()
+        .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+        .collect();
+    let mut expected = Vec::new();
+    for t in (0..=80).step_by(10) {
+        expected.push(format!("theta_i_{t}.png"));
+        expected.push(format!("theta_i_{t}.svg"));
+    }
+    expected.push("overview.png".into());
+    expected.push("overview.svg".into());
+    assert_eq!(names, expected);
+    for f in &files {
+        assert_eq!(f.parent().unwrap(), dir);
+        let bytes = std::fs::read(f).unwrap();
+        let name = f.file_name().unwrap().to_string_lossy();
+        if name.ends_with(".png") {
+            let size = if name.starts_with("overview") {
+                OVERVIEW_SIZE
+            } else {
+                INCIDENCE_SIZE
+            };
+            assert_eq!(png_size(&bytes), size, "{name}");
+        } else {
+            let text = String::from_utf8(bytes).unwrap();
+            assert!(text.starts_with("<svg"), "{name}");
+            assert!(text.contains("theta_r (degrees)"), "{name}: x label");
+            let y = if name.starts_with("overview") {
+                Y_DESC_ABSOLUTE
+            } else {
+                Y_DESC_NORMALISED
+            };
+            assert!(text.contains(y), "{name}: y label");
+        }
+    }
+    let svg = std::fs::read_to_string(dir.join("theta_i_20.svg")).unwrap();
+    assert!(
+        svg.contains("theta_i = 20 degrees"),
+        "title names the incidence"
+    );
+    assert!(svg.contains("RMSE"), "title gives the RMSE");
+    assert!(svg.contains(&format!("{} (selected)", display_name(fam.selected))));
+    assert!(svg.contains("Torrance–Sparrow"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn rmse_of_each_model_is_in_the_title() {
+    let (data, fam) = fixture();
+    let fig = incidence_figure(data, fam, 2);
+    let ts = fam.get(Kind::TorranceSparrow).unwrap().rmse_by_inc[2].unwrap();
+    let three = fam.get(Kind::ThreeComponent).unwrap().rmse_by_inc[2].unwrap();
+    assert!(
+        fig.subtitles[0].contains(&format!("{ts:.4}")),
+        "{:?}",
+        fig.subtitles
+    );
+    assert!(
+        fig.subtitles[0].contains(&format!("{three:.4}")),
+        "{:?}",
+        fig.subtitles
+    );
+}
+
+#[test]
+fn normalised_curves_and_points_are_one_at_the_specular_angle() {
+    let (data, fam) = fixture();
+    let j = 3; // 30 degrees
+    let fig = incidence_figure(data, fam, j);
+    let spec = fig.markers[0].points.iter().find(|p| p.0 == 30.0).unwrap();
+    assert_eq!(spec.1, 1.0);
+    assert!(fig.curves.len() >= 2);
+    for c in &fig.curves {
+        let p = c.points.iter().find(|p| p.0 == 30.0).unwrap();
+        assert!((p.1 - 1.0).abs() < 1e-12);
+        assert_eq!(c.points.first().unwrap().0, -90.0);
+        assert_eq!(c.points.last().unwrap().0, 90.0);
+        assert_eq!(c.points.len(), 361, "0.5-degree steps");
+    }
+}
+
+#[test]
+fn without_a_specular_reading_points_are_divided_by_the_largest_and_the_title_says_so() {
+    let data = Dataset::from_rows(&rows("fe-0.115", &[20.0]), true).unwrap();
+    let fam = fit_family(&data, &FitOptions::default(), &Kind::ALL).unwrap();
+    let fig = incidence_figure(&data, &fam, 2);
+    assert!(
+        fig.subtitles
+            .iter()
+            .any(|s| s.contains("No reading at theta_r = theta_i")),
+        "{:?}",
+        fig.subtitles
+    );
+    let max = fig.markers[0]
+        .points
+        .iter()
+        .map(|p| p.1)
+        .fold(0.0, f64::max);
+    assert_eq!(max, 1.0);
+    assert!(
+        fig.subtitles[0].contains("n/d"),
+        "no paper RMSE without the reading"
+    );
+}
+
+#[test]
+fn an_unwritable_directory_is_a_failure_naming_it() {
+    let (data, fam) = fixture();
+    let dir = tempdir("file");
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("not-a-dir");
+    std::fs::write(&file, b"x").unwrap();
+    let err = write_plots(&file.join("plots"), data, fam).unwrap_err();
+    // A PlotError is a failed job (exit 1) by its type.
+    let PlotError(message) = err;
+    assert!(message.contains("not-a-dir"), "{message}");
+    assert!(!message.contains('\n'));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn log_ticks_label_every_range() {
+    for (lo, hi) in [
+        (0.4, 1.8),
+        (0.05, 1.8),
+        (1e-3, 2.0),
+        (1e-7, 1e3),
+        (20.0, 5000.0),
+    ] {
+        let (t, light) = log_ticks(lo, hi);
+        assert!(light.iter().all(|&v| v >= lo && v <= hi));
+        assert!(t.len() >= 2, "{lo}..{hi}: {t:?}");
+        assert!(t.iter().all(|&v| v >= lo && v <= hi));
+        assert!(t.len() <= 12, "{lo}..{hi}: {t:?}");
+    }
+    assert_eq!(tick_text(0.30000000000000004), "0.3");
+    assert_eq!(tick_text(1000.0), "1000");
+    assert_eq!(tick_text(1e-5), "1e-5");
+    assert_eq!(angle_text(22.5), "22.5");
+    assert_eq!(angle_text(-0.0), "0");
+}
+
+#[test]
+fn notes_wrap_at_spaces() {
+    assert_eq!(wrap("aaa bbb ccc", 7), vec!["aaa bbb", "ccc"]);
+    assert_eq!(
+        wrap("averyveryverylongword x", 5),
+        vec!["averyveryverylongword", "x"]
+    );
+}

@@ -1,0 +1,201 @@
+//! Tests of the sweep file: round trip, crash tolerance, clear errors.
+
+use std::fs::OpenOptions;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use super::*;
+
+fn header() -> Header {
+    Header {
+        device: "qemu firmware 0.1.0 protocol 1".into(),
+        plan: "paper".into(),
+        settings: "samples=4 settle_ms=50 dark=false exclude_retro=0".into(),
+        points: vec![(0.0, -80.0), (0.0, -70.0), (10.0, -80.0)],
+    }
+}
+
+fn row(k: u32) -> Row {
+    Row {
+        theta_i: 10.0 * k as f64,
+        theta_r: -80.0 + 0.1 * k as f64,
+        brdf: 95.16103 + k as f64 / 3.0,
+        std: Some(0.41),
+        n: Some(4),
+        seq: Some(k),
+        t_ms: Some(12 + k as u64),
+    }
+}
+
+#[test]
+fn rows_round_trip_exactly_and_status_is_rewritten_in_place() {
+    let dir = tempdir();
+    let path = dir.join("s.csv");
+    let mut w = SweepWriter::create(&path, &header(), false).unwrap();
+    for k in 0..3 {
+        w.append(&row(k)).unwrap();
+    }
+    w.counters().gaps = 2;
+    w.set_status(SweepStatus::Complete).unwrap();
+    let data = read_sweep(&path).unwrap();
+    assert_eq!(data.rows, (0..3).map(row).collect::<Vec<_>>());
+    assert_eq!(data.columns, COLUMNS);
+    assert_eq!(data.points, header().points);
+    assert_eq!(
+        data.counters,
+        Counters {
+            readings: 3,
+            missing: 0,
+            gaps: 2,
+            dropped: 0,
+            timeouts: 0
+        }
+    );
+    assert!(data.meta["status"].starts_with("complete"));
+    assert_eq!(data.meta["plan"], "paper");
+    assert!(data.meta["started"].ends_with('Z'));
+    // Refuses to overwrite without --force.
+    let err = SweepWriter::create(&path, &header(), false).err().unwrap();
+    assert!(
+        matches!(err, SweepFileError::Invalid(_)),
+        "bad input: {err}"
+    );
+    assert!(err.to_string().contains("--resume"), "{err}");
+}
+
+#[test]
+fn a_file_cut_at_any_byte_reads_up_to_its_last_complete_row() {
+    let dir = tempdir();
+    let path = dir.join("s.csv");
+    let mut w = SweepWriter::create(&path, &header(), false).unwrap();
+    for k in 0..3 {
+        w.append(&row(k)).unwrap();
+    }
+    let bytes = std::fs::read(&path).unwrap();
+    let header_end = bytes.windows(5).position(|w| w == b"t_ms\n").unwrap() + 5;
+    for cut in 0..=bytes.len() {
+        let data = parse_sweep(&bytes[..cut]).unwrap_or_else(|e| panic!("cut at {cut}: {e:?}"));
+        let complete_rows = bytes[header_end.min(cut)..cut]
+            .iter()
+            .filter(|&&b| b == b'\n')
+            .count();
+        let expect = if cut < header_end { 0 } else { complete_rows };
+        assert_eq!(data.rows.len(), expect, "cut at {cut}");
+        assert_eq!(data.rows, (0..expect as u32).map(row).collect::<Vec<_>>());
+    }
+}
+
+#[test]
+fn resume_drops_a_half_written_row_and_appends() {
+    let dir = tempdir();
+    let path = dir.join("s.csv");
+    let mut w = SweepWriter::create(&path, &header(), false).unwrap();
+    w.append(&row(0)).unwrap();
+    drop(w);
+    let mut f = OpenOptions::new().append(true).open(&path).unwrap();
+    f.write_all(b"10,-79.9,96.0").unwrap(); // a crash in the middle of a row
+    drop(f);
+    let (mut w, data) = SweepWriter::resume(&path).unwrap();
+    assert_eq!(data.rows.len(), 1);
+    w.append(&row(1)).unwrap();
+    w.set_status(SweepStatus::Interrupted).unwrap();
+    let data = read_sweep(&path).unwrap();
+    assert_eq!(data.rows, vec![row(0), row(1)]);
+    assert_eq!(data.counters.readings, 2);
+    assert!(data.meta["status"].starts_with("interrupted"));
+}
+
+#[test]
+fn other_tools_files_are_read_by_column_name() {
+    let text = b"# from a spreadsheet\nbrdf,note,theta_r,theta_i\n1.5,x,-20,20\n2.5,y,20,20\n";
+    let data = parse_sweep(text).unwrap();
+    assert_eq!(data.rows.len(), 2);
+    assert_eq!(
+        (
+            data.rows[1].theta_i,
+            data.rows[1].theta_r,
+            data.rows[1].brdf
+        ),
+        (20.0, 20.0, 2.5)
+    );
+    assert_eq!(data.rows[0].seq, None);
+}
+
+#[test]
+fn bad_files_name_the_line() {
+    for (text, line, msg) in [
+        (&b"theta_i,brdf\n1,2\n"[..], 1, "missing column 'theta_r'"),
+        (
+            b"theta_i,theta_r,brdf\n1,2,3\n1,x,3\n",
+            3,
+            "theta_r 'x' is not a finite number",
+        ),
+        (
+            b"theta_i,theta_r,brdf\n1,2,nan\n",
+            2,
+            "brdf 'nan' is not a finite number",
+        ),
+        (b"theta_i,theta_r,brdf\n1,2,\n", 2, "brdf is empty"),
+        (
+            b"theta_i,theta_r,brdf,seq\n1,2,3,-1\n",
+            2,
+            "seq '-1' is not a whole number",
+        ),
+        (
+            b"theta_i,theta_r,brdf\n1,2,3\n# late\n",
+            3,
+            "metadata line after the header row",
+        ),
+        (b"\xff\xfe\n", 1, "not UTF-8"),
+        (
+            b"# points: 1:2 3\ntheta_i,theta_r,brdf\n",
+            1,
+            "bad point '3'",
+        ),
+    ] {
+        let (l, m) = parse_sweep(text).unwrap_err();
+        assert_eq!(l, line, "{m}");
+        assert!(m.contains(msg), "{m}");
+    }
+    let err = read_sweep(Path::new("/nonexistent/x.csv")).unwrap_err();
+    assert!(
+        matches!(err, SweepFileError::Invalid(_)),
+        "bad input: {err}"
+    );
+}
+
+fn tempdir() -> PathBuf {
+    let d = std::env::temp_dir().join(format!(
+        "gonio-test-{}-{:?}",
+        std::process::id(),
+        std::thread::current().id()
+    ));
+    let d = d.join(format!(
+        "{}",
+        std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .unwrap()
+            .as_nanos()
+    ));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+#[test]
+fn units_are_declared_and_radians_are_suspected() {
+    let dir = tempdir();
+    let path = dir.join("u.csv");
+    SweepWriter::create(&path, &header(), false).unwrap();
+    assert_eq!(read_sweep(&path).unwrap().meta["units"], "degrees");
+    assert!(parse_sweep(b"# units: Deg\ntheta_i,theta_r,brdf\n").is_ok());
+    let rad: Vec<Row> = (0..9)
+        .map(|k| Row {
+            theta_i: 0.35,
+            theta_r: -1.4 + 0.35 * k as f64,
+            ..row(0)
+        })
+        .collect();
+    assert_eq!(looks_like_radians(&rad), Some(1.4));
+    let deg: Vec<Row> = (0..9).map(row).collect();
+    assert_eq!(looks_like_radians(&deg), None);
+}

@@ -1,0 +1,1071 @@
+//! Bad input to every subcommand, in one table: the documented exit status (2 bad
+//! input, 1 failed job), exactly one line on stderr, no panic, nothing on stdout for bad
+//! input, and no output file left looking complete.
+
+use std::path::Path;
+
+use brdf_core::sim::XorShift32;
+
+use crate::util::{Run, Scratch, gonio_command, scratch, simulated};
+
+struct Case {
+    /// Arguments; `{d}` is replaced by a scratch directory holding the fixtures.
+    args: &'static [&'static str],
+    /// Expected exit status.
+    code: i32,
+    /// Words the message must contain (case-insensitive).
+    says: &'static str,
+    /// An output path (relative to `{d}`) that must not exist afterwards, or not look
+    /// complete if it existed before.
+    no_output: Option<&'static str>,
+}
+
+const fn case(args: &'static [&'static str], code: i32, says: &'static str) -> Case {
+    Case {
+        args,
+        code,
+        says,
+        no_output: None,
+    }
+}
+
+const fn out(
+    args: &'static [&'static str],
+    code: i32,
+    says: &'static str,
+    path: &'static str,
+) -> Case {
+    Case {
+        args,
+        code,
+        says,
+        no_output: Some(path),
+    }
+}
+
+fn fixtures() -> Scratch {
+    let d = scratch("bad");
+    let w = |name: &str, bytes: &[u8]| std::fs::write(d.join(name), bytes).unwrap();
+    w("empty.csv", b"");
+    let mut garbage = Vec::new();
+    let mut rng = XorShift32::new(0x1234_5678);
+    for _ in 0..4096 {
+        garbage.push((rng.uniform() * 256.0) as u8);
+    }
+    w("garbage.csv", &garbage);
+    w("garbage.toml", &garbage);
+    w("garbage.elf", &garbage);
+    w("empty.elf", b"");
+    w("nocols.csv", b"a,b,c\n1,2,3\n");
+    w("header.csv", b"theta_i,theta_r,brdf\n");
+    w("nan.csv", b"theta_i,theta_r,brdf\n20,20,NaN\n20,30,5\n");
+    w("huge.csv", b"theta_i,theta_r,brdf\n20,20,1e400\n20,30,5\n");
+    w("negative.csv", b"theta_i,theta_r,brdf\n20,20,-5\n20,30,5\n");
+    w("angles.csv", b"theta_i,theta_r,brdf\n200,20,5\n20,30,5\n");
+    w("short.csv", b"theta_i,theta_r,brdf\n20,20\n");
+    w(
+        "nan.toml",
+        b"incidences = [nan]\ndetector = { start = -80, stop = 80, step = 10 }\n",
+    );
+    w(
+        "huge.toml",
+        b"incidences = [20]\ndetector = { start = -80, stop = 80, step = 1e-30 }\n",
+    );
+    w(
+        "neg.toml",
+        b"incidences = [-20]\ndetector = { start = -80, stop = 80, step = 10 }\n",
+    );
+    w("both.toml", b"incidences = [20]\npoints = [[20, 20]]\n");
+    w(
+        "unknown.toml",
+        b"incidences = [20]\ndetector = { start = -80, stop = 80, step = 10 }\nsamplez = 3\n",
+    );
+    w("exists.csv", b"precious\n");
+    w("plainfile", b"not a directory\n");
+    w("fit-cols.csv", b"theta_i,brdf\n1,2\n");
+    w("fit-nan.csv", b"theta_i,theta_r,brdf\n10,0,1\n10,5,nan\n");
+    w("fit-bin.csv", b"\x00\x01\x02\xff\n");
+    w("fit-few.csv", b"theta_i,theta_r,brdf\n10,0,1\n10,5,2\n");
+    w(
+        "fit-neg.csv",
+        b"theta_i,theta_r,brdf\n10,0,1\n10,5,-2\n10,9,3\n",
+    );
+    w(
+        "fit-range.csv",
+        b"theta_i,theta_r,brdf\n10,0,1\n10,95,2\n10,9,3\n",
+    );
+    simulated(&d, "fe-0.115");
+    d
+}
+
+const CASES: &[Case] = &[
+    // eval: the model's own checks, in the order the user meets them
+    case(
+        &[
+            "eval",
+            "--material",
+            "fe-0.115",
+            "--theta-i",
+            "nan",
+            "--theta-r",
+            "0",
+        ],
+        2,
+        "theta_i must be a finite number",
+    ),
+    case(
+        &[
+            "eval",
+            "--material",
+            "fe-0.115",
+            "--theta-i",
+            "20",
+            "--theta-r",
+            "0,nan",
+        ],
+        2,
+        "not a finite number",
+    ),
+    case(
+        &[
+            "eval",
+            "--material",
+            "fe-0.115",
+            "--theta-i",
+            "20",
+            "--theta-r",
+            "-80:95:5",
+        ],
+        2,
+        "theta_r = 95 is outside [-90, 90]",
+    ),
+    case(
+        &[
+            "eval",
+            "--material",
+            "fe-0.115",
+            "--theta-i",
+            "20",
+            "--theta-r",
+            "-90.5",
+        ],
+        2,
+        "theta_r = -90.5 is outside",
+    ),
+    case(
+        &[
+            "eval",
+            "--material",
+            "fe-0.115",
+            "--theta-i",
+            "-1",
+            "--theta-r",
+            "0",
+        ],
+        2,
+        "theta_i = -1 is outside [0, 90]",
+    ),
+    case(
+        &[
+            "eval",
+            "--material",
+            "fe-0.115",
+            "--theta-i",
+            "90.01",
+            "--theta-r",
+            "0",
+        ],
+        2,
+        "theta_i = 90.01 is outside",
+    ),
+    case(
+        &[
+            "eval",
+            "--material",
+            "fe-0.115",
+            "--theta-i",
+            "20",
+            "--theta-r",
+            "0",
+            "--sigma",
+            "0",
+        ],
+        2,
+        "sigma must be > 0",
+    ),
+    case(
+        &[
+            "eval",
+            "--material",
+            "fe-0.115",
+            "--theta-i",
+            "20",
+            "--theta-r",
+            "0",
+            "--sigma",
+            "-1",
+        ],
+        2,
+        "sigma must be > 0",
+    ),
+    case(
+        &[
+            "eval",
+            "--material",
+            "fe-0.115",
+            "--theta-i",
+            "20",
+            "--theta-r",
+            "0",
+            "--kdd",
+            "inf",
+        ],
+        2,
+        "k_dd must be a finite number",
+    ),
+    case(
+        &[
+            "eval",
+            "--material",
+            "fe-0.115",
+            "--theta-i",
+            "20",
+            "--theta-r",
+            "0",
+            "--kid",
+            "-3",
+        ],
+        2,
+        "k_id must be >= 0",
+    ),
+    case(
+        &[
+            "eval",
+            "--material",
+            "fe-0.115",
+            "--theta-i",
+            "20",
+            "--theta-r",
+            "0",
+            "--sigma-m",
+            "0",
+        ],
+        2,
+        "sigma_m must be > 0",
+    ),
+    case(
+        &[
+            "eval",
+            "--material",
+            "fe-0.115",
+            "--theta-i",
+            "20",
+            "--theta-r",
+            "0",
+            "--kd",
+            "3",
+        ],
+        2,
+        "--kd belongs to --model ts",
+    ),
+    case(
+        &[
+            "eval",
+            "--material",
+            "fe-0.115",
+            "--theta-i",
+            "20",
+            "--theta-r",
+            "0:10",
+        ],
+        2,
+        "neither a number nor start:stop:step",
+    ),
+    case(
+        &["eval", "--material", "fe-0.115", "--theta-i", "20"],
+        2,
+        "--theta-r",
+    ),
+    case(
+        &[
+            "eval",
+            "--material",
+            "fe-0.115",
+            "--theta-i",
+            "20",
+            "--theta-r",
+            "0",
+            "--precision",
+            "f16",
+        ],
+        2,
+        "f16",
+    ),
+    case(
+        &[
+            "eval",
+            "--ks",
+            "inf",
+            "--sigma",
+            "0.1",
+            "--theta-i",
+            "20",
+            "--theta-r",
+            "0",
+        ],
+        2,
+        "k_s must be a finite number",
+    ),
+    case(
+        &[
+            "eval",
+            "--material",
+            "gold",
+            "--theta-i",
+            "20",
+            "--theta-r",
+            "0",
+        ],
+        2,
+        "unknown preset",
+    ),
+    case(
+        &["eval", "--theta-i", "20", "--theta-r", "0"],
+        2,
+        "--material",
+    ),
+    case(
+        &["eval", "--ks", "3", "--theta-i", "20", "--theta-r", "0"],
+        2,
+        "--sigma",
+    ),
+    case(
+        &[
+            "eval",
+            "--model",
+            "ts",
+            "--material",
+            "fe-0.115",
+            "--kdd",
+            "3",
+            "--theta-i",
+            "20",
+            "--theta-r",
+            "0",
+        ],
+        2,
+        "--model ts uses --kd",
+    ),
+    // fit: reading the sweep file, then the options
+    case(&["fit", "/nonexistent.csv"], 2, "cannot read"),
+    case(&["fit", "{d}/empty.csv"], 2, "no readings"),
+    case(&["fit", "{d}/fit-cols.csv"], 2, "missing column 'theta_r'"),
+    case(&["fit", "{d}/fit-nan.csv"], 2, ":3: brdf 'nan'"),
+    case(&["fit", "{d}/fit-bin.csv"], 2, "not UTF-8"),
+    case(&["fit", "{d}/fit-few.csv"], 2, "at least 3"),
+    case(&["fit", "{d}/fit-neg.csv"], 2, "--residual absolute"),
+    case(&["fit", "{d}/fit-range.csv"], 2, "theta_r = 95"),
+    case(&["fit", "{d}/fe-0.115.csv", "--fix", "sigma=-1"], 2, "> 0"),
+    case(
+        &["fit", "{d}/fe-0.115.csv", "--fix", "rho=1"],
+        2,
+        "unknown parameter",
+    ),
+    case(
+        &["fit", "{d}/fe-0.115.csv", "--loss", "cauchy:0"],
+        2,
+        "scale",
+    ),
+    case(&["fit", "{d}/fe-0.115.csv", "--loss", "tukey"], 2, "--loss"),
+    case(&["fit", "{d}/fe-0.115.csv", "--models", "four"], 2, "four"),
+    // eval
+    case(
+        &[
+            "eval",
+            "--material",
+            "fe-0.115",
+            "--theta-i",
+            "NaN",
+            "--theta-r",
+            "0",
+        ],
+        2,
+        "theta_i",
+    ),
+    case(
+        &[
+            "eval",
+            "--material",
+            "fe-0.115",
+            "--theta-i",
+            "1e308",
+            "--theta-r",
+            "0",
+        ],
+        2,
+        "theta_i",
+    ),
+    case(
+        &[
+            "eval",
+            "--material",
+            "fe-0.115",
+            "--theta-i",
+            "-5",
+            "--theta-r",
+            "0",
+        ],
+        2,
+        "theta_i",
+    ),
+    case(
+        &[
+            "eval",
+            "--material",
+            "fe-0.115",
+            "--theta-i",
+            "20",
+            "--theta-r",
+            "NaN",
+        ],
+        2,
+        "theta-r",
+    ),
+    case(
+        &[
+            "eval",
+            "--material",
+            "fe-0.115",
+            "--theta-i",
+            "20",
+            "--theta-r",
+            "0:80:0",
+        ],
+        2,
+        "step",
+    ),
+    case(
+        &[
+            "eval",
+            "--material",
+            "fe-0.115",
+            "--theta-i",
+            "20",
+            "--theta-r",
+            "-90:90:1e-9",
+        ],
+        2,
+        "theta-r",
+    ),
+    case(
+        &[
+            "eval",
+            "--material",
+            "fe-0.115",
+            "--theta-i",
+            "20",
+            "--theta-r",
+            "",
+        ],
+        2,
+        "theta-r",
+    ),
+    case(
+        &[
+            "eval",
+            "--material",
+            "unobtainium",
+            "--theta-i",
+            "20",
+            "--theta-r",
+            "0",
+        ],
+        2,
+        "unobtainium",
+    ),
+    case(
+        &[
+            "eval",
+            "--ks",
+            "NaN",
+            "--sigma",
+            "0.1",
+            "--theta-i",
+            "20",
+            "--theta-r",
+            "0",
+        ],
+        2,
+        "k",
+    ),
+    case(
+        &[
+            "eval",
+            "--ks",
+            "1",
+            "--sigma",
+            "-1",
+            "--theta-i",
+            "20",
+            "--theta-r",
+            "0",
+        ],
+        2,
+        "sigma",
+    ),
+    case(
+        &[
+            "eval",
+            "--ks",
+            "1e999",
+            "--sigma",
+            "0.1",
+            "--theta-i",
+            "20",
+            "--theta-r",
+            "0",
+        ],
+        2,
+        "k",
+    ),
+    case(
+        &[
+            "eval",
+            "--material",
+            "fe-0.115",
+            "--theta-i",
+            "twenty",
+            "--theta-r",
+            "0",
+        ],
+        2,
+        "theta-i",
+    ),
+    // fit
+    case(&["fit", "{d}/missing.csv"], 2, "missing.csv"),
+    case(&["fit", "{d}/empty.csv"], 2, "empty.csv"),
+    case(&["fit", "{d}/garbage.csv"], 2, "garbage.csv"),
+    case(&["fit", "{d}/nocols.csv"], 2, "column"),
+    case(&["fit", "{d}/header.csv"], 2, "no readings"),
+    case(&["fit", "{d}/nan.csv"], 2, "nan.csv:2"),
+    case(&["fit", "{d}/huge.csv"], 2, "huge.csv:2"),
+    case(&["fit", "{d}/negative.csv"], 2, "negative.csv"),
+    case(&["fit", "{d}/angles.csv"], 2, "angles.csv"),
+    case(&["fit", "{d}/short.csv"], 2, "short.csv:2"),
+    case(&["fit", "{d}/nan.csv", "--loss", "huber:-1"], 2, "loss"),
+    case(&["fit", "{d}/nan.csv", "--fix", "sigma=NaN"], 2, "sigma"),
+    // capture
+    out(
+        &[
+            "capture",
+            "--port",
+            "{d}/no-such-port",
+            "--out",
+            "{d}/c1.csv",
+        ],
+        1,
+        "no-such-port",
+        "c1.csv",
+    ),
+    out(
+        &["capture", "--port", "/dev/null", "--out", "{d}/c2.csv"],
+        1,
+        "/dev/null",
+        "c2.csv",
+    ),
+    out(
+        &[
+            "capture",
+            "--port",
+            "{d}/no-such-port",
+            "--plan",
+            "{d}/garbage.toml",
+            "--out",
+            "{d}/c3.csv",
+        ],
+        2,
+        "garbage.toml",
+        "c3.csv",
+    ),
+    case(&["capture", "--port", "{d}/no-such-port"], 2, "--out"),
+    out(
+        &[
+            "capture",
+            "--port",
+            "{d}/no-such-port",
+            "--resume",
+            "--out",
+            "{d}/c4.csv",
+        ],
+        2,
+        "c4.csv",
+        "c4.csv",
+    ),
+    // simulate (the same capture code, without hardware)
+    out(
+        &[
+            "simulate",
+            "--material",
+            "unobtainium",
+            "--out",
+            "{d}/s1.csv",
+        ],
+        2,
+        "unobtainium",
+        "s1.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--noise",
+            "NaN",
+            "--out",
+            "{d}/s2.csv",
+        ],
+        2,
+        "noise",
+        "s2.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--noise",
+            "-1",
+            "--out",
+            "{d}/s3.csv",
+        ],
+        2,
+        "noise",
+        "s3.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--samples",
+            "0",
+            "--out",
+            "{d}/s4.csv",
+        ],
+        2,
+        "samples",
+        "s4.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--exclude-retro",
+            "-1",
+            "--out",
+            "{d}/s5.csv",
+        ],
+        2,
+        "exclu",
+        "s5.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--exclude-retro",
+            "NaN",
+            "--out",
+            "{d}/s6.csv",
+        ],
+        2,
+        "exclu",
+        "s6.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--plan",
+            "{d}/missing.toml",
+            "--out",
+            "{d}/s7.csv",
+        ],
+        2,
+        "missing.toml",
+        "s7.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--plan",
+            "{d}/garbage.toml",
+            "--out",
+            "{d}/s8.csv",
+        ],
+        2,
+        "garbage.toml",
+        "s8.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--plan",
+            "{d}/empty.csv",
+            "--out",
+            "{d}/s9.csv",
+        ],
+        2,
+        "plan",
+        "s9.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--plan",
+            "{d}/nan.toml",
+            "--out",
+            "{d}/s10.csv",
+        ],
+        2,
+        "nan.toml",
+        "s10.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--plan",
+            "{d}/huge.toml",
+            "--out",
+            "{d}/s11.csv",
+        ],
+        2,
+        "plan",
+        "s11.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--plan",
+            "{d}/neg.toml",
+            "--out",
+            "{d}/s12.csv",
+        ],
+        2,
+        "plan",
+        "s12.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--plan",
+            "{d}/both.toml",
+            "--out",
+            "{d}/s13.csv",
+        ],
+        2,
+        "both.toml",
+        "s13.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--plan",
+            "{d}/unknown.toml",
+            "--out",
+            "{d}/s14.csv",
+        ],
+        2,
+        "samplez",
+        "s14.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--plan",
+            "adaptive",
+            "--out",
+            "{d}/s15.csv",
+        ],
+        2,
+        "prior",
+        "s15.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--plan",
+            "adaptive",
+            "--prior",
+            "unobtainium",
+            "--out",
+            "{d}/s16.csv",
+        ],
+        2,
+        "unobtainium",
+        "s16.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--plan",
+            "adaptive",
+            "--prior",
+            "fe-0.115",
+            "--budget",
+            "99999999",
+            "--out",
+            "{d}/s17.csv",
+        ],
+        2,
+        "budget",
+        "s17.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--resume",
+            "--out",
+            "{d}/s18.csv",
+        ],
+        2,
+        "s18.csv",
+        "s18.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--resume",
+            "--out",
+            "{d}/garbage.csv",
+        ],
+        2,
+        "garbage.csv",
+        "garbage.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--resume",
+            "--out",
+            "{d}/nocols.csv",
+        ],
+        2,
+        "nocols.csv",
+        "nocols.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--out",
+            "{d}/exists.csv",
+        ],
+        2,
+        "exists",
+        "exists.csv",
+    ),
+    case(
+        &["simulate", "--material", "fe-0.115", "--out", "/proc/x.csv"],
+        1,
+        "/proc/x.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--out",
+            "{d}/plainfile/x.csv",
+        ],
+        1,
+        "plainfile",
+        "plainfile/x.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--out",
+            "{d}/s19.csv",
+            "--raw",
+            "/proc/x.raw",
+        ],
+        1,
+        "/proc/x.raw",
+        "s19.csv",
+    ),
+    case(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--pty",
+            "--speed",
+            "NaN",
+        ],
+        2,
+        "speed",
+    ),
+    case(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--pty",
+            "--speed",
+            "-1",
+        ],
+        2,
+        "speed",
+    ),
+    case(&["simulate", "--material", "fe-0.115"], 2, "--out"),
+    // info
+    case(&["info", "--port", "{d}/no-such-port"], 1, "no-such-port"),
+    case(
+        &["info", "--port", "/dev/null", "--timeout", "1"],
+        1,
+        "/dev/null",
+    ),
+    case(
+        &["info", "--port", "{d}/no-such-port", "--timeout", "-1"],
+        2,
+        "-1",
+    ),
+    // ports
+    case(&["ports", "--bogus"], 2, "bogus"),
+    // flash
+    case(&["flash", "{d}/missing.elf"], 2, "missing.elf"),
+    case(&["flash", "{d}/garbage.elf"], 2, "garbage.elf"),
+    case(&["flash", "{d}/empty.elf"], 2, "empty.elf"),
+    case(
+        &["flash", "--probe", "zz:yy", "{d}/garbage.elf"],
+        2,
+        "probe",
+    ),
+    // demo
+    case(
+        &["demo", "--material", "unobtainium", "--dir", "{d}/demo1"],
+        2,
+        "unobtainium",
+    ),
+    case(
+        &["demo", "--noise", "NaN", "--dir", "{d}/demo2"],
+        2,
+        "noise",
+    ),
+    case(
+        &["demo", "--samples", "0", "--dir", "{d}/demo3"],
+        2,
+        "samples",
+    ),
+    case(
+        &["demo", "--dir", "/proc/gonio-demo", "-q"],
+        1,
+        "/proc/gonio-demo",
+    ),
+    case(&["demo", "--dir", "{d}/plainfile", "-q"], 1, "plainfile"),
+    // no subcommand, unknown subcommand
+    case(&[], 2, "missing subcommand"),
+    case(&["frobnicate"], 2, "frobnicate"),
+];
+
+fn run(d: &Path, c: &Case) {
+    let args: Vec<String> = c
+        .args
+        .iter()
+        .map(|a| a.replace("{d}", d.to_str().unwrap()))
+        .collect();
+    let before = c.no_output.and_then(|p| std::fs::read(d.join(p)).ok());
+    let out: Run = gonio_command()
+        .args(&args)
+        .current_dir(d)
+        .output()
+        .unwrap()
+        .into();
+    let err = &out.stderr;
+    let ctx = format!("gonio {}", args.join(" "));
+    assert!(!err.contains("panicked"), "{ctx}: {err}");
+    assert_eq!(out.code, c.code, "{ctx}: {err}");
+    if c.code == 2 {
+        assert_eq!(out.stdout, "", "{ctx}: bad input printed on stdout");
+    }
+    assert_eq!(err.lines().count(), 1, "{ctx}: not one line: {err}");
+    assert!(err.starts_with("gonio: "), "{ctx}: {err}");
+    assert!(
+        err.to_lowercase().contains(&c.says.to_lowercase()),
+        "{ctx}: message lacks '{}': {err}",
+        c.says
+    );
+    if let Some(p) = c.no_output {
+        let now = std::fs::read(d.join(p)).ok();
+        match &before {
+            // An existing file is left exactly as it was.
+            Some(b) => assert_eq!(now.as_ref(), Some(b), "{ctx}: {p} was changed"),
+            None => {
+                if let Some(now) = now {
+                    let text = String::from_utf8_lossy(&now);
+                    assert!(
+                        !text.contains("# status: complete"),
+                        "{ctx}: {p} looks complete"
+                    );
+                    panic!("{ctx}: {p} was left behind:\n{text}");
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn every_subcommand_rejects_bad_input_cleanly() {
+    let d = fixtures();
+    let mut failures = Vec::new();
+    for c in CASES {
+        if let Err(e) = std::panic::catch_unwind(|| run(&d, c)) {
+            let msg = e
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| e.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_default();
+            failures.push(msg);
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "{} of {} cases failed:\n{}",
+        failures.len(),
+        CASES.len(),
+        failures.join("\n")
+    );
+}

@@ -1,0 +1,331 @@
+//! `gonio info` and `gonio capture` as a user runs them, against simulated devices on
+//! pseudo-terminals: a full capture, Ctrl-C and --resume, a device that goes away and
+//! comes back, one that never comes back, and a device of another protocol version.
+
+use std::os::fd::{AsRawFd, FromRawFd};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use brdf_core::Preset;
+use gonio::device::{PtyDevice, SimConfig};
+use gonio::sweep_file::read_sweep;
+
+use crate::util::{Run, gonio_command, scratch};
+
+fn device(speed: Option<f64>) -> PtyDevice {
+    let mut cfg = SimConfig::new(Preset::by_name("fe-0.115").unwrap(), 0.005, 5);
+    cfg.speed = speed;
+    PtyDevice::start(&cfg).unwrap()
+}
+
+/// A small plan: 2 incidences x 17 detector angles.
+fn small_plan(d: &Path) -> PathBuf {
+    let p = d.join("plan.toml");
+    std::fs::write(&p, "incidences = [20, 60]\ndetector = { start = -80, stop = 80, step = 10 }\nsettle_ms = 200\n").unwrap();
+    p
+}
+
+fn rows_in(path: &Path) -> usize {
+    std::fs::read(path)
+        .map(|b| {
+            gonio::sweep_file::parse_sweep(&b)
+                .map(|d| d.rows.len())
+                .unwrap_or(0)
+        })
+        .unwrap_or(0)
+}
+
+fn wait_rows(child: &mut Child, path: &Path, n: usize) {
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while rows_in(path) < n {
+        assert!(child.try_wait().unwrap().is_none(), "capture ended early");
+        assert!(Instant::now() < deadline, "no {n} rows in time");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+fn finish(child: Child) -> Run {
+    child.wait_with_output().unwrap().into()
+}
+
+fn seqs(path: &Path) -> Vec<u32> {
+    read_sweep(path)
+        .unwrap()
+        .rows
+        .iter()
+        .map(|r| r.seq.unwrap())
+        .collect()
+}
+
+#[test]
+fn info_and_a_full_capture_over_a_pty() {
+    let dev = device(None);
+    let port = dev.path().to_str().unwrap();
+    let out: Run = gonio_command()
+        .args(["info", "--port", port])
+        .output()
+        .unwrap()
+        .into();
+    assert!(out.ok(), "{}", out.last_line());
+    let text = out.stdout.clone();
+    assert!(
+        text.contains("protocol:  1 (this gonio: 1)") && text.contains("-90 .. 90 degrees"),
+        "{text}"
+    );
+    let d = scratch("full");
+    let file = d.join("fe.csv");
+    let raw = d.join("fe.raw");
+    let out: Run = gonio_command()
+        .args([
+            "capture",
+            "--port",
+            port,
+            "--out",
+            file.to_str().unwrap(),
+            "--raw",
+            raw.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap()
+        .into();
+    assert!(out.ok(), "{}", out.last_line());
+    assert!(
+        out.last_line().contains("153/153 readings"),
+        "{}",
+        out.last_line()
+    );
+    assert_eq!(seqs(&file), (0..153).collect::<Vec<_>>());
+    // The raw log holds every frame received: decoding it gives the 153 readings again.
+    let bytes = std::fs::read(&raw).unwrap();
+    let mut dec = brdf_core::frame::FrameDecoder::<{ brdf_core::frame::MAX_FRAME_LEN }>::new();
+    let readings = bytes
+        .iter()
+        .filter_map(|&b| dec.push::<brdf_core::protocol::Event>(b))
+        .filter(|r| matches!(r, Ok(brdf_core::protocol::Event::Reading(_))))
+        .count();
+    assert_eq!(readings, 153);
+}
+
+#[test]
+fn ctrl_c_leaves_a_valid_file_and_resume_completes_it() {
+    let dev = device(Some(40.0));
+    let d = scratch("ctrlc");
+    let file = d.join("s.csv");
+    let plan = small_plan(&d);
+    let mut child = gonio_command()
+        .args([
+            "capture",
+            "--port",
+            dev.path().to_str().unwrap(),
+            "--plan",
+            plan.to_str().unwrap(),
+        ])
+        .args(["--out", file.to_str().unwrap()])
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    wait_rows(&mut child, &file, 8);
+    let status = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let out = finish(child);
+    assert_eq!(out.code, 1, "{}", out.last_line());
+    assert!(
+        out.last_line().contains("interrupted:") && out.last_line().contains("--resume"),
+        "{}",
+        out.last_line()
+    );
+    let data = read_sweep(&file).unwrap();
+    let got = data.rows.len();
+    assert!((8..34).contains(&got), "{got}");
+    assert!(
+        data.meta["status"].starts_with("interrupted"),
+        "{:?}",
+        data.meta["status"]
+    );
+    let out: Run = gonio_command()
+        .args([
+            "capture",
+            "--port",
+            dev.path().to_str().unwrap(),
+            "--resume",
+            "--out",
+            file.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap()
+        .into();
+    assert!(out.ok(), "{}", out.last_line());
+    assert_eq!(
+        seqs(&file),
+        (0..34).collect::<Vec<_>>(),
+        "each point once, none lost"
+    );
+}
+
+#[test]
+fn a_device_that_goes_away_and_comes_back_is_reconnected() {
+    let d = scratch("reconnect");
+    let link = d.join("port");
+    let file = d.join("s.csv");
+    let plan = small_plan(&d);
+    let point = |dev: &PtyDevice| {
+        let tmp = d.join("port.new");
+        let _ = std::fs::remove_file(&tmp);
+        std::os::unix::fs::symlink(dev.path(), &tmp).unwrap();
+        std::fs::rename(&tmp, &link).unwrap(); // atomic re-point, like udev's by-id links
+    };
+    let first = device(Some(40.0));
+    point(&first);
+    let mut child = gonio_command()
+        .args([
+            "capture",
+            "--port",
+            link.to_str().unwrap(),
+            "--plan",
+            plan.to_str().unwrap(),
+        ])
+        .args(["--out", file.to_str().unwrap(), "--reconnect", "20"])
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    wait_rows(&mut child, &file, 10);
+    drop(first); // unplugged
+    std::thread::sleep(Duration::from_millis(700));
+    let second = device(Some(40.0)); // plugged in again (fresh, not homed)
+    point(&second);
+    let out = finish(child);
+    let err = out.stderr.clone();
+    assert!(out.ok(), "{err}");
+    assert!(
+        err.contains("device lost") && err.contains("device is back"),
+        "{err}"
+    );
+    assert!(
+        out.last_line().contains("34/34 readings") && out.last_line().contains("1 reconnects"),
+        "{err}"
+    );
+    assert_eq!(seqs(&file), (0..34).collect::<Vec<_>>());
+    drop(second);
+}
+
+#[test]
+fn a_device_that_does_not_come_back_ends_with_a_clear_message() {
+    let d = scratch("gone");
+    let file = d.join("s.csv");
+    let plan = small_plan(&d);
+    let dev = device(Some(40.0));
+    let mut child = gonio_command()
+        .args([
+            "capture",
+            "--port",
+            dev.path().to_str().unwrap(),
+            "--plan",
+            plan.to_str().unwrap(),
+        ])
+        .args(["--out", file.to_str().unwrap(), "--reconnect", "1"])
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    wait_rows(&mut child, &file, 5);
+    drop(dev);
+    let out = finish(child);
+    assert_eq!(out.code, 1);
+    let last = out.last_line();
+    assert!(
+        last.contains("device lost")
+            && last.contains("not back within 1 s")
+            && last.contains("--resume"),
+        "{last}"
+    );
+    let data = read_sweep(&file).unwrap();
+    assert!(
+        data.rows.len() >= 5 && data.meta["status"].starts_with("failed"),
+        "{:?}",
+        data.meta
+    );
+}
+
+/// A fake device that answers Ping and GetInfo like a device of protocol `version`
+/// whose Info has fields this gonio does not know.
+fn foreign_device(version: u16) -> (PathBuf, std::thread::JoinHandle<()>) {
+    use brdf_core::frame::{FrameDecoder, MAX_FRAME_LEN, encode};
+    use brdf_core::protocol::{Command as Cmd, Event};
+    use std::io::{Read, Write};
+    let pty = nix::pty::openpty(None, None).unwrap();
+    let mut t = nix::sys::termios::tcgetattr(pty.slave).unwrap();
+    nix::sys::termios::cfmakeraw(&mut t);
+    nix::sys::termios::tcsetattr(pty.slave, nix::sys::termios::SetArg::TCSANOW, &t).unwrap();
+    let path = nix::unistd::ttyname(pty.slave).unwrap();
+    for fd in [pty.master, pty.slave] {
+        nix::fcntl::fcntl(
+            fd,
+            nix::fcntl::FcntlArg::F_SETFD(nix::fcntl::FdFlag::FD_CLOEXEC),
+        )
+        .unwrap();
+    }
+    // SAFETY: fresh descriptors from openpty, owned here only.
+    let (mut master, slave) = unsafe {
+        (
+            std::fs::File::from_raw_fd(pty.master),
+            std::fs::File::from_raw_fd(pty.slave),
+        )
+    };
+    let h = std::thread::spawn(move || {
+        let _slave = slave;
+        let mut dec = FrameDecoder::<MAX_FRAME_LEN>::new();
+        let mut buf = [0u8; 256];
+        let deadline = Instant::now() + Duration::from_secs(10);
+        let mut out = [0u8; 256];
+        while Instant::now() < deadline {
+            let mut fds = [nix::poll::PollFd::new(
+                master.as_raw_fd(),
+                nix::poll::PollFlags::POLLIN,
+            )];
+            if nix::poll::poll(&mut fds, 50).unwrap_or(0) == 0 {
+                continue;
+            }
+            let Ok(n) = master.read(&mut buf) else { return };
+            for &b in &buf[..n] {
+                let reply = match dec.push::<Cmd>(b) {
+                    Some(Ok(Cmd::Ping(t))) => encode(&Event::Pong(t), &mut out),
+                    Some(Ok(Cmd::GetInfo)) => encode(
+                        &(0u8, version, [1u8, 2, 3], "v-next board", 42u64),
+                        &mut out,
+                    ),
+                    _ => continue,
+                };
+                let _ = master.write_all(&out[..reply.unwrap()]);
+            }
+        }
+    });
+    (path, h)
+}
+
+#[test]
+fn protocol_mismatch_says_which_side_to_update() {
+    for (version, advice) in [
+        (2u16, "update gonio"),
+        (0, "update the firmware (gonio flash)"),
+    ] {
+        let (path, h) = foreign_device(version);
+        let out: Run = gonio_command()
+            .args(["info", "--port", path.to_str().unwrap(), "--timeout", "5"])
+            .output()
+            .unwrap()
+            .into();
+        assert_eq!(out.code, 1);
+        let err = out.stderr.clone();
+        assert_eq!(err.lines().count(), 1, "{err}");
+        assert!(
+            err.contains(&format!(
+                "device speaks protocol v{version}, this gonio speaks v1: {advice}"
+            )),
+            "{err}"
+        );
+        drop(h);
+    }
+}

@@ -1,0 +1,194 @@
+//! `gonio eval` as a user runs it: output contract, negative angle forms, bad input.
+#![allow(clippy::excessive_precision)] // reference values copied verbatim from docs/model.md
+
+use crate::util::{Run, gonio};
+
+fn rows(csv: &str) -> Vec<(f64, f64, f64)> {
+    let mut lines = csv.lines();
+    assert_eq!(lines.next(), Some("theta_i,theta_r,brdf"));
+    lines
+        .map(|l| {
+            let v: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();
+            (v[0], v[1], v[2])
+        })
+        .collect()
+}
+
+#[test]
+fn prints_model_md_reference_values_exactly() {
+    let Run {
+        code,
+        stdout: out,
+        stderr: err,
+    } = gonio(&[
+        "eval",
+        "--material",
+        "fe-0.115",
+        "--theta-i",
+        "20",
+        "--theta-r",
+        "20,-20,0",
+    ]);
+    assert_eq!((code, err.as_str()), (0, ""));
+    let expected = [971.99569104264178, 482.19028323092631, 690.27503305299169];
+    for ((ti, tr, f), (want_tr, want)) in rows(&out)
+        .into_iter()
+        .zip([20.0, -20.0, 0.0].into_iter().zip(expected))
+    {
+        assert_eq!((ti, tr), (20.0, want_tr));
+        assert!((f - want).abs() / want < 1e-12, "{f} vs {want}");
+    }
+}
+
+#[test]
+fn explicit_parameters_match_the_preset() {
+    let Run { stdout: a, .. } = gonio(&[
+        "eval",
+        "--material",
+        "al-0.782",
+        "--theta-i",
+        "60",
+        "--theta-r",
+        "30",
+    ]);
+    let Run { stdout: b, .. } = gonio(&[
+        "eval",
+        "--ks",
+        "160",
+        "--sigma",
+        "0.782",
+        "--kdd",
+        "900",
+        "--kid",
+        "25",
+        "--sigma-m",
+        "0.7",
+        "--theta-i",
+        "60",
+        "--theta-r",
+        "30",
+    ]);
+    assert_eq!(a, b);
+    let f = rows(&a)[0].2;
+    assert!((f - 438.80095516576411).abs() / f < 1e-12);
+}
+
+#[test]
+fn negative_specs_work_in_both_forms_and_values_round_trip() {
+    let Run {
+        code: c1,
+        stdout: a,
+        ..
+    } = gonio(&[
+        "eval",
+        "--material",
+        "cu-0.070",
+        "--theta-i",
+        "40",
+        "--theta-r=-80:80:10",
+    ]);
+    let Run {
+        code: c2,
+        stdout: b,
+        ..
+    } = gonio(&[
+        "eval",
+        "--material",
+        "cu-0.070",
+        "--theta-i",
+        "40",
+        "--theta-r",
+        "-80:80:10",
+    ]);
+    assert_eq!((c1, c2), (0, 0));
+    assert_eq!(a, b);
+    let r = rows(&a);
+    assert_eq!(r.len(), 17);
+    assert_eq!(r[0].1, -80.0);
+    // Printed values parse back to the very same f64 the library computes.
+    let m = brdf_core::Preset::by_name("cu-0.070")
+        .unwrap()
+        .model(40.0f64)
+        .unwrap();
+    for (_, tr, f) in r {
+        assert_eq!(f, m.eval_in_plane(40.0, tr).unwrap().f);
+    }
+}
+
+#[test]
+fn f32_precision_round_trips_as_f32() {
+    let Run {
+        code, stdout: out, ..
+    } = gonio(&[
+        "eval",
+        "--material",
+        "cu-0.070",
+        "--theta-i",
+        "40",
+        "--theta-r",
+        "45",
+        "--precision",
+        "f32",
+    ]);
+    assert_eq!(code, 0);
+    let f: f32 = out
+        .lines()
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .nth(2)
+        .unwrap()
+        .parse()
+        .unwrap();
+    let m = brdf_core::Preset::by_name("cu-0.070")
+        .unwrap()
+        .model(40.0f32)
+        .unwrap();
+    assert_eq!(f, m.eval_in_plane(40.0, 45.0).unwrap().f);
+    assert!((f as f64 - 2961.7529135284593).abs() / 2961.75 < 1e-5);
+}
+
+#[test]
+fn torrance_sparrow_uses_kd() {
+    let Run {
+        code, stdout: out, ..
+    } = gonio(&[
+        "eval",
+        "--model",
+        "ts",
+        "--ks",
+        "145",
+        "--sigma",
+        "0.115",
+        "--kd",
+        "30",
+        "--theta-i",
+        "20",
+        "--theta-r",
+        "20",
+    ]);
+    assert_eq!(code, 0);
+    let f = rows(&out)[0].2;
+    assert!((f - (145.0 * 3.4071623397364728 + 30.0)).abs() / f < 1e-12);
+}
+
+#[test]
+fn help_explains_units_and_conventions() {
+    let Run {
+        code, stdout: out, ..
+    } = gonio(&["--help"]);
+    assert_eq!(code, 0);
+    assert!(out.contains("degrees") && out.contains("specular side"));
+    let Run {
+        code, stdout: out, ..
+    } = gonio(&["eval", "--help"]);
+    assert_eq!(code, 0);
+    for needle in [
+        "theta_i,theta_r,brdf",
+        "--theta-r=-80:80:10",
+        "relative units",
+        "fe-0.115",
+    ] {
+        assert!(out.contains(needle), "eval --help lacks {needle}");
+    }
+}

@@ -1,0 +1,113 @@
+//! `gonio fit` and `gonio demo` as a user runs them: the JSON contract, the table, and
+//! bad input.
+
+use crate::util::{gonio, scratch, simulated};
+
+#[test]
+fn json_follows_the_contract() {
+    let d = scratch("json");
+    let f = simulated(&d, "cu-0.070");
+    let out = gonio(&["fit", f.to_str().unwrap(), "--json"]);
+    assert!(out.ok(), "{}", out.stderr);
+    let v: serde_json::Value =
+        serde_json::from_str(&out.stdout).expect("one JSON object on stdout");
+    let models = v["models"].as_array().unwrap();
+    let names: Vec<&str> = models.iter().map(|m| m["name"].as_str().unwrap()).collect();
+    assert_eq!(
+        names,
+        [
+            "ideal-diffuse",
+            "torrance-sparrow",
+            "three-component",
+            "three-component-smooth-ks"
+        ]
+    );
+    let three = &models[2];
+    for key in ["sigma", "sigma_m", "k_dd", "k_id"] {
+        assert!(three["params"][key].as_f64().unwrap() > 0.0, "{key}");
+        assert!(three["std_errors"][key].as_f64().unwrap() > 0.0, "{key}");
+    }
+    let ks = three["params"]["k_s"].as_array().unwrap();
+    assert_eq!(ks.len(), 9);
+    assert_eq!(ks[2][0].as_f64(), Some(20.0));
+    assert!(
+        (ks[2][1].as_f64().unwrap() / 165.0 - 1.0).abs() < 0.05,
+        "{ks:?}"
+    );
+    assert_eq!(three["std_errors"]["k_s"].as_array().unwrap().len(), 9);
+    assert_eq!(three["rmse_by_theta_i"].as_array().unwrap().len(), 9);
+    for key in ["rmse", "aicc", "bic"] {
+        assert!(three[key].is_number(), "{key}");
+    }
+    let ts = &models[1];
+    assert!(ts["params"]["k_d"].as_f64().unwrap() > 0.0 && ts["params"].get("k_dd").is_none());
+    assert_eq!(
+        v["selected"]
+            .as_str()
+            .map(|s| s.starts_with("three-component")),
+        Some(true)
+    );
+    assert!(v["fit_seconds"].as_f64().unwrap() > 0.0);
+    // The simulated cu-0.070 sample's sigma comes back.
+    assert!((three["params"]["sigma"].as_f64().unwrap() / 0.070 - 1.0).abs() < 0.02);
+}
+
+#[test]
+fn table_shows_parameters_and_the_papers_rmse_table() {
+    let d = scratch("table");
+    let f = simulated(&d, "fe-0.115");
+    let out = gonio(&[
+        "fit",
+        f.to_str().unwrap(),
+        "--models",
+        "ts,three",
+        "--fix",
+        "kdd=900",
+    ]);
+    assert!(out.ok(), "{}", out.stderr);
+    let t = out.stdout;
+    for needle in [
+        "torrance-sparrow",
+        "three-component",
+        "k_dd",
+        "(fixed)",
+        "RMSE1 (T-S)",
+        "RMSE2 (three)",
+        "selected by AICc",
+    ] {
+        assert!(t.contains(needle), "missing {needle}:\n{t}");
+    }
+    assert!(!t.contains("ideal-diffuse ("), "only the models asked for");
+}
+
+#[test]
+fn demo_recovers_the_sample_it_simulated() {
+    let d = scratch("demo");
+    let out = gonio(&[
+        "demo",
+        "--dir",
+        d.to_str().unwrap(),
+        "-q",
+        "--material",
+        "al-0.782",
+    ]);
+    assert!(out.ok(), "{}", out.stderr);
+    let t = out.stdout;
+    assert!(
+        t.contains("153 readings of a simulated al-0.782 sample"),
+        "{t}"
+    );
+    let line = t
+        .lines()
+        .find(|l| l.trim_start().starts_with("sigma ") && l.contains("true"))
+        .unwrap();
+    let pct: f64 = line
+        .split('(')
+        .nth(1)
+        .unwrap()
+        .trim_end_matches(" %)")
+        .parse()
+        .unwrap();
+    assert!(pct.abs() < 2.0, "{line}");
+    assert!(d.join("al-0.782-sweep.csv").is_file());
+}

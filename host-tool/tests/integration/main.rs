@@ -1,0 +1,12 @@
+//! The integration tests of `gonio`, in one binary (one link of the library): each
+//! module runs the command as a user does, sharing [`util`].
+
+mod util;
+
+mod bad_input;
+mod capture_pty;
+mod crash_safety;
+mod eval_cli;
+mod fault_injection;
+mod fit_cli;
+mod ports_flash;

@@ -1,0 +1,111 @@
+//! What every integration test shares: running `gonio` and reading what it said, and
+//! scratch directories that clean up after themselves.
+
+use std::ops::Deref;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The `gonio` binary under test, ready for arguments (for tests that spawn it, signal
+/// it or feed its stdin).
+pub fn gonio_command() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_gonio"))
+}
+
+/// What one run of `gonio` did.
+#[derive(Debug)]
+pub struct Run {
+    /// Exit status.
+    pub code: i32,
+    /// Everything on stdout.
+    pub stdout: String,
+    /// Everything on stderr.
+    pub stderr: String,
+}
+
+impl Run {
+    /// Exit status 0.
+    pub fn ok(&self) -> bool {
+        self.code == 0
+    }
+
+    /// The last line on stderr (after progress lines), or "".
+    pub fn last_line(&self) -> &str {
+        self.stderr.lines().last().unwrap_or("")
+    }
+}
+
+impl From<std::process::Output> for Run {
+    fn from(out: std::process::Output) -> Self {
+        Run {
+            code: out.status.code().expect("gonio ended by a signal"),
+            stdout: String::from_utf8_lossy(&out.stdout).into_owned(),
+            stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
+        }
+    }
+}
+
+/// Asserts that `stderr` is exactly one `gonio: ...` line and returns it.
+pub fn one_line(stderr: &str) -> &str {
+    let lines: Vec<&str> = stderr.lines().collect();
+    assert_eq!(
+        lines.len(),
+        1,
+        "expected one line on stderr, got: {stderr:?}"
+    );
+    assert!(lines[0].starts_with("gonio: "), "{stderr:?}");
+    lines[0]
+}
+
+/// Runs `gonio args...` to completion.
+pub fn gonio(args: &[&str]) -> Run {
+    gonio_command()
+        .args(args)
+        .output()
+        .expect("run gonio")
+        .into()
+}
+
+/// A fresh scratch directory, removed with everything in it when dropped; derefs to its
+/// path.
+pub struct Scratch(tempfile::TempDir);
+
+impl Deref for Scratch {
+    type Target = Path;
+
+    fn deref(&self) -> &Path {
+        self.0.path()
+    }
+}
+
+/// A scratch directory named after what it is for.
+pub fn scratch(what: &str) -> Scratch {
+    Scratch(
+        tempfile::Builder::new()
+            .prefix(&format!("gonio-{what}-"))
+            .tempdir()
+            .expect("a scratch directory"),
+    )
+}
+
+/// The repository root (for files the tests read, never write).
+pub fn repo_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("workspace root")
+        .to_path_buf()
+}
+
+/// A sweep file of `material` captured by `gonio simulate` into `dir`.
+pub fn simulated(dir: &Path, material: &str) -> PathBuf {
+    let f = dir.join(format!("{material}.csv"));
+    let out = gonio(&[
+        "simulate",
+        "--material",
+        material,
+        "--out",
+        f.to_str().unwrap(),
+        "-q",
+    ]);
+    assert!(out.ok(), "{}", out.stderr);
+    f
+}

@@ -21,7 +21,7 @@ pub fn coord_name(kind: Kind, c: Coord, incidences: &[f64]) -> String {
 
 /// Natural value and standard error (None: fixed or not identifiable) of a scalar
 /// parameter coordinate.
-fn scalar(fit: &Fit, c: Coord) -> (f64, Option<f64>) {
+pub fn scalar(fit: &Fit, c: Coord) -> (f64, Option<f64>) {
     let v = fit.values.get(c).exp();
     let se = fit
         .free
@@ -34,6 +34,14 @@ fn scalar(fit: &Fit, c: Coord) -> (f64, Option<f64>) {
 
 /// k_s per incidence with standard errors.
 pub fn ks_table(fit: &Fit, incidences: &[f64]) -> Vec<(f64, f64, Option<f64>)> {
+    // Where each incidence's k_s sits among the free coordinates (one pass, not a
+    // search per incidence).
+    let mut ks_index = vec![None; incidences.len()];
+    for (i, c) in fit.free.iter().enumerate() {
+        if let Coord::Ks(j) = *c {
+            ks_index[j] = Some(i);
+        }
+    }
     incidences
         .iter()
         .enumerate()
@@ -52,16 +60,13 @@ pub fn ks_table(fit: &Fit, incidences: &[f64]) -> Vec<(f64, f64, Option<f64>)> {
                             let mut var = 0.0;
                             for a in 0..3 {
                                 for b in 0..3 {
-                                    var += g[a] * g[b] * fit.cov[(ix[a], ix[b])];
+                                    var += g[a] * g[b] * fit.cov.get(ix[a], ix[b]);
                                 }
                             }
                             ks * var.max(0.0).sqrt()
                         })
                 }
-                _ => fit
-                    .free
-                    .iter()
-                    .position(|&c| c == Coord::Ks(j))
+                _ => ks_index[j]
                     .and_then(|i| fit.se_coord(i))
                     .map(|s| ks * s),
             };
@@ -77,6 +82,9 @@ fn num(x: f64) -> Value {
 fn opt(x: Option<f64>) -> Value {
     x.map_or(Value::Null, num)
 }
+
+/// Above this many free parameters, `correlations` covers the scalar parameters only.
+pub const CORRELATION_LIMIT: usize = 100;
 
 /// One model as a JSON object.
 pub fn model_json(fit: &Fit, incidences: &[f64]) -> Value {
@@ -111,18 +119,28 @@ pub fn model_json(fit: &Fit, incidences: &[f64]) -> Value {
             params.insert("ln_ks_poly".into(), json!(p));
         }
     }
-    let names: Vec<String> = fit
-        .free
-        .iter()
-        .map(|&c| coord_name(kind, c, incidences))
-        .collect();
     let k = fit.free.len();
-    let corr: Vec<Vec<Value>> = (0..k)
-        .map(|i| {
-            (0..k)
-                .map(|j| {
+    // The full matrix up to CORRELATION_LIMIT free parameters; beyond, the scalar
+    // parameters' block (a matrix over thousands of k_s would dwarf the fit).
+    let shown: Vec<usize> = if k <= CORRELATION_LIMIT {
+        (0..k).collect()
+    } else {
+        (0..k)
+            .filter(|&i| !matches!(fit.free[i], Coord::Ks(_)))
+            .collect()
+    };
+    let names: Vec<String> = shown
+        .iter()
+        .map(|&i| coord_name(kind, fit.free[i], incidences))
+        .collect();
+    let corr: Vec<Vec<Value>> = shown
+        .iter()
+        .map(|&i| {
+            shown
+                .iter()
+                .map(|&j| {
                     if fit.identifiable[i] && fit.identifiable[j] {
-                        num(fit.cov[(i, j)] / (fit.cov[(i, i)] * fit.cov[(j, j)]).sqrt())
+                        num(fit.cov.get(i, j) / (fit.cov.get(i, i) * fit.cov.get(j, j)).sqrt())
                     } else {
                         Value::Null
                     }

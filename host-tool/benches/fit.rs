@@ -71,9 +71,10 @@ fn bench(c: &mut Criterion) {
             b.iter(|| Dataset::from_rows(black_box(&rows), true).unwrap())
         });
         let data = Dataset::from_rows(&rows, true).unwrap();
-        g.bench_function(format!("{n_inc} incidences x {per}: three-component"), |b| {
-            b.iter(|| fit_kind(black_box(&data), Kind::ThreeComponent, &opts).unwrap())
-        });
+        g.bench_function(
+            format!("{n_inc} incidences x {per}: three-component"),
+            |b| b.iter(|| fit_kind(black_box(&data), Kind::ThreeComponent, &opts).unwrap()),
+        );
     }
     g.finish();
 }

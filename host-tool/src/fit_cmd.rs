@@ -186,18 +186,24 @@ fn run_campaign(args: &FitArgs, opts: &FitOptions, kinds: &[Kind]) -> CliResult 
     }
     let files = campaign::expand_inputs(&args.sweeps).map_err(CliError::usage)?;
     let bar = indicatif::ProgressBar::new(files.len() as u64).with_style(
-        indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} sweeps  {per_sec}  eta {eta}")
-            .expect("valid template"),
+        indicatif::ProgressStyle::with_template(
+            "{bar:30} {pos}/{len} sweeps  {per_sec}  eta {eta}",
+        )
+        .expect("valid template"),
     );
     let results = campaign::fit_files(&files, opts, kinds, &|_, _| bar.inc(1));
     bar.finish_and_clear();
-    let (csv, _) = campaign::write_reports(&args.out, &results, args.json, residual_name(opts.residual))
-        .map_err(CliError::failed)?;
+    let (csv, _) =
+        campaign::write_reports(&args.out, &results, args.json, residual_name(opts.residual))
+            .map_err(CliError::failed)?;
     let failed: Vec<&campaign::CampaignFile> =
         results.iter().filter(|f| f.outcome.is_err()).collect();
     for f in &results {
         match &f.outcome {
-            Ok(fit) => fit.warnings.iter().for_each(|w| eprintln!("gonio: warning: {w}")),
+            Ok(fit) => fit
+                .warnings
+                .iter()
+                .for_each(|w| eprintln!("gonio: warning: {w}")),
             Err(e) => eprintln!("gonio: skipped {e}"),
         }
     }
@@ -245,14 +251,11 @@ pub fn run(args: &FitArgs) -> CliResult {
         export::write_export(*format, path, &fam, kind)?;
     }
     let text = if args.json {
-        let mut s =
-            serde_json::to_string_pretty(&fit::report::family_json(&fam)).expect("JSON of numbers");
-        s.push('\n');
-        s
+        fit::report::family_json_text(&fam)
     } else {
-        fit::report::family_table(&fam, residual)
+        fit::report::family_table(&fam, residual).into_bytes()
     };
-    crate::output::write_stdout(text.as_bytes())
+    crate::output::write_stdout(&text)
 }
 
 /// What `gonio demo` writes next to its sweep: plots in `dir/plots` and the selected

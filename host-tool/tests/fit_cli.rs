@@ -286,7 +286,10 @@ fn a_campaign_fits_every_sweep_and_skips_the_bad_one() {
     ]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");
-    assert!(err.contains("broken.csv") && err.contains("missing column"), "{err}");
+    assert!(
+        err.contains("broken.csv") && err.contains("missing column"),
+        "{err}"
+    );
     let table = String::from_utf8(o.stdout).unwrap();
     assert_eq!(table.lines().count(), 4, "{table}");
     let summary = std::fs::read_to_string(out.join("summary.csv")).unwrap();
@@ -302,6 +305,12 @@ fn a_campaign_fits_every_sweep_and_skips_the_bad_one() {
     assert!((sigma / 0.115 - 1.0).abs() < 0.02, "{sigma}");
     assert!(out.join("fe-0.115.txt").is_file() && out.join("cu.txt").is_file());
     // --plot needs one sweep.
-    let o = gonio(&["fit", a.to_str().unwrap(), a.to_str().unwrap(), "--plot", "x"]);
+    let o = gonio(&[
+        "fit",
+        a.to_str().unwrap(),
+        a.to_str().unwrap(),
+        "--plot",
+        "x",
+    ]);
     assert_eq!(o.status.code(), Some(2));
 }

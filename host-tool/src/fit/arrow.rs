@@ -6,6 +6,10 @@
 //!
 //! Parameter order everywhere: the globals, then group 0's locals, group 1's, ...
 
+// The kernels index several small blocks with the same subscripts, as the formulas
+// in the comments do; iterator chains would hide that.
+#![allow(clippy::needless_range_loop)]
+
 use nalgebra::{DMatrix, SymmetricEigen};
 
 /// The column layout of an arrow problem.
@@ -285,13 +289,7 @@ pub struct Workspace {
 
 /// Solves `(J^T J + lambda diag(d)) x = -J^T r` by eliminating every group's local
 /// block. False when the damped matrix is not positive definite (raise lambda).
-pub fn solve_damped(
-    n: &Normal,
-    d: &[f64],
-    lambda: f64,
-    ws: &mut Workspace,
-    x: &mut [f64],
-) -> bool {
+pub fn solve_damped(n: &Normal, d: &[f64], lambda: f64, ws: &mut Workspace, x: &mut [f64]) -> bool {
     let s = &n.shape;
     let ng = s.n_global;
     let nl_total = s.local_start[s.groups()];
@@ -704,7 +702,13 @@ mod tests {
                 }
                 let dense = a.clone().cholesky().unwrap().solve(&(-&g));
                 let mut x = vec![0.0; shape.n_params()];
-                assert!(solve_damped(&n, &d, lambda, &mut Workspace::default(), &mut x));
+                assert!(solve_damped(
+                    &n,
+                    &d,
+                    lambda,
+                    &mut Workspace::default(),
+                    &mut x
+                ));
                 let err = x
                     .iter()
                     .zip(dense.iter())
@@ -713,7 +717,8 @@ mod tests {
                 let scale = dense.amax().max(1.0);
                 assert!(err < 1e-10 * scale, "seed {seed} lambda {lambda}: {err:e}");
                 let q = n.quad(&x);
-                let qd = (DVector::from_vec(x.clone()).transpose() * &jtj * DVector::from_vec(x))[0];
+                let qd =
+                    (DVector::from_vec(x.clone()).transpose() * &jtj * DVector::from_vec(x))[0];
                 assert!((q - qd).abs() < 1e-10 * qd.abs().max(1.0));
             }
         }

@@ -11,7 +11,7 @@ use rayon::prelude::*;
 use serde_json::{Value, json};
 
 use super::family::{Coord, Kind, scalar_coords};
-use super::report::{family_json, family_table, scalar};
+use super::report::{family_json_text, family_table, scalar};
 use super::{Dataset, FamilyFit, FitOptions, Residual, fit_family};
 use crate::sweep_file::{looks_like_radians, read_sweep};
 
@@ -92,9 +92,7 @@ pub fn expand_inputs(paths: &[PathBuf]) -> Result<Vec<PathBuf>, String> {
             let mut csv: Vec<PathBuf> = entries
                 .filter_map(|e| e.ok().map(|e| e.path()))
                 .filter(|f| {
-                    f.is_file()
-                        && f.extension()
-                            .is_some_and(|x| x.eq_ignore_ascii_case("csv"))
+                    f.is_file() && f.extension().is_some_and(|x| x.eq_ignore_ascii_case("csv"))
                 })
                 .collect();
             if csv.is_empty() {
@@ -177,12 +175,9 @@ pub fn write_reports(
             continue;
         };
         let text = if json {
-            let mut s =
-                serde_json::to_string_pretty(&family_json(&fit.family)).expect("JSON of numbers");
-            s.push('\n');
-            s
+            family_json_text(&fit.family)
         } else {
-            family_table(&fit.family, residual)
+            family_table(&fit.family, residual).into_bytes()
         };
         let p = dir.join(name);
         std::fs::write(&p, text).map_err(|e| io(&p, e))?;
@@ -238,7 +233,10 @@ pub fn summary_csv(files: &[CampaignFile], names: &[Option<String>]) -> String {
         out.push_str(&format!(",{p},{p}_se"));
     }
     out.push_str(",rmse,fit_seconds,report,error\n");
-    let num = |x: Option<f64>| x.filter(|v| v.is_finite()).map_or(String::new(), |v| format!("{v:e}"));
+    let num = |x: Option<f64>| {
+        x.filter(|v| v.is_finite())
+            .map_or(String::new(), |v| format!("{v:e}"))
+    };
     for (f, name) in files.iter().zip(names) {
         let mut row = vec![csv_field(&f.path.display().to_string())];
         match &f.outcome {
@@ -261,7 +259,10 @@ pub fn summary_csv(files: &[CampaignFile], names: &[Option<String>]) -> String {
             }
             Err(e) => {
                 row.push("error".into());
-                row.extend(std::iter::repeat_n(String::new(), 3 + 2 * KEY_PARAMS.len() + 3));
+                row.extend(std::iter::repeat_n(
+                    String::new(),
+                    3 + 2 * KEY_PARAMS.len() + 3,
+                ));
                 row.push(csv_field(&e.to_string()));
             }
         }
@@ -284,7 +285,10 @@ pub fn summary_json(files: &[CampaignFile], names: &[Option<String>]) -> Value {
                 let fam = &fit.family;
                 let mut params = serde_json::Map::new();
                 for (n, v, se) in key_params(fam) {
-                    params.insert(n.into(), json!({"value": num(v), "se": se.map_or(Value::Null, num)}));
+                    params.insert(
+                        n.into(),
+                        json!({"value": num(v), "se": se.map_or(Value::Null, num)}),
+                    );
                 }
                 json!({
                     "file": f.path.display().to_string(),
@@ -408,7 +412,10 @@ mod tests {
         // Two inputs share the stem "a": the second report is a-2.txt.
         assert!(dir.join("out/a.txt").is_file() && dir.join("out/a-2.txt").is_file());
         let v: Value = serde_json::from_str(&std::fs::read_to_string(js).unwrap()).unwrap();
-        assert_eq!((v["fitted"].as_u64(), v["failed"].as_u64()), (Some(3), Some(2)));
+        assert_eq!(
+            (v["fitted"].as_u64(), v["failed"].as_u64()),
+            (Some(3), Some(2))
+        );
         assert!(v["files"][0]["params"]["sigma"]["se"].as_f64().unwrap() > 0.0);
         let _ = std::fs::remove_dir_all(&dir);
         assert!(expand_inputs(&[std::env::temp_dir().join("gonio-no-such-dir-x")]).is_ok());

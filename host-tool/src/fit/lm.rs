@@ -65,7 +65,10 @@ pub enum Termination {
 impl Termination {
     /// One of the convergence tests was met.
     pub fn converged(self) -> bool {
-        matches!(self, Termination::Cost | Termination::Step | Termination::Gradient)
+        matches!(
+            self,
+            Termination::Cost | Termination::Step | Termination::Gradient
+        )
     }
 }
 
@@ -116,7 +119,8 @@ pub fn minimize<P: ArrowProblem>(p: &mut P, x0: &[f64], opts: &LmOptions) -> LmR
     let mut diag = normal.diagonal();
     let mut d = vec![0.0; np];
     update_scale(&mut d, &diag);
-    let scale = |d: &[f64]| -> Vec<f64> { d.iter().map(|&v| if v > 0.0 { v } else { 1.0 }).collect() };
+    let scale =
+        |d: &[f64]| -> Vec<f64> { d.iter().map(|&v| if v > 0.0 { v } else { 1.0 }).collect() };
     let mut dscale = scale(&d);
     let mut lambda = 1e-3;
     let mut nu = 2.0;

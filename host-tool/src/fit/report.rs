@@ -66,9 +66,7 @@ pub fn ks_table(fit: &Fit, incidences: &[f64]) -> Vec<(f64, f64, Option<f64>)> {
                             ks * var.max(0.0).sqrt()
                         })
                 }
-                _ => ks_index[j]
-                    .and_then(|i| fit.se_coord(i))
-                    .map(|s| ks * s),
+                _ => ks_index[j].and_then(|i| fit.se_coord(i)).map(|s| ks * s),
             };
             (ti, ks, se)
         })
@@ -99,20 +97,22 @@ pub fn model_json(fit: &Fit, incidences: &[f64]) -> Value {
     }
     if kind.specular() {
         let ks = ks_table(fit, incidences);
+        // Values built in place (no intermediate copy): memory matters with thousands
+        // of incidences.
         params.insert(
             "k_s".into(),
-            json!(
+            Value::Array(
                 ks.iter()
-                    .map(|(t, k, _)| vec![num(*t), num(*k)])
-                    .collect::<Vec<_>>()
+                    .map(|(t, k, _)| Value::Array(vec![num(*t), num(*k)]))
+                    .collect(),
             ),
         );
         errors.insert(
             "k_s".into(),
-            json!(
+            Value::Array(
                 ks.iter()
-                    .map(|(t, _, s)| vec![num(*t), opt(*s)])
-                    .collect::<Vec<_>>()
+                    .map(|(t, _, s)| Value::Array(vec![num(*t), opt(*s)]))
+                    .collect(),
             ),
         );
         if let Some(p) = fit.values.poly {
@@ -153,7 +153,7 @@ pub fn model_json(fit: &Fit, incidences: &[f64]) -> Value {
         "params": params,
         "std_errors": errors,
         "rmse": opt(fit.rmse),
-        "rmse_by_theta_i": incidences.iter().zip(&fit.rmse_by_inc).map(|(t, r)| vec![num(*t), opt(*r)]).collect::<Vec<_>>(),
+        "rmse_by_theta_i": Value::Array(incidences.iter().zip(&fit.rmse_by_inc).map(|(t, r)| Value::Array(vec![num(*t), opt(*r)])).collect()),
         "aicc": num(fit.aicc()),
         "bic": num(fit.bic()),
         "n": fit.n,
@@ -167,12 +167,44 @@ pub fn model_json(fit: &Fit, incidences: &[f64]) -> Value {
 
 /// The whole result as the `gonio fit --json` object.
 pub fn family_json(f: &FamilyFit) -> Value {
-    json!({
-        "models": f.fits.iter().map(|m| model_json(m, &f.incidences)).collect::<Vec<_>>(),
-        "selected": f.selected.name(),
-        "notes": f.notes,
-        "fit_seconds": f.fit_seconds,
-    })
+    serde_json::to_value(FamilyJson(f)).expect("JSON of numbers")
+}
+
+/// The `gonio fit --json` object as pretty text, built one model at a time (so only
+/// one model's JSON tree is in memory at once), with a final newline.
+pub fn family_json_text(f: &FamilyFit) -> Vec<u8> {
+    let mut out = serde_json::to_vec_pretty(&FamilyJson(f)).expect("JSON of numbers");
+    out.push(b'\n');
+    out
+}
+
+/// Serialises as [`family_json`], each model's tree built only while it is written.
+struct FamilyJson<'a>(&'a FamilyFit);
+
+struct ModelsJson<'a>(&'a FamilyFit);
+
+impl serde::Serialize for ModelsJson<'_> {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeSeq;
+        let mut seq = s.serialize_seq(Some(self.0.fits.len()))?;
+        for m in &self.0.fits {
+            seq.serialize_element(&model_json(m, &self.0.incidences))?;
+        }
+        seq.end()
+    }
+}
+
+impl serde::Serialize for FamilyJson<'_> {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap;
+        let f = self.0;
+        let mut m = s.serialize_map(Some(4))?;
+        m.serialize_entry("models", &ModelsJson(f))?;
+        m.serialize_entry("selected", f.selected.name())?;
+        m.serialize_entry("notes", &f.notes)?;
+        m.serialize_entry("fit_seconds", &num(f.fit_seconds))?;
+        m.end()
+    }
 }
 
 /// `value ± se` with the standard error to two significant digits and the value to

@@ -342,41 +342,20 @@ impl ArrowProblem for Problem<'_> {
 /// Initial values for a start: sigma and sigma_m given, the linear weights (k_s per
 /// incidence, k_dd, k_id) from a weighted (1/y) linear least-squares solve, and the cost
 /// of the result. The normal equations have the same arrow shape as the fit's (k_dd and
-/// k_id global, each k_s local to its incidence) and are solved the same way; the cost
-/// reuses the lobe values: one exp per lobe and point for the whole start.
+/// k_id global, each k_s local to its incidence) and are solved the same way. `spec`
+/// and `dd` are the unit lobes at every point for these widths (computed once per
+/// width by the caller and shared by the starts).
 fn linear_start(
     data: &Dataset,
     kind: Kind,
     fixed: &Fixed,
     residual: Residual,
-    sigma: f64,
-    sigma_m: f64,
+    (sigma, spec): (f64, &[f64]),
+    (sigma_m, dd): (f64, &[f64]),
 ) -> Option<(Values, f64)> {
     let n_inc = data.incidences.len();
     let kd_fixed = fixed.of(kind, Coord::Kid);
     let kdd_fixed = fixed.kdd;
-    let unit = Model::three_component(Params {
-        ks: 1.0,
-        sigma,
-        kdd: 1.0,
-        sigma_m,
-        kid: 1.0,
-    })
-    .ok()?;
-    let lobes: Vec<(f64, f64)> = data
-        .obs
-        .iter()
-        .map(|o| {
-            (
-                if kind.specular() {
-                    unit.specular(&o.geom)
-                } else {
-                    0.0
-                },
-                unit.directional(&o.geom),
-            )
-        })
-        .collect();
     // Globals: k_dd, then k_id (fixed ones absent); one local k_s per incidence.
     let kdd_col = (kind.directional() && kdd_fixed.is_none()).then_some(0);
     let kid_col = kd_fixed.is_none().then_some(usize::from(kdd_col.is_some()));
@@ -387,7 +366,7 @@ fn linear_start(
     for j in 0..n_inc {
         for &k in data.rows_of(j) {
             let o = &data.obs[k];
-            let (fs, fdd) = lobes[k];
+            let (fs, fdd) = (spec[k], dd[k]);
             let w = if o.y > 0.0 { 1.0 / o.y } else { 1.0 };
             let mut jg = [0.0; 2];
             if let Some(c) = kdd_col {
@@ -441,7 +420,7 @@ fn linear_start(
     }
     let kdd = if kind.directional() { v.kdd } else { 0.0 };
     let mut cost = 0.0;
-    for (o, &(fs, fdd)) in data.obs.iter().zip(&lobes) {
+    for ((o, &fs), &fdd) in data.obs.iter().zip(spec).zip(dd) {
         let ks = if kind.specular() { v.ks[o.inc] } else { 0.0 };
         let r = residual_of(residual, ks * fs + kdd * fdd + v.kid, o.y);
         cost += r * r;
@@ -501,10 +480,41 @@ pub fn fit_kind(data: &Dataset, kind: Kind, opts: &FitOptions) -> Option<Fit> {
         vec![opts.fixed.sigma.unwrap_or(1.0)]
     };
     // Rank every start by its cost after the linear solve; refine the best few.
+    // Each lobe depends on one width only: computed once per width, not per start.
+    let lobe = |on: bool, sigma: f64, sigma_m: f64, spec: bool| -> Option<Vec<f64>> {
+        let unit = Model::three_component(Params {
+            ks: 1.0,
+            sigma,
+            kdd: 1.0,
+            sigma_m,
+            kid: 1.0,
+        })
+        .ok()?;
+        Some(if !on {
+            vec![0.0; data.obs.len()]
+        } else if spec {
+            data.obs.iter().map(|o| unit.specular(&o.geom)).collect()
+        } else {
+            data.obs.iter().map(|o| unit.directional(&o.geom)).collect()
+        })
+    };
+    let specs: Vec<_> = sigmas
+        .iter()
+        .map(|&s| lobe(kind.specular(), s, 1.0, true))
+        .collect();
+    let dds: Vec<_> = sigma_ms
+        .iter()
+        .map(|&sm| lobe(kind.directional(), 1.0, sm, false))
+        .collect();
     let mut starts: Vec<(f64, Values)> = Vec::new();
-    for &s in &sigmas {
-        for &sm in &sigma_ms {
-            if let Some((v, c)) = linear_start(data, kind, &opts.fixed, opts.residual, s, sm) {
+    for (&s, spec) in sigmas.iter().zip(&specs) {
+        for (&sm, dd) in sigma_ms.iter().zip(&dds) {
+            let (Some(spec), Some(dd)) = (spec, dd) else {
+                continue;
+            };
+            if let Some((v, c)) =
+                linear_start(data, kind, &opts.fixed, opts.residual, (s, spec), (sm, dd))
+            {
                 starts.push((c, v));
             }
         }
@@ -575,7 +585,13 @@ fn robust_weight(loss: Loss, r: f64) -> f64 {
 
 /// The covariance s^2 (J^T J)^-1 at the optimum, from the structured normal equations
 /// (with the weights of the last pass, as the old dense path did), and the RMSE.
-fn finish(p: &mut Problem<'_>, mut normal: Normal, ssr: f64, converged: bool, evaluations: usize) -> Fit {
+fn finish(
+    p: &mut Problem<'_>,
+    mut normal: Normal,
+    ssr: f64,
+    converged: bool,
+    evaluations: usize,
+) -> Fit {
     let n = p.data.obs.len();
     let k = p.free.len();
     // The normal equations at the final weights (robust losses reweight after the

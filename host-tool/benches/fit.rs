@@ -1,11 +1,14 @@
-//! Criterion benchmark of fitting: a 9 x 17 sweep, all four models (the target is well
-//! under a millisecond), and the three-component model alone.
+//! Criterion benchmark of fitting: the paper's 9 x 17 sweep (all four models, target
+//! well under a millisecond; the three-component model alone), the 1-degree grid of the
+//! paper's geometry (90 x 179 = 16,110 readings, target 200 ms for all four models), and
+//! many incidences with few readings each (the per-incidence k_s make thousands of
+//! parameters: the arrow solver's case).
 
 use std::hint::black_box;
 
 use brdf_core::Preset;
 use criterion::{Criterion, criterion_group, criterion_main};
-use gonio::fit::data::synthetic_paper_sweep;
+use gonio::fit::data::{synthetic_paper_sweep, synthetic_sweep};
 use gonio::fit::{Dataset, FitOptions, Kind, fit_family, fit_kind};
 use gonio::sweep_file::Row;
 
@@ -14,17 +17,64 @@ fn paper_sweep(name: &str, noise: f64) -> Vec<Row> {
     synthetic_paper_sweep(|ti| p.model(ti).unwrap(), noise, 7)
 }
 
+/// theta_i 0..89, theta_r -89..89, 1-degree steps.
+fn one_degree_grid(name: &str) -> Vec<Row> {
+    let p = Preset::by_name(name).unwrap();
+    let inc: Vec<f64> = (0..90).map(f64::from).collect();
+    let det: Vec<f64> = (-89..=89).map(f64::from).collect();
+    synthetic_sweep(&inc, |_| det.clone(), |ti| p.model(ti).unwrap(), 0.005, 7)
+}
+
+/// `n_inc` distinct incidences in [0, 80) degrees with `per` detector angles each,
+/// around the specular direction and on the far side.
+pub fn many_incidences(name: &str, n_inc: usize, per: usize) -> Vec<Row> {
+    let p = Preset::by_name(name).unwrap();
+    let inc: Vec<f64> = (0..n_inc).map(|k| 80.0 * k as f64 / n_inc as f64).collect();
+    let det = |ti: f64| -> Vec<f64> {
+        (0..per)
+            .map(|k| (ti - 60.0 * k as f64 / per as f64).clamp(-85.0, 85.0))
+            .collect()
+    };
+    synthetic_sweep(&inc, det, |ti| p.model(ti).unwrap(), 0.005, 7)
+}
+
 fn bench(c: &mut Criterion) {
+    let opts = FitOptions::default();
     let mut g = c.benchmark_group("fit 9x17 sweep");
     for name in ["fe-0.115", "cu-0.070"] {
         let data = Dataset::from_rows(&paper_sweep(name, 0.005), true).unwrap();
-        let opts = FitOptions::default();
         g.bench_function(format!("{name} all four models"), |b| {
             b.iter(|| fit_family(black_box(&data), &opts, &Kind::ALL).unwrap())
         });
         g.bench_function(format!("{name} three-component"), |b| {
             b.iter(|| fit_kind(black_box(&data), Kind::ThreeComponent, &opts).unwrap())
         });
+    }
+    g.finish();
+
+    let mut g = c.benchmark_group("fit 1-degree grid 90x179");
+    g.sample_size(10);
+    let data = Dataset::from_rows(&one_degree_grid("fe-0.115"), true).unwrap();
+    g.bench_function("fe-0.115 all four models", |b| {
+        b.iter(|| fit_family(black_box(&data), &opts, &Kind::ALL).unwrap())
+    });
+    g.bench_function("fe-0.115 three-component", |b| {
+        b.iter(|| fit_kind(black_box(&data), Kind::ThreeComponent, &opts).unwrap())
+    });
+    g.finish();
+
+    let mut g = c.benchmark_group("fit many incidences");
+    g.sample_size(10);
+    for (n_inc, per) in [(1_000, 5), (50_000, 2)] {
+        let rows = many_incidences("fe-0.115", n_inc, per);
+        g.bench_function(format!("{n_inc} incidences x {per}: grouping"), |b| {
+            b.iter(|| Dataset::from_rows(black_box(&rows), true).unwrap())
+        });
+        let data = Dataset::from_rows(&rows, true).unwrap();
+        g.bench_function(
+            format!("{n_inc} incidences x {per}: three-component"),
+            |b| b.iter(|| fit_kind(black_box(&data), Kind::ThreeComponent, &opts).unwrap()),
+        );
     }
     g.finish();
 }

@@ -9,8 +9,8 @@ use super::args::{ModelArg, parse_export, parse_loss};
 use super::error::{CliError, CliResult};
 use super::output::write_stdout;
 use crate::export::ExportFormat;
+use crate::fit::campaign::{self, FileError};
 use crate::fit::{self, Dataset, FamilyFit, FitOptions, Fixed, Kind, Loss, Residual};
-use crate::sweep_file::{looks_like_radians, read_sweep};
 use crate::{export, plot};
 
 /// Residual kind on the command line.
@@ -38,12 +38,19 @@ at the optimum. The RMSE table is the paper's Table 3: per incidence, curves nor
 theta_r = theta_i. Angles in degrees, sigma_m in radians, BRDF in the file's relative units.",
     after_help = "Examples:\n  gonio fit fe.csv\n  gonio fit fe.csv --json > fe-fit.json\n  \
 gonio fit fe.csv --plot plots/ --export merl=fe.binary --export json=fe-params.json\n  \
-gonio fit fe.csv --fix sigma_m=0.7 --fix kdd=900 --loss cauchy:0.05"
+gonio fit fe.csv --fix sigma_m=0.7 --fix kdd=900 --loss cauchy:0.05\n  \
+gonio fit sweeps/ extra.csv --out reports/   (a campaign: reports/summary.csv)"
 )]
 pub struct FitArgs {
-    /// The sweep file (CSV with columns theta_i, theta_r, brdf; see the README).
-    #[arg(value_name = "SWEEP.csv")]
-    pub sweep: PathBuf,
+    /// The sweep file (CSV with columns theta_i, theta_r, brdf; see the README). Several
+    /// files, or directories (their *.csv files), make a campaign: every sweep fitted on
+    /// all cores, one report each and a summary in --out.
+    #[arg(value_name = "SWEEP.csv|DIR", required = true, num_args = 1..)]
+    pub sweeps: Vec<PathBuf>,
+    /// Campaign only: directory for the reports (one per sweep: NAME.txt, or NAME.json
+    /// with --json) and summary.csv / summary.json.
+    #[arg(long, value_name = "DIR", default_value = "gonio-fit")]
+    pub out: PathBuf,
     /// Print one JSON object instead of the table.
     #[arg(long)]
     pub json: bool,
@@ -107,32 +114,88 @@ pub fn fit_file(
     opts: &FitOptions,
     kinds: &[Kind],
 ) -> CliResult<(Dataset, FamilyFit)> {
-    let sweep = read_sweep(path)?;
-    if sweep.rows.is_empty() {
-        return Err(CliError::usage(format!("{}: no readings", path.display())));
+    match campaign::fit_sweep_file(path, opts, kinds) {
+        Ok(fit) => {
+            for w in &fit.warnings {
+                eprintln!("gonio: warning: {w}");
+            }
+            Ok((fit.data, fit.family))
+        }
+        Err(FileError::Input(e)) => Err(CliError::usage(e)),
+        Err(FileError::Fit(e)) => Err(CliError::failed(e)),
     }
-    if let Some(max) = looks_like_radians(&sweep.rows) {
-        eprintln!(
-            "gonio: warning: every angle in {} is within {max:.3}: are they radians? gonio reads degrees",
-            path.display()
-        );
+}
+
+fn residual_name(r: Residual) -> &'static str {
+    match r {
+        Residual::Log => "log",
+        Residual::Relative => "rel",
+        Residual::Absolute => "abs",
     }
-    let data = Dataset::from_rows(&sweep.rows, opts.residual != Residual::Absolute)
-        .map_err(|e| CliError::usage(format!("{}: {}", path.display(), e.0)))?;
-    let fam = fit::fit_family(&data, opts, kinds)
-        .map_err(|e| CliError::failed(format!("{}: {e}", path.display())))?;
-    Ok((data, fam))
+}
+
+/// `gonio fit` over several sweeps: fits them all (a progress bar on a terminal),
+/// writes the reports and summary into --out, prints the summary; exit 1 if any
+/// sweep failed (each named on stderr), after all the others were fitted.
+fn run_campaign(args: &FitArgs, opts: &FitOptions, kinds: &[Kind]) -> CliResult {
+    if args.plot.is_some() || !args.export.is_empty() || args.export_model.is_some() {
+        return Err(CliError::usage(
+            "--plot and --export take one sweep file; a campaign writes its reports to --out",
+        ));
+    }
+    let files = campaign::expand_inputs(&args.sweeps).map_err(CliError::usage)?;
+    let bar = indicatif::ProgressBar::new(files.len() as u64).with_style(
+        indicatif::ProgressStyle::with_template(
+            "{bar:30} {pos}/{len} sweeps  {per_sec}  eta {eta}",
+        )
+        .expect("valid template"),
+    );
+    let results = campaign::fit_files(&files, opts, kinds, &|_, _| bar.inc(1));
+    bar.finish_and_clear();
+    let (csv, _) =
+        campaign::write_reports(&args.out, &results, args.json, residual_name(opts.residual))
+            .map_err(CliError::failed)?;
+    let failed: Vec<&campaign::CampaignFile> =
+        results.iter().filter(|f| f.outcome.is_err()).collect();
+    for f in &results {
+        match &f.outcome {
+            Ok(fit) => fit
+                .warnings
+                .iter()
+                .for_each(|w| eprintln!("gonio: warning: {w}")),
+            Err(e) => eprintln!("gonio: skipped {e}"),
+        }
+    }
+    let text = if args.json {
+        let names = campaign::report_names(&results, "json");
+        let mut s = serde_json::to_string_pretty(&campaign::summary_json(&results, &names))
+            .expect("JSON of numbers");
+        s.push('\n');
+        s
+    } else {
+        campaign::summary_table(&results)
+    };
+    write_stdout(text.as_bytes())?;
+    if failed.is_empty() {
+        Ok(())
+    } else {
+        Err(CliError::failed(format!(
+            "{} of {} sweeps could not be fitted (see {})",
+            failed.len(),
+            results.len(),
+            csv.display()
+        )))
+    }
 }
 
 /// Runs `gonio fit`.
 pub fn run(args: &FitArgs) -> CliResult {
     let (opts, kinds) = options(args)?;
-    let (data, fam) = fit_file(&args.sweep, &opts, &kinds)?;
-    let residual = match opts.residual {
-        Residual::Log => "log",
-        Residual::Relative => "rel",
-        Residual::Absolute => "abs",
-    };
+    if args.sweeps.len() > 1 || args.sweeps[0].is_dir() {
+        return run_campaign(args, &opts, &kinds);
+    }
+    let (data, fam) = fit_file(&args.sweeps[0], &opts, &kinds)?;
+    let residual = residual_name(opts.residual);
     if let Some(dir) = &args.plot {
         plot::write_plots(dir, &data, &fam)?;
     }
@@ -141,12 +204,9 @@ pub fn run(args: &FitArgs) -> CliResult {
         export::write_export(*format, path, &fam, kind)?;
     }
     let text = if args.json {
-        let mut s =
-            serde_json::to_string_pretty(&fit::report::family_json(&fam)).expect("JSON of numbers");
-        s.push('\n');
-        s
+        fit::report::family_json_text(&fam)
     } else {
-        fit::report::family_table(&fam, residual)
+        fit::report::family_table(&fam, residual).into_bytes()
     };
-    write_stdout(text.as_bytes())
+    write_stdout(&text)
 }

@@ -14,13 +14,25 @@ pub fn synthetic_paper_sweep(
     noise: f64,
     seed: u32,
 ) -> Vec<Row> {
+    let incidences: Vec<f64> = (0..9).map(|i| 10.0 * i as f64).collect();
+    let detectors: Vec<f64> = (0..17).map(|k| -80.0 + 10.0 * k as f64).collect();
+    synthetic_sweep(&incidences, |_| detectors.clone(), model_at, noise, seed)
+}
+
+/// A simulated sweep over any grid: at each incidence `theta_i` (degrees), the
+/// detector angles `detectors(theta_i)`, values as [`synthetic_paper_sweep`].
+pub fn synthetic_sweep(
+    incidences: &[f64],
+    detectors: impl Fn(f64) -> Vec<f64>,
+    model_at: impl Fn(f64) -> Model<f64>,
+    noise: f64,
+    seed: u32,
+) -> Vec<Row> {
     let mut rng = XorShift32::new(seed);
-    let mut rows = Vec::with_capacity(153);
-    for i in 0..9 {
-        let ti = 10.0 * i as f64;
+    let mut rows = Vec::new();
+    for &ti in incidences {
         let m = model_at(ti);
-        for k in 0..17 {
-            let tr = -80.0 + 10.0 * k as f64;
+        for tr in detectors(ti) {
             let f = m.eval_in_plane(ti, tr).map_or(f64::NAN, |e| e.f);
             let y = f * (1.0 + noise * rng.normal() as f64);
             rows.push(Row {
@@ -59,15 +71,24 @@ pub struct Dataset {
     pub obs: Vec<Observation>,
     /// Distinct incidence angles, ascending (degrees).
     pub incidences: Vec<f64>,
+    /// Indices into `obs`, grouped by incidence (file order within each).
+    order: Vec<usize>,
+    /// Incidence j's points are `order[group_start[j]..group_start[j + 1]]`.
+    group_start: Vec<usize>,
+    /// Per incidence: the point at theta_r = theta_i, if any (the first one).
+    specular: Vec<Option<usize>>,
 }
 
 /// Why data cannot be fitted.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DataError(pub String);
 
+/// Incidence angles closer than this (degrees) are the same incidence.
+const SAME_ANGLE: f64 = 1e-6;
+
 impl Dataset {
-    /// Checks and groups rows. `positive` requires brdf > 0 (log and relative
-    /// residuals divide by it).
+    /// Checks and groups rows, in O(n log n). `positive` requires brdf > 0 (log and
+    /// relative residuals divide by it).
     pub fn from_rows(rows: &[Row], positive: bool) -> Result<Self, DataError> {
         if rows.len() < 3 {
             return Err(DataError(format!(
@@ -75,13 +96,6 @@ impl Dataset {
                 rows.len()
             )));
         }
-        let mut incidences: Vec<f64> = Vec::new();
-        for r in rows {
-            if !incidences.iter().any(|&t| (t - r.theta_i).abs() < 1e-6) {
-                incidences.push(r.theta_i);
-            }
-        }
-        incidences.sort_by(f64::total_cmp);
         let mut obs = Vec::with_capacity(rows.len());
         for (k, r) in rows.iter().enumerate() {
             if !(r.brdf.is_finite() && r.theta_i.is_finite() && r.theta_r.is_finite()) {
@@ -99,26 +113,69 @@ impl Dataset {
             }
             let geom = Geometry::in_plane(r.theta_i, r.theta_r)
                 .map_err(|e| DataError(format!("reading {}: {e}", k + 1)))?;
-            let inc = incidences
-                .iter()
-                .position(|&t| (t - r.theta_i).abs() < 1e-6)
-                .expect("listed above");
             obs.push(Observation {
                 theta_i: r.theta_i,
                 theta_r: r.theta_r,
                 y: r.brdf,
-                inc,
+                inc: 0,
                 geom,
             });
         }
-        Ok(Dataset { obs, incidences })
+        // Distinct incidences: sort, then merge neighbours within SAME_ANGLE of the
+        // last one kept (every angle is then within SAME_ANGLE of exactly one kept).
+        let mut sorted: Vec<f64> = obs.iter().map(|o| o.theta_i).collect();
+        sorted.sort_by(f64::total_cmp);
+        let mut incidences: Vec<f64> = Vec::new();
+        for t in sorted {
+            if incidences.last().is_none_or(|&l| t - l >= SAME_ANGLE) {
+                incidences.push(t);
+            }
+        }
+        let mut count = vec![0usize; incidences.len()];
+        for o in &mut obs {
+            let j = incidences.partition_point(|&t| t <= o.theta_i - SAME_ANGLE);
+            let j = if j + 1 < incidences.len()
+                && (incidences[j + 1] - o.theta_i).abs() < (incidences[j] - o.theta_i).abs()
+            {
+                j + 1
+            } else {
+                j
+            };
+            o.inc = j;
+            count[j] += 1;
+        }
+        // Counting sort of the points by incidence: stable, O(n).
+        let mut group_start = Vec::with_capacity(incidences.len() + 1);
+        group_start.push(0);
+        for c in &count {
+            group_start.push(group_start.last().unwrap() + c);
+        }
+        let mut next = group_start.clone();
+        let mut order = vec![0; obs.len()];
+        let mut specular = vec![None; incidences.len()];
+        for (k, o) in obs.iter().enumerate() {
+            order[next[o.inc]] = k;
+            next[o.inc] += 1;
+            if specular[o.inc].is_none() && (o.theta_r - o.theta_i).abs() < SAME_ANGLE {
+                specular[o.inc] = Some(k);
+            }
+        }
+        Ok(Dataset {
+            obs,
+            incidences,
+            order,
+            group_start,
+            specular,
+        })
+    }
+
+    /// Indices into `obs` of incidence `j`'s points, in file order.
+    pub fn rows_of(&self, j: usize) -> &[usize] {
+        &self.order[self.group_start[j]..self.group_start[j + 1]]
     }
 
     /// The measured value at the specular angle (theta_r = theta_i) of incidence `j`.
     pub fn specular_value(&self, j: usize) -> Option<f64> {
-        self.obs
-            .iter()
-            .find(|o| o.inc == j && (o.theta_r - o.theta_i).abs() < 1e-6)
-            .map(|o| o.y)
+        self.specular[j].map(|k| self.obs[k].y)
     }
 }

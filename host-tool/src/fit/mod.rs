@@ -1,6 +1,8 @@
 //! Fitting captured sweeps: the nested model family (ideal diffuse; Torrance–Sparrow;
 //! three-component; three-component with smooth k_s(theta_i)), fitted by
-//! Levenberg–Marquardt with an analytic Jacobian, compared by AICc (BIC reported too).
+//! Levenberg–Marquardt over the problems' arrow structure (scalar parameters global,
+//! k_s per incidence local) with an analytic Jacobian, compared by AICc (BIC reported
+//! too). `campaign` fits many sweep files in parallel.
 //!
 //! Positivity: every parameter is fitted as its natural logarithm (p = exp(u)), within
 //! box bounds (sigma in [1e-4, 20], sigma_m in [1e-3, 20] rad, weights in
@@ -8,8 +10,11 @@
 //! (se_p = p se_u), from the covariance s^2 (J^T J)^-1 at the optimum with
 //! s^2 = SSR / (n - k); parameters the data cannot determine are reported as such.
 
+pub mod arrow;
+pub mod campaign;
 pub mod data;
 pub mod family;
+pub mod lm;
 pub mod report;
 pub mod solve;
 
@@ -119,12 +124,7 @@ pub fn fit_family(data: &Dataset, opts: &FitOptions, kinds: &[Kind]) -> Result<F
             ));
         }
     }
-    if data
-        .incidences
-        .iter()
-        .enumerate()
-        .any(|(j, _)| data.specular_value(j).is_none())
-    {
+    if (0..data.incidences.len()).any(|j| data.specular_value(j).is_none()) {
         notes.push(
             "some incidences have no reading at theta_r = theta_i: their paper RMSE is undefined"
                 .into(),

@@ -21,7 +21,7 @@ pub fn coord_name(kind: Kind, c: Coord, incidences: &[f64]) -> String {
 
 /// Natural value and standard error (None: fixed or not identifiable) of a scalar
 /// parameter coordinate.
-fn scalar(fit: &Fit, c: Coord) -> (f64, Option<f64>) {
+pub fn scalar(fit: &Fit, c: Coord) -> (f64, Option<f64>) {
     let v = fit.values.get(c).exp();
     let se = fit
         .free
@@ -34,6 +34,14 @@ fn scalar(fit: &Fit, c: Coord) -> (f64, Option<f64>) {
 
 /// k_s per incidence with standard errors.
 pub fn ks_table(fit: &Fit, incidences: &[f64]) -> Vec<(f64, f64, Option<f64>)> {
+    // Where each incidence's k_s sits among the free coordinates (one pass, not a
+    // search per incidence).
+    let mut ks_index = vec![None; incidences.len()];
+    for (i, c) in fit.free.iter().enumerate() {
+        if let Coord::Ks(j) = *c {
+            ks_index[j] = Some(i);
+        }
+    }
     incidences
         .iter()
         .enumerate()
@@ -52,18 +60,13 @@ pub fn ks_table(fit: &Fit, incidences: &[f64]) -> Vec<(f64, f64, Option<f64>)> {
                             let mut var = 0.0;
                             for a in 0..3 {
                                 for b in 0..3 {
-                                    var += g[a] * g[b] * fit.cov[(ix[a], ix[b])];
+                                    var += g[a] * g[b] * fit.cov.get(ix[a], ix[b]);
                                 }
                             }
                             ks * var.max(0.0).sqrt()
                         })
                 }
-                _ => fit
-                    .free
-                    .iter()
-                    .position(|&c| c == Coord::Ks(j))
-                    .and_then(|i| fit.se_coord(i))
-                    .map(|s| ks * s),
+                _ => ks_index[j].and_then(|i| fit.se_coord(i)).map(|s| ks * s),
             };
             (ti, ks, se)
         })
@@ -78,6 +81,9 @@ fn opt(x: Option<f64>) -> Value {
     x.map_or(Value::Null, num)
 }
 
+/// Above this many free parameters, `correlations` covers the scalar parameters only.
+pub const CORRELATION_LIMIT: usize = 100;
+
 /// One model as a JSON object.
 pub fn model_json(fit: &Fit, incidences: &[f64]) -> Value {
     let mut params = serde_json::Map::new();
@@ -91,38 +97,50 @@ pub fn model_json(fit: &Fit, incidences: &[f64]) -> Value {
     }
     if kind.specular() {
         let ks = ks_table(fit, incidences);
+        // Values built in place (no intermediate copy): memory matters with thousands
+        // of incidences.
         params.insert(
             "k_s".into(),
-            json!(
+            Value::Array(
                 ks.iter()
-                    .map(|(t, k, _)| vec![num(*t), num(*k)])
-                    .collect::<Vec<_>>()
+                    .map(|(t, k, _)| Value::Array(vec![num(*t), num(*k)]))
+                    .collect(),
             ),
         );
         errors.insert(
             "k_s".into(),
-            json!(
+            Value::Array(
                 ks.iter()
-                    .map(|(t, _, s)| vec![num(*t), opt(*s)])
-                    .collect::<Vec<_>>()
+                    .map(|(t, _, s)| Value::Array(vec![num(*t), opt(*s)]))
+                    .collect(),
             ),
         );
         if let Some(p) = fit.values.poly {
             params.insert("ln_ks_poly".into(), json!(p));
         }
     }
-    let names: Vec<String> = fit
-        .free
-        .iter()
-        .map(|&c| coord_name(kind, c, incidences))
-        .collect();
     let k = fit.free.len();
-    let corr: Vec<Vec<Value>> = (0..k)
-        .map(|i| {
-            (0..k)
-                .map(|j| {
+    // The full matrix up to CORRELATION_LIMIT free parameters; beyond, the scalar
+    // parameters' block (a matrix over thousands of k_s would dwarf the fit).
+    let shown: Vec<usize> = if k <= CORRELATION_LIMIT {
+        (0..k).collect()
+    } else {
+        (0..k)
+            .filter(|&i| !matches!(fit.free[i], Coord::Ks(_)))
+            .collect()
+    };
+    let names: Vec<String> = shown
+        .iter()
+        .map(|&i| coord_name(kind, fit.free[i], incidences))
+        .collect();
+    let corr: Vec<Vec<Value>> = shown
+        .iter()
+        .map(|&i| {
+            shown
+                .iter()
+                .map(|&j| {
                     if fit.identifiable[i] && fit.identifiable[j] {
-                        num(fit.cov[(i, j)] / (fit.cov[(i, i)] * fit.cov[(j, j)]).sqrt())
+                        num(fit.cov.get(i, j) / (fit.cov.get(i, i) * fit.cov.get(j, j)).sqrt())
                     } else {
                         Value::Null
                     }
@@ -135,7 +153,7 @@ pub fn model_json(fit: &Fit, incidences: &[f64]) -> Value {
         "params": params,
         "std_errors": errors,
         "rmse": opt(fit.rmse),
-        "rmse_by_theta_i": incidences.iter().zip(&fit.rmse_by_inc).map(|(t, r)| vec![num(*t), opt(*r)]).collect::<Vec<_>>(),
+        "rmse_by_theta_i": Value::Array(incidences.iter().zip(&fit.rmse_by_inc).map(|(t, r)| Value::Array(vec![num(*t), opt(*r)])).collect()),
         "aicc": num(fit.aicc()),
         "bic": num(fit.bic()),
         "n": fit.n,
@@ -149,12 +167,44 @@ pub fn model_json(fit: &Fit, incidences: &[f64]) -> Value {
 
 /// The whole result as the `gonio fit --json` object.
 pub fn family_json(f: &FamilyFit) -> Value {
-    json!({
-        "models": f.fits.iter().map(|m| model_json(m, &f.incidences)).collect::<Vec<_>>(),
-        "selected": f.selected.name(),
-        "notes": f.notes,
-        "fit_seconds": f.fit_seconds,
-    })
+    serde_json::to_value(FamilyJson(f)).expect("JSON of numbers")
+}
+
+/// The `gonio fit --json` object as pretty text, built one model at a time (so only
+/// one model's JSON tree is in memory at once), with a final newline.
+pub fn family_json_text(f: &FamilyFit) -> Vec<u8> {
+    let mut out = serde_json::to_vec_pretty(&FamilyJson(f)).expect("JSON of numbers");
+    out.push(b'\n');
+    out
+}
+
+/// Serialises as [`family_json`], each model's tree built only while it is written.
+struct FamilyJson<'a>(&'a FamilyFit);
+
+struct ModelsJson<'a>(&'a FamilyFit);
+
+impl serde::Serialize for ModelsJson<'_> {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeSeq;
+        let mut seq = s.serialize_seq(Some(self.0.fits.len()))?;
+        for m in &self.0.fits {
+            seq.serialize_element(&model_json(m, &self.0.incidences))?;
+        }
+        seq.end()
+    }
+}
+
+impl serde::Serialize for FamilyJson<'_> {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap;
+        let f = self.0;
+        let mut m = s.serialize_map(Some(4))?;
+        m.serialize_entry("models", &ModelsJson(f))?;
+        m.serialize_entry("selected", f.selected.name())?;
+        m.serialize_entry("notes", &f.notes)?;
+        m.serialize_entry("fit_seconds", &num(f.fit_seconds))?;
+        m.end()
+    }
 }
 
 /// `value ± se` with the standard error to two significant digits and the value to

@@ -1,14 +1,17 @@
 //! Fitting one model: linear initialisation of the weights for each start, then
-//! Levenberg–Marquardt (the `levenberg-marquardt` crate, a MINPACK port) with the
-//! analytic Jacobian from brdf-core, robust losses by iteratively reweighting, and the
-//! covariance at the optimum.
+//! Levenberg–Marquardt over the problem's arrow structure ([`super::lm`]: the scalar
+//! parameters are global columns, each incidence's k_s a local one) with the analytic
+//! Jacobian from brdf-core, robust losses by iteratively reweighting, and the
+//! covariance at the optimum from the same structured `J^T J`. Every pass is linear in
+//! the readings; memory is linear in readings plus incidences.
 
 use brdf_core::{Geometry, Model, Params};
-use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
-use nalgebra::{DMatrix, DVector, Dyn, Owned};
+use nalgebra::{DMatrix, DVector};
 
+use super::arrow::{ArrowInverse, Normal, RowSink, Shape, Workspace, solve_damped};
 use super::data::Dataset;
 use super::family::{Coord, Fixed, Kind, Values, coords};
+use super::lm::{ArrowProblem, LmOptions, minimize};
 
 /// What the residuals measure.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -80,9 +83,9 @@ pub struct Fit {
     pub values: Values,
     /// Free coordinates, in the order of `cov`.
     pub free: Vec<Coord>,
-    /// Covariance of the free coordinates (ln-parameters); `None` entries on the
-    /// diagonal's parameters mean "not identifiable from these data".
-    pub cov: DMatrix<f64>,
+    /// Covariance of the free coordinates (ln-parameters), in factored arrow form
+    /// (`cov.get(i, j)`); parameters flagged in `identifiable` have none.
+    pub cov: ArrowInverse,
     /// Per free coordinate: identifiable from the data.
     pub identifiable: Vec<bool>,
     /// Sum of squared residuals (of the chosen residual kind, unweighted).
@@ -158,7 +161,7 @@ impl Fit {
 
     /// Standard error of a free coordinate (in its own units), if identifiable.
     pub fn se_coord(&self, i: usize) -> Option<f64> {
-        self.identifiable[i].then(|| self.cov[(i, i)].max(0.0).sqrt())
+        self.identifiable[i].then(|| self.cov.get(i, i).max(0.0).sqrt())
     }
 }
 
@@ -171,34 +174,97 @@ fn residual_of(kind: Residual, f: f64, y: f64) -> f64 {
     }
 }
 
+/// One model's least-squares problem in arrow form: the free scalar coordinates (and
+/// the smooth k_s coefficients) are global columns; with one k_s per incidence, each
+/// incidence is a group with its k_s as the one local column.
 pub(super) struct Problem<'a> {
     pub(super) data: &'a Dataset,
     pub(super) kind: Kind,
     pub(super) free: Vec<Coord>,
     pub(super) values: Values,
     pub(super) residual: Residual,
-    /// Square roots of the IRLS weights.
+    /// Square roots of the IRLS weights, per observation (file order).
     pub(super) sqrt_w: Vec<f64>,
+    shape: Shape,
+    n_global: usize,
+    models: Vec<Model<f64>>,
 }
 
-impl Problem<'_> {
-    fn models(&self) -> Option<Vec<brdf_core::Model<f64>>> {
-        (0..self.data.incidences.len())
-            .map(|j| self.values.model(self.kind, j))
-            .collect()
+impl<'a> Problem<'a> {
+    /// The problem for `free` coordinates (globals first, then `Ks(j)` in incidence
+    /// order, as [`coords`] lists them) starting from `values`.
+    pub(super) fn new(
+        data: &'a Dataset,
+        kind: Kind,
+        free: Vec<Coord>,
+        values: Values,
+        residual: Residual,
+    ) -> Self {
+        let n_global = free
+            .iter()
+            .take_while(|c| !matches!(c, Coord::Ks(_)))
+            .count();
+        let n_inc = data.incidences.len();
+        let per_angle = free.len() > n_global;
+        debug_assert!(
+            !per_angle
+                || (free.len() == n_global + n_inc
+                    && free[n_global..]
+                        .iter()
+                        .enumerate()
+                        .all(|(j, c)| *c == Coord::Ks(j)))
+        );
+        let shape = Shape::new(n_global, (0..n_inc).map(|_| usize::from(per_angle)));
+        Problem {
+            data,
+            kind,
+            free,
+            values,
+            residual,
+            sqrt_w: vec![1.0; data.obs.len()],
+            shape,
+            n_global,
+            models: Vec::with_capacity(n_inc),
+        }
+    }
+
+    /// The current free coordinates.
+    pub(super) fn params(&self) -> Vec<f64> {
+        self.free.iter().map(|&c| self.values.get(c)).collect()
+    }
+
+    /// Sets the free coordinates (clamped to their bounds) and rebuilds the models;
+    /// false when a model cannot be built.
+    fn set_params(&mut self, x: &[f64]) -> bool {
+        for (&c, &u) in self.free.iter().zip(x) {
+            let (lo, hi) = c.bounds();
+            self.values.set(c, u.clamp(lo, hi), &self.data.incidences);
+        }
+        self.models.clear();
+        for j in 0..self.data.incidences.len() {
+            match self.values.model(self.kind, j) {
+                Some(m) => self.models.push(m),
+                None => return false,
+            }
+        }
+        true
     }
 
     fn residual(&self, f: f64, y: f64) -> f64 {
         residual_of(self.residual, f, y)
     }
 
-    fn raw_residuals(&self) -> Option<Vec<f64>> {
-        let models = self.models()?;
+    /// Unweighted residuals per observation (file order) at the current values.
+    fn raw_residuals(&mut self) -> Option<Vec<f64>> {
+        let x = self.params();
+        if !self.set_params(&x) {
+            return None;
+        }
         self.data
             .obs
             .iter()
             .map(|o| {
-                models[o.inc]
+                self.models[o.inc]
                     .eval(&o.geom)
                     .ok()
                     .map(|e| self.residual(e.f, o.y))
@@ -207,139 +273,118 @@ impl Problem<'_> {
     }
 }
 
-impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
-    type ResidualStorage = Owned<f64, Dyn>;
-    type JacobianStorage = Owned<f64, Dyn, Dyn>;
-    type ParameterStorage = Owned<f64, Dyn>;
+impl ArrowProblem for Problem<'_> {
+    fn shape(&self) -> &Shape {
+        &self.shape
+    }
 
-    fn set_params(&mut self, x: &DVector<f64>) {
-        for (&c, &u) in self.free.iter().zip(x.iter()) {
-            let (lo, hi) = c.bounds();
-            self.values.set(c, u.clamp(lo, hi), &self.data.incidences);
+    fn cost(&mut self, x: &[f64]) -> Option<f64> {
+        if !self.set_params(x) {
+            return None;
         }
+        let mut c = 0.0;
+        for (o, w) in self.data.obs.iter().zip(&self.sqrt_w) {
+            let f = self.models[o.inc].eval(&o.geom).ok()?.f;
+            let r = self.residual(f, o.y) * w;
+            c += r * r;
+        }
+        Some(c)
     }
 
-    fn params(&self) -> DVector<f64> {
-        DVector::from_iterator(
-            self.free.len(),
-            self.free.iter().map(|&c| self.values.get(c)),
-        )
-    }
-
-    fn residuals(&self) -> Option<DVector<f64>> {
-        let r = self.raw_residuals()?;
-        Some(DVector::from_iterator(
-            r.len(),
-            r.iter().zip(&self.sqrt_w).map(|(r, w)| r * w),
-        ))
-    }
-
-    fn jacobian(&self) -> Option<DMatrix<f64>> {
-        let models = self.models()?;
-        let (m, n) = (self.data.obs.len(), self.free.len());
-        let mut j = DMatrix::zeros(m, n);
-        for (row, o) in self.data.obs.iter().enumerate() {
-            let (e, g) = models[o.inc].eval_with_gradient(&o.geom).ok()?;
-            let scale = self.sqrt_w[row]
-                * match self.residual {
+    fn rows<S: RowSink>(&mut self, x: &[f64], sink: &mut S) -> bool {
+        if !self.set_params(x) {
+            return false;
+        }
+        let ng = self.n_global;
+        let per_angle = self.free.len() > ng;
+        let mut jg = [0.0f64; 16];
+        for j in 0..self.data.incidences.len() {
+            let model = &self.models[j];
+            for &k in self.data.rows_of(j) {
+                let o = &self.data.obs[k];
+                let Ok((e, g)) = model.eval_with_gradient(&o.geom) else {
+                    return false;
+                };
+                let w = self.sqrt_w[k];
+                let scale = w * match self.residual {
                     Residual::Log => 1.0 / e.f.max(1e-300),
                     Residual::Relative => 1.0 / o.y,
                     Residual::Absolute => 1.0,
                 };
-            let t = o.theta_i / 90.0;
-            for (col, c) in self.free.iter().enumerate() {
-                let d = match *c {
-                    Coord::Sigma => g.ln_sigma,
-                    Coord::SigmaM => g.ln_sigma_m,
-                    Coord::Kdd => g.ln_kdd,
-                    Coord::Kid => g.ln_kid,
-                    Coord::Ks(k) if k == o.inc => g.ln_ks,
-                    Coord::Ks(_) => 0.0,
-                    Coord::KsPoly(p) => g.ln_ks * t.powi(p as i32),
-                };
-                j[(row, col)] = d * scale;
+                let t = o.theta_i / 90.0;
+                for (col, c) in self.free[..ng].iter().enumerate() {
+                    jg[col] = scale
+                        * match *c {
+                            Coord::Sigma => g.ln_sigma,
+                            Coord::SigmaM => g.ln_sigma_m,
+                            Coord::Kdd => g.ln_kdd,
+                            Coord::Kid => g.ln_kid,
+                            Coord::KsPoly(p) => g.ln_ks * t.powi(p as i32),
+                            Coord::Ks(_) => unreachable!("k_s per angle is local"),
+                        };
+                }
+                let r = w * residual_of(self.residual, e.f, o.y);
+                let jl = [g.ln_ks * scale];
+                sink.row(j, r, &jg[..ng], if per_angle { &jl } else { &[] });
             }
         }
-        Some(j)
+        true
+    }
+
+    fn project(&self, x: &mut [f64]) {
+        for (&c, u) in self.free.iter().zip(x.iter_mut()) {
+            let (lo, hi) = c.bounds();
+            *u = u.clamp(lo, hi);
+        }
     }
 }
 
 /// Initial values for a start: sigma and sigma_m given, the linear weights (k_s per
 /// incidence, k_dd, k_id) from a weighted (1/y) linear least-squares solve, and the cost
-/// of the result. The normal equations are accumulated row by row from their sparse
-/// structure (a row touches its incidence's k_s, k_dd and k_id), and the cost reuses
-/// the lobe values: one exp per lobe and point for the whole start.
+/// of the result. The normal equations have the same arrow shape as the fit's (k_dd and
+/// k_id global, each k_s local to its incidence) and are solved the same way. `spec`
+/// and `dd` are the unit lobes at every point for these widths (computed once per
+/// width by the caller and shared by the starts).
 fn linear_start(
     data: &Dataset,
     kind: Kind,
     fixed: &Fixed,
     residual: Residual,
-    sigma: f64,
-    sigma_m: f64,
+    (sigma, spec): (f64, &[f64]),
+    (sigma_m, dd): (f64, &[f64]),
 ) -> Option<(Values, f64)> {
     let n_inc = data.incidences.len();
     let kd_fixed = fixed.of(kind, Coord::Kid);
     let kdd_fixed = fixed.kdd;
-    let unit = Model::three_component(Params {
-        ks: 1.0,
-        sigma,
-        kdd: 1.0,
-        sigma_m,
-        kid: 1.0,
-    })
-    .ok()?;
-    let lobes: Vec<(f64, f64)> = data
-        .obs
-        .iter()
-        .map(|o| {
-            (
-                if kind.specular() {
-                    unit.specular(&o.geom)
-                } else {
-                    0.0
-                },
-                unit.directional(&o.geom),
-            )
-        })
-        .collect();
-    // Column layout: k_s per incidence, then k_dd, then k_id (fixed ones absent).
-    let ks_cols = if kind.specular() { n_inc } else { 0 };
-    let kdd_col = (kind.directional() && kdd_fixed.is_none()).then_some(ks_cols);
-    let kid_col = kd_fixed
-        .is_none()
-        .then_some(ks_cols + usize::from(kdd_col.is_some()));
-    let ncol = ks_cols + usize::from(kdd_col.is_some()) + usize::from(kid_col.is_some());
-    let mut ata = DMatrix::<f64>::zeros(ncol, ncol);
-    let mut atb = DVector::<f64>::zeros(ncol);
-    for (o, &(fs, fdd)) in data.obs.iter().zip(&lobes) {
-        let w = if o.y > 0.0 { 1.0 / o.y } else { 1.0 };
-        let mut entries = [(0usize, 0.0f64); 3];
-        let mut ne = 0;
-        if kind.specular() {
-            entries[ne] = (o.inc, fs * w);
-            ne += 1;
-        }
-        if let Some(c) = kdd_col {
-            entries[ne] = (c, fdd * w);
-            ne += 1;
-        }
-        if let Some(c) = kid_col {
-            entries[ne] = (c, w);
-            ne += 1;
-        }
-        let mut rhs = o.y;
-        if kind.directional() {
-            rhs -= kdd_fixed.unwrap_or(0.0) * fdd;
-        }
-        rhs -= kd_fixed.unwrap_or(0.0);
-        for &(a, va) in &entries[..ne] {
-            atb[a] += va * rhs * w;
-            for &(b, vb) in &entries[..ne] {
-                ata[(a, b)] += va * vb;
+    // Globals: k_dd, then k_id (fixed ones absent); one local k_s per incidence.
+    let kdd_col = (kind.directional() && kdd_fixed.is_none()).then_some(0);
+    let kid_col = kd_fixed.is_none().then_some(usize::from(kdd_col.is_some()));
+    let ng = usize::from(kdd_col.is_some()) + usize::from(kid_col.is_some());
+    let nl = usize::from(kind.specular());
+    let shape = Shape::new(ng, (0..n_inc).map(|_| nl));
+    let mut normal = Normal::new(shape.clone());
+    for j in 0..n_inc {
+        for &k in data.rows_of(j) {
+            let o = &data.obs[k];
+            let (fs, fdd) = (spec[k], dd[k]);
+            let w = if o.y > 0.0 { 1.0 / o.y } else { 1.0 };
+            let mut jg = [0.0; 2];
+            if let Some(c) = kdd_col {
+                jg[c] = fdd * w;
             }
+            if let Some(c) = kid_col {
+                jg[c] = w;
+            }
+            let mut rhs = o.y;
+            if kind.directional() {
+                rhs -= kdd_fixed.unwrap_or(0.0) * fdd;
+            }
+            rhs -= kd_fixed.unwrap_or(0.0);
+            // Residual at zero weights: -rhs w; the solve's step is the solution.
+            normal.row(j, -rhs * w, &jg[..ng], &[fs * w][..nl]);
         }
     }
-    let sol = solve_normal(ata, &atb)?;
+    let sol = solve_linear(&normal)?;
     let scale = data
         .obs
         .iter()
@@ -354,8 +399,8 @@ fn linear_start(
         kid: kid_col.map_or(kd_fixed.unwrap_or(0.0), |c| sol[c].max(floor)),
         ks: (0..n_inc)
             .map(|j| {
-                if j < ks_cols {
-                    sol[j].max(floor)
+                if nl == 1 {
+                    sol[shape.local_offset(j)].max(floor)
                 } else {
                     floor
                 }
@@ -375,7 +420,7 @@ fn linear_start(
     }
     let kdd = if kind.directional() { v.kdd } else { 0.0 };
     let mut cost = 0.0;
-    for (o, &(fs, fdd)) in data.obs.iter().zip(&lobes) {
+    for ((o, &fs), &fdd) in data.obs.iter().zip(spec).zip(dd) {
         let ks = if kind.specular() { v.ks[o.inc] } else { 0.0 };
         let r = residual_of(residual, ks * fs + kdd * fdd + v.kid, o.y);
         cost += r * r;
@@ -383,28 +428,24 @@ fn linear_start(
     Some((v, cost))
 }
 
-/// Solves the normal equations `A^T A x = A^T b` by Cholesky, with a tiny ridge when
-/// they are singular (a weight no point constrains).
-fn solve_normal(ata: DMatrix<f64>, atb: &DVector<f64>) -> Option<DVector<f64>> {
+/// Solves the normal equations `J^T J x = -J^T r` of a linear problem, with a tiny
+/// ridge (relative to each diagonal element) when they are singular (a weight no point
+/// constrains).
+fn solve_linear(normal: &Normal) -> Option<Vec<f64>> {
+    let d = normal.diagonal();
+    let mean = d.iter().sum::<f64>() / d.len().max(1) as f64;
+    let d: Vec<f64> = d
+        .iter()
+        .map(|&v| if v > 0.0 { v } else { mean.max(1e-300) })
+        .collect();
+    let mut ws = Workspace::default();
+    let mut x = vec![0.0; d.len()];
     for ridge in [0.0, 1e-12, 1e-8] {
-        let mut m = ata.clone();
-        let tr = (0..m.nrows()).map(|i| m[(i, i)]).sum::<f64>().max(1e-300);
-        for i in 0..m.nrows() {
-            m[(i, i)] += ridge * tr;
-        }
-        if let Some(ch) = m.cholesky() {
-            let x = ch.solve(atb);
-            if x.iter().all(|v| v.is_finite()) {
-                return Some(x);
-            }
+        if solve_damped(normal, &d, ridge, &mut ws, &mut x) {
+            return Some(x);
         }
     }
     None
-}
-
-fn cost(p: &Problem<'_>) -> f64 {
-    p.raw_residuals()
-        .map_or(f64::INFINITY, |r| r.iter().map(|x| x * x).sum())
 }
 
 /// Fits one model. `None` when the data cannot support it (fewer points than
@@ -439,44 +480,75 @@ pub fn fit_kind(data: &Dataset, kind: Kind, opts: &FitOptions) -> Option<Fit> {
         vec![opts.fixed.sigma.unwrap_or(1.0)]
     };
     // Rank every start by its cost after the linear solve; refine the best few.
+    // Each lobe depends on one width only: computed once per width, not per start.
+    let lobe = |on: bool, sigma: f64, sigma_m: f64, spec: bool| -> Option<Vec<f64>> {
+        let unit = Model::three_component(Params {
+            ks: 1.0,
+            sigma,
+            kdd: 1.0,
+            sigma_m,
+            kid: 1.0,
+        })
+        .ok()?;
+        Some(if !on {
+            vec![0.0; data.obs.len()]
+        } else if spec {
+            data.obs.iter().map(|o| unit.specular(&o.geom)).collect()
+        } else {
+            data.obs.iter().map(|o| unit.directional(&o.geom)).collect()
+        })
+    };
+    let specs: Vec<_> = sigmas
+        .iter()
+        .map(|&s| lobe(kind.specular(), s, 1.0, true))
+        .collect();
+    let dds: Vec<_> = sigma_ms
+        .iter()
+        .map(|&sm| lobe(kind.directional(), 1.0, sm, false))
+        .collect();
     let mut starts: Vec<(f64, Values)> = Vec::new();
-    for &s in &sigmas {
-        for &sm in &sigma_ms {
-            if let Some((v, c)) = linear_start(data, kind, &opts.fixed, opts.residual, s, sm) {
+    for (&s, spec) in sigmas.iter().zip(&specs) {
+        for (&sm, dd) in sigma_ms.iter().zip(&dds) {
+            let (Some(spec), Some(dd)) = (spec, dd) else {
+                continue;
+            };
+            if let Some((v, c)) =
+                linear_start(data, kind, &opts.fixed, opts.residual, (s, spec), (sm, dd))
+            {
                 starts.push((c, v));
             }
         }
     }
     starts.sort_by(|a, b| a.0.total_cmp(&b.0));
     let first = starts.first().map_or(f64::INFINITY, |s| s.0);
-    let mut best: Option<(f64, Problem<'_>, bool, usize)> = None;
+    let lm = LmOptions {
+        ftol: opts.tol,
+        xtol: opts.tol,
+        gtol: opts.tol * 1e-2,
+        ..LmOptions::default()
+    };
+    let mut best: Option<(f64, Problem<'_>, Normal, bool, usize)> = None;
     let competing = starts
         .into_iter()
         .enumerate()
         .filter(|(k, s)| *k == 0 || s.0 <= COMPETING_START * first);
     for (_, (_, v)) in competing.take(opts.refine.max(1)) {
-        let mut p = Problem {
-            data,
-            kind,
-            free: free.clone(),
-            values: v,
-            residual: opts.residual,
-            sqrt_w: vec![1.0; data.obs.len()],
-        };
+        let mut p = Problem::new(data, kind, free.clone(), v, opts.residual);
         let mut evals = 0;
         let mut converged = false;
+        let mut normal = None;
         // IRLS for robust losses: a few reweighted least-squares passes.
         let passes = if opts.loss == Loss::L2 { 1 } else { 6 };
         for _ in 0..passes {
-            let lm = LevenbergMarquardt::new()
-                .with_ftol(opts.tol)
-                .with_xtol(opts.tol)
-                .with_gtol(opts.tol * 1e-2)
-                .with_patience(60);
-            let (q, report) = lm.minimize(p);
-            p = q;
-            evals += report.number_of_evaluations;
-            converged = report.termination.was_successful();
+            let x0 = p.params();
+            let rep = minimize(&mut p, &x0, &lm);
+            evals += rep.evaluations;
+            converged = rep.termination.converged();
+            if !rep.cost.is_finite() {
+                break;
+            }
+            p.set_params(&rep.x);
+            normal = Some(rep.normal);
             if opts.loss != Loss::L2 {
                 let r = p.raw_residuals()?;
                 p.sqrt_w = r
@@ -485,13 +557,16 @@ pub fn fit_kind(data: &Dataset, kind: Kind, opts: &FitOptions) -> Option<Fit> {
                     .collect();
             }
         }
-        let c = cost(&p);
+        let Some(normal) = normal else { continue };
+        let c = p
+            .raw_residuals()
+            .map_or(f64::INFINITY, |r| r.iter().map(|x| x * x).sum());
         if c.is_finite() && best.as_ref().is_none_or(|b| c < b.0) {
-            best = Some((c, p, converged, evals));
+            best = Some((c, p, normal, converged, evals));
         }
     }
-    let (ssr, p, converged, evaluations) = best?;
-    Some(finish(p, ssr, converged, evaluations))
+    let (ssr, mut p, normal, converged, evaluations) = best?;
+    Some(finish(&mut p, normal, ssr, converged, evaluations))
 }
 
 fn robust_weight(loss: Loss, r: f64) -> f64 {
@@ -508,43 +583,36 @@ fn robust_weight(loss: Loss, r: f64) -> f64 {
     }
 }
 
-fn finish(p: Problem<'_>, ssr: f64, converged: bool, evaluations: usize) -> Fit {
+/// The covariance s^2 (J^T J)^-1 at the optimum, from the structured normal equations
+/// (with the weights of the last pass, as the old dense path did), and the RMSE.
+fn finish(
+    p: &mut Problem<'_>,
+    mut normal: Normal,
+    ssr: f64,
+    converged: bool,
+    evaluations: usize,
+) -> Fit {
     let n = p.data.obs.len();
     let k = p.free.len();
-    let jac = p.jacobian().unwrap_or_else(|| DMatrix::zeros(n, k));
-    // Covariance s^2 (J^T J)^-1 through the SVD of J; directions with singular values
-    // below 1e-8 of the largest are not determined by the data.
-    let svd = jac.clone().svd(false, true);
-    let v_t = svd.v_t.clone().unwrap_or_else(|| DMatrix::identity(k, k));
-    let smax = svd.singular_values.iter().cloned().fold(0.0, f64::max);
+    // The normal equations at the final weights (robust losses reweight after the
+    // last solve).
+    let x = p.params();
+    normal.clear();
+    if !p.rows(&x, &mut normal) {
+        normal.clear();
+    }
     let s2 = if n > k {
         ssr / (n - k) as f64
     } else {
         f64::NAN
     };
-    let mut cov = DMatrix::zeros(k, k);
-    let mut identifiable = vec![true; k];
-    for (idx, &sv) in svd.singular_values.iter().enumerate() {
-        let dir = v_t.row(idx);
-        if sv <= 1e-8 * smax || sv == 0.0 {
-            for (i, ok) in identifiable.iter_mut().enumerate() {
-                if dir[i].abs() > 1e-3 {
-                    *ok = false;
-                }
-            }
-            continue;
-        }
-        for i in 0..k {
-            for j in 0..k {
-                cov[(i, j)] += s2 * dir[i] * dir[j] / (sv * sv);
-            }
-        }
-    }
+    let cov = ArrowInverse::new(&normal).scaled(s2);
+    let identifiable = cov.identifiable().to_vec();
     let (rmse_by_inc, rmse) = paper_rmse(p.data, p.kind, &p.values);
     Fit {
         kind: p.kind,
-        values: p.values,
-        free: p.free,
+        values: p.values.clone(),
+        free: p.free.clone(),
         cov,
         identifiable,
         ssr,
@@ -558,6 +626,7 @@ fn finish(p: Problem<'_>, ssr: f64, converged: bool, evaluations: usize) -> Fit 
 
 /// RMSE as in the paper's Table 3: per incidence, measured values divided by the
 /// measured value at theta_r = theta_i, model values by the model's value there.
+/// One pass over the readings.
 pub fn paper_rmse(data: &Dataset, kind: Kind, v: &Values) -> (Vec<Option<f64>>, Option<f64>) {
     let mut per = Vec::with_capacity(data.incidences.len());
     let (mut sum, mut count) = (0.0, 0usize);
@@ -574,7 +643,8 @@ pub fn paper_rmse(data: &Dataset, kind: Kind, v: &Values) -> (Vec<Option<f64>>, 
             continue;
         };
         let (mut s, mut c) = (0.0, 0usize);
-        for o in data.obs.iter().filter(|o| o.inc == j) {
+        for &k in data.rows_of(j) {
+            let o = &data.obs[k];
             let f = model.eval(&o.geom).map(|e| e.f).unwrap_or(f64::NAN);
             let d = o.y / y_spec - f / f_spec;
             s += d * d;

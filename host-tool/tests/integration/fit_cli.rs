@@ -111,3 +111,50 @@ fn demo_recovers_the_sample_it_simulated() {
     assert!(pct.abs() < 2.0, "{line}");
     assert!(d.join("al-0.782-sweep.csv").is_file());
 }
+
+#[test]
+fn a_campaign_fits_every_sweep_and_skips_the_bad_one() {
+    let d = scratch("campaign");
+    let a = simulated(&d, "fe-0.115");
+    let sweeps = d.join("sweeps");
+    std::fs::create_dir_all(&sweeps).unwrap();
+    std::fs::copy(simulated(&d, "cu-0.070"), sweeps.join("cu.csv")).unwrap();
+    std::fs::write(sweeps.join("broken.csv"), b"theta_i,brdf\n1,2\n").unwrap();
+    let out = d.join("reports");
+    let o = gonio(&[
+        "fit",
+        a.to_str().unwrap(),
+        sweeps.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let err = &o.stderr;
+    assert_eq!(o.code, 1, "{err}");
+    assert!(
+        err.contains("broken.csv") && err.contains("missing column"),
+        "{err}"
+    );
+    let table = &o.stdout;
+    assert_eq!(table.lines().count(), 4, "{table}");
+    let summary = std::fs::read_to_string(out.join("summary.csv")).unwrap();
+    let rows: Vec<&str> = summary.lines().collect();
+    assert_eq!(rows.len(), 4, "{summary}");
+    assert!(rows[0].starts_with("file,status,selected,readings,incidences,sigma,sigma_se"));
+    assert!(rows[1].contains(",ok,three-component"), "{}", rows[1]);
+    assert!(rows[2].contains(",error,"), "{}", rows[2]);
+    assert!(rows[3].contains(",ok,three-component"), "{}", rows[3]);
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let sigma = v["files"][0]["params"]["sigma"]["value"].as_f64().unwrap();
+    assert!((sigma / 0.115 - 1.0).abs() < 0.02, "{sigma}");
+    assert!(out.join("fe-0.115.txt").is_file() && out.join("cu.txt").is_file());
+    // --plot needs one sweep.
+    let o = gonio(&[
+        "fit",
+        a.to_str().unwrap(),
+        a.to_str().unwrap(),
+        "--plot",
+        "x",
+    ]);
+    assert_eq!(o.code, 2);
+}

@@ -1,0 +1,775 @@
+//! Arrow-shaped normal equations: a few global columns touching every row plus a few
+//! local columns per group touching only that group's rows. `J^T J` is then a small
+//! dense global block, a global-local coupling per group and a block-diagonal local
+//! part; damped solves eliminate the local blocks (Schur complement) in
+//! O(rows + groups x globals^2), and the covariance comes from the same factors.
+//!
+//! Parameter order everywhere: the globals, then group 0's locals, group 1's, ...
+
+// The kernels index several small blocks with the same subscripts, as the formulas
+// in the comments do; iterator chains would hide that.
+#![allow(clippy::needless_range_loop)]
+
+use nalgebra::{DMatrix, SymmetricEigen};
+
+/// The column layout of an arrow problem.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Shape {
+    n_global: usize,
+    /// Cumulative local column counts: group k's locals are parameters
+    /// `n_global + local_start[k] .. n_global + local_start[k + 1]`.
+    local_start: Vec<usize>,
+    /// Offset of group k's `n_local^2` block in the local-block storage.
+    v_start: Vec<usize>,
+}
+
+impl Shape {
+    /// `n_global` global columns and one group per entry of `local_sizes` with that
+    /// many local columns (0 is allowed: a group of rows with globals only).
+    pub fn new(n_global: usize, local_sizes: impl IntoIterator<Item = usize>) -> Self {
+        let mut local_start = vec![0];
+        let mut v_start = vec![0];
+        for n in local_sizes {
+            local_start.push(local_start.last().unwrap() + n);
+            v_start.push(v_start.last().unwrap() + n * n);
+        }
+        Shape {
+            n_global,
+            local_start,
+            v_start,
+        }
+    }
+
+    /// Number of global columns.
+    pub fn n_global(&self) -> usize {
+        self.n_global
+    }
+
+    /// Number of groups.
+    pub fn groups(&self) -> usize {
+        self.local_start.len() - 1
+    }
+
+    /// Local columns of group `k`.
+    pub fn n_local(&self, k: usize) -> usize {
+        self.local_start[k + 1] - self.local_start[k]
+    }
+
+    /// All parameters.
+    pub fn n_params(&self) -> usize {
+        self.n_global + self.local_start[self.groups()]
+    }
+
+    /// Index of group `k`'s first local parameter in the parameter vector.
+    pub fn local_offset(&self, k: usize) -> usize {
+        self.n_global + self.local_start[k]
+    }
+
+    /// Largest local block.
+    fn max_local(&self) -> usize {
+        (0..self.groups())
+            .map(|k| self.n_local(k))
+            .max()
+            .unwrap_or(0)
+    }
+}
+
+/// Receives a problem's rows: residual `r`, its derivatives `jg` by the globals and
+/// `jl` by the locals of its group.
+pub trait RowSink {
+    /// One row of group `group`.
+    fn row(&mut self, group: usize, r: f64, jg: &[f64], jl: &[f64]);
+}
+
+/// `J^T J`, `J^T r` and `r^T r`, accumulated row by row in arrow form.
+#[derive(Debug, Clone)]
+pub struct Normal {
+    shape: Shape,
+    /// Global block, row-major `n_global x n_global`.
+    u: Vec<f64>,
+    /// Coupling per group, row-major `n_global x n_local(k)` at `n_global * local_start[k]`.
+    w: Vec<f64>,
+    /// Local blocks, row-major `n_local(k)^2` at `v_start[k]`.
+    v: Vec<f64>,
+    /// Gradient half: `J^T r`.
+    g: Vec<f64>,
+    /// Sum of squared residuals.
+    cost: f64,
+}
+
+impl Normal {
+    /// Zero normal equations of a shape. Memory: O(groups x globals x locals).
+    pub fn new(shape: Shape) -> Self {
+        let ng = shape.n_global;
+        let nl = shape.local_start[shape.groups()];
+        let nv = shape.v_start[shape.groups()];
+        Normal {
+            u: vec![0.0; ng * ng],
+            w: vec![0.0; ng * nl],
+            v: vec![0.0; nv],
+            g: vec![0.0; shape.n_params()],
+            cost: 0.0,
+            shape,
+        }
+    }
+
+    /// The layout.
+    pub fn shape(&self) -> &Shape {
+        &self.shape
+    }
+
+    /// Resets to zero (keeps the storage).
+    pub fn clear(&mut self) {
+        self.u.fill(0.0);
+        self.w.fill(0.0);
+        self.v.fill(0.0);
+        self.g.fill(0.0);
+        self.cost = 0.0;
+    }
+
+    /// `J^T r`.
+    pub fn gradient(&self) -> &[f64] {
+        &self.g
+    }
+
+    /// `r^T r` of the rows accumulated.
+    pub fn cost(&self) -> f64 {
+        self.cost
+    }
+
+    /// Diagonal element `i` of `J^T J`.
+    pub fn diag(&self, i: usize) -> f64 {
+        let ng = self.shape.n_global;
+        if i < ng {
+            return self.u[i * ng + i];
+        }
+        let li = i - ng;
+        let k = self.shape.local_start.partition_point(|&s| s <= li) - 1;
+        let nl = self.shape.n_local(k);
+        let a = li - self.shape.local_start[k];
+        self.v[self.shape.v_start[k] + a * nl + a]
+    }
+
+    /// The whole diagonal of `J^T J`, in O(parameters).
+    pub fn diagonal(&self) -> Vec<f64> {
+        let ng = self.shape.n_global;
+        let mut d: Vec<f64> = (0..ng).map(|i| self.u[i * ng + i]).collect();
+        for k in 0..self.shape.groups() {
+            let nl = self.shape.n_local(k);
+            let vb = self.shape.v_start[k];
+            d.extend((0..nl).map(|a| self.v[vb + a * nl + a]));
+        }
+        d
+    }
+
+    /// `x^T (J^T J) x`, in O(parameters x globals).
+    pub fn quad(&self, x: &[f64]) -> f64 {
+        let s = &self.shape;
+        let ng = s.n_global;
+        let xg = &x[..ng];
+        let mut q = 0.0;
+        for a in 0..ng {
+            for b in 0..ng {
+                q += xg[a] * self.u[a * ng + b] * xg[b];
+            }
+        }
+        for k in 0..s.groups() {
+            let nl = s.n_local(k);
+            if nl == 0 {
+                continue;
+            }
+            let xl = &x[s.local_offset(k)..s.local_offset(k) + nl];
+            let wb = ng * s.local_start[k];
+            let vb = s.v_start[k];
+            for a in 0..ng {
+                for l in 0..nl {
+                    q += 2.0 * xg[a] * self.w[wb + a * nl + l] * xl[l];
+                }
+            }
+            for l in 0..nl {
+                for m in 0..nl {
+                    q += xl[l] * self.v[vb + l * nl + m] * xl[m];
+                }
+            }
+        }
+        q
+    }
+}
+
+impl RowSink for Normal {
+    #[inline]
+    fn row(&mut self, group: usize, r: f64, jg: &[f64], jl: &[f64]) {
+        let s = &self.shape;
+        let ng = s.n_global;
+        let nl = jl.len();
+        debug_assert_eq!(jg.len(), ng);
+        debug_assert_eq!(nl, s.n_local(group));
+        self.cost += r * r;
+        for a in 0..ng {
+            let ja = jg[a];
+            self.g[a] += ja * r;
+            let row = &mut self.u[a * ng..a * ng + ng];
+            for (u, &jb) in row.iter_mut().zip(jg) {
+                *u += ja * jb;
+            }
+        }
+        if nl == 0 {
+            return;
+        }
+        let lo = s.local_offset(group);
+        let wb = ng * s.local_start[group];
+        let vb = s.v_start[group];
+        for l in 0..nl {
+            self.g[lo + l] += jl[l] * r;
+            for m in 0..nl {
+                self.v[vb + l * nl + m] += jl[l] * jl[m];
+            }
+        }
+        for a in 0..ng {
+            for l in 0..nl {
+                self.w[wb + a * nl + l] += jg[a] * jl[l];
+            }
+        }
+    }
+}
+
+/// In-place Cholesky of a row-major `n x n` symmetric positive definite matrix (lower
+/// triangle overwritten by L). False when a pivot is not positive.
+fn cholesky(a: &mut [f64], n: usize) -> bool {
+    for j in 0..n {
+        let mut d = a[j * n + j];
+        for k in 0..j {
+            d -= a[j * n + k] * a[j * n + k];
+        }
+        if !(d > 0.0 && d.is_finite()) {
+            return false;
+        }
+        let d = d.sqrt();
+        a[j * n + j] = d;
+        for i in j + 1..n {
+            let mut s = a[i * n + j];
+            for k in 0..j {
+                s -= a[i * n + k] * a[j * n + k];
+            }
+            a[i * n + j] = s / d;
+        }
+    }
+    true
+}
+
+/// Solves `L L^T x = b` in place with the factor from [`cholesky`].
+fn cholesky_solve(l: &[f64], n: usize, b: &mut [f64]) {
+    for i in 0..n {
+        let mut s = b[i];
+        for k in 0..i {
+            s -= l[i * n + k] * b[k];
+        }
+        b[i] = s / l[i * n + i];
+    }
+    for i in (0..n).rev() {
+        let mut s = b[i];
+        for k in i + 1..n {
+            s -= l[k * n + i] * b[k];
+        }
+        b[i] = s / l[i * n + i];
+    }
+}
+
+/// Reusable storage for damped solves (so an LM iteration allocates nothing).
+#[derive(Debug, Clone, Default)]
+pub struct Workspace {
+    /// Per group: `Y_k = M_k^-1 W_k^T` (n_local x n_global, row-major).
+    y: Vec<f64>,
+    /// Per group: `M_k^-1 (-g_k)`.
+    yl: Vec<f64>,
+    s: Vec<f64>,
+    m: Vec<f64>,
+    col: Vec<f64>,
+}
+
+/// Solves `(J^T J + lambda diag(d)) x = -J^T r` by eliminating every group's local
+/// block. False when the damped matrix is not positive definite (raise lambda).
+pub fn solve_damped(n: &Normal, d: &[f64], lambda: f64, ws: &mut Workspace, x: &mut [f64]) -> bool {
+    let s = &n.shape;
+    let ng = s.n_global;
+    let nl_total = s.local_start[s.groups()];
+    ws.y.resize(nl_total * ng, 0.0);
+    ws.yl.resize(nl_total, 0.0);
+    ws.s.clear();
+    ws.s.extend_from_slice(&n.u);
+    let maxl = s.max_local();
+    ws.m.resize(maxl * maxl, 0.0);
+    ws.col.resize(maxl, 0.0);
+    for a in 0..ng {
+        ws.s[a * ng + a] += lambda * d[a];
+        x[a] = -n.g[a];
+    }
+    for k in 0..s.groups() {
+        let nl = s.n_local(k);
+        if nl == 0 {
+            continue;
+        }
+        let lo = s.local_offset(k);
+        let ls = s.local_start[k];
+        let vb = s.v_start[k];
+        let wb = ng * ls;
+        let m = &mut ws.m[..nl * nl];
+        m.copy_from_slice(&n.v[vb..vb + nl * nl]);
+        for l in 0..nl {
+            m[l * nl + l] += lambda * d[lo + l];
+        }
+        if !cholesky(m, nl) {
+            return false;
+        }
+        // Y = M^-1 W^T, column by column (one column per global).
+        let y = &mut ws.y[ls * ng..(ls + nl) * ng];
+        for a in 0..ng {
+            let col = &mut ws.col[..nl];
+            for l in 0..nl {
+                col[l] = n.w[wb + a * nl + l];
+            }
+            cholesky_solve(m, nl, col);
+            for l in 0..nl {
+                y[l * ng + a] = col[l];
+            }
+        }
+        let yl = &mut ws.yl[ls..ls + nl];
+        for l in 0..nl {
+            yl[l] = -n.g[lo + l];
+        }
+        cholesky_solve(m, nl, yl);
+        // S -= W Y, rhs -= W yl.
+        for a in 0..ng {
+            let wa = &n.w[wb + a * nl..wb + a * nl + nl];
+            for b in 0..ng {
+                let mut t = 0.0;
+                for l in 0..nl {
+                    t += wa[l] * y[l * ng + b];
+                }
+                ws.s[a * ng + b] -= t;
+            }
+            let mut t = 0.0;
+            for l in 0..nl {
+                t += wa[l] * yl[l];
+            }
+            x[a] -= t;
+        }
+    }
+    if !cholesky(&mut ws.s, ng) {
+        return false;
+    }
+    cholesky_solve(&ws.s, ng, &mut x[..ng]);
+    let (xg, xl) = x.split_at_mut(ng);
+    for k in 0..s.groups() {
+        let nl = s.n_local(k);
+        let ls = s.local_start[k];
+        for l in 0..nl {
+            let yrow = &ws.y[(ls + l) * ng..(ls + l + 1) * ng];
+            let mut t = ws.yl[ls + l];
+            for a in 0..ng {
+                t -= yrow[a] * xg[a];
+            }
+            xl[ls + l] = t;
+        }
+    }
+    x.iter().all(|v| v.is_finite())
+}
+
+/// Eigenvalues below this fraction of the largest (of the diagonally scaled matrix,
+/// unit diagonal) are taken as directions the data do not determine: a scaled
+/// Jacobian's singular values below 1e-6 of its largest.
+pub const NULL_EIGEN: f64 = 1e-12;
+
+/// A null direction's component above this (of a unit vector) flags the parameter.
+const NULL_COMPONENT: f64 = 1e-3;
+
+/// The (pseudo-)inverse of an arrow `J^T J`, kept in factored form: memory
+/// O(groups x globals x locals), any element in O(globals^2).
+///
+/// With the diagonal scaling `D` (unit diagonal) and the Schur complement
+/// `S = U - sum_k W_k V_k^-1 W_k^T`, the inverse's blocks are `S^-1` (globals),
+/// `-S^-1 E_k^T` (global-local) and `delta_kl V_k^-1 + E_k S^-1 E_l^T` (locals), with
+/// `E_k = V_k^-1 W_k^T`. Directions the data do not determine (see [`NULL_EIGEN`]) are
+/// dropped (a pseudo-inverse) and their parameters flagged.
+#[derive(Debug, Clone)]
+pub struct ArrowInverse {
+    shape: Shape,
+    /// 1 / sqrt(diag), 0 for columns that are exactly zero.
+    inv_scale: Vec<f64>,
+    s_inv: Vec<f64>,
+    v_inv: Vec<f64>,
+    /// E_k per group, row-major n_local x n_global, at local_start[k] * n_global.
+    e: Vec<f64>,
+    /// Per parameter: determined by the data.
+    identifiable: Vec<bool>,
+    /// Multiplies every element (s^2 for a covariance).
+    factor: f64,
+}
+
+/// Symmetric pseudo-inverse of a row-major `n x n` matrix: eigenvalues below
+/// `NULL_EIGEN` of the largest are dropped; returns the inverse and the null vectors.
+fn pseudo_inverse(a: &[f64], n: usize) -> (Vec<f64>, Vec<Vec<f64>>) {
+    if n == 0 {
+        return (Vec::new(), Vec::new());
+    }
+    let m = DMatrix::from_row_slice(n, n, a);
+    let eig = SymmetricEigen::new(m);
+    let max = eig.eigenvalues.iter().cloned().fold(0.0, f64::max);
+    let mut inv = vec![0.0; n * n];
+    let mut null = Vec::new();
+    for (idx, &ev) in eig.eigenvalues.iter().enumerate() {
+        let v = eig.eigenvectors.column(idx);
+        if ev.is_nan() || ev <= NULL_EIGEN * max {
+            null.push(v.iter().copied().collect());
+            continue;
+        }
+        for i in 0..n {
+            for j in 0..n {
+                inv[i * n + j] += v[i] * v[j] / ev;
+            }
+        }
+    }
+    (inv, null)
+}
+
+impl ArrowInverse {
+    /// Inverts (pseudo-inverts) the `J^T J` of `n`.
+    pub fn new(n: &Normal) -> Self {
+        let s = &n.shape;
+        let ng = s.n_global;
+        let np = s.n_params();
+        let diag = n.diagonal();
+        let max_diag = diag.iter().cloned().fold(0.0, f64::max);
+        let mut identifiable = vec![true; np];
+        let inv_scale: Vec<f64> = diag
+            .iter()
+            .zip(identifiable.iter_mut())
+            .map(|(&d, ok)| {
+                if d > 1e-300 && d > 1e-30 * max_diag && d.is_finite() {
+                    1.0 / d.sqrt()
+                } else {
+                    *ok = false;
+                    0.0
+                }
+            })
+            .collect();
+        // Scaled blocks: entries times inv_scale of row and column.
+        let mut sm: Vec<f64> = (0..ng * ng)
+            .map(|ab| n.u[ab] * inv_scale[ab / ng] * inv_scale[ab % ng])
+            .collect();
+        for a in 0..ng {
+            if inv_scale[a] == 0.0 {
+                sm[a * ng + a] = 1.0; // a zero column: decoupled, flagged above
+            }
+        }
+        let nl_total = s.local_start[s.groups()];
+        let mut v_inv = vec![0.0; s.v_start[s.groups()]];
+        let mut e = vec![0.0; nl_total * ng];
+        let mut local_null: Vec<usize> = Vec::new();
+        let mut vk = Vec::new();
+        for k in 0..s.groups() {
+            let nl = s.n_local(k);
+            if nl == 0 {
+                continue;
+            }
+            let lo = s.local_offset(k);
+            let ls = s.local_start[k];
+            let vb = s.v_start[k];
+            let wb = ng * ls;
+            vk.clear();
+            for l in 0..nl {
+                for m in 0..nl {
+                    vk.push(n.v[vb + l * nl + m] * inv_scale[lo + l] * inv_scale[lo + m]);
+                }
+            }
+            for l in 0..nl {
+                if inv_scale[lo + l] == 0.0 {
+                    vk[l * nl + l] = 1.0;
+                }
+            }
+            let (vinv, null) = pseudo_inverse(&vk, nl);
+            for z in &null {
+                for (l, &c) in z.iter().enumerate() {
+                    if c.abs() > NULL_COMPONENT {
+                        local_null.push(lo + l);
+                    }
+                }
+            }
+            // E = V^+ W^T (scaled), S -= W E.
+            for l in 0..nl {
+                for a in 0..ng {
+                    let mut t = 0.0;
+                    for m in 0..nl {
+                        t += vinv[l * nl + m]
+                            * n.w[wb + a * nl + m]
+                            * inv_scale[a]
+                            * inv_scale[lo + m];
+                    }
+                    e[(ls + l) * ng + a] = t;
+                }
+            }
+            for a in 0..ng {
+                for b in 0..ng {
+                    let mut t = 0.0;
+                    for l in 0..nl {
+                        t += n.w[wb + a * nl + l]
+                            * inv_scale[a]
+                            * inv_scale[lo + l]
+                            * e[(ls + l) * ng + b];
+                    }
+                    sm[a * ng + b] -= t;
+                }
+            }
+            v_inv[vb..vb + nl * nl].copy_from_slice(&vinv);
+        }
+        for i in local_null {
+            identifiable[i] = false;
+        }
+        let (s_inv, null) = pseudo_inverse(&sm, ng);
+        // A null direction z of S is the null direction (z, -E_k z for every k) of the
+        // whole matrix: flag every parameter with a large component in it.
+        for z in &null {
+            let mut full = vec![0.0; np];
+            full[..ng].copy_from_slice(z);
+            for (li, f) in full[ng..].iter_mut().enumerate() {
+                let er = &e[li * ng..(li + 1) * ng];
+                *f = -er.iter().zip(z).map(|(a, b)| a * b).sum::<f64>();
+            }
+            let norm = full.iter().map(|v| v * v).sum::<f64>().sqrt().max(1e-300);
+            for (i, f) in full.iter().enumerate() {
+                if (f / norm).abs() > NULL_COMPONENT {
+                    identifiable[i] = false;
+                }
+            }
+        }
+        ArrowInverse {
+            shape: s.clone(),
+            inv_scale,
+            s_inv,
+            v_inv,
+            e,
+            identifiable,
+            factor: 1.0,
+        }
+    }
+
+    /// The same inverse times `factor` (a covariance: `s^2 (J^T J)^-1`).
+    pub fn scaled(mut self, factor: f64) -> Self {
+        self.factor *= factor;
+        self
+    }
+
+    /// Number of parameters.
+    pub fn len(&self) -> usize {
+        self.shape.n_params()
+    }
+
+    /// No parameters at all.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Per parameter: determined by the data.
+    pub fn identifiable(&self) -> &[bool] {
+        &self.identifiable
+    }
+
+    /// Group of local index `li` (parameter `n_global + li`) and its index in the group.
+    fn locate(&self, li: usize) -> (usize, usize) {
+        let k = self.shape.local_start.partition_point(|&s| s <= li) - 1;
+        (k, li - self.shape.local_start[k])
+    }
+
+    /// Element `(i, j)` of the inverse (times the factor).
+    pub fn get(&self, i: usize, j: usize) -> f64 {
+        let ng = self.shape.n_global;
+        let sc = self.inv_scale[i] * self.inv_scale[j] * self.factor;
+        if sc == 0.0 {
+            return 0.0;
+        }
+        let si = |a: usize, b: usize| self.s_inv[a * ng + b];
+        let erow = |li: usize| &self.e[li * ng..(li + 1) * ng];
+        let scaled = match (i < ng, j < ng) {
+            (true, true) => si(i, j),
+            (true, false) | (false, true) => {
+                let (a, li) = if i < ng { (i, j - ng) } else { (j, i - ng) };
+                let er = erow(li);
+                -(0..ng).map(|b| si(a, b) * er[b]).sum::<f64>()
+            }
+            (false, false) => {
+                let (li, lj) = (i - ng, j - ng);
+                let (ei, ej) = (erow(li), erow(lj));
+                let mut t = 0.0;
+                for a in 0..ng {
+                    for b in 0..ng {
+                        t += ei[a] * si(a, b) * ej[b];
+                    }
+                }
+                let (ki, ai) = self.locate(li);
+                let (kj, aj) = self.locate(lj);
+                if ki == kj {
+                    let nl = self.shape.n_local(ki);
+                    t += self.v_inv[self.shape.v_start[ki] + ai * nl + aj];
+                }
+                t
+            }
+        };
+        scaled * sc
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use brdf_core::sim::XorShift32;
+    use nalgebra::DVector;
+
+    /// A random arrow problem: its shape, the group of each row, dense J and r.
+    struct Random {
+        shape: Shape,
+        group_of: Vec<usize>,
+        j: DMatrix<f64>,
+        r: DVector<f64>,
+    }
+
+    fn random_problem(seed: u32, ng: usize, locals: &[usize]) -> Random {
+        let mut rng = XorShift32::new(seed);
+        let shape = Shape::new(ng, locals.iter().copied());
+        let group_of: Vec<usize> = locals
+            .iter()
+            .enumerate()
+            .flat_map(|(k, &nl)| std::iter::repeat_n(k, nl + 2 + seed as usize % 3))
+            .collect();
+        let m = group_of.len();
+        let mut j = DMatrix::zeros(m, shape.n_params());
+        let mut r = DVector::zeros(m);
+        for (row, &k) in group_of.iter().enumerate() {
+            for a in 0..ng {
+                j[(row, a)] = rng.normal() as f64;
+            }
+            for l in 0..locals[k] {
+                j[(row, shape.local_offset(k) + l)] = rng.normal() as f64 * 3.0;
+            }
+            r[row] = rng.normal() as f64;
+        }
+        Random {
+            shape,
+            group_of,
+            j,
+            r,
+        }
+    }
+
+    fn accumulate(p: &Random) -> Normal {
+        let mut n = Normal::new(p.shape.clone());
+        let ng = p.shape.n_global();
+        for (row, &g) in p.group_of.iter().enumerate() {
+            let jg: Vec<f64> = (0..ng).map(|a| p.j[(row, a)]).collect();
+            let lo = p.shape.local_offset(g);
+            let jl: Vec<f64> = (0..p.shape.n_local(g))
+                .map(|l| p.j[(row, lo + l)])
+                .collect();
+            n.row(g, p.r[row], &jg, &jl);
+        }
+        n
+    }
+
+    const CASES: [(u32, usize, &[usize]); 5] = [
+        (1, 3, &[1, 1, 1, 1]),
+        (2, 4, &[1, 2, 0, 3, 1]),
+        (3, 1, &[2, 2]),
+        (4, 5, &[0, 0, 0]),
+        (5, 2, &[1; 12]),
+    ];
+
+    #[test]
+    fn damped_solve_equals_the_dense_solve() {
+        for (seed, ng, locals) in CASES {
+            let p = random_problem(seed, ng, locals);
+            let n = accumulate(&p);
+            let (shape, j, r) = (&p.shape, &p.j, &p.r);
+            let jtj = j.transpose() * j;
+            let g = j.transpose() * r;
+            assert!((n.cost() - r.norm_squared()).abs() < 1e-12 * r.norm_squared());
+            let d = n.diagonal();
+            for (i, di) in d.iter().enumerate() {
+                assert!((di - jtj[(i, i)]).abs() < 1e-12 * jtj[(i, i)].max(1.0));
+            }
+            for lambda in [0.0, 1e-3, 1.0, 100.0] {
+                let mut a = jtj.clone();
+                for i in 0..a.nrows() {
+                    a[(i, i)] += lambda * d[i];
+                }
+                let dense = a.clone().cholesky().unwrap().solve(&(-&g));
+                let mut x = vec![0.0; shape.n_params()];
+                assert!(solve_damped(
+                    &n,
+                    &d,
+                    lambda,
+                    &mut Workspace::default(),
+                    &mut x
+                ));
+                let err = x
+                    .iter()
+                    .zip(dense.iter())
+                    .map(|(a, b)| (a - b).abs())
+                    .fold(0.0, f64::max);
+                let scale = dense.amax().max(1.0);
+                assert!(err < 1e-10 * scale, "seed {seed} lambda {lambda}: {err:e}");
+                let q = n.quad(&x);
+                let qd =
+                    (DVector::from_vec(x.clone()).transpose() * &jtj * DVector::from_vec(x))[0];
+                assert!((q - qd).abs() < 1e-10 * qd.abs().max(1.0));
+            }
+        }
+    }
+
+    #[test]
+    fn inverse_equals_the_dense_inverse() {
+        for (seed, ng, locals) in CASES {
+            let p = random_problem(seed, ng, locals);
+            let n = accumulate(&p);
+            let (shape, j) = (&p.shape, &p.j);
+            let jtj = j.transpose() * j;
+            let dense = jtj.clone().try_inverse().unwrap();
+            let inv = ArrowInverse::new(&n).scaled(2.5);
+            assert!(inv.identifiable().iter().all(|&ok| ok));
+            let np = shape.n_params();
+            for a in 0..np {
+                for b in 0..np {
+                    let want = 2.5 * dense[(a, b)];
+                    let scale = 2.5 * (dense[(a, a)] * dense[(b, b)]).sqrt();
+                    let got = inv.get(a, b);
+                    assert!(
+                        (got - want).abs() < 1e-10 * scale,
+                        "seed {seed} ({a},{b}): {got} vs {want}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn undetermined_directions_are_flagged_not_inverted() {
+        // Group 1's local column duplicates global 0 on its rows only: fine. A global
+        // column identical to another is not.
+        let mut p = random_problem(7, 3, &[1, 1, 1]);
+        for row in 0..p.j.nrows() {
+            p.j[(row, 2)] = 2.0 * p.j[(row, 1)];
+        }
+        let n = accumulate(&p);
+        let inv = ArrowInverse::new(&n);
+        let ok = inv.identifiable();
+        assert!(ok[0] && !ok[1] && !ok[2], "{ok:?}");
+        // A column of zeros.
+        let mut p = random_problem(8, 2, &[1, 1]);
+        let c = p.shape.local_offset(1);
+        for row in 0..p.j.nrows() {
+            p.j[(row, c)] = 0.0;
+        }
+        let n = accumulate(&p);
+        let inv = ArrowInverse::new(&n);
+        assert_eq!(inv.identifiable(), &[true, true, true, false]);
+        assert_eq!(inv.get(3, 3), 0.0);
+    }
+}

@@ -1,0 +1,423 @@
+//! Fitting many sweep files at once: each file read, checked and fitted on all cores
+//! (rayon), one report each, and a summary table (CSV and JSON) of the selected models.
+//! A bad file is recorded with its reason and never stops the others.
+
+use std::collections::HashSet;
+use std::fmt;
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::path::{Path, PathBuf};
+
+use rayon::prelude::*;
+use serde_json::{Value, json};
+
+use super::family::{Coord, Kind, scalar_coords};
+use super::report::{family_json_text, family_table, scalar};
+use super::{Dataset, FamilyFit, FitOptions, Residual, fit_family};
+use crate::sweep_file::{looks_like_radians, read_sweep};
+
+/// Why one file could not be fitted.
+#[derive(Debug, Clone, PartialEq)]
+pub enum FileError {
+    /// The file cannot be read or its readings cannot be fitted as they are (bad input).
+    Input(String),
+    /// The readings are valid but no model could be fitted.
+    Fit(String),
+}
+
+impl fmt::Display for FileError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            FileError::Input(m) | FileError::Fit(m) => f.write_str(m),
+        }
+    }
+}
+
+/// One sweep file fitted.
+#[derive(Debug, Clone)]
+pub struct SweepFit {
+    /// The data as fitted.
+    pub data: Dataset,
+    /// Every model fitted, and the selection.
+    pub family: FamilyFit,
+    /// Things worth telling that did not stop the fit (angles that look like radians).
+    pub warnings: Vec<String>,
+}
+
+/// Reads, checks and fits one sweep file; every message starts with the path.
+pub fn fit_sweep_file(
+    path: &Path,
+    opts: &FitOptions,
+    kinds: &[Kind],
+) -> Result<SweepFit, FileError> {
+    let sweep = read_sweep(path).map_err(|e| FileError::Input(e.to_string()))?;
+    if sweep.rows.is_empty() {
+        return Err(FileError::Input(format!("{}: no readings", path.display())));
+    }
+    let mut warnings = Vec::new();
+    if let Some(max) = looks_like_radians(&sweep.rows) {
+        warnings.push(format!(
+            "every angle in {} is within {max:.3}: are they radians? gonio reads degrees",
+            path.display()
+        ));
+    }
+    let data = Dataset::from_rows(&sweep.rows, opts.residual != Residual::Absolute)
+        .map_err(|e| FileError::Input(format!("{}: {}", path.display(), e.0)))?;
+    let family = fit_family(&data, opts, kinds)
+        .map_err(|e| FileError::Fit(format!("{}: {e}", path.display())))?;
+    Ok(SweepFit {
+        data,
+        family,
+        warnings,
+    })
+}
+
+/// One file of a campaign and what came of it.
+#[derive(Debug, Clone)]
+pub struct CampaignFile {
+    /// The file.
+    pub path: PathBuf,
+    /// The fit, or why there is none.
+    pub outcome: Result<SweepFit, FileError>,
+}
+
+/// The sweep files named: files as given, directories expanded to their `*.csv`
+/// files (not recursively), sorted by name. A directory without any is an error; a
+/// file that does not exist is kept (it is reported as a bad file, like any other).
+pub fn expand_inputs(paths: &[PathBuf]) -> Result<Vec<PathBuf>, String> {
+    let mut out = Vec::new();
+    for p in paths {
+        if p.is_dir() {
+            let entries =
+                std::fs::read_dir(p).map_err(|e| format!("cannot read {}: {e}", p.display()))?;
+            let mut csv: Vec<PathBuf> = entries
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|f| {
+                    f.is_file() && f.extension().is_some_and(|x| x.eq_ignore_ascii_case("csv"))
+                })
+                .collect();
+            if csv.is_empty() {
+                return Err(format!("{}: no .csv sweep files in it", p.display()));
+            }
+            csv.sort();
+            out.extend(csv);
+        } else {
+            out.push(p.clone());
+        }
+    }
+    Ok(out)
+}
+
+/// Fits every file on all cores, in input order; `done(path, ok)` is called as each
+/// finishes (from worker threads). A panic while fitting one file is caught and
+/// recorded as that file's failure.
+pub fn fit_files(
+    files: &[PathBuf],
+    opts: &FitOptions,
+    kinds: &[Kind],
+    done: &(dyn Fn(&Path, bool) + Sync),
+) -> Vec<CampaignFile> {
+    files
+        .par_iter()
+        .map(|path| {
+            let outcome = catch_unwind(AssertUnwindSafe(|| fit_sweep_file(path, opts, kinds)))
+                .unwrap_or_else(|_| {
+                    Err(FileError::Fit(format!(
+                        "{}: internal error while fitting (please report it)",
+                        path.display()
+                    )))
+                });
+            done(path, outcome.is_ok());
+            CampaignFile {
+                path: path.clone(),
+                outcome,
+            }
+        })
+        .collect()
+}
+
+/// Report file names, one per file (`None` for failures): the file's stem plus
+/// `ext`, made unique with `-2`, `-3`... when stems repeat.
+pub fn report_names(files: &[CampaignFile], ext: &str) -> Vec<Option<String>> {
+    let mut used = HashSet::new();
+    used.insert(format!("summary.{ext}"));
+    files
+        .iter()
+        .map(|f| {
+            f.outcome.as_ref().ok()?;
+            let stem = f
+                .path
+                .file_stem()
+                .map_or("sweep".into(), |s| s.to_string_lossy().into_owned());
+            let mut name = format!("{stem}.{ext}");
+            let mut k = 2;
+            while !used.insert(name.clone()) {
+                name = format!("{stem}-{k}.{ext}");
+                k += 1;
+            }
+            Some(name)
+        })
+        .collect()
+}
+
+/// Writes one report per fitted file into `dir` (the `gonio fit` table, or its JSON
+/// with `json`), plus `summary.csv` and `summary.json`. Returns the summary paths.
+pub fn write_reports(
+    dir: &Path,
+    files: &[CampaignFile],
+    json: bool,
+    residual: &str,
+) -> Result<(PathBuf, PathBuf), String> {
+    let io = |p: &Path, e: std::io::Error| format!("cannot write {}: {e}", p.display());
+    std::fs::create_dir_all(dir).map_err(|e| io(dir, e))?;
+    let names = report_names(files, if json { "json" } else { "txt" });
+    for (f, name) in files.iter().zip(&names) {
+        let (Ok(fit), Some(name)) = (&f.outcome, name) else {
+            continue;
+        };
+        let text = if json {
+            family_json_text(&fit.family)
+        } else {
+            family_table(&fit.family, residual).into_bytes()
+        };
+        let p = dir.join(name);
+        std::fs::write(&p, text).map_err(|e| io(&p, e))?;
+    }
+    let csv = dir.join("summary.csv");
+    std::fs::write(&csv, summary_csv(files, &names)).map_err(|e| io(&csv, e))?;
+    let js = dir.join("summary.json");
+    let mut s = serde_json::to_string_pretty(&summary_json(files, &names)).expect("JSON");
+    s.push('\n');
+    std::fs::write(&js, s).map_err(|e| io(&js, e))?;
+    Ok((csv, js))
+}
+
+/// The parameters the summary reports, by name.
+const KEY_PARAMS: [&str; 5] = ["sigma", "sigma_m", "k_dd", "k_id", "k_d"];
+
+/// Name, value and standard error of the selected model's scalar parameters.
+fn key_params(fam: &FamilyFit) -> Vec<(&'static str, f64, Option<f64>)> {
+    let Some(fit) = fam.get(fam.selected) else {
+        return Vec::new();
+    };
+    scalar_coords(fit.kind)
+        .into_iter()
+        .map(|c| {
+            let name = match c {
+                Coord::Sigma => "sigma",
+                Coord::SigmaM => "sigma_m",
+                Coord::Kdd => "k_dd",
+                Coord::Kid if fit.kind == Kind::TorranceSparrow => "k_d",
+                _ => "k_id",
+            };
+            let (v, se) = scalar(fit, c);
+            (name, v, se)
+        })
+        .collect()
+}
+
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+/// The summary as CSV: one row per file, in input order. Columns: file, status (ok or
+/// error), selected model, readings, incidences, each key parameter and its standard
+/// error (empty when the model has none), the paper's RMSE, fit seconds, the report's
+/// file name, the error message.
+pub fn summary_csv(files: &[CampaignFile], names: &[Option<String>]) -> String {
+    let mut out = String::from("file,status,selected,readings,incidences");
+    for p in KEY_PARAMS {
+        out.push_str(&format!(",{p},{p}_se"));
+    }
+    out.push_str(",rmse,fit_seconds,report,error\n");
+    let num = |x: Option<f64>| {
+        x.filter(|v| v.is_finite())
+            .map_or(String::new(), |v| format!("{v:e}"))
+    };
+    for (f, name) in files.iter().zip(names) {
+        let mut row = vec![csv_field(&f.path.display().to_string())];
+        match &f.outcome {
+            Ok(fit) => {
+                let fam = &fit.family;
+                row.push("ok".into());
+                row.push(fam.selected.name().into());
+                row.push(fit.data.obs.len().to_string());
+                row.push(fit.data.incidences.len().to_string());
+                let kp = key_params(fam);
+                for p in KEY_PARAMS {
+                    let hit = kp.iter().find(|(n, _, _)| *n == p);
+                    row.push(num(hit.map(|h| h.1)));
+                    row.push(num(hit.and_then(|h| h.2)));
+                }
+                row.push(num(fam.get(fam.selected).and_then(|x| x.rmse)));
+                row.push(num(Some(fam.fit_seconds)));
+                row.push(csv_field(name.as_deref().unwrap_or("")));
+                row.push(String::new());
+            }
+            Err(e) => {
+                row.push("error".into());
+                row.extend(std::iter::repeat_n(
+                    String::new(),
+                    3 + 2 * KEY_PARAMS.len() + 3,
+                ));
+                row.push(csv_field(&e.to_string()));
+            }
+        }
+        out.push_str(&row.join(","));
+        out.push('\n');
+    }
+    out
+}
+
+/// The summary as JSON: `{"files": [...], "fitted": n, "failed": m}`, each file with
+/// `file`, `status`, and either `selected`, `readings`, `incidences`, `params`
+/// (`{name: {"value", "se"}}`), `rmse`, `fit_seconds`, `report`, or `error`.
+pub fn summary_json(files: &[CampaignFile], names: &[Option<String>]) -> Value {
+    let num = |x: f64| if x.is_finite() { json!(x) } else { Value::Null };
+    let rows: Vec<Value> = files
+        .iter()
+        .zip(names)
+        .map(|(f, name)| match &f.outcome {
+            Ok(fit) => {
+                let fam = &fit.family;
+                let mut params = serde_json::Map::new();
+                for (n, v, se) in key_params(fam) {
+                    params.insert(
+                        n.into(),
+                        json!({"value": num(v), "se": se.map_or(Value::Null, num)}),
+                    );
+                }
+                json!({
+                    "file": f.path.display().to_string(),
+                    "status": "ok",
+                    "selected": fam.selected.name(),
+                    "readings": fit.data.obs.len(),
+                    "incidences": fit.data.incidences.len(),
+                    "params": params,
+                    "rmse": fam.get(fam.selected).and_then(|x| x.rmse).map_or(Value::Null, num),
+                    "fit_seconds": num(fam.fit_seconds),
+                    "report": name,
+                    "warnings": fit.warnings,
+                })
+            }
+            Err(e) => json!({
+                "file": f.path.display().to_string(),
+                "status": "error",
+                "error": e.to_string(),
+            }),
+        })
+        .collect();
+    let failed = files.iter().filter(|f| f.outcome.is_err()).count();
+    json!({
+        "files": rows,
+        "fitted": files.len() - failed,
+        "failed": failed,
+    })
+}
+
+/// A short aligned table of the summary for a terminal.
+pub fn summary_table(files: &[CampaignFile]) -> String {
+    use std::fmt::Write;
+    let mut out = String::new();
+    let width = files
+        .iter()
+        .map(|f| f.path.display().to_string().chars().count())
+        .max()
+        .unwrap_or(4)
+        .clamp(4, 60);
+    let _ = writeln!(
+        out,
+        "{:<width$}  {:<26}  {:>22}  {:>8}",
+        "file", "selected", "sigma", "RMSE"
+    );
+    for f in files {
+        let name = f.path.display().to_string();
+        match &f.outcome {
+            Ok(fit) => {
+                let fam = &fit.family;
+                let sigma = key_params(fam)
+                    .into_iter()
+                    .find(|p| p.0 == "sigma")
+                    .map_or("-".into(), |(_, v, se)| {
+                        super::report::fmt_se(v, se).trim().to_string()
+                    });
+                let rmse = fam
+                    .get(fam.selected)
+                    .and_then(|x| x.rmse)
+                    .map_or("n/d".into(), |r| format!("{r:.4}"));
+                let _ = writeln!(
+                    out,
+                    "{name:<width$}  {:<26}  {sigma:>22}  {rmse:>8}",
+                    fam.selected.name()
+                );
+            }
+            Err(e) => {
+                let _ = writeln!(out, "{name:<width$}  error: {e}");
+            }
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fit::data::synthetic_paper_sweep;
+    use brdf_core::Preset;
+
+    fn write_sweep(dir: &Path, name: &str, material: &str, seed: u32) -> PathBuf {
+        let p = Preset::by_name(material).unwrap();
+        let rows = synthetic_paper_sweep(|ti| p.model(ti).unwrap(), 0.005, seed);
+        let mut s = String::from("theta_i,theta_r,brdf\n");
+        for r in rows {
+            s.push_str(&format!("{},{},{}\n", r.theta_i, r.theta_r, r.brdf));
+        }
+        let path = dir.join(name);
+        std::fs::write(&path, s).unwrap();
+        path
+    }
+
+    #[test]
+    fn a_bad_file_is_reported_and_the_others_are_fitted() {
+        let dir = std::env::temp_dir().join(format!("gonio-campaign-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(dir.join("in")).unwrap();
+        let a = write_sweep(&dir.join("in"), "a.csv", "fe-0.115", 1);
+        write_sweep(&dir.join("in"), "b.csv", "cu-0.070", 2);
+        std::fs::write(dir.join("in/bad.csv"), "theta_i,theta_r,brdf\n10,0,-1\n").unwrap();
+        let inputs = expand_inputs(&[dir.join("in"), a.clone(), dir.join("missing.csv")]).unwrap();
+        assert_eq!(inputs.len(), 5);
+        let files = fit_files(&inputs, &FitOptions::default(), &Kind::ALL, &|_, _| {});
+        let status: Vec<bool> = files.iter().map(|f| f.outcome.is_ok()).collect();
+        assert_eq!(status, [true, true, false, true, false]);
+        let sigma = |i: usize| {
+            let fam = &files[i].outcome.as_ref().unwrap().family;
+            fam.get(fam.selected).unwrap().values.sigma
+        };
+        assert!((sigma(0) / 0.115 - 1.0).abs() < 0.02);
+        assert!((sigma(1) / 0.070 - 1.0).abs() < 0.02);
+        let (csv, js) = write_reports(&dir.join("out"), &files, false, "log").unwrap();
+        let text = std::fs::read_to_string(csv).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines.len(), 6);
+        assert!(
+            lines[3].contains(",error,") && lines[3].contains("at least 3"),
+            "{}",
+            lines[3]
+        );
+        assert!(lines[5].contains("cannot read"), "{}", lines[5]);
+        // Two inputs share the stem "a": the second report is a-2.txt.
+        assert!(dir.join("out/a.txt").is_file() && dir.join("out/a-2.txt").is_file());
+        let v: Value = serde_json::from_str(&std::fs::read_to_string(js).unwrap()).unwrap();
+        assert_eq!(
+            (v["fitted"].as_u64(), v["failed"].as_u64()),
+            (Some(3), Some(2))
+        );
+        assert!(v["files"][0]["params"]["sigma"]["se"].as_f64().unwrap() > 0.0);
+        let _ = std::fs::remove_dir_all(&dir);
+        assert!(expand_inputs(&[std::env::temp_dir().join("gonio-no-such-dir-x")]).is_ok());
+    }
+}

@@ -1,0 +1,375 @@
+//! Levenberg–Marquardt over arrow-shaped least-squares problems: Marquardt scaling by
+//! the diagonal of `J^T J`, step acceptance by the gain ratio (actual over predicted
+//! reduction) with Nielsen's damping update, and MINPACK's convergence tests on the
+//! cost, the step and the gradient. Each iteration costs one pass over the rows and an
+//! O(groups x globals^2) solve ([`super::arrow`]); nothing is rows x parameters.
+
+use super::arrow::{Normal, RowSink, Shape, Workspace, solve_damped};
+
+/// A least-squares problem whose Jacobian has arrow shape (see [`super::arrow`]).
+pub trait ArrowProblem {
+    /// The column layout; parameters are ordered globals first, then each group's locals.
+    fn shape(&self) -> &Shape;
+    /// The sum of squared residuals at `x`; `None` where the model cannot be evaluated.
+    fn cost(&mut self, x: &[f64]) -> Option<f64>;
+    /// Streams every row's residual and Jacobian blocks at `x` to `sink`; false where the
+    /// model cannot be evaluated.
+    fn rows<S: RowSink>(&mut self, x: &[f64], sink: &mut S) -> bool;
+    /// Moves `x` onto the feasible set (box bounds); the default has none.
+    fn project(&self, _x: &mut [f64]) {}
+}
+
+/// Tolerances and limits.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LmOptions {
+    /// Stop when the actual and predicted relative reductions of the cost are both
+    /// below this.
+    pub ftol: f64,
+    /// Stop when the scaled step is below this fraction of the scaled parameters.
+    pub xtol: f64,
+    /// Stop when every scaled gradient component (the cosine between the residual
+    /// vector and a Jacobian column) is below this.
+    pub gtol: f64,
+    /// At most this many steps tried.
+    pub max_iterations: usize,
+}
+
+impl Default for LmOptions {
+    fn default() -> Self {
+        LmOptions {
+            ftol: 1e-10,
+            xtol: 1e-10,
+            gtol: 1e-12,
+            max_iterations: 300,
+        }
+    }
+}
+
+/// Why the iteration stopped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Termination {
+    /// The cost no longer decreases (ftol), or is exactly zero.
+    Cost,
+    /// The step is negligible against the parameters (xtol).
+    Step,
+    /// The gradient is orthogonal to the residuals (gtol).
+    Gradient,
+    /// Iteration limit reached.
+    MaxIterations,
+    /// No step reduced the cost even with the largest damping.
+    NoProgress,
+    /// The model cannot be evaluated at the start.
+    Failed,
+}
+
+impl Termination {
+    /// One of the convergence tests was met.
+    pub fn converged(self) -> bool {
+        matches!(
+            self,
+            Termination::Cost | Termination::Step | Termination::Gradient
+        )
+    }
+}
+
+/// The outcome of [`minimize`].
+#[derive(Debug, Clone)]
+pub struct LmReport {
+    /// The parameters reached.
+    pub x: Vec<f64>,
+    /// Sum of squared residuals there.
+    pub cost: f64,
+    /// The normal equations at `x` (for the covariance).
+    pub normal: Normal,
+    /// Why it stopped.
+    pub termination: Termination,
+    /// Steps tried.
+    pub iterations: usize,
+    /// Cost evaluations plus Jacobian evaluations.
+    pub evaluations: usize,
+}
+
+/// Marquardt's scaling: the diagonal of `J^T J`, zero columns scaled by 1.
+fn update_scale(d: &mut [f64], diag: &[f64]) {
+    for (di, &ni) in d.iter_mut().zip(diag) {
+        // A running maximum (as MINPACK) keeps the scaling from collapsing when a
+        // column shrinks along the path.
+        *di = di.max(ni);
+    }
+}
+
+/// Minimises the sum of squared residuals of `p` from `x0`.
+pub fn minimize<P: ArrowProblem>(p: &mut P, x0: &[f64], opts: &LmOptions) -> LmReport {
+    let shape = p.shape().clone();
+    let np = shape.n_params();
+    let mut x = x0.to_vec();
+    p.project(&mut x);
+    let mut normal = Normal::new(shape);
+    let mut evaluations = 1;
+    if !p.rows(&x, &mut normal) || !normal.cost().is_finite() {
+        return LmReport {
+            x,
+            cost: f64::INFINITY,
+            normal,
+            termination: Termination::Failed,
+            iterations: 0,
+            evaluations,
+        };
+    }
+    let mut diag = normal.diagonal();
+    let mut d = vec![0.0; np];
+    update_scale(&mut d, &diag);
+    let scale =
+        |d: &[f64]| -> Vec<f64> { d.iter().map(|&v| if v > 0.0 { v } else { 1.0 }).collect() };
+    let mut dscale = scale(&d);
+    let mut lambda = 1e-3;
+    let mut nu = 2.0;
+    let mut ws = Workspace::default();
+    let mut step = vec![0.0; np];
+    let mut trial = vec![0.0; np];
+    let mut cost = normal.cost();
+    let mut termination = Termination::MaxIterations;
+    let mut iterations = 0;
+    while iterations < opts.max_iterations {
+        if cost == 0.0 {
+            termination = Termination::Cost;
+            break;
+        }
+        // Gradient test: max_i |J_i . r| / (|J_i| |r|).
+        let g = normal.gradient();
+        let gnorm = (0..np)
+            .filter(|&i| diag[i] > 0.0)
+            .map(|i| g[i].abs() / (diag[i] * cost).sqrt())
+            .fold(0.0, f64::max);
+        if gnorm <= opts.gtol {
+            termination = Termination::Gradient;
+            break;
+        }
+        iterations += 1;
+        if !solve_damped(&normal, &dscale, lambda, &mut ws, &mut step) {
+            lambda *= nu;
+            nu *= 2.0;
+            if lambda > 1e30 {
+                termination = Termination::NoProgress;
+                break;
+            }
+            continue;
+        }
+        for i in 0..np {
+            trial[i] = x[i] + step[i];
+        }
+        p.project(&mut trial);
+        for i in 0..np {
+            step[i] = trial[i] - x[i];
+        }
+        // Predicted reduction of |r + J s|^2, and the scaled step and parameters.
+        let gs: f64 = step.iter().zip(normal.gradient()).map(|(s, g)| s * g).sum();
+        let predicted = -2.0 * gs - normal.quad(&step);
+        let snorm = step
+            .iter()
+            .zip(&dscale)
+            .map(|(s, d)| s * s * d)
+            .sum::<f64>()
+            .sqrt();
+        let xnorm = x
+            .iter()
+            .zip(&dscale)
+            .map(|(v, d)| v * v * d)
+            .sum::<f64>()
+            .sqrt();
+        let small_step = snorm <= opts.xtol * (xnorm + opts.xtol);
+        let new_cost = p.cost(&trial).filter(|c| c.is_finite());
+        evaluations += 1;
+        let actual = new_cost.map_or(f64::NEG_INFINITY, |c| cost - c);
+        let rho = if predicted > 0.0 {
+            actual / predicted
+        } else {
+            -1.0
+        };
+        if rho > 1e-4 {
+            let old = cost;
+            x.copy_from_slice(&trial);
+            normal.clear();
+            evaluations += 1;
+            if !p.rows(&x, &mut normal) {
+                // Evaluable for the cost but not the Jacobian: stop where we are.
+                termination = Termination::NoProgress;
+                break;
+            }
+            cost = normal.cost();
+            diag = normal.diagonal();
+            update_scale(&mut d, &diag);
+            dscale = scale(&d);
+            lambda *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
+            lambda = lambda.max(1e-300);
+            nu = 2.0;
+            if actual <= opts.ftol * old && predicted <= opts.ftol * old && rho <= 2.0 {
+                termination = Termination::Cost;
+                break;
+            }
+            if small_step {
+                termination = Termination::Step;
+                break;
+            }
+        } else {
+            lambda *= nu;
+            nu *= 2.0;
+            // The model itself predicts no reduction worth having: we are at the
+            // optimum to working precision.
+            if predicted >= 0.0 && predicted <= opts.ftol * cost * 1e-6 {
+                termination = Termination::Cost;
+                break;
+            }
+            if small_step {
+                termination = Termination::Step;
+                break;
+            }
+            if lambda > 1e30 {
+                termination = Termination::NoProgress;
+                break;
+            }
+        }
+    }
+    LmReport {
+        x,
+        cost,
+        normal,
+        termination,
+        iterations,
+        evaluations,
+    }
+}
+
+/// Dense residuals and Jacobian of a problem at `x` (tests and checks only: rows x
+/// parameters memory).
+pub fn dense_jacobian<P: ArrowProblem>(p: &mut P, x: &[f64]) -> Option<(Vec<f64>, Vec<Vec<f64>>)> {
+    struct Dense<'a> {
+        shape: &'a Shape,
+        r: Vec<f64>,
+        j: Vec<Vec<f64>>,
+    }
+    impl RowSink for Dense<'_> {
+        fn row(&mut self, group: usize, r: f64, jg: &[f64], jl: &[f64]) {
+            let mut row = vec![0.0; self.shape.n_params()];
+            row[..jg.len()].copy_from_slice(jg);
+            let lo = self.shape.local_offset(group);
+            row[lo..lo + jl.len()].copy_from_slice(jl);
+            self.r.push(r);
+            self.j.push(row);
+        }
+    }
+    let shape = p.shape().clone();
+    let mut sink = Dense {
+        shape: &shape,
+        r: Vec::new(),
+        j: Vec::new(),
+    };
+    p.rows(x, &mut sink).then_some((sink.r, sink.j))
+}
+
+/// Central-difference Jacobian of the residuals (step 1e-6 max(1, |x_i|)), for
+/// checking the analytic one.
+pub fn numeric_jacobian<P: ArrowProblem>(p: &mut P, x: &[f64]) -> Option<Vec<Vec<f64>>> {
+    let (r0, _) = dense_jacobian(p, x)?;
+    let mut j = vec![vec![0.0; x.len()]; r0.len()];
+    let mut xp = x.to_vec();
+    for i in 0..x.len() {
+        let h = 1e-6 * x[i].abs().max(1.0);
+        xp[i] = x[i] + h;
+        let (rp, _) = dense_jacobian(p, &xp)?;
+        xp[i] = x[i] - h;
+        let (rm, _) = dense_jacobian(p, &xp)?;
+        xp[i] = x[i];
+        for (row, (a, b)) in rp.iter().zip(&rm).enumerate() {
+            j[row][i] = (a - b) / (2.0 * h);
+        }
+    }
+    Some(j)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// y = a_k exp(-b t) + c over groups k: b and c global, a_k local.
+    struct Decay {
+        shape: Shape,
+        t: Vec<(usize, f64, f64)>,
+    }
+
+    impl ArrowProblem for Decay {
+        fn shape(&self) -> &Shape {
+            &self.shape
+        }
+        fn cost(&mut self, x: &[f64]) -> Option<f64> {
+            let mut c = 0.0;
+            struct Cost<'a>(&'a mut f64);
+            impl RowSink for Cost<'_> {
+                fn row(&mut self, _: usize, r: f64, _: &[f64], _: &[f64]) {
+                    *self.0 += r * r;
+                }
+            }
+            self.rows(x, &mut Cost(&mut c)).then_some(c)
+        }
+        fn rows<S: RowSink>(&mut self, x: &[f64], sink: &mut S) -> bool {
+            let (b, c) = (x[0], x[1]);
+            for &(k, t, y) in &self.t {
+                let a = x[2 + k];
+                let e = (-b * t).exp();
+                sink.row(k, a * e + c - y, &[-a * t * e, 1.0], &[e]);
+            }
+            true
+        }
+    }
+
+    fn decay(noise: f64) -> (Decay, Vec<f64>) {
+        let truth = [0.7, 0.3, 2.0, 5.0, 0.5];
+        let mut rng = brdf_core::sim::XorShift32::new(3);
+        let mut t = Vec::new();
+        for k in 0..3 {
+            for i in 0..20 {
+                let tt = i as f64 * 0.25;
+                let y = truth[2 + k] * (-truth[0] * tt).exp() + truth[1];
+                t.push((k, tt, y + noise * rng.normal() as f64));
+            }
+        }
+        (
+            Decay {
+                shape: Shape::new(2, [1, 1, 1]),
+                t,
+            },
+            truth.to_vec(),
+        )
+    }
+
+    #[test]
+    fn recovers_exact_parameters_from_a_poor_start() {
+        let (mut p, truth) = decay(0.0);
+        let rep = minimize(&mut p, &[3.0, -1.0, 0.1, 0.1, 0.1], &LmOptions::default());
+        assert!(rep.termination.converged(), "{:?}", rep.termination);
+        for (a, b) in rep.x.iter().zip(&truth) {
+            assert!((a - b).abs() < 1e-7, "{:?}", rep.x);
+        }
+        assert!(rep.cost < 1e-20);
+    }
+
+    #[test]
+    fn stops_at_the_noisy_optimum_with_zero_gradient() {
+        let (mut p, _) = decay(0.01);
+        let rep = minimize(&mut p, &[1.0, 0.0, 1.0, 1.0, 1.0], &LmOptions::default());
+        assert!(rep.termination.converged(), "{:?}", rep.termination);
+        // At the optimum no coordinate direction lowers the cost.
+        for i in 0..5 {
+            for h in [1e-5, -1e-5] {
+                let mut x = rep.x.clone();
+                x[i] += h;
+                assert!(p.cost(&x).unwrap() >= rep.cost * (1.0 - 1e-12));
+            }
+        }
+        let (_, j) = dense_jacobian(&mut p, &rep.x).unwrap();
+        let num = numeric_jacobian(&mut p, &rep.x).unwrap();
+        for (a, b) in j.iter().flatten().zip(num.iter().flatten()) {
+            assert!((a - b).abs() < 1e-6);
+        }
+    }
+}

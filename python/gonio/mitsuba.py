@@ -78,7 +78,7 @@ def register() -> None:
             if key not in _MODELS:
                 raise ValueError(f"gonio BSDF: no model '{key}' (gonio.mitsuba.add_model)")
             self.model = _MODELS[key]
-            self.scale = props["scale"] if props.has_property("scale") else 1.0
+            self.scale = props["scale"] if "scale" in props else 1.0
             if key not in _TABLES:
                 _TABLES[key] = mixture_table(self.model)
             self.names, self.table = _TABLES[key]

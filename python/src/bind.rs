@@ -132,8 +132,8 @@ pub fn fit(path: Option<&Path>, rows: &[Row], req: &FitRequest) -> Result<FitOut
     let (data, family) = match path {
         Some(p) => fit_cmd::fit_file(p, &opts, &kinds).map_err(|e| e.to_string())?,
         None => {
-            let data = Dataset::from_rows(rows, opts.residual != Residual::Absolute)
-                .map_err(|e| e.0)?;
+            let data =
+                Dataset::from_rows(rows, opts.residual != Residual::Absolute).map_err(|e| e.0)?;
             let family = fit::fit_family(&data, &opts, &kinds)?;
             (data, family)
         }

@@ -43,30 +43,29 @@ pub struct PyModel {
     def: ModelDef,
 }
 
-fn lobe_ks(
-    what: &str,
-    form: KsForm,
-    ks: Option<&Bound<'_, PyAny>>,
-) -> PyResult<KsSrc> {
+fn lobe_ks(what: &str, form: KsForm, ks: Option<&Bound<'_, PyAny>>) -> PyResult<KsSrc> {
     let ks = ks.ok_or_else(|| err(format!("{what} needs its k_s")))?;
     match form {
-        KsForm::PerIncidence => Ok(KsSrc::Const(ks.extract::<f64>().map_err(|_| {
-            err(format!("{what}: k_s per incidence is one number"))
-        })?)),
+        KsForm::PerIncidence => {
+            Ok(KsSrc::Const(ks.extract::<f64>().map_err(|_| {
+                err(format!("{what}: k_s per incidence is one number"))
+            })?))
+        }
         KsForm::Smooth => {
             let c: Vec<f64> = ks.extract().map_err(|_| {
                 err(format!("{what}: a smooth k_s is [c0, c1, c2] (ln k_s = c0 + c1 t + c2 t^2, t = theta_i/90)"))
             })?;
-            let c: [f64; 3] = c.try_into().map_err(|_| {
-                err(format!("{what}: a smooth k_s is [c0, c1, c2]"))
-            })?;
+            let c: [f64; 3] = c
+                .try_into()
+                .map_err(|_| err(format!("{what}: a smooth k_s is [c0, c1, c2]")))?;
             Ok(KsSrc::Smooth(c))
         }
     }
 }
 
 fn slice<'a, T: numpy::Element>(a: &'a PyReadonlyArray1<'_, T>, what: &str) -> PyResult<&'a [T]> {
-    a.as_slice().map_err(|_| err(format!("{what} must be a contiguous 1-D array")))
+    a.as_slice()
+        .map_err(|_| err(format!("{what} must be a contiguous 1-D array")))
 }
 
 #[pymethods]
@@ -91,7 +90,10 @@ impl PyModel {
         let m = Member::parse(member).map_err(|e| err(format!("member '{member}': {e}")))?;
         let absent = |given: bool, name: &str, comp: &str| -> PyResult<()> {
             if given {
-                Err(err(format!("{name} belongs to {comp}, which {} does not have", m)))
+                Err(err(format!(
+                    "{name} belongs to {comp}, which {} does not have",
+                    m
+                )))
             } else {
                 Ok(())
             }
@@ -114,14 +116,22 @@ impl PyModel {
                 sigma: sigma_haze.ok_or_else(|| err("specular-haze needs sigma_haze"))?,
             }),
             None => {
-                absent(ks_haze.is_some() || sigma_haze.is_some(), "ks_haze/sigma_haze", "specular-haze")?;
+                absent(
+                    ks_haze.is_some() || sigma_haze.is_some(),
+                    "ks_haze/sigma_haze",
+                    "specular-haze",
+                )?;
                 None
             }
         };
         let directional = if m.directional {
             Some((kdd.unwrap_or(KDD_PAPER), sigma_m.unwrap_or(SIGMA_M_PAPER)))
         } else {
-            absent(kdd.is_some() || sigma_m.is_some(), "kdd/sigma_m", "directional-diffuse")?;
+            absent(
+                kdd.is_some() || sigma_m.is_some(),
+                "kdd/sigma_m",
+                "directional-diffuse",
+            )?;
             None
         };
         let ideal = if m.ideal {
@@ -167,7 +177,11 @@ impl PyModel {
     /// The components that are on, in vocabulary order.
     #[getter]
     fn components(&self) -> Vec<&'static str> {
-        self.def.member().components().map(Component::name).collect()
+        self.def
+            .member()
+            .components()
+            .map(Component::name)
+            .collect()
     }
 
     /// The parameters as a dict (k_s: a number, [c0, c1, c2] for a smooth k_s, or
@@ -181,7 +195,9 @@ impl PyModel {
             match &l.ks {
                 KsSrc::Const(k) => d.set_item(format!("{pre}ks"), k),
                 KsSrc::Smooth(c) => d.set_item(format!("{pre}ks"), c.to_vec()),
-                KsSrc::Preset(p) => d.set_item(format!("{pre}ks"), format!("table of preset {}", p.name)),
+                KsSrc::Preset(p) => {
+                    d.set_item(format!("{pre}ks"), format!("table of preset {}", p.name))
+                }
                 KsSrc::Table(_) => d.set_item(format!("{pre}ks"), "table of the fit"),
             }
         };
@@ -205,11 +221,15 @@ impl PyModel {
     #[pyo3(signature = (theta_i, haze=false))]
     fn ks_at(&self, theta_i: f64, haze: bool) -> PyResult<f64> {
         let l = if haze { &self.def.haze } else { &self.def.core };
-        let l = l.as_ref().ok_or_else(|| err("this member has no such lobe"))?;
+        let l = l
+            .as_ref()
+            .ok_or_else(|| err("this member has no such lobe"))?;
         let m = self.def.at(theta_i).map_err(model_err)?;
         let a = m.amplitudes();
         match l.ks {
-            KsSrc::Smooth(c) => brdf_core::lobe::SmoothKs { c }.ks(theta_i).map_err(model_err),
+            KsSrc::Smooth(c) => brdf_core::lobe::SmoothKs { c }
+                .ks(theta_i)
+                .map_err(model_err),
             _ => Ok(if haze { a.haze } else { a.core }),
         }
     }
@@ -217,7 +237,8 @@ impl PyModel {
     /// The same parameters with only one component on ('specular', 'specular-haze',
     /// 'directional-diffuse', 'ideal-diffuse'; a haze keeps its core lobe at k_s = 0).
     fn component(&self, name: &str) -> PyResult<Self> {
-        let c = Component::parse(name).ok_or_else(|| err(format!("component '{name}': unknown")))?;
+        let c =
+            Component::parse(name).ok_or_else(|| err(format!("component '{name}': unknown")))?;
         let def = self
             .def
             .only(c)
@@ -321,7 +342,9 @@ impl PyModel {
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
         let (a, b) = (slice(&w_i, "w_i")?, slice(&w_r, "w_r")?);
         if a.len() % 3 != 0 || a.len() != b.len() {
-            return Err(err("w_i and w_r must be arrays of 3-vectors of the same shape"));
+            return Err(err(
+                "w_i and w_r must be arrays of 3-vectors of the same shape",
+            ));
         }
         let out = py.detach(|| {
             a.chunks_exact(3)
@@ -346,7 +369,8 @@ impl PyModel {
     /// theta (what a renderer tracing from the camera integrates).
     #[pyo3(signature = (theta, reverse=false))]
     fn albedo(&self, py: Python<'_>, theta: f64, reverse: bool) -> PyResult<(f64, f64)> {
-        py.detach(|| self.def.albedo(theta, reverse)).map_err(model_err)
+        py.detach(|| self.def.albedo(theta, reverse))
+            .map_err(model_err)
     }
 
     fn __repr__(&self) -> String {
@@ -431,7 +455,11 @@ fn _read_sweep<'py>(
             ]
         })
         .collect();
-    let points: Vec<f64> = s.points.iter().flat_map(|&(a, b)| [a as f64, b as f64]).collect();
+    let points: Vec<f64> = s
+        .points
+        .iter()
+        .flat_map(|&(a, b)| [a as f64, b as f64])
+        .collect();
     let (nr, np) = (s.rows.len(), s.points.len());
     Ok((
         meta,
@@ -504,7 +532,11 @@ impl PyFit {
     /// Per reading: an (n, 5) array of theta_i, theta_r, measured, fitted, residual (of
     /// the kind minimised) for a model (the selected one by default).
     #[pyo3(signature = (name=None))]
-    fn _residuals<'py>(&self, py: Python<'py>, name: Option<&str>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    fn _residuals<'py>(
+        &self,
+        py: Python<'py>,
+        name: Option<&str>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let fit = bind::get_fit(&self.outcome, name).map_err(err)?;
         let r = bind::residuals(&self.outcome, fit);
         let n = r.len();

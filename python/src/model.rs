@@ -156,7 +156,12 @@ impl ModelDef {
     /// The fast f32 model at an incidence: the paper's members only (Beckmann lobe, no
     /// haze), which is what `brdf_core::fast` evaluates.
     pub fn fast_at(&self, theta_i: f64) -> Result<FastModel, String> {
-        if self.haze.is_some() || self.core.as_ref().is_some_and(|l| l.dist != Distribution::Beckmann) {
+        if self.haze.is_some()
+            || self
+                .core
+                .as_ref()
+                .is_some_and(|l| l.dist != Distribution::Beckmann)
+        {
             return Err(format!(
                 "the fast f32 path evaluates the paper's members (a Beckmann lobe, no haze); {} needs precision='f64'",
                 self.member()
@@ -219,7 +224,9 @@ impl ModelDef {
         }
         if !self.varies_fast() {
             let m = self.fast_at(ti[0] as f64)?;
-            return m.eval_grid(ti, tr, out, &mut scratch).map_err(|e| e.to_string());
+            return m
+                .eval_grid(ti, tr, out, &mut scratch)
+                .map_err(|e| e.to_string());
         }
         for (i, &t) in ti.iter().enumerate() {
             check_angle("theta_i", t, 0.0, 90.0).map_err(|e| e.to_string())?;

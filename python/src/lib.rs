@@ -290,7 +290,7 @@ impl PyModel {
             self.def.grid(a, b, &mut out).map(|_| out)
         });
         let flat = out.map_err(model_err)?.into_pyarray(py);
-        Ok(flat.reshape([a.len(), b.len()])?)
+        flat.reshape([a.len(), b.len()])
     }
 
     /// f32 grid by brdf-core's batch path (`FastModel::eval_grid`). Releases the GIL.
@@ -306,7 +306,7 @@ impl PyModel {
             self.def.grid_fast(a, b, &mut out).map(|_| out)
         });
         let flat = out.map_err(err)?.into_pyarray(py);
-        Ok(flat.reshape([a.len(), b.len()])?)
+        flat.reshape([a.len(), b.len()])
     }
 
     /// The Rust batch path timed in Rust, on Rust vectors (no numpy, no Python):
@@ -541,7 +541,7 @@ impl PyFit {
         let r = bind::residuals(&self.outcome, fit);
         let n = r.len();
         let flat: Vec<f64> = r.into_iter().flatten().collect();
-        Ok(flat.into_pyarray(py).reshape([n, 5])?)
+        flat.into_pyarray(py).reshape([n, 5])
     }
 
     /// The fitted model (the selected one by default) as a `gonio.Model`.

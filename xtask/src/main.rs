@@ -313,10 +313,11 @@ fn python() -> Result {
         "--no-deps",
         "./python",
     ];
-    ok(
-        with_target(command(&root, py, &install)),
-        "pip install ./python",
-    )?;
+    let mut build = with_target(command(&root, py, &install));
+    // Without build isolation pip runs the venv's maturin: its bin/ goes first on PATH.
+    let path = std::env::var("PATH").unwrap_or_default();
+    build.env("PATH", format!("{}:{path}", venv.join("bin").display()));
+    ok(build, "pip install ./python")?;
     // Any non-zero exit fails, including pytest's 5 (no tests collected).
     let mut pytest = command(&root, py, &["-m", "pytest", "-q", "python/tests"]);
     pytest.env("GONIO_BIN", target.join("debug/gonio"));

@@ -244,6 +244,86 @@ fn qemu_e2e() -> Result {
     }
 }
 
+/// The Python package (python/): lints its crate, builds and installs it with maturin
+/// into the venv target/python-venv (with numpy, pytest, matplotlib, mitsuba) and runs
+/// its pytest suite, which also checks the README's Python example. The crate is its own
+/// workspace (pyo3 stays out of `cargo test --workspace`) built into the root target/.
+fn python() -> Result {
+    let root = root();
+    let target = root.join("target");
+    let venv = target.join("python-venv");
+    let py = venv.join("bin/python");
+    let py = py.to_str().ok_or("non-UTF-8 path")?;
+    let manifest = "python/Cargo.toml";
+    run(
+        &root,
+        "cargo",
+        &["fmt", "--manifest-path", manifest, "--", "--check"],
+    )?;
+    let with_target = |mut c: Command| {
+        c.env("CARGO_TARGET_DIR", &target);
+        c
+    };
+    let ok = |mut c: Command, what: &str| -> Result {
+        match c.status() {
+            Ok(s) if s.success() => Ok(()),
+            Ok(s) => Err(format!("{what} failed ({s})")),
+            Err(e) => Err(format!("{what}: {e}")),
+        }
+    };
+    let clippy = [
+        "clippy",
+        "--manifest-path",
+        manifest,
+        "--all-targets",
+        "--",
+        "-D",
+        "warnings",
+    ];
+    ok(
+        with_target(command(&root, "cargo", &clippy)),
+        "python crate clippy",
+    )?;
+    if !venv.join("bin/python").exists() {
+        run(
+            &root,
+            "python3",
+            &["-m", "venv", venv.to_str().ok_or("non-UTF-8 path")?],
+        )?;
+    }
+    let deps = [
+        "-m",
+        "pip",
+        "install",
+        "-q",
+        "maturin",
+        "numpy",
+        "pytest",
+        "matplotlib",
+        "mitsuba",
+    ];
+    run(&root, py, &deps)?;
+    let install = [
+        "-m",
+        "pip",
+        "install",
+        "-q",
+        "--no-build-isolation",
+        "--force-reinstall",
+        "--no-deps",
+        "./python",
+    ];
+    let mut build = with_target(command(&root, py, &install));
+    // Without build isolation pip runs the venv's maturin: its bin/ goes first on PATH.
+    let path = std::env::var("PATH").unwrap_or_default();
+    build.env("PATH", format!("{}:{path}", venv.join("bin").display()));
+    ok(build, "pip install ./python")?;
+    // Any non-zero exit fails, including pytest's 5 (no tests collected).
+    let mut pytest = command(&root, py, &["-m", "pytest", "-q", "python/tests"]);
+    pytest.env("GONIO_BIN", target.join("debug/gonio"));
+    ok(pytest, "python tests")
+}
+
 fn test_all() -> Result {
     setup()?;
     let root = root();
@@ -294,6 +374,7 @@ fn test_all() -> Result {
     if !status.success() {
         return Err("tests failed".into());
     }
+    python()?;
     eprintln!("xtask: all checks passed");
     Ok(())
 }

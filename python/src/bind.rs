@@ -1,0 +1,236 @@
+//! The only file that touches the `gonio` host library (sweep files and the fitter):
+//! when its module paths or the fit API change, this is the file to port.
+
+use std::path::Path;
+use std::sync::Arc;
+
+use clap::ValueEnum;
+use gonio::fit::{self, Dataset, FamilyFit, Fit, Kind, Residual};
+use gonio::fit_cmd::{self, FitArgs, KindArg, ResidualArg};
+use gonio::sweep_file::{self, Header, Row, Status, SweepData, SweepWriter};
+
+/// A sweep file's contents as plain vectors.
+pub struct Sweep {
+    /// `# key: value` metadata.
+    pub meta: Vec<(String, String)>,
+    /// The column names of the header row.
+    pub columns: Vec<String>,
+    /// The rows.
+    pub rows: Vec<Row>,
+    /// Plan points (theta_i, theta_r) in degrees.
+    pub points: Vec<(f32, f32)>,
+}
+
+fn sweep_of(d: SweepData) -> Sweep {
+    Sweep {
+        meta: d.meta.into_iter().collect(),
+        columns: d.columns,
+        rows: d.rows,
+        points: d.points,
+    }
+}
+
+/// Reads a sweep file (the CLI's reader and its messages).
+pub fn read_sweep(path: &Path) -> Result<Sweep, String> {
+    sweep_file::read_sweep(path)
+        .map(sweep_of)
+        .map_err(|e| e.to_string())
+}
+
+/// Writes a complete sweep file with the capture's writer.
+pub fn write_sweep(
+    path: &Path,
+    rows: &[Row],
+    device: &str,
+    plan: &str,
+    settings: &str,
+    force: bool,
+) -> Result<(), String> {
+    let header = Header {
+        device: device.into(),
+        plan: plan.into(),
+        settings: settings.into(),
+        points: rows
+            .iter()
+            .map(|r| (r.theta_i as f32, r.theta_r as f32))
+            .collect(),
+    };
+    let mut w = SweepWriter::create(path, &header, force).map_err(|e| e.to_string())?;
+    for r in rows {
+        w.append(r).map_err(|e| e.to_string())?;
+    }
+    w.set_status(Status::Complete).map_err(|e| e.to_string())
+}
+
+/// A row with only the three required columns.
+pub fn row(theta_i: f64, theta_r: f64, brdf: f64) -> Row {
+    Row {
+        theta_i,
+        theta_r,
+        brdf,
+        std: None,
+        n: None,
+        seq: None,
+        t_ms: None,
+    }
+}
+
+/// `gonio fit`'s options, as the command line spells them.
+pub struct FitRequest<'a> {
+    /// `--residual`: log, rel or abs.
+    pub residual: &'a str,
+    /// `--loss`: l2, huber:C or cauchy:C.
+    pub loss: &'a str,
+    /// `--fix NAME=VALUE`, repeatable.
+    pub fix: Vec<String>,
+    /// `--models`: ideal, ts, three, three-smooth (empty: all).
+    pub models: Vec<String>,
+}
+
+fn value_enum<E: ValueEnum>(flag: &str, s: &str) -> Result<E, String> {
+    E::from_str(s, false).map_err(|_| {
+        let names: Vec<String> = E::value_variants()
+            .iter()
+            .filter_map(|v| v.to_possible_value().map(|p| p.get_name().to_string()))
+            .collect();
+        format!(
+            "{flag} '{s}': invalid value (possible values: {})",
+            names.join(", ")
+        )
+    })
+}
+
+/// A finished fit: the family, the data and the residual kind it minimised.
+pub struct FitOutcome {
+    /// Every model fitted.
+    pub family: FamilyFit,
+    /// The data.
+    pub data: Dataset,
+    /// The residual kind.
+    pub residual: Residual,
+}
+
+/// Fits a sweep file, or rows when `path` is `None`, with the CLI's option parsing
+/// (`gonio::fit_cmd::options`), reader and fitter.
+pub fn fit(path: Option<&Path>, rows: &[Row], req: &FitRequest) -> Result<FitOutcome, String> {
+    let args = FitArgs {
+        sweep: path.map(Path::to_path_buf).unwrap_or_default(),
+        json: false,
+        plot: None,
+        export: Vec::new(),
+        export_model: None,
+        residual: value_enum::<ResidualArg>("--residual", req.residual)?,
+        loss: req.loss.to_string(),
+        fix: req.fix.clone(),
+        models: req
+            .models
+            .iter()
+            .map(|m| value_enum::<KindArg>("--models", m))
+            .collect::<Result<_, _>>()?,
+    };
+    let (opts, kinds) = fit_cmd::options(&args).map_err(|e| e.to_string())?;
+    let (data, family) = match path {
+        Some(p) => fit_cmd::fit_file(p, &opts, &kinds).map_err(|e| e.to_string())?,
+        None => {
+            let data =
+                Dataset::from_rows(rows, opts.residual != Residual::Absolute).map_err(|e| e.0)?;
+            let family = fit::fit_family(&data, &opts, &kinds)?;
+            (data, family)
+        }
+    };
+    Ok(FitOutcome {
+        family,
+        data,
+        residual: opts.residual,
+    })
+}
+
+/// `gonio fit --json`'s text for a fit (the CLI's writer).
+pub fn to_json(o: &FitOutcome) -> String {
+    let mut s = serde_json::to_string_pretty(&fit::report::family_json(&o.family))
+        .expect("JSON of numbers");
+    s.push('\n');
+    s
+}
+
+/// The names of the fitted models, simplest first, and the selected one.
+pub fn model_names(o: &FitOutcome) -> (Vec<&'static str>, &'static str) {
+    (
+        o.family.fits.iter().map(|f| f.kind.name()).collect(),
+        o.family.selected.name(),
+    )
+}
+
+/// The fit of a model by name (the selected one for `None`).
+pub fn get_fit<'a>(o: &'a FitOutcome, name: Option<&str>) -> Result<&'a Fit, String> {
+    let kind = match name {
+        None => o.family.selected,
+        Some(n) => *Kind::ALL
+            .iter()
+            .find(|k| k.name() == n)
+            .ok_or_else(|| format!("unknown model '{n}'"))?,
+    };
+    o.family
+        .get(kind)
+        .ok_or_else(|| format!("{} was not fitted", kind.name()))
+}
+
+/// What a fitted model is as member parameters: sigma, sigma_m, k_dd, k_id, and k_s
+/// either as a smooth polynomial or per incidence through the fit's own interpolation.
+pub struct FittedParams {
+    /// The member's (paper) name.
+    pub name: &'static str,
+    /// sigma (if the model has a lobe).
+    pub sigma: Option<f64>,
+    /// (k_dd, sigma_m) if the model has the directional diffuse.
+    pub directional: Option<(f64, f64)>,
+    /// k_id.
+    pub kid: f64,
+    /// ln k_s coefficients of a smooth k_s.
+    pub poly: Option<[f64; 3]>,
+    /// k_s at any incidence (per-incidence fits).
+    pub ks_at: Option<Arc<dyn Fn(f64) -> f64 + Send + Sync>>,
+}
+
+/// The parameters of a fitted model.
+pub fn fitted_params(o: &FitOutcome, fit: &Fit) -> FittedParams {
+    let kind = fit.kind;
+    let v = &fit.values;
+    let ks_at: Option<Arc<dyn Fn(f64) -> f64 + Send + Sync>> =
+        if kind.specular() && v.poly.is_none() {
+            let f = fit.clone();
+            let inc = o.data.incidences.clone();
+            Some(Arc::new(move |t| f.ks_at(&inc, t)))
+        } else {
+            None
+        };
+    FittedParams {
+        name: kind.name(),
+        sigma: kind.specular().then_some(v.sigma),
+        directional: kind.directional().then_some((v.kdd, v.sigma_m)),
+        kid: v.kid,
+        poly: if kind.specular() { v.poly } else { None },
+        ks_at,
+    }
+}
+
+/// Per reading of the data: theta_i, theta_r, measured y, fitted f and the residual of
+/// the kind the fit minimised (ln f - ln y, f/y - 1 or f - y).
+pub fn residuals(o: &FitOutcome, fit: &Fit) -> Vec<[f64; 5]> {
+    o.data
+        .obs
+        .iter()
+        .map(|ob| {
+            let f = fit
+                .model_at(&o.data.incidences, ob.theta_i)
+                .and_then(|m| m.eval(&ob.geom).ok())
+                .map_or(f64::NAN, |e| e.f);
+            let r = match o.residual {
+                Residual::Log => f.max(1e-300).ln() - ob.y.ln(),
+                Residual::Relative => f / ob.y - 1.0,
+                Residual::Absolute => f - ob.y,
+            };
+            [ob.theta_i, ob.theta_r, ob.y, f, r]
+        })
+        .collect()
+}

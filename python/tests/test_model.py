@@ -1,0 +1,157 @@
+"""The model family from Python: the same values, validation and messages as brdf-core."""
+
+import subprocess
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import gonio
+
+
+def test_presets_and_members():
+    names = [p["name"] for p in gonio.presets()]
+    assert "fe-0.115" in names and len(names) == 5
+    fe = next(p for p in gonio.presets() if p["name"] == "fe-0.115")
+    assert fe["sigma"] == 0.115 and fe["ks_table"][0] == 115.0
+    assert len(gonio.members()) == 83
+    assert gonio.member_name("ideal-diffuse+specular") == "torrance-sparrow"
+    comps, dists = gonio.vocabulary()
+    assert comps == ["specular", "specular-haze", "directional-diffuse", "ideal-diffuse"]
+    assert dists == ["beckmann", "ggx"]
+
+
+def _params_for(name):
+    """Parameters every member of the family accepts (k_s form after its lobe's name)."""
+    canon = gonio.member_name(name)
+    paper = {"torrance-sparrow": "specular+ideal-diffuse",
+             "three-component": "specular+directional-diffuse+ideal-diffuse",
+             "three-component-smooth-ks": "specular:smooth-ks+directional-diffuse+ideal-diffuse",
+             "ideal-diffuse": "ideal-diffuse"}
+    parts = paper.get(canon, canon).split("+")
+    kw = {}
+    for part in parts:
+        smooth = "smooth-ks" in part
+        if part.startswith("specular-haze"):
+            kw.update(ks_haze=[2.0, 0.1, 0.0] if smooth else 10.0, sigma_haze=0.4)
+        elif part.startswith("specular"):
+            kw.update(ks=[5.0, 0.1, 0.0] if smooth else 100.0, sigma=0.1)
+    return canon, kw
+
+
+def test_every_member_builds_and_evaluates():
+    for name in gonio.members():
+        canon, kw = _params_for(name)
+        m = gonio.Model(name, **kw)
+        assert m.member == canon
+        f = m.eval([0.0, 30.0, 60.0], [0.0, 30.0, -45.0])
+        assert f.shape == (3,) and np.all(np.isfinite(f)) and np.all(f >= 0)
+
+
+def test_preset_matches_the_cli(gonio_bin):
+    out = subprocess.run([gonio_bin, "eval", "--material", "fe-0.115", "--theta-i", "25", "--theta-r=-80:80:10"],
+                         check=True, capture_output=True, text=True).stdout
+    rows = np.array([[float(x) for x in line.split(",")] for line in out.splitlines()[1:]])
+    m = gonio.Model.preset("fe-0.115")
+    np.testing.assert_array_equal(m.eval(rows[:, 0], rows[:, 1]), rows[:, 2])
+
+
+def test_shapes_broadcast_and_scalars():
+    m = gonio.Model.preset("fe-0.115")
+    ti = np.linspace(0, 80, 6).reshape(2, 3, 1)
+    tr = np.linspace(-80, 80, 5)
+    f = m.eval(ti, tr)
+    assert f.shape == (2, 3, 5)
+    assert f[1, 2, 4] == m.eval(float(ti[1, 2, 0]), 80.0)
+    assert isinstance(m.eval(20.0, 20.0), float)
+    g = m.eval_grid(ti.ravel(), tr)
+    np.testing.assert_array_equal(g, f.reshape(6, 5))
+
+
+def test_fast_f32_path_within_its_bound():
+    m = gonio.Model.preset("fe-0.115")
+    ti = np.linspace(0, 85, 86)
+    tr = np.linspace(-85, 85, 341)
+    exact = m.eval_grid(ti, tr)
+    grid = m.eval_grid(ti, tr, precision="f32")
+    assert grid.dtype == np.float32
+    assert np.max(np.abs(grid / exact - 1)) < 1e-5
+    ti2, tr2 = np.meshgrid(ti, tr, indexing="ij")
+    scalar = m.eval(ti2.astype(np.float32), tr2.astype(np.float32), precision="f32")
+    assert np.max(np.abs(scalar / exact - 1)) < 1e-5
+
+
+def test_out_of_plane_vectors_agree_in_plane():
+    m = gonio.Model.preset("cu-0.070")
+    ti, tr = 35.0, 20.0
+    a, b = np.radians(ti), np.radians(tr)
+    wi = [np.sin(a), 0, np.cos(a)]
+    wr = [-np.sin(b), 0, np.cos(b)]  # positive theta_r: the specular side
+    assert m.eval_vectors(wi, wr) == pytest.approx(m.eval(ti, tr), rel=1e-12)
+    assert m.eval_dir(wi, wr) == pytest.approx(m.eval(ti, tr), rel=1e-12)
+    wr3 = np.array([[-0.3, 0.4, np.sqrt(1 - 0.25)]] * 4)
+    assert m.eval_vectors(np.array([wi] * 4), wr3).shape == (4,)
+
+
+def test_errors_are_the_cores_messages():
+    m = gonio.Model.preset("fe-0.115")
+    with pytest.raises(gonio.GonioError, match=r"theta_i = 95 is outside \[0, 90\] degrees"):
+        m.eval(95, 0)
+    with pytest.raises(gonio.GonioError, match=r"theta_r = -91 is outside"):
+        m.eval([10, 20], [0, -91], precision="f32")
+    with pytest.raises(gonio.GonioError, match="theta_i must be a finite number"):
+        m.eval(np.nan, 0)
+    with pytest.raises(gonio.GonioError, match="preset 'gold'"):
+        gonio.Model.preset("gold")
+    with pytest.raises(gonio.GonioError, match="sigma must be > 0"):
+        gonio.Model("three-component", ks=100, sigma=-1)
+    with pytest.raises(gonio.GonioError, match="unknown component"):
+        gonio.Model("specular+glitter")
+    with pytest.raises(gonio.GonioError, match="belongs to specular-haze"):
+        gonio.Model("three-component", ks=1, sigma=0.1, ks_haze=1)
+    with pytest.raises(gonio.GonioError, match="fast f32 path"):
+        gonio.Model("specular:ggx+ideal-diffuse", ks=1, sigma=0.1).eval(10, 10, precision="f32")
+    assert issubclass(gonio.GonioError, ValueError)
+
+
+def test_components_sum_to_the_model():
+    m = gonio.Model.preset("al-0.142")
+    ti, tr = np.meshgrid(np.linspace(0, 80, 9), np.linspace(-80, 80, 33), indexing="ij")
+    total = sum(m.component(c).eval(ti, tr) for c in m.components)
+    np.testing.assert_allclose(total, m.eval(ti, tr), rtol=1e-12)
+
+
+def test_albedo_is_the_cores_quadrature():
+    m = gonio.Model("ideal-diffuse", kid=1.0)
+    rho, err = m.albedo(30.0)
+    assert rho == pytest.approx(np.pi, rel=1e-12) and err < 1e-9
+
+
+def test_batch_releases_the_gil():
+    """While a worker thread is inside a batch evaluation, the main thread keeps
+    running Python: it could not if the batch held the GIL."""
+    m = gonio.Model.preset("fe-0.115")
+    ti = np.linspace(0, 85, 1000)
+    tr = np.linspace(-85, 85, 3000)
+
+    done = threading.Thread(target=int)
+    done.start()
+    done.join()
+    n, t0 = 0, time.perf_counter()
+    while time.perf_counter() - t0 < 0.1:  # the same loop body as below
+        n += 1
+        done.is_alive()
+    rate = n / 0.1
+    worker = threading.Thread(target=m.eval_grid, args=(ti, tr))
+    t0 = time.perf_counter()
+    worker.start()
+    n = 0
+    while worker.is_alive():
+        n += 1
+        time.perf_counter()
+    elapsed = time.perf_counter() - t0
+    worker.join()
+    assert elapsed > 0.05, "the batch is too short to tell"
+    # Held, the main thread would get one switch interval (5 ms) at most.
+    assert n > 0.05 * rate * elapsed

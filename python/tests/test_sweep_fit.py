@@ -1,0 +1,94 @@
+"""Sweep files and the fitter from Python: the CLI's reader, writer, fitter and JSON."""
+
+import json
+import subprocess
+
+import numpy as np
+import pytest
+
+import gonio
+from conftest import FE_SWEEP
+
+
+def test_read_sweep_into_arrays():
+    s = gonio.read_sweep(FE_SWEEP)
+    assert s.meta["plan"] == "paper"
+    assert s.columns[:3] == ["theta_i", "theta_r", "brdf"]
+    assert s.theta_i.shape == s.brdf.shape == (153,)
+    assert np.all(s.brdf > 0) and np.all(np.isfinite(s.std))
+    assert s.points.shape == (153, 2)
+
+
+def test_write_then_read_round_trips(tmp_path):
+    m = gonio.Model.preset("cu-0.070")
+    ti, tr = np.meshgrid([10.0, 30.0, 50.0], np.arange(-80.0, 81.0, 5.0), indexing="ij")
+    y = m.eval(ti, tr)
+    path = tmp_path / "cu.csv"
+    gonio.write_sweep(path, ti, tr, y)
+    s = gonio.read_sweep(path)
+    np.testing.assert_array_equal(s.brdf, y.ravel())
+    assert np.all(np.isnan(s.std))
+    with pytest.raises(gonio.GonioError, match="exists"):
+        gonio.write_sweep(path, ti, tr, y)
+    gonio.write_sweep(path, ti, tr, y, force=True)
+
+
+def test_bad_sweep_file_message(tmp_path):
+    bad = tmp_path / "bad.csv"
+    bad.write_text("theta_i,theta_r,brdf\n10,20,x\n")
+    with pytest.raises(gonio.GonioError, match="bad.csv:2"):
+        gonio.read_sweep(bad)
+
+
+def test_fit_result_and_json_equal_the_cli(gonio_bin):
+    r = gonio.fit(FE_SWEEP)
+    cli = json.loads(subprocess.run([gonio_bin, "fit", str(FE_SWEEP), "--json"], check=True,
+                                    capture_output=True, text=True).stdout)
+    ours = json.loads(r.to_json())
+    for d in (cli, ours):
+        d.pop("fit_seconds")
+    assert ours == cli
+
+
+def test_fit_result_object():
+    r = gonio.fit(FE_SWEEP)
+    assert r.selected == "three-component"
+    best = r.best
+    assert best.params["sigma"] == pytest.approx(0.115, rel=0.05)
+    assert best.std_errors["sigma"] > 0
+    assert np.isfinite(best.aicc) and np.isfinite(best.bic)
+    assert len(best.rmse_by_theta_i) == len(r.incidences)
+    res = r.residuals()
+    assert res["residual"].shape == (153,)
+    np.testing.assert_allclose(res["residual"], np.log(res["fitted"]) - np.log(res["measured"]))
+    # About the simulated 0.5 % noise (log residuals ~ relative).
+    assert np.std(res["residual"]) < 0.02
+    fitted = r.model()
+    assert fitted.member == "three-component"
+    np.testing.assert_allclose(fitted.eval(res["theta_i"], res["theta_r"]), res["fitted"], rtol=1e-12)
+
+
+def test_fit_options_as_on_the_command_line(gonio_bin):
+    r = gonio.fit(FE_SWEEP, fix={"sigma_m": 0.7, "kdd": 900}, models="ts,three", loss="cauchy:0.05")
+    cli = json.loads(subprocess.run([gonio_bin, "fit", str(FE_SWEEP), "--json", "--fix", "sigma_m=0.7",
+                                     "--fix", "kdd=900", "--models", "ts,three", "--loss", "cauchy:0.05"],
+                                    check=True, capture_output=True, text=True).stdout)
+    ours = json.loads(r.to_json())
+    for d in (cli, ours):
+        d.pop("fit_seconds")
+    assert ours == cli
+    assert set(r.models) == {"torrance-sparrow", "three-component"}
+
+
+def test_fit_arrays_and_errors():
+    s = gonio.read_sweep(FE_SWEEP)
+    r = gonio.fit(s.theta_i, s.theta_r, s.brdf, models=["three"])
+    assert json.loads(r.to_json())["models"][0]["params"] == gonio.fit(FE_SWEEP, models=["three"]).best.params
+    with pytest.raises(gonio.GonioError, match="--loss 'l3'"):
+        gonio.fit(FE_SWEEP, loss="l3")
+    with pytest.raises(gonio.GonioError, match="--fix: unknown parameter 'k'"):
+        gonio.fit(FE_SWEEP, fix=["k=1"])
+    with pytest.raises(gonio.GonioError, match="--models 'four'"):
+        gonio.fit(FE_SWEEP, models=["four"])
+    with pytest.raises(gonio.GonioError, match="at least 3"):
+        gonio.fit([10.0], [10.0], [1.0])

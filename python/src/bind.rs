@@ -4,10 +4,10 @@
 use std::path::Path;
 use std::sync::Arc;
 
-use clap::ValueEnum;
+use clap::Parser;
+use gonio::cli::fit::{self as fit_cmd, FitArgs};
 use gonio::fit::{self, Dataset, FamilyFit, Fit, Kind, Residual};
-use gonio::fit_cmd::{self, FitArgs, KindArg, ResidualArg};
-use gonio::sweep_file::{self, Header, Row, Status, SweepData, SweepWriter};
+use gonio::sweep_file::{self, Header, Row, SweepData, SweepStatus as Status, SweepWriter};
 
 /// A sweep file's contents as plain vectors.
 pub struct Sweep {
@@ -87,17 +87,35 @@ pub struct FitRequest<'a> {
     pub models: Vec<String>,
 }
 
-fn value_enum<E: ValueEnum>(flag: &str, s: &str) -> Result<E, String> {
-    E::from_str(s, false).map_err(|_| {
-        let names: Vec<String> = E::value_variants()
-            .iter()
-            .filter_map(|v| v.to_possible_value().map(|p| p.get_name().to_string()))
-            .collect();
-        format!(
-            "{flag} '{s}': invalid value (possible values: {})",
-            names.join(", ")
-        )
-    })
+/// `gonio fit`'s own argument parser, so options, defaults and messages are the CLI's.
+#[derive(Parser)]
+#[command(name = "gonio fit", no_binary_name = true)]
+struct FitCommand {
+    #[command(flatten)]
+    args: FitArgs,
+}
+
+fn fit_args(path: Option<&Path>, req: &FitRequest) -> Result<FitArgs, String> {
+    let mut argv: Vec<String> = vec![
+        path.map_or_else(|| "-".into(), |p| p.display().to_string()),
+        format!("--residual={}", req.residual),
+        format!("--loss={}", req.loss),
+    ];
+    argv.extend(req.fix.iter().map(|f| format!("--fix={f}")));
+    if !req.models.is_empty() {
+        argv.push(format!("--models={}", req.models.join(",")));
+    }
+    FitCommand::try_parse_from(argv)
+        .map(|c| c.args)
+        .map_err(|e| {
+            e.to_string()
+                .lines()
+                .find(|l| l.starts_with("error:"))
+                .map_or_else(
+                    || e.to_string(),
+                    |l| l.trim_start_matches("error: ").to_string(),
+                )
+        })
 }
 
 /// A finished fit: the family, the data and the residual kind it minimised.
@@ -113,21 +131,7 @@ pub struct FitOutcome {
 /// Fits a sweep file, or rows when `path` is `None`, with the CLI's option parsing
 /// (`gonio::fit_cmd::options`), reader and fitter.
 pub fn fit(path: Option<&Path>, rows: &[Row], req: &FitRequest) -> Result<FitOutcome, String> {
-    let args = FitArgs {
-        sweep: path.map(Path::to_path_buf).unwrap_or_default(),
-        json: false,
-        plot: None,
-        export: Vec::new(),
-        export_model: None,
-        residual: value_enum::<ResidualArg>("--residual", req.residual)?,
-        loss: req.loss.to_string(),
-        fix: req.fix.clone(),
-        models: req
-            .models
-            .iter()
-            .map(|m| value_enum::<KindArg>("--models", m))
-            .collect::<Result<_, _>>()?,
-    };
+    let args = fit_args(path, req)?;
     let (opts, kinds) = fit_cmd::options(&args).map_err(|e| e.to_string())?;
     let (data, family) = match path {
         Some(p) => fit_cmd::fit_file(p, &opts, &kinds).map_err(|e| e.to_string())?,

@@ -12,6 +12,7 @@
 //! | [`plot`] | PNG and SVG figures of a fit against its data |
 //! | [`bench`] | evaluation variants, the slower studies, their tables and chart |
 //! | [`flash`] | flashing the firmware through a debug probe (probe-rs) |
+//! | [`text`] | device and file text made safe to print: control characters escaped, length bounded |
 //! | `testing` | test support (feature `testing`): link fault injection, a faulty connector, shared assertions |
 //!
 //! Engines know nothing of the command line: each returns its own error type, which
@@ -30,3 +31,4 @@ pub mod plot;
 pub mod sweep_file;
 #[cfg(feature = "testing")]
 pub mod testing;
+pub mod text;

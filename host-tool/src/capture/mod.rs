@@ -14,12 +14,14 @@ use brdf_core::protocol::{Command, ErrorCode, Event, Info, Reading};
 use crate::device::{Connector, FramedLink, LinkError, Transport};
 use crate::sweep_file::{Counters, Header, Row, SweepFileError, SweepStatus, SweepWriter};
 
+pub mod check;
 pub mod plan;
 pub mod progress;
 mod sweep;
 
 use sweep::{Outcome, Step, SweepState};
 
+pub use check::{ANGLE_TOLERANCE_DEG, Tolerance};
 pub use plan::{DEFAULT_ADAPTIVE_BUDGET, DeviceSweep, HostPlan, PlanError, SettingsOverride};
 pub use progress::{ProgressSink, Quiet};
 
@@ -137,7 +139,14 @@ struct Run<'a, C: Connector> {
     next_id: u32,
     reconnects: u32,
     dropped_before: u64,
+    tol: Tolerance,
 }
+
+/// Rejected readings described on the terminal; later ones are only counted.
+const REJECTS_SHOWN: u64 = 5;
+
+/// Longest device text (board name, error detail) printed or written, in characters.
+pub const DEVICE_TEXT_MAX: usize = 64;
 
 /// The f64 nearest to an f32's shortest decimal form: the file then shows
 /// `10102.495`, not `10102.4951171875`, and parsing it as f32 gives the device's value.
@@ -145,11 +154,13 @@ fn shortest(x: f32) -> f64 {
     x.to_string().parse().unwrap_or(x as f64)
 }
 
+/// The header's device line; the board name is the device's text, escaped.
 fn device_line(info: &Info) -> String {
     let [a, b, c] = info.firmware;
     format!(
         "{} firmware {a}.{b}.{c} protocol {}",
-        info.board, info.protocol
+        crate::text::escape_line(&info.board, DEVICE_TEXT_MAX),
+        info.protocol
     )
 }
 
@@ -212,7 +223,10 @@ fn prepare<C: Connector>(conn: &mut C, setup: &CaptureSetup) -> Result<(FramedLi
                         ErrorCode::CorruptFrame | ErrorCode::UnknownCommand | ErrorCode::Busy
                     ) => {}
                 Some(Event::Error(e)) => {
-                    return Err(CaptureError::Device(format!("homing failed: {}", e.detail)));
+                    return Err(CaptureError::Device(format!(
+                        "homing failed: {}",
+                        crate::text::escape_line(&e.detail, DEVICE_TEXT_MAX)
+                    )));
                 }
                 Some(_) => {}
                 None => send(&mut link, &Command::GetInfo)?,
@@ -296,6 +310,7 @@ pub fn capture<C: Connector>(
         next_id: first_id,
         reconnects: 0,
         dropped_before: 0,
+        tol: Tolerance::for_device(&info),
     };
     run.progress
         .start(run.plan.points.len() as u64, run.present.len() as u64);
@@ -336,7 +351,7 @@ impl<C: Connector> Run<'_, C> {
             if round > 0 {
                 let n: usize = sweeps.iter().map(|s| s.map.len()).sum();
                 self.progress.note(&format!(
-                    "capture: re-measuring {n} readings lost on the link"
+                    "capture: re-measuring {n} readings lost on the link or rejected"
                 ));
             }
             round += 1;
@@ -365,6 +380,9 @@ impl<C: Connector> Run<'_, C> {
             "capture: device lost ({why}); waiting up to {} s for it to come back",
             self.setup.reconnect_for.as_secs()
         ));
+        // Our own hold on the old port would make reopening the same path fail
+        // ("Unable to acquire exclusive lock").
+        link.close();
         let deadline = Instant::now() + self.setup.reconnect_for;
         loop {
             if self.interrupt.load(Ordering::Relaxed) {
@@ -469,7 +487,19 @@ impl<C: Connector> Run<'_, C> {
             );
             match step {
                 Step::Wait => {}
-                Step::Record(r) => self.record(sw, &r)?,
+                Step::Record(r) => {
+                    if let Err(e) = self.record(sw, &r) {
+                        // Another plan, or our own file failed: the device must
+                        // not go on moving and lighting for nothing.
+                        let _ = self.send(link, &Command::Abort);
+                        return Err(e);
+                    }
+                }
+                Step::Reject(why) => self.reject(&why),
+                Step::OtherPlan(why) => {
+                    let _ = self.send(link, &Command::Abort);
+                    return Err(self.other_plan(&why));
+                }
                 Step::End(outcome) => return Ok(outcome),
                 Step::Restart { abort_first } => {
                     if abort_first {
@@ -518,10 +548,59 @@ impl<C: Connector> Run<'_, C> {
         Ok(false)
     }
 
+    /// Counts a rejected reading (its point stays missing: the next round measures it).
+    fn reject(&mut self, why: &str) {
+        let c = self.writer.counters();
+        c.rejected += 1;
+        let n = c.rejected;
+        if n <= REJECTS_SHOWN {
+            let more = if n == REJECTS_SHOWN {
+                "; further ones only counted"
+            } else {
+                ""
+            };
+            self.progress.note(&format!(
+                "capture: rejected a reading: {}; its point is measured again{more}",
+                crate::text::escape_line(why, 200)
+            ));
+        }
+    }
+
+    /// The device runs another plan than gonio's: the file is marked failed and the
+    /// capture stops with a message naming both plans.
+    fn other_plan(&mut self, why: &str) -> CaptureError {
+        if let Err(e) = self.writer.set_status(SweepStatus::Failed) {
+            return e.into();
+        }
+        CaptureError::Device(format!(
+            "the device's plan disagrees with gonio's plan ({}, {} points): {}; nothing more is measured (check the firmware version), the file holds only readings that matched",
+            crate::text::escape_line(&self.plan.description, 200),
+            self.plan.points.len(),
+            crate::text::escape_line(why, 200)
+        ))
+    }
+
     fn record(&mut self, sw: &DeviceSweep, r: &Reading) -> Result {
         let Some(seq) = sw.host_seq(r.seq) else {
+            self.reject(&format!("reading seq {} is outside the sweep", r.seq));
             return Ok(());
         };
+        let Some(want) = self.plan.points.get(seq as usize) else {
+            self.reject(&format!("reading seq {} is outside the plan", r.seq));
+            return Ok(());
+        };
+        let sweep_points = sw
+            .map
+            .iter()
+            .filter_map(|&k| self.plan.points.get(k as usize).map(|p| (k, p)));
+        match check::check_reading(r, seq, want, sweep_points, &self.tol) {
+            check::Verdict::Good => {}
+            check::Verdict::Reject(why) => {
+                self.reject(&why);
+                return Ok(());
+            }
+            check::Verdict::OtherPlan(why) => return Err(self.other_plan(&why)),
+        }
         if !self.present.insert(seq) {
             return Ok(()); // a duplicate: already in the file
         }

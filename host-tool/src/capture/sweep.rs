@@ -39,6 +39,11 @@ pub(super) enum Step {
     Record(Reading),
     /// The sweep is over.
     End(Outcome),
+    /// A reading of ours that cannot be placed (a seq outside the sweep): counted as
+    /// rejected, not written (why, one line).
+    Reject(String),
+    /// The device's plan is not the plan gonio sent (why, one line): the capture stops.
+    OtherPlan(String),
     /// Send [`SweepState::plan`] again, after an Abort when `abort_first` (the device was
     /// busy: the plan already carries a fresh sweep id).
     Restart {
@@ -111,8 +116,9 @@ pub(super) struct SweepState {
     ids: Vec<u32>,
     /// Device sequence numbers seen and skipped.
     pub seq: Sequence,
-    /// The device's `seq` after the last reading of this sweep.
-    end_seq: u32,
+    /// The device's `seq` after the last reading of this sweep; also the plan length
+    /// the device's Progress must report.
+    pub end_seq: u32,
     /// The device has started this sweep (a reading or progress of it arrived).
     pub started: bool,
     /// StartSweep re-sent this many times after corrupted or refused commands.
@@ -178,11 +184,24 @@ impl SweepState {
         match ev {
             Event::Reading(r) if self.ids.contains(&r.sweep_id) => {
                 self.started = true;
+                // Memory follows the plan, never a seq the device sends.
+                if r.seq < u32::from(self.plan.skip) || r.seq >= self.end_seq {
+                    return Step::Reject(format!(
+                        "reading seq {} is outside the sweep's {}..{}",
+                        r.seq, self.plan.skip, self.end_seq
+                    ));
+                }
                 count(self.seq.arrived(r.seq));
                 Step::Record(r)
             }
             Event::Progress(p) if p.sweep_id == id => {
                 self.started = true;
+                if p.total != self.end_seq {
+                    return Step::OtherPlan(format!(
+                        "the device's Progress counts {} readings in the plan, gonio's plan for this sweep has {}",
+                        p.total, self.end_seq
+                    ));
+                }
                 Step::Wait
             }
             Event::Status(_) if self.stop_sent => {
@@ -192,7 +211,7 @@ impl SweepState {
                 Step::End(Outcome::Done)
             }
             Event::SweepDone(d) if d.sweep_id == id => {
-                count(self.seq.sent_before(d.next_seq));
+                count(self.seq.sent_before(d.next_seq.min(self.end_seq)));
                 if self.abort_sent_at.is_some() {
                     Step::End(Outcome::Interrupted)
                 } else if self.stop_sent {
@@ -229,12 +248,16 @@ impl SweepState {
                 ErrorCode::CorruptFrame | ErrorCode::UnknownCommand => Step::Fail {
                     why: format!(
                         "the link corrupted the sweep command {} times in a row ({}); check the cable, then continue with --resume",
-                        self.restarts, e.detail
+                        self.restarts,
+                        crate::text::escape_line(&e.detail, super::DEVICE_TEXT_MAX)
                     ),
                     mark_failed: true,
                 },
                 _ => Step::Fail {
-                    why: format!("device refused the sweep: {}", e.detail),
+                    why: format!(
+                        "device refused the sweep: {}",
+                        crate::text::escape_line(&e.detail, super::DEVICE_TEXT_MAX)
+                    ),
                     mark_failed: true,
                 },
             },
@@ -245,7 +268,10 @@ impl SweepState {
                 ) =>
             {
                 Step::Fail {
-                    why: format!("device error during the sweep: {}", e.detail),
+                    why: format!(
+                        "device error during the sweep: {}",
+                        crate::text::escape_line(&e.detail, super::DEVICE_TEXT_MAX)
+                    ),
                     mark_failed: true,
                 }
             }

@@ -237,3 +237,42 @@ fn device_errors_fail_the_sweep() {
         }
     ));
 }
+
+#[test]
+fn a_seq_outside_the_sweep_is_rejected_and_allocates_nothing() {
+    let mut s = SweepState::new(&sweep(10, 6));
+    let (steps, gaps) = feed(
+        &mut s,
+        vec![reading(7, u32::MAX), reading(7, 100_000_000), reading(7, 9)],
+    );
+    assert!(
+        steps.iter().all(|s| matches!(s, Step::Reject(_))),
+        "{steps:?}"
+    );
+    assert_eq!((gaps, s.seq.expected), (0, 10));
+    assert!(s.seq.skipped.is_empty());
+    // A SweepDone claiming 0xFFFFFFFF readings counts at most the sweep's own.
+    let (_, gaps) = feed(&mut s, vec![done(7, u32::MAX, false)]);
+    assert_eq!(gaps, 6);
+    assert_eq!(s.seq.skipped.len(), 6);
+}
+
+#[test]
+fn a_progress_of_another_plan_length_is_another_plan() {
+    let mut s = SweepState::new(&sweep(0, 3));
+    let progress = |total| {
+        Event::Progress(Progress {
+            sweep_id: 7,
+            done: 0,
+            total,
+            theta_i: 0.0,
+        })
+    };
+    let (steps, _) = feed(&mut s, vec![progress(3), progress(5)]);
+    assert_eq!(steps[0], Step::Wait);
+    assert!(
+        matches!(&steps[1], Step::OtherPlan(why) if why.contains("counts 5") && why.contains("has 3")),
+        "{:?}",
+        steps[1]
+    );
+}

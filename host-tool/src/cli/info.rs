@@ -8,6 +8,7 @@ use clap::Args;
 use super::error::CliResult;
 use super::output::write_stdout;
 use crate::device::{Connector, SerialConnector};
+use crate::text::escape_line;
 
 /// `gonio info`.
 #[derive(Debug, Args)]
@@ -40,7 +41,7 @@ pub fn run(args: &InfoArgs) -> CliResult {
     let text = format!(
         "device:    {}\nfirmware:  {a}.{b}.{c}\nprotocol:  {} (this gonio: {PROTOCOL_VERSION})\nhomed:     {}\n\
          source:    {}\ndetector:  {}\nplan size: {} points per sweep\n",
-        info.board,
+        escape_line(&info.board, crate::capture::DEVICE_TEXT_MAX),
         info.protocol,
         if info.homed {
             "yes"

@@ -16,6 +16,9 @@ pub trait Transport {
     fn send(&mut self, bytes: &[u8]) -> io::Result<()>;
     /// Receives what arrives within `timeout` into `buf`; `Ok(0)` when nothing came.
     fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<usize>;
+    /// Releases the device (a serial port's exclusive lock) before it is opened again;
+    /// sending or receiving afterwards fails.
+    fn close(&mut self) {}
 }
 
 /// Why talking to the device failed.
@@ -92,6 +95,11 @@ impl<T: Transport> FramedLink<T> {
         self.raw_log = Some(w);
     }
 
+    /// Releases the device: a reconnect to the same port must not find it still held.
+    pub fn close(&mut self) {
+        self.transport.close();
+    }
+
     /// The transport.
     pub fn transport(&mut self) -> &mut T {
         &mut self.transport
@@ -136,7 +144,9 @@ impl<T: Transport> FramedLink<T> {
                     Some(Err(FrameError::Decode)) => {
                         // Intact but not ours: a device of another protocol version
                         // still shows its version in an Info.
-                        if let Some(v) = peek_info_version(self.decoder.undecoded_payload()) {
+                        if let Some(v) = peek_info_version(self.decoder.undecoded_payload())
+                            .filter(|&v| v != PROTOCOL_VERSION)
+                        {
                             self.foreign_version = Some(v);
                         }
                     }

@@ -5,12 +5,13 @@ use std::io::{self, Read, Write};
 use std::path::Path;
 use std::time::Duration;
 
-use super::{Connector, ports};
 use super::link::{FramedLink, LinkError, Transport};
+use super::{Connector, ports};
 
 /// A serial port (USB CDC device or pseudo-terminal).
 pub struct SerialTransport {
-    port: Box<dyn serialport::SerialPort>,
+    /// `None` once closed.
+    port: Option<Box<dyn serialport::SerialPort>>,
     /// The path it was opened with.
     pub path: String,
 }
@@ -27,23 +28,32 @@ impl SerialTransport {
                 reason: e.to_string(),
             })?;
         Ok(SerialTransport {
-            port,
+            port: Some(port),
             path: path.to_string(),
         })
     }
 }
 
+impl SerialTransport {
+    fn port(&mut self) -> io::Result<&mut Box<dyn serialport::SerialPort>> {
+        self.port
+            .as_mut()
+            .ok_or_else(|| io::Error::new(io::ErrorKind::NotConnected, "port closed"))
+    }
+}
+
 impl Transport for SerialTransport {
     fn send(&mut self, bytes: &[u8]) -> io::Result<()> {
-        self.port.write_all(bytes)?;
-        self.port.flush()
+        let port = self.port()?;
+        port.write_all(bytes)?;
+        port.flush()
     }
 
     fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<usize> {
-        self.port
-            .set_timeout(timeout.max(Duration::from_millis(1)))
+        let port = self.port()?;
+        port.set_timeout(timeout.max(Duration::from_millis(1)))
             .map_err(io::Error::other)?;
-        match self.port.read(buf) {
+        match port.read(buf) {
             Ok(n) => Ok(n),
             // A signal (Ctrl-C) interrupting the wait is not a lost device.
             Err(e)
@@ -56,6 +66,11 @@ impl Transport for SerialTransport {
             }
             Err(e) => Err(e),
         }
+    }
+
+    fn close(&mut self) {
+        // Dropping the port releases its exclusive lock (TIOCEXCL) and descriptor.
+        self.port = None;
     }
 }
 

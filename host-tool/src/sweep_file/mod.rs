@@ -4,7 +4,7 @@
 //!
 //! ```text
 //! # gonio sweep v1
-//! # status: complete     readings=0000153 missing=0000000 gaps=0000000 dropped=0000000 timeouts=0000000
+//! # status: complete     readings=0000153 missing=0000000 gaps=0000000 dropped=0000000 timeouts=0000000 rejected=0000000
 //! # device: qemu firmware 0.1.0 protocol 1
 //! # units: degrees
 //! # plan: paper
@@ -109,14 +109,25 @@ pub struct Counters {
     pub dropped: u64,
     /// Times the device went quiet for longer than the event timeout.
     pub timeouts: u64,
+    /// Readings that arrived and failed the capture's checks (a value or std not
+    /// finite, angles away from their plan point, a seq outside the sweep): not
+    /// written, their points measured again.
+    pub rejected: u64,
 }
 
 pub(crate) const STATUS_PREFIX: &str = "# status: ";
 
-pub(crate) fn status_line(status: SweepStatus, c: &Counters) -> String {
+/// The status line; `with_rejected` false keeps the width of files written before the
+/// `rejected` counter existed (a resumed old file is rewritten in place).
+pub(crate) fn status_line(status: SweepStatus, c: &Counters, with_rejected: bool) -> String {
     // Fixed width: 7 digits per counter, so the line can be rewritten in place.
+    let rejected = if with_rejected {
+        format!(" rejected={:07}", c.rejected.min(9_999_999))
+    } else {
+        String::new()
+    };
     format!(
-        "{STATUS_PREFIX}{:<12} readings={:07} missing={:07} gaps={:07} dropped={:07} timeouts={:07}\n",
+        "{STATUS_PREFIX}{:<12} readings={:07} missing={:07} gaps={:07} dropped={:07} timeouts={:07}{rejected}\n",
         status.word(),
         c.readings.min(9_999_999),
         c.missing.min(9_999_999),

@@ -172,6 +172,7 @@ fn parse_counters(line: &str) -> Counters {
                 "gaps" => c.gaps = v,
                 "dropped" => c.dropped = v,
                 "timeouts" => c.timeouts = v,
+                "rejected" => c.rejected = v,
                 _ => {}
             }
         }

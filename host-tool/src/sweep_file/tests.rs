@@ -48,7 +48,8 @@ fn rows_round_trip_exactly_and_status_is_rewritten_in_place() {
             missing: 0,
             gaps: 2,
             dropped: 0,
-            timeouts: 0
+            timeouts: 0,
+            rejected: 0
         }
     );
     assert!(data.meta["status"].starts_with("complete"));

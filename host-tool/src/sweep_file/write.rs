@@ -14,6 +14,9 @@ pub struct SweepWriter {
     file: File,
     path: PathBuf,
     status_at: u64,
+    /// The status line has the `rejected` counter (files written before it keep
+    /// their narrower line).
+    with_rejected: bool,
     counters: Counters,
 }
 
@@ -49,7 +52,11 @@ impl SweepWriter {
             .map(|(i, r)| format!("{i}:{r}"))
             .collect();
         let mut text = String::from(first);
-        text.push_str(&status_line(SweepStatus::Running, &Counters::default()));
+        text.push_str(&status_line(
+            SweepStatus::Running,
+            &Counters::default(),
+            true,
+        ));
         text.push_str(&format!("# device: {}\n", header.device));
         text.push_str("# units: degrees\n");
         text.push_str(&format!("# plan: {}\n", header.plan));
@@ -68,6 +75,7 @@ impl SweepWriter {
             file,
             path: path.to_path_buf(),
             status_at: first.len() as u64,
+            with_rejected: true,
             counters: Counters {
                 missing: header.points.len() as u64,
                 ..Counters::default()
@@ -114,6 +122,10 @@ impl SweepWriter {
                 file,
                 path: path.to_path_buf(),
                 status_at,
+                with_rejected: data
+                    .meta
+                    .get("status")
+                    .is_some_and(|s| s.contains("rejected=")),
                 counters,
             },
             data,
@@ -149,7 +161,7 @@ impl SweepWriter {
 
     /// Rewrites the status line in place (same length) and syncs.
     pub fn set_status(&mut self, status: SweepStatus) -> Result<(), SweepFileError> {
-        let line = status_line(status, &self.counters);
+        let line = status_line(status, &self.counters, self.with_rejected);
         let end = self
             .file
             .stream_position()

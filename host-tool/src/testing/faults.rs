@@ -210,6 +210,10 @@ impl<T: Transport> FaultyTransport<T> {
 }
 
 impl<T: Transport> Transport for FaultyTransport<T> {
+    fn close(&mut self) {
+        self.inner.close();
+    }
+
     fn send(&mut self, bytes: &[u8]) -> io::Result<()> {
         if self.dead {
             return Err(broken());

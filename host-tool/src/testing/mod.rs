@@ -10,6 +10,7 @@ use crate::device::{Connector, FramedLink, LinkError, Transport};
 use crate::sweep_file::Row;
 
 pub mod faults;
+pub mod hostile;
 
 pub use crate::fit::data::synthetic_paper_sweep;
 use faults::{FaultRates, FaultStats, FaultyTransport};

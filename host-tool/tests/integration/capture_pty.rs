@@ -167,6 +167,48 @@ fn ctrl_c_leaves_a_valid_file_and_resume_completes_it() {
 }
 
 #[test]
+fn sigterm_and_sighup_stop_a_capture_like_ctrl_c() {
+    for signal in ["-TERM", "-HUP"] {
+        let dev = device(Some(40.0));
+        let d = scratch("sigterm");
+        let file = d.join("s.csv");
+        let plan = small_plan(&d);
+        let mut child = gonio_command()
+            .args([
+                "capture",
+                "--port",
+                dev.path().to_str().unwrap(),
+                "--plan",
+                plan.to_str().unwrap(),
+            ])
+            .args(["--out", file.to_str().unwrap()])
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        wait_rows(&mut child, &file, 8);
+        let status = Command::new("kill")
+            .args([signal, &child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(status.success());
+        let out = finish(child);
+        assert_eq!(out.code, 1, "{signal}: {}", out.last_line());
+        assert!(
+            out.last_line().contains("interrupted:"),
+            "{}",
+            out.last_line()
+        );
+        let data = read_sweep(&file).unwrap();
+        assert!(
+            data.meta["status"].starts_with("interrupted"),
+            "{signal}: {:?}",
+            data.meta["status"]
+        );
+        assert!((8..34).contains(&data.rows.len()));
+    }
+}
+
+#[test]
 fn a_device_that_goes_away_and_comes_back_is_reconnected() {
     let d = scratch("reconnect");
     let link = d.join("port");

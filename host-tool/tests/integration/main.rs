@@ -9,4 +9,5 @@ mod crash_safety;
 mod eval_cli;
 mod fault_injection;
 mod fit_cli;
+mod hostile;
 mod ports_flash;

@@ -10,6 +10,7 @@ use super::error::{CliError, CliResult};
 use super::output::write_stdout;
 use crate::export::ExportFormat;
 use crate::fit::{self, Dataset, FamilyFit, FitOptions, Fixed, Kind, Loss, Residual};
+use crate::outfile::{self, Target};
 use crate::sweep_file::{looks_like_radians, read_sweep};
 use crate::{export, plot};
 
@@ -54,6 +55,10 @@ pub struct FitArgs {
     /// merl=PATH (MERL binary table), csv=PATH (in-plane grid). Repeatable.
     #[arg(long, value_name = "FORMAT=PATH", value_parser = parse_export)]
     pub export: Vec<(ExportFormat, PathBuf)>,
+    /// Overwrite existing --export and --plot files (never the sweep file itself, a
+    /// device, a symlink or a directory).
+    #[arg(long)]
+    pub force: bool,
     /// Which fitted model to export [default: the selected one].
     #[arg(long = "export-model", value_enum, value_name = "MODEL")]
     pub export_model: Option<ModelArg>,
@@ -107,7 +112,27 @@ pub fn fit_file(
     opts: &FitOptions,
     kinds: &[Kind],
 ) -> CliResult<(Dataset, FamilyFit)> {
+    let data = read_data(path, opts)?;
+    let fam = fit_data(path, &data, opts, kinds)?;
+    Ok((data, fam))
+}
+
+fn fit_data(
+    path: &std::path::Path,
+    data: &Dataset,
+    opts: &FitOptions,
+    kinds: &[Kind],
+) -> CliResult<FamilyFit> {
+    fit::fit_family(data, opts, kinds)
+        .map_err(|e| CliError::failed(format!("{}: {e}", path.display())))
+}
+
+/// Reads a sweep file into the data to fit.
+fn read_data(path: &std::path::Path, opts: &FitOptions) -> CliResult<Dataset> {
     let sweep = read_sweep(path)?;
+    for w in sweep.warnings() {
+        eprintln!("gonio: warning: {}: {w}", path.display());
+    }
     if sweep.rows.is_empty() {
         return Err(CliError::usage(format!("{}: no readings", path.display())));
     }
@@ -117,28 +142,42 @@ pub fn fit_file(
             path.display()
         );
     }
-    let data = Dataset::from_rows(&sweep.rows, opts.residual != Residual::Absolute)
-        .map_err(|e| CliError::usage(format!("{}: {}", path.display(), e.0)))?;
-    let fam = fit::fit_family(&data, opts, kinds)
-        .map_err(|e| CliError::failed(format!("{}: {e}", path.display())))?;
-    Ok((data, fam))
+    Dataset::from_rows(&sweep.rows, opts.residual != Residual::Absolute)
+        .map_err(|e| CliError::usage(format!("{}: {}", path.display(), e.0)))
 }
 
 /// Runs `gonio fit`.
 pub fn run(args: &FitArgs) -> CliResult {
     let (opts, kinds) = options(args)?;
-    let (data, fam) = fit_file(&args.sweep, &opts, &kinds)?;
+    let data = read_data(&args.sweep, &opts)?;
+    // Every output is checked before the fit: nothing is computed for a refused one.
+    let inputs = [args.sweep.as_path()];
+    for (_, path) in &args.export {
+        outfile::check(Target::new(path, args.force).inputs(&inputs))?;
+    }
+    if let Some(dir) = &args.plot {
+        plot::check_plots(dir, &data.incidences, args.force)?;
+        for f in plot::plot_files(dir, &data.incidences) {
+            outfile::check(Target::new(&f, true).inputs(&inputs))?;
+        }
+    }
+    let fam = fit_data(&args.sweep, &data, &opts, &kinds)?;
     let residual = match opts.residual {
         Residual::Log => "log",
         Residual::Relative => "rel",
         Residual::Absolute => "abs",
     };
     if let Some(dir) = &args.plot {
-        plot::write_plots(dir, &data, &fam)?;
+        plot::write_plots(dir, &data, &fam, args.force)?;
     }
     let kind = args.export_model.map_or(fam.selected, |m| m.0);
     for (format, path) in &args.export {
-        export::write_export(*format, path, &fam, kind)?;
+        export::write_export(
+            *format,
+            Target::new(path, args.force).inputs(&inputs),
+            &fam,
+            kind,
+        )?;
     }
     let text = if args.json {
         let mut s =

@@ -1,0 +1,56 @@
+//! Text for messages that quote input: [`escape_line`] makes any string one bounded,
+//! printable line.
+
+/// `s` as one line of at most `max_chars` characters (plus `...` and the count left
+/// out when cut): control characters (NUL, CR, LF, ESC, DEL, C1...) escaped as `\0`,
+/// `\r`, `\n`, `\t` or `\u{..}`, a backslash doubled; printable characters, non-ASCII
+/// included, kept. Runs in time linear in what it keeps, whatever the input's size.
+pub fn escape_line(s: &str, max_chars: usize) -> String {
+    let mut out = String::new();
+    let mut used = 0usize;
+    for (at, c) in s.char_indices() {
+        let esc = match c {
+            '\0' => "\\0".to_string(),
+            '\n' => "\\n".to_string(),
+            '\r' => "\\r".to_string(),
+            '\t' => "\\t".to_string(),
+            '\\' => "\\\\".to_string(),
+            c if c.is_control() || c == '\u{feff}' || c == '\u{2028}' || c == '\u{2029}' => {
+                format!("\\u{{{:x}}}", c as u32)
+            }
+            c => c.to_string(),
+        };
+        let n = esc.chars().count();
+        if used + n > max_chars {
+            let left = s[at..].chars().count();
+            out.push_str(&format!("... ({left} more characters)"));
+            return out;
+        }
+        used += n;
+        out.push_str(&esc);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn escapes_controls_and_bounds_length() {
+        assert_eq!(escape_line("plain é", 80), "plain é");
+        assert_eq!(
+            escape_line("a\0b\r\nc\x1b[2J\\", 80),
+            "a\\0b\\r\\nc\\u{1b}[2J\\\\"
+        );
+        assert_eq!(escape_line("\u{feff}x\u{7f}", 80), "\\u{feff}x\\u{7f}");
+        let big = "x".repeat(10_000_000);
+        let e = escape_line(&big, 40);
+        assert!(e.starts_with(&"x".repeat(40)));
+        assert!(e.ends_with("(9999960 more characters)"), "{e}");
+        assert!(!e.contains('\n'));
+        assert_eq!(escape_line("abc", 0), "... (3 more characters)");
+        // An escape is never cut in half.
+        assert_eq!(escape_line("ab\0", 3), "ab... (1 more characters)");
+    }
+}

@@ -235,6 +235,17 @@ impl Drop for Pending {
     }
 }
 
+/// A private scratch directory for unit tests (random name, mode 0700), kept until the
+/// test removes it: never a predictable `/tmp` path.
+#[cfg(test)]
+pub(crate) fn test_dir(prefix: &str) -> PathBuf {
+    tempfile::Builder::new()
+        .prefix(&format!("gonio-{prefix}-"))
+        .tempdir()
+        .expect("a scratch directory")
+        .keep()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -318,15 +329,4 @@ mod tests {
         assert_eq!(std::fs::read(&p).unwrap(), b"ok");
         assert!(std::fs::symlink_metadata(&planted).unwrap().is_symlink());
     }
-}
-
-/// A private scratch directory for unit tests (random name, mode 0700), kept until the
-/// test removes it: never a predictable `/tmp` path.
-#[cfg(test)]
-pub(crate) fn test_dir(prefix: &str) -> PathBuf {
-    tempfile::Builder::new()
-        .prefix(&format!("gonio-{prefix}-"))
-        .tempdir()
-        .expect("a scratch directory")
-        .keep()
 }

@@ -11,6 +11,8 @@
 //! | [`export`] | a fitted model as JSON, a MERL table or an in-plane CSV grid |
 //! | [`plot`] | PNG and SVG figures of a fit against its data |
 //! | [`bench`] | evaluation variants, the slower studies, their tables and chart |
+//! | [`outfile`] | the one way an output file is written: checked target, private temporary file, sync, rename |
+//! | [`text`] | one escaped, bounded line for messages quoting input ([`text::escape_line`]) |
 //! | [`flash`] | flashing the firmware through a debug probe (probe-rs) |
 //! | [`text`] | device and file text made safe to print: control characters escaped, length bounded |
 //! | `testing` | test support (feature `testing`): link fault injection, a faulty connector, shared assertions |
@@ -27,6 +29,7 @@ pub mod device;
 pub mod export;
 pub mod fit;
 pub mod flash;
+pub mod outfile;
 pub mod plot;
 pub mod sweep_file;
 #[cfg(feature = "testing")]

@@ -1,51 +1,56 @@
-//! Text from outside (a device, a file) made safe to print or write on one line.
+//! Text for messages that quote input: [`escape_line`] makes any string one bounded,
+//! printable line.
 
-/// `s` on one line of at most `max_chars` characters: control characters (newlines,
-/// escape sequences, DEL, C1 controls) escaped as `\n`, `\t`, `\r`, `\\` or `\u{..}`;
-/// a longer text is cut and ends with `...`.
+/// `s` as one line of at most `max_chars` characters (plus `...` and the count left
+/// out when cut): control characters (NUL, CR, LF, ESC, DEL, C1...) escaped as `\0`,
+/// `\r`, `\n`, `\t` or `\u{..}`, a backslash doubled; printable characters, non-ASCII
+/// included, kept. Runs in time linear in what it keeps, whatever the input's size.
 pub fn escape_line(s: &str, max_chars: usize) -> String {
     let mut out = String::new();
-    let mut n = 0;
-    for c in s.chars() {
-        let piece: String = match c {
-            '\n' => "\\n".into(),
-            '\r' => "\\r".into(),
-            '\t' => "\\t".into(),
-            '\\' => "\\\\".into(),
-            c if c.is_control() => format!("\\u{{{:x}}}", c as u32),
+    let mut used = 0usize;
+    for (at, c) in s.char_indices() {
+        let esc = match c {
+            '\0' => "\\0".to_string(),
+            '\n' => "\\n".to_string(),
+            '\r' => "\\r".to_string(),
+            '\t' => "\\t".to_string(),
+            '\\' => "\\\\".to_string(),
+            c if c.is_control() || c == '\u{feff}' || c == '\u{2028}' || c == '\u{2029}' => {
+                format!("\\u{{{:x}}}", c as u32)
+            }
             c => c.to_string(),
         };
-        let len = piece.chars().count();
-        if n + len > max_chars {
-            // Room for the ellipsis: drop what no longer fits.
-            while n + 3 > max_chars && out.pop().is_some() {
-                n -= 1;
-            }
-            if max_chars >= 3 {
-                out.push_str("...");
-            }
+        let n = esc.chars().count();
+        if used + n > max_chars {
+            let left = s[at..].chars().count();
+            out.push_str(&format!("... ({left} more characters)"));
             return out;
         }
-        out.push_str(&piece);
-        n += len;
+        used += n;
+        out.push_str(&esc);
     }
     out
 }
 
 #[cfg(test)]
 mod tests {
-    use super::escape_line;
+    use super::*;
 
     #[test]
-    fn control_characters_are_escaped_and_length_bounded() {
-        assert_eq!(escape_line("plain", 80), "plain");
-        assert_eq!(escape_line("x\n0,0,1\nZ", 80), "x\\n0,0,1\\nZ");
-        assert_eq!(escape_line("\u{1b}[31mred", 80), "\\u{1b}[31mred");
-        assert_eq!(escape_line("a\\b", 80), "a\\\\b");
-        let long = escape_line(&"é".repeat(100), 10);
-        assert_eq!(long.chars().count(), 10);
-        assert!(long.ends_with("..."));
-        assert!(!escape_line(&"\u{7f}".repeat(50), 20).contains('\u{7f}'));
-        assert!(escape_line(&"\u{7f}".repeat(50), 20).chars().count() <= 20);
+    fn escapes_controls_and_bounds_length() {
+        assert_eq!(escape_line("plain é", 80), "plain é");
+        assert_eq!(
+            escape_line("a\0b\r\nc\x1b[2J\\", 80),
+            "a\\0b\\r\\nc\\u{1b}[2J\\\\"
+        );
+        assert_eq!(escape_line("\u{feff}x\u{7f}", 80), "\\u{feff}x\\u{7f}");
+        let big = "x".repeat(10_000_000);
+        let e = escape_line(&big, 40);
+        assert!(e.starts_with(&"x".repeat(40)));
+        assert!(e.ends_with("(9999960 more characters)"), "{e}");
+        assert!(!e.contains('\n'));
+        assert_eq!(escape_line("abc", 0), "... (3 more characters)");
+        // An escape is never cut in half.
+        assert_eq!(escape_line("ab\0", 3), "ab... (1 more characters)");
     }
 }

@@ -9,15 +9,32 @@ use crate::plot::{CrispText, FONT, PlotError, ensure_font, one_line};
 
 /// The speed-against-error chart of `gonio bench --plot`: every evaluation variant as a
 /// point, nanoseconds per evaluation (log) against its largest relative error (log).
-pub fn speed_vs_error(png: &Path, rows: &[VariantResult]) -> Result<(), PlotError> {
+/// Written through [`crate::outfile`] (an existing `png` needs `force`).
+pub fn speed_vs_error(png: &Path, rows: &[VariantResult], force: bool) -> Result<(), PlotError> {
     ensure_font()?;
+    let target = crate::outfile::Target::new(png, force);
+    crate::outfile::check(target).map_err(|e| PlotError(e.to_string()))?;
+    let mut drawn = Ok(());
+    crate::outfile::write_with(target, ".png", |tmp| {
+        drawn = draw_chart(tmp.path(), png, rows);
+        drawn.clone().map_err(|e| std::io::Error::other(e.0))
+    })
+    .map_err(|e| match drawn {
+        Err(d) => d,
+        Ok(()) => PlotError(one_line(&e.to_string())),
+    })?;
+    Ok(())
+}
+
+/// Draws the chart into `file` (messages name `png`, the target).
+fn draw_chart(file: &Path, png: &Path, rows: &[VariantResult]) -> Result<(), PlotError> {
     let fail = |e: String| {
         PlotError(one_line(&format!(
             "cannot write the plot {}: {e}",
             png.display()
         )))
     };
-    let root = CrispText::new(BitMapBackend::new(png, (1100, 640)))
+    let root = CrispText::new(BitMapBackend::new(file, (1100, 640)))
         .map_err(fail)?
         .into_drawing_area();
     let draw = || -> Result<(), String> {

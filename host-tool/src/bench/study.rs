@@ -81,8 +81,7 @@ fn measure(
 ) -> Result<(usize, f64)> {
     let preset = Preset::by_name(material).map_err(|e| StudyError::Failed(e.to_string()))?;
     let out = dir.join(format!("study-{material}-{seed}-{}.csv", plan.points.len()));
-    let mut setup = CaptureSetup::new(Some(plan), out.clone());
-    setup.force = true;
+    let setup = CaptureSetup::new(Some(plan), out.clone());
     let mut conn =
         InProcessConnector::new(InProcessDevice::new(&SimConfig::new(preset, noise, seed)));
     capture(&mut conn, &setup, &mut Quiet, &AtomicBool::new(false))?;
@@ -112,17 +111,20 @@ fn measure(
 /// adaptive plans (budgets 45..153) built from a prior of a *different* material, as
 /// when the sample is not known yet; 0.5 % noise, averaged over `seeds` seeds.
 pub fn plan_study(seeds: u32) -> Result<Vec<PlanResult>> {
-    let dir = std::env::temp_dir().join(format!("gonio-study-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).map_err(|e| StudyError::Failed(e.to_string()))?;
+    // A private directory (random name, mode 0700), removed when dropped.
+    let tmp = private_dir()?;
+    let dir = tmp.path();
     let mut out = Vec::new();
     for (material, prior) in [("fe-0.115", "al-0.142"), ("cu-0.070", "al-0.087")] {
         let mut plans: Vec<(String, HostPlan)> = Vec::new();
         for step in [40, 20, 10, 5] {
-            let path = dir.join(format!("uniform-{step}.toml"));
-            std::fs::write(
-                &path,
-                format!("incidences = {PAPER_INCIDENCES:?}\ndetector = {{ start = -80, stop = 80, step = {step} }}\n"),
-            )
+            let path = dir.join(format!("uniform-{material}-{step}.toml"));
+            let text = format!(
+                "incidences = {PAPER_INCIDENCES:?}\ndetector = {{ start = -80, stop = 80, step = {step} }}\n"
+            );
+            crate::outfile::write(crate::outfile::Target::new(&path, false), |w| {
+                std::io::Write::write_all(w, text.as_bytes())
+            })
             .map_err(|e| StudyError::Failed(e.to_string()))?;
             plans.push((
                 format!("uniform, detector step {step} deg"),
@@ -136,7 +138,7 @@ pub fn plan_study(seeds: u32) -> Result<Vec<PlanResult>> {
         for (name, plan) in plans {
             let (mut err, mut readings) = (0.0, 0);
             for seed in 1..=seeds {
-                let (r, e) = measure(material, plan.clone(), 0.005, seed, &dir)?;
+                let (r, e) = measure(material, plan.clone(), 0.005, seed, dir)?;
                 readings = r;
                 err += e / seeds as f64;
             }
@@ -148,8 +150,14 @@ pub fn plan_study(seeds: u32) -> Result<Vec<PlanResult>> {
             });
         }
     }
-    let _ = std::fs::remove_dir_all(&dir);
     Ok(out)
+}
+
+fn private_dir() -> Result<tempfile::TempDir> {
+    tempfile::Builder::new()
+        .prefix("gonio-study-")
+        .tempdir()
+        .map_err(|e| StudyError::Failed(format!("cannot create a temporary directory: {e}")))
 }
 
 /// One fit configuration's time and error.
@@ -170,9 +178,8 @@ pub struct FitResultRow {
 /// Three-component fits of a simulated fe-0.115 paper sweep (0.5 % noise) across LM
 /// tolerances and start grids.
 pub fn fit_study() -> Result<Vec<FitResultRow>> {
-    let dir = std::env::temp_dir().join(format!("gonio-fitstudy-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).map_err(|e| StudyError::Failed(e.to_string()))?;
-    let out = dir.join("fe.csv");
+    let tmp = private_dir()?;
+    let out = tmp.path().join("fe.csv");
     let mut setup = CaptureSetup::new(
         Some(HostPlan::paper(&SettingsOverride::default())?),
         out.clone(),
@@ -182,7 +189,7 @@ pub fn fit_study() -> Result<Vec<FitResultRow>> {
     let mut conn = InProcessConnector::new(InProcessDevice::new(&SimConfig::new(preset, 0.005, 1)));
     capture(&mut conn, &setup, &mut Quiet, &AtomicBool::new(false))?;
     let rows = read_sweep(&out)?.rows;
-    let _ = std::fs::remove_dir_all(&dir);
+    drop(tmp);
     let data = Dataset::from_rows(&rows, true).map_err(|e| StudyError::Failed(e.0))?;
     let mut table = Vec::new();
     let grids: [(Vec<f64>, Vec<f64>); 3] = [

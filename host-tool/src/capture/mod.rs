@@ -169,9 +169,11 @@ fn device_line(info: &Info) -> String {
 fn prepare<C: Connector>(conn: &mut C, setup: &CaptureSetup) -> Result<(FramedLink<C::T>, Info)> {
     let mut link = conn.connect()?;
     if let Some(raw) = &setup.raw {
+        use std::os::unix::fs::OpenOptionsExt;
         let f = std::fs::OpenOptions::new()
             .create(true)
             .append(true)
+            .custom_flags(nix::libc::O_NOFOLLOW)
             .open(raw)
             .map_err(|e| CaptureError::Device(format!("{}: {e}", raw.display())))?;
         link.set_raw_log(Box::new(f));
@@ -237,6 +239,38 @@ fn prepare<C: Connector>(conn: &mut C, setup: &CaptureSetup) -> Result<(FramedLi
     Ok((link, info))
 }
 
+/// The raw log is appended to: it must be a regular file (or new), and not the sweep
+/// file itself.
+fn check_raw(raw: &std::path::Path, out: &std::path::Path) -> Result {
+    use std::os::unix::fs::MetadataExt;
+    let refuse = |m: String| CaptureError::File(SweepFileError::Invalid(m));
+    let Ok(meta) = std::fs::symlink_metadata(raw) else {
+        return if raw == out {
+            Err(refuse(format!(
+                "--raw {} is the sweep file --out",
+                raw.display()
+            )))
+        } else {
+            Ok(())
+        };
+    };
+    if !meta.file_type().is_file() {
+        return Err(refuse(format!(
+            "--raw {} exists and is not a regular file (a device, symlink or directory)",
+            raw.display()
+        )));
+    }
+    let same = raw == out
+        || std::fs::metadata(out).is_ok_and(|o| o.dev() == meta.dev() && o.ino() == meta.ino());
+    if same {
+        return Err(refuse(format!(
+            "--raw {} is the sweep file --out",
+            raw.display()
+        )));
+    }
+    Ok(())
+}
+
 /// The first wanted event within `limit`, `None` if none came; a broken link is an error.
 fn recv_until<T: Transport>(
     link: &mut FramedLink<T>,
@@ -263,9 +297,18 @@ pub fn capture<C: Connector>(
     progress: &mut dyn ProgressSink,
     interrupt: &AtomicBool,
 ) -> Result<CaptureReport> {
+    // Every output is checked (and a resumed file locked) before the device is touched.
+    let resumed = if setup.resume {
+        Some(SweepWriter::resume(&setup.out)?)
+    } else {
+        SweepWriter::check_new(&setup.out, setup.force)?;
+        None
+    };
+    if let Some(raw) = &setup.raw {
+        check_raw(raw, &setup.out)?;
+    }
     let (mut link, info) = prepare(conn, setup)?;
-    let (writer, plan, present) = if setup.resume {
-        let (writer, data) = SweepWriter::resume(&setup.out)?;
+    let (writer, plan, present) = if let Some((writer, data)) = resumed {
         let plan = HostPlan::from_recorded(
             data.meta
                 .get("plan")

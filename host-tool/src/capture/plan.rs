@@ -79,6 +79,9 @@ pub struct SettingsOverride {
 pub const DEFAULT_SAMPLES: u16 = 4;
 /// Default settle time (ms).
 pub const DEFAULT_SETTLE_MS: u16 = 50;
+/// Largest plan file read (bytes), refused before it is parsed.
+pub const MAX_PLAN_FILE_BYTES: u64 = 64 << 10;
+
 /// Default readings budget of an adaptive plan: about half the paper's 153.
 pub const DEFAULT_ADAPTIVE_BUDGET: usize = 77;
 
@@ -160,8 +163,25 @@ impl HostPlan {
 
     /// Reads a TOML plan file (see the README for its keys).
     pub fn from_file(path: &Path, o: &SettingsOverride) -> Result<Self> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| PlanError::from(format!("cannot read plan {}: {e}", path.display())))?;
+        use std::io::Read;
+        let cannot =
+            |e: String| PlanError::from(format!("cannot read plan {}: {e}", path.display()));
+        let meta = std::fs::metadata(path).map_err(|e| cannot(e.to_string()))?;
+        if !meta.is_file() {
+            return Err(cannot(
+                "not a regular file (a device, FIFO or directory)".into(),
+            ));
+        }
+        let mut text = String::new();
+        std::fs::File::open(path)
+            .and_then(|f| f.take(MAX_PLAN_FILE_BYTES + 1).read_to_string(&mut text))
+            .map_err(|e| cannot(e.to_string()))?;
+        if text.len() as u64 > MAX_PLAN_FILE_BYTES {
+            return Err(cannot(format!(
+                "larger than {} KiB (a plan of {MAX_PLAN_POINTS} points is about 4 KiB)",
+                MAX_PLAN_FILE_BYTES >> 10
+            )));
+        }
         Self::from_toml_str(&text, &path.display().to_string(), o)
     }
 

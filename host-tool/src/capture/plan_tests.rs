@@ -7,8 +7,8 @@ fn o() -> SettingsOverride {
 }
 
 fn write(name: &str, text: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("gonio-plan-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    static DIR: std::sync::OnceLock<std::path::PathBuf> = std::sync::OnceLock::new();
+    let dir = DIR.get_or_init(|| crate::outfile::test_dir("plan"));
     let p = dir.join(name);
     std::fs::write(&p, text).unwrap();
     p

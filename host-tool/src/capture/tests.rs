@@ -14,8 +14,8 @@ fn sim(noise: f32) -> InProcessConnector {
 }
 
 fn out(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("gonio-capture-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
+    static DIR: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    let d = DIR.get_or_init(|| crate::outfile::test_dir("capture"));
     let p = d.join(name);
     let _ = std::fs::remove_file(&p);
     p

@@ -19,9 +19,10 @@ use crate::fit::{Kind, Loss};
 #[derive(Debug, Clone, Args)]
 pub struct PlanArgs {
     /// `paper` (the paper's 9 x 17 grid), `adaptive` (readings placed where a prior's
-    /// curve bends; needs --prior), or a TOML plan file (see the README).
-    #[arg(long, default_value = "paper", value_name = "paper|FILE.toml|adaptive")]
-    pub plan: String,
+    /// curve bends; needs --prior), or a TOML plan file (see the README) [default:
+    /// paper; with --resume: the file's plan].
+    #[arg(long, value_name = "paper|FILE.toml|adaptive")]
+    pub plan: Option<String>,
     /// Prior material for `--plan adaptive` (al-0.087, al-0.142, al-0.782, cu-0.070, fe-0.115).
     #[arg(long, value_name = "PRESET")]
     pub prior: Option<String>,
@@ -52,7 +53,7 @@ impl PlanArgs {
             exclude_retro: self.exclude_retro,
             dark: self.dark,
         };
-        match self.plan.as_str() {
+        match self.plan.as_deref().unwrap_or("paper") {
             "paper" => Ok(HostPlan::paper(&o)?),
             "adaptive" => {
                 let prior = self.prior.as_deref().ok_or_else(|| {
@@ -62,13 +63,87 @@ impl PlanArgs {
                 })?;
                 if self.budget > MAX_PLAN_POINTS {
                     return Err(CliError::usage(format!(
-                        "--budget must be <= {MAX_PLAN_POINTS}"
+                        "--budget {}: at most {MAX_PLAN_POINTS} readings",
+                        self.budget
+                    )));
+                }
+                // Two readings per leg at least, at each of the paper's incidences.
+                let min = 2 * brdf_core::identity::PAPER_INCIDENCES.len();
+                if self.budget < min {
+                    return Err(CliError::usage(format!(
+                        "--budget {}: too few readings for an adaptive plan (at least {min}: two per incidence at {} incidences)",
+                        self.budget,
+                        min / 2
                     )));
                 }
                 Ok(HostPlan::adaptive(prior, self.budget, &o)?)
             }
             file => Ok(HostPlan::from_file(std::path::Path::new(file), &o)?),
         }
+    }
+}
+
+impl PlanArgs {
+    /// With `--resume`: refuses plan options that differ from what the file `data` (at
+    /// `path`) was captured with, since the file's plan and settings are continued.
+    pub fn check_resume(
+        &self,
+        path: &std::path::Path,
+        data: &crate::sweep_file::SweepData,
+    ) -> CliResult {
+        let conflict = |what: String, recorded: &str| {
+            CliError::usage(format!(
+                "--resume: {} was captured with {recorded}, not {what}: drop the option (the file's plan and settings are continued) or capture into a new file",
+                path.display()
+            ))
+        };
+        if self.plan.is_some() {
+            let given = self.plan()?.description;
+            let recorded = data.meta.get("plan").map(String::as_str).unwrap_or("");
+            if given != recorded {
+                return Err(conflict(
+                    format!("plan '{given}'"),
+                    &format!("plan '{recorded}'"),
+                ));
+            }
+        }
+        let words: std::collections::BTreeMap<&str, &str> = data
+            .meta
+            .get("settings")
+            .map(String::as_str)
+            .unwrap_or("")
+            .split_whitespace()
+            .filter_map(|w| w.split_once('='))
+            .collect();
+        let differs = |key: &str, given: f64| {
+            words
+                .get(key)
+                .and_then(|v| v.parse::<f64>().ok())
+                .is_some_and(|v| (v - given).abs() > 1e-6)
+        };
+        let rec = |key: &str| format!("{key}={}", words.get(key).copied().unwrap_or("?"));
+        if let Some(n) = self.samples
+            && differs("samples", n.into())
+        {
+            return Err(conflict(format!("--samples {n}"), &rec("samples")));
+        }
+        if let Some(ms) = self.settle
+            && differs("settle_ms", ms.into())
+        {
+            return Err(conflict(format!("--settle {ms}"), &rec("settle_ms")));
+        }
+        if let Some(x) = self.exclude_retro
+            && differs("exclude_retro", x.into())
+        {
+            return Err(conflict(
+                format!("--exclude-retro {x}"),
+                &rec("exclude_retro"),
+            ));
+        }
+        if self.dark && words.get("dark") == Some(&"false") {
+            return Err(conflict("--dark".into(), &rec("dark")));
+        }
+        Ok(())
     }
 }
 
@@ -141,6 +216,27 @@ impl ValueEnum for EvalModel {
 
     fn to_possible_value(&self) -> Option<PossibleValue> {
         ModelArg(self.0).to_possible_value()
+    }
+}
+
+/// Longest timeout a command accepts (`info --timeout`, `capture --event-timeout`), s.
+pub const MAX_TIMEOUT_S: u64 = 3600;
+
+/// Longest `capture --reconnect` wait, s (a day).
+pub const MAX_RECONNECT_S: u64 = 86_400;
+
+/// Slowest and fastest `simulate --pty --speed` (times real time).
+pub const SPEED_RANGE: (f64, f64) = (1e-3, 1e6);
+
+/// Parses `simulate --speed` (a clap value parser): a finite factor in [`SPEED_RANGE`].
+pub fn parse_speed(s: &str) -> Result<f64, String> {
+    let (lo, hi) = SPEED_RANGE;
+    match s.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && (lo..=hi).contains(&v) => Ok(v),
+        _ => Err(format!(
+            "'{}' is not a speed factor from {lo} to {hi}",
+            crate::text::escape_line(s, 40)
+        )),
     }
 }
 

@@ -30,6 +30,9 @@ pub struct BenchArgs {
     /// Write the speed-against-error chart of the variants as a PNG.
     #[arg(long, value_name = "PNG")]
     pub plot: Option<std::path::PathBuf>,
+    /// Overwrite the --plot file if it exists.
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// Runs `gonio bench`.
@@ -37,9 +40,12 @@ pub fn run(args: &BenchArgs) -> CliResult {
     if !(args.seconds.is_finite() && args.seconds > 0.0 && args.seconds <= 60.0) {
         return Err(CliError::usage("--seconds must be in (0, 60]"));
     }
+    if let Some(png) = &args.plot {
+        crate::outfile::check(crate::outfile::Target::new(png, args.force))?;
+    }
     let rows = bench::run(Duration::from_secs_f64(args.seconds));
     if let Some(png) = &args.plot {
-        bench::speed_vs_error(png, &rows)?;
+        bench::speed_vs_error(png, &rows, args.force)?;
     }
     let (plans, fits) = if args.study {
         (Some(bench::plan_study(3)?), Some(bench::fit_study()?))

@@ -41,11 +41,13 @@ pub struct CaptureArgs {
     #[command(flatten)]
     pub out: OutArgs,
     /// Seconds of silence after which the device is pinged (and, if it does not
-    /// answer, considered lost).
-    #[arg(long = "event-timeout", default_value_t = 30, value_name = "S")]
+    /// answer, considered lost); 1 to 3600.
+    #[arg(long = "event-timeout", default_value_t = 30, value_name = "S",
+          value_parser = clap::value_parser!(u64).range(1..=super::args::MAX_TIMEOUT_S))]
     pub event_timeout: u64,
-    /// Seconds to wait for a lost device to come back before giving up.
-    #[arg(long, default_value_t = 60, value_name = "S")]
+    /// Seconds to wait for a lost device to come back before giving up; 0 to 86400.
+    #[arg(long, default_value_t = 60, value_name = "S",
+          value_parser = clap::value_parser!(u64).range(0..=super::args::MAX_RECONNECT_S))]
     pub reconnect: u64,
 }
 
@@ -70,12 +72,16 @@ pub(super) fn setup_from(plan: &PlanArgs, out: &OutArgs) -> CliResult<CaptureSet
         .out
         .clone()
         .ok_or_else(|| CliError::usage("--out SWEEP.csv is required"))?;
+    let plan_args = plan;
     let plan = if out.resume { None } else { Some(plan.plan()?) };
     if out.resume && !path.exists() {
         return Err(CliError::usage(format!(
             "--resume: {} does not exist",
             path.display()
         )));
+    }
+    if out.resume {
+        plan_args.check_resume(&path, &crate::sweep_file::read_sweep(&path)?)?;
     }
     let mut setup = CaptureSetup::new(plan, path);
     setup.resume = out.resume;

@@ -17,6 +17,7 @@ use super::output::write_stdout;
 use crate::capture::{CaptureSetup, HostPlan, SettingsOverride, capture, progress};
 use crate::device::{InProcessConnector, InProcessDevice};
 use crate::fit::{Dataset, FamilyFit, FitOptions, Kind, report};
+use crate::outfile::Target;
 use crate::{export, plot};
 
 /// `gonio demo`.
@@ -119,9 +120,16 @@ fn truth_table(preset: &Preset, fam: &FamilyFit) -> String {
 /// What `gonio demo` writes next to its sweep: plots in `dir/plots` and the selected
 /// model's parameters in `dir/fit.json`. Returns the paths written.
 fn write_files(dir: &std::path::Path, data: &Dataset, fam: &FamilyFit) -> CliResult<Vec<PathBuf>> {
-    let mut written = plot::write_plots(&dir.join("plots"), data, fam)?;
+    // The demo's own directory: files of an earlier demo are replaced (never a
+    // device, symlink or directory standing in their place).
+    let mut written = plot::write_plots(&dir.join("plots"), data, fam, true)?;
     let params = dir.join("fit.json");
-    export::write_export(export::ExportFormat::Json, &params, fam, fam.selected)?;
+    export::write_export(
+        export::ExportFormat::Json,
+        Target::new(&params, true),
+        fam,
+        fam.selected,
+    )?;
     written.push(params);
     Ok(written)
 }

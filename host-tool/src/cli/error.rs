@@ -90,8 +90,17 @@ impl From<CaptureError> for CliError {
 impl From<ExportError> for CliError {
     fn from(e: ExportError) -> Self {
         match e {
-            ExportError::NotFitted(m) => CliError::usage(m),
+            ExportError::NotFitted(m) | ExportError::Refused(m) => CliError::usage(m),
             ExportError::Write(m) => CliError::failed(m),
+        }
+    }
+}
+
+impl From<crate::outfile::OutError> for CliError {
+    fn from(e: crate::outfile::OutError) -> Self {
+        match e {
+            crate::outfile::OutError::Refused(m) => CliError::usage(m),
+            crate::outfile::OutError::Io(m) => CliError::failed(m),
         }
     }
 }

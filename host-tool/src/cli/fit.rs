@@ -11,6 +11,7 @@ use super::output::write_stdout;
 use crate::export::ExportFormat;
 use crate::fit::campaign::{self, FileError};
 use crate::fit::{self, Dataset, FamilyFit, FitOptions, Fixed, Kind, Loss, Residual};
+use crate::outfile::{self, Target};
 use crate::{export, plot};
 
 /// Residual kind on the command line.
@@ -61,6 +62,10 @@ pub struct FitArgs {
     /// merl=PATH (MERL binary table), csv=PATH (in-plane grid). Repeatable.
     #[arg(long, value_name = "FORMAT=PATH", value_parser = parse_export)]
     pub export: Vec<(ExportFormat, PathBuf)>,
+    /// Overwrite existing --export and --plot files (never the sweep file itself, a
+    /// device, a symlink or a directory).
+    #[arg(long)]
+    pub force: bool,
     /// Which fitted model to export [default: the selected one].
     #[arg(long = "export-model", value_enum, value_name = "MODEL")]
     pub export_model: Option<ModelArg>,
@@ -121,8 +126,15 @@ pub fn fit_file(
             }
             Ok((fit.data, fit.family))
         }
-        Err(FileError::Input(e)) => Err(CliError::usage(e)),
-        Err(FileError::Fit(e)) => Err(CliError::failed(e)),
+        Err(e) => Err(file_error(e)),
+    }
+}
+
+/// Bad input is a usage error (exit 2), a fit that fails is the job failing (exit 1).
+fn file_error(e: FileError) -> CliError {
+    match e {
+        FileError::Input(e) => CliError::usage(e),
+        FileError::Fit(e) => CliError::failed(e),
     }
 }
 
@@ -194,14 +206,35 @@ pub fn run(args: &FitArgs) -> CliResult {
     if args.sweeps.len() > 1 || args.sweeps[0].is_dir() {
         return run_campaign(args, &opts, &kinds);
     }
-    let (data, fam) = fit_file(&args.sweeps[0], &opts, &kinds)?;
+    let sweep = args.sweeps[0].as_path();
+    let (data, warnings) = campaign::read_data(sweep, &opts).map_err(file_error)?;
+    for w in &warnings {
+        eprintln!("gonio: warning: {w}");
+    }
+    // Every output is checked before the fit: nothing is computed for a refused one.
+    let inputs = [sweep];
+    for (_, path) in &args.export {
+        outfile::check(Target::new(path, args.force).inputs(&inputs))?;
+    }
+    if let Some(dir) = &args.plot {
+        plot::check_plots(dir, &data.incidences, args.force)?;
+        for f in plot::plot_files(dir, &data.incidences) {
+            outfile::check(Target::new(&f, true).inputs(&inputs))?;
+        }
+    }
+    let fam = campaign::fit_data(sweep, &data, &opts, &kinds).map_err(file_error)?;
     let residual = residual_name(opts.residual);
     if let Some(dir) = &args.plot {
-        plot::write_plots(dir, &data, &fam)?;
+        plot::write_plots(dir, &data, &fam, args.force)?;
     }
     let kind = args.export_model.map_or(fam.selected, |m| m.0);
     for (format, path) in &args.export {
-        export::write_export(*format, path, &fam, kind)?;
+        export::write_export(
+            *format,
+            Target::new(path, args.force).inputs(&inputs),
+            &fam,
+            kind,
+        )?;
     }
     let text = if args.json {
         fit::report::family_json_text(&fam)

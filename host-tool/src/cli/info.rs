@@ -22,8 +22,9 @@ pub struct InfoArgs {
     /// Serial port of the device (e.g. /dev/ttyACM0; see `gonio ports`).
     #[arg(long)]
     pub port: String,
-    /// Seconds to wait for the device to answer.
-    #[arg(long, default_value_t = 10, value_name = "S")]
+    /// Seconds to wait for the device to answer (1 to 3600).
+    #[arg(long, default_value_t = 10, value_name = "S",
+          value_parser = clap::value_parser!(u64).range(1..=super::args::MAX_TIMEOUT_S))]
     pub timeout: u64,
 }
 

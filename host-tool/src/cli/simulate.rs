@@ -40,8 +40,8 @@ pub struct SimulateArgs {
     #[arg(long, conflicts_with_all = ["out", "resume"])]
     pub pty: bool,
     /// With --pty: run this many times faster than real time (1 = a real instrument's
-    /// pace; default: as fast as possible).
-    #[arg(long, requires = "pty", value_name = "X")]
+    /// pace; default: as fast as possible); 0.001 to 1000000.
+    #[arg(long, requires = "pty", value_name = "X", value_parser = super::args::parse_speed)]
     pub speed: Option<f64>,
     /// Which plan to run.
     #[command(flatten)]

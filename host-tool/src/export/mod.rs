@@ -1,7 +1,9 @@
 //! Exporting a fitted model: its parameters as JSON, a MERL-format BRDF table, or an in-plane CSV grid.
 //!
-//! Every file is written to `PATH.tmp` and renamed to `PATH` only once complete, so a
-//! failed export never leaves a partial file under the name asked for.
+//! Every file is written through [`crate::outfile`] (a private temporary file beside
+//! the target, synced, renamed once complete), so a failed or interrupted export never
+//! leaves a partial file under the name asked for, and never replaces a device, a
+//! symlink, the input file or (without `--force`) an existing file.
 //!
 //! Units: angles in degrees (sigma_m in radians, sigma dimensionless), BRDF values in
 //! the paper's relative units (sr^-1 up to the instrument's unknown scale), never
@@ -24,11 +26,10 @@
 //!   value back.
 
 use std::fmt;
-use std::fs::File;
-use std::io::{self, BufWriter, Write};
-use std::path::{Path, PathBuf};
+use std::io::{self, Write};
 
 use crate::fit::{FamilyFit, Kind};
+use crate::outfile::{self, OutError, Target};
 
 mod csv;
 mod json;
@@ -41,14 +42,28 @@ pub use merl::{MERL_DIMS, MERL_INVALID, MERL_LEN, MERL_SCALE, MerlTable};
 pub enum ExportError {
     /// The model asked for was not fitted (bad input); the message names those that were.
     NotFitted(String),
+    /// The target may not be written (not a regular file, the input, or existing
+    /// without `--force`): bad input, nothing written.
+    Refused(String),
     /// The file could not be written (the message names it); nothing is left under its name.
     Write(String),
+}
+
+impl From<OutError> for ExportError {
+    fn from(e: OutError) -> Self {
+        match e {
+            OutError::Refused(m) => ExportError::Refused(m),
+            OutError::Io(m) => ExportError::Write(m),
+        }
+    }
 }
 
 impl fmt::Display for ExportError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            ExportError::NotFitted(m) | ExportError::Write(m) => f.write_str(m),
+            ExportError::NotFitted(m) | ExportError::Refused(m) | ExportError::Write(m) => {
+                f.write_str(m)
+            }
         }
     }
 }
@@ -77,13 +92,14 @@ impl ExportFormat {
     }
 }
 
-/// Writes the fitted model `kind` of `fam` to `path` in `format` (see the module and
+/// Writes the fitted model `kind` of `fam` to `target` in `format` (see the module and
 /// format docs). `kind` must be one of the fitted models, else
-/// [`ExportError::NotFitted`] naming those; a file that cannot be written is
-/// [`ExportError::Write`] naming `path`.
+/// [`ExportError::NotFitted`] naming those; a target [`outfile::check`] refuses is
+/// [`ExportError::Refused`]; a file that cannot be written is [`ExportError::Write`]
+/// naming it.
 pub fn write_export(
     format: ExportFormat,
-    path: &Path,
+    target: Target<'_>,
     fam: &FamilyFit,
     kind: Kind,
 ) -> Result<(), ExportError> {
@@ -101,6 +117,7 @@ pub fn write_export(
             }
         )));
     };
+    let path = target.path;
     match format {
         ExportFormat::Json => {
             let mut text =
@@ -108,37 +125,22 @@ pub fn write_export(
                     ExportError::Write(format!("cannot encode {}: {e}", path.display()))
                 })?;
             text.push('\n');
-            write_atomic(path, |w| w.write_all(text.as_bytes()))
+            write_atomic(target, |w| w.write_all(text.as_bytes()))
         }
         ExportFormat::Merl => {
             let table = merl::merl_values(fam, fit);
-            write_atomic(path, |w| merl::write_merl(w, &table))
+            write_atomic(target, |mut w| merl::write_merl(&mut w, &table))
         }
-        ExportFormat::Csv => write_atomic(path, |w| csv::write_csv(w, fam, fit)),
+        ExportFormat::Csv => write_atomic(target, |mut w| csv::write_csv(&mut w, fam, fit)),
     }
 }
 
-/// Writes through `PATH.tmp`, then renames; on any error removes the temporary file and
-/// reports one line naming `path`.
+/// Writes through [`outfile::write`]: checked target, temporary file, sync, rename.
 fn write_atomic(
-    path: &Path,
-    body: impl FnOnce(&mut BufWriter<File>) -> io::Result<()>,
+    target: Target<'_>,
+    body: impl FnOnce(&mut dyn Write) -> io::Result<()>,
 ) -> Result<(), ExportError> {
-    let mut tmp = path.as_os_str().to_owned();
-    tmp.push(".tmp");
-    let tmp = PathBuf::from(tmp);
-    let result = (|| {
-        let mut w = BufWriter::new(File::create(&tmp)?);
-        body(&mut w)?;
-        let file = w.into_inner().map_err(io::IntoInnerError::into_error)?;
-        file.sync_all()?;
-        drop(file);
-        std::fs::rename(&tmp, path)
-    })();
-    result.map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        ExportError::Write(format!("cannot write {}: {e}", path.display()))
-    })
+    Ok(outfile::write(target, body)?)
 }
 
 #[cfg(test)]

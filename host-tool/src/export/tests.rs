@@ -26,10 +26,7 @@ fn fixture() -> &'static FamilyFit {
 }
 
 fn tempdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("gonio-export-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    crate::outfile::test_dir(&format!("export-{name}"))
 }
 
 fn rel(a: f64, b: f64) -> f64 {
@@ -42,7 +39,13 @@ fn an_unfitted_model_is_a_usage_error_naming_the_fitted_ones() {
     let fam = fit_family(&data, &FitOptions::default(), &[Kind::TorranceSparrow]).unwrap();
     let dir = tempdir("unfitted");
     let path = dir.join("m.json");
-    let e = write_export(ExportFormat::Json, &path, &fam, Kind::ThreeComponent).unwrap_err();
+    let e = write_export(
+        ExportFormat::Json,
+        Target::new(&path, false),
+        &fam,
+        Kind::ThreeComponent,
+    )
+    .unwrap_err();
     assert!(matches!(e, ExportError::NotFitted(_)), "bad input: {e}");
     assert!(e.to_string().contains("three-component"), "{e}");
     assert!(
@@ -58,7 +61,13 @@ fn json_has_parameters_units_and_incidences() {
     let fam = fixture();
     let dir = tempdir("json");
     let path = dir.join("m.json");
-    write_export(ExportFormat::Json, &path, fam, Kind::ThreeComponent).unwrap();
+    write_export(
+        ExportFormat::Json,
+        Target::new(&path, false),
+        fam,
+        Kind::ThreeComponent,
+    )
+    .unwrap();
     let v: Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
     assert_eq!(v["model"], "three-component");
     assert_eq!(v["name"], "three-component");
@@ -82,7 +91,13 @@ fn csv_grid_reads_back_as_a_sweep_file() {
     let fit = fam.get(Kind::ThreeComponent).unwrap();
     let dir = tempdir("csv");
     let path = dir.join("grid.csv");
-    write_export(ExportFormat::Csv, &path, fam, Kind::ThreeComponent).unwrap();
+    write_export(
+        ExportFormat::Csv,
+        Target::new(&path, false),
+        fam,
+        Kind::ThreeComponent,
+    )
+    .unwrap();
     let data = read_sweep(&path).unwrap();
     assert_eq!(data.columns, ["theta_i", "theta_r", "brdf"]);
     assert_eq!(
@@ -135,7 +150,13 @@ fn merl_file_layout_scales_and_read_back() {
     let fit = fam.get(Kind::ThreeComponent).unwrap();
     let dir = tempdir("merl");
     let path = dir.join("fe.binary");
-    write_export(ExportFormat::Merl, &path, fam, Kind::ThreeComponent).unwrap();
+    write_export(
+        ExportFormat::Merl,
+        Target::new(&path, false),
+        fam,
+        Kind::ThreeComponent,
+    )
+    .unwrap();
     let bytes = std::fs::read(&path).unwrap();
     assert_eq!(bytes.len(), 12 + 3 * 8 * 90 * 90 * 180);
     assert_eq!(&bytes[..12], &[90, 0, 0, 0, 90, 0, 0, 0, 180, 0, 0, 0]);
@@ -257,19 +278,30 @@ fn an_unwritable_path_fails_naming_it_and_leaves_no_file() {
     let fam = fixture();
     let dir = tempdir("unwritable");
     let missing = dir.join("no-such-dir").join("m.csv");
-    let e = write_export(ExportFormat::Csv, &missing, fam, Kind::ThreeComponent).unwrap_err();
+    let e = write_export(
+        ExportFormat::Csv,
+        Target::new(&missing, false),
+        fam,
+        Kind::ThreeComponent,
+    )
+    .unwrap_err();
     assert!(matches!(e, ExportError::Write(_)), "failed: {e}");
     assert!(
         e.to_string().contains(&missing.display().to_string()),
         "{e}"
     );
     assert!(!e.to_string().contains('\n'));
-    // A path that is a directory: the temporary file is written, the rename fails, and
-    // the temporary file is removed again.
+    // A path that is a directory is refused before anything is written.
     let target = dir.join("taken");
     std::fs::create_dir(&target).unwrap();
-    let e = write_export(ExportFormat::Json, &target, fam, Kind::ThreeComponent).unwrap_err();
-    assert!(matches!(e, ExportError::Write(_)), "failed: {e}");
+    let e = write_export(
+        ExportFormat::Json,
+        Target::new(&target, false),
+        fam,
+        Kind::ThreeComponent,
+    )
+    .unwrap_err();
+    assert!(matches!(e, ExportError::Refused(_)), "refused: {e}");
     assert!(e.to_string().contains("taken"), "{e}");
     assert!(!dir.join("taken.tmp").exists());
     assert!(target.is_dir());

@@ -43,17 +43,19 @@ pub struct SweepFit {
     pub warnings: Vec<String>,
 }
 
-/// Reads, checks and fits one sweep file; every message starts with the path.
-pub fn fit_sweep_file(
-    path: &Path,
-    opts: &FitOptions,
-    kinds: &[Kind],
-) -> Result<SweepFit, FileError> {
+/// Reads and checks one sweep file into the data to fit, with the warnings worth
+/// telling (rows left out of a cut capture, missing plan points, angles that look
+/// like radians); every message starts with the path.
+pub fn read_data(path: &Path, opts: &FitOptions) -> Result<(Dataset, Vec<String>), FileError> {
     let sweep = read_sweep(path).map_err(|e| FileError::Input(e.to_string()))?;
+    let mut warnings: Vec<String> = sweep
+        .warnings()
+        .into_iter()
+        .map(|w| format!("{}: {w}", path.display()))
+        .collect();
     if sweep.rows.is_empty() {
         return Err(FileError::Input(format!("{}: no readings", path.display())));
     }
-    let mut warnings = Vec::new();
     if let Some(max) = looks_like_radians(&sweep.rows) {
         warnings.push(format!(
             "every angle in {} is within {max:.3}: are they radians? gonio reads degrees",
@@ -62,8 +64,27 @@ pub fn fit_sweep_file(
     }
     let data = Dataset::from_rows(&sweep.rows, opts.residual != Residual::Absolute)
         .map_err(|e| FileError::Input(format!("{}: {}", path.display(), e.0)))?;
-    let family = fit_family(&data, opts, kinds)
-        .map_err(|e| FileError::Fit(format!("{}: {e}", path.display())))?;
+    Ok((data, warnings))
+}
+
+/// Fits the family to data read from `path` (named in the message of a failure).
+pub fn fit_data(
+    path: &Path,
+    data: &Dataset,
+    opts: &FitOptions,
+    kinds: &[Kind],
+) -> Result<FamilyFit, FileError> {
+    fit_family(data, opts, kinds).map_err(|e| FileError::Fit(format!("{}: {e}", path.display())))
+}
+
+/// Reads, checks and fits one sweep file; every message starts with the path.
+pub fn fit_sweep_file(
+    path: &Path,
+    opts: &FitOptions,
+    kinds: &[Kind],
+) -> Result<SweepFit, FileError> {
+    let (data, warnings) = read_data(path, opts)?;
+    let family = fit_data(path, &data, opts, kinds)?;
     Ok(SweepFit {
         data,
         family,

@@ -65,10 +65,20 @@ impl std::error::Error for PlotError {}
 /// the two models differ most) stay readable on a log axis. Readings <= 0 cannot be
 /// shown there and are left out (the legend counts them).
 ///
+/// Every file goes through [`crate::outfile`]: all targets are checked before the first
+/// is written (existing files need `force`), each is written to a private temporary
+/// file and renamed. At most [`MAX_PLOT_INCIDENCES`] incidences are drawn.
+///
 /// Errors: a directory that cannot be created, or a file that cannot be written, is a
 /// [`PlotError`] naming the path.
-pub fn write_plots(dir: &Path, data: &Dataset, fam: &FamilyFit) -> Result<Vec<PathBuf>, PlotError> {
+pub fn write_plots(
+    dir: &Path,
+    data: &Dataset,
+    fam: &FamilyFit,
+    force: bool,
+) -> Result<Vec<PathBuf>, PlotError> {
     ensure_font()?;
+    check_plots(dir, &fam.incidences, force).map_err(|e| PlotError(e.to_string()))?;
     std::fs::create_dir_all(dir).map_err(|e| {
         PlotError(one_line(&format!(
             "cannot create the plot directory {}: {e}",
@@ -79,11 +89,55 @@ pub fn write_plots(dir: &Path, data: &Dataset, fam: &FamilyFit) -> Result<Vec<Pa
     for j in 0..fam.incidences.len() {
         let fig = figures::incidence_figure(data, fam, j);
         let stem = format!("theta_i_{}", figures::angle_text(fam.incidences[j]));
-        render::save_both(dir, &stem, &fig, INCIDENCE_SIZE, &mut written)?;
+        render::save_both(dir, &stem, &fig, INCIDENCE_SIZE, force, &mut written)?;
     }
     let fig = figures::overview_figure(data, fam);
-    render::save_both(dir, "overview", &fig, OVERVIEW_SIZE, &mut written)?;
+    render::save_both(dir, "overview", &fig, OVERVIEW_SIZE, force, &mut written)?;
     Ok(written)
+}
+
+/// Most incidences `write_plots` draws (two files each, plus the overview's two): a
+/// sweep with more is refused before anything is written.
+pub const MAX_PLOT_INCIDENCES: usize = 90;
+
+/// The files `write_plots` would write for `incidences` (degrees) into `dir`.
+pub fn plot_files(dir: &Path, incidences: &[f64]) -> Vec<PathBuf> {
+    let mut stems: Vec<String> = incidences
+        .iter()
+        .map(|&t| format!("theta_i_{}", figures::angle_text(t)))
+        .collect();
+    stems.push("overview".into());
+    stems
+        .iter()
+        .flat_map(|s| [dir.join(format!("{s}.png")), dir.join(format!("{s}.svg"))])
+        .collect()
+}
+
+/// Checks, writing nothing, that the plots of `incidences` may be written into `dir`:
+/// at most [`MAX_PLOT_INCIDENCES`], every target acceptable to [`crate::outfile::check`].
+pub fn check_plots(
+    dir: &Path,
+    incidences: &[f64],
+    force: bool,
+) -> Result<(), crate::outfile::OutError> {
+    use crate::outfile::{OutError, Target, check};
+    if dir.exists() && !dir.is_dir() {
+        return Err(OutError::Refused(format!(
+            "--plot {} is not a directory",
+            dir.display()
+        )));
+    }
+    if incidences.len() > MAX_PLOT_INCIDENCES {
+        return Err(OutError::Refused(format!(
+            "--plot: {} incidences would make {} files; plots are drawn for at most {MAX_PLOT_INCIDENCES} incidences",
+            incidences.len(),
+            2 * incidences.len() + 2
+        )));
+    }
+    for f in plot_files(dir, incidences) {
+        check(Target::new(&f, force))?;
+    }
+    Ok(())
 }
 
 /// Registers the embedded font once per process.

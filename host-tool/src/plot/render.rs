@@ -91,8 +91,10 @@ pub(super) fn save_both(
     stem: &str,
     fig: &Figure,
     size: (u32, u32),
+    force: bool,
     written: &mut Vec<PathBuf>,
 ) -> Result<(), PlotError> {
+    use crate::outfile::{Target, write, write_with};
     let png = dir.join(format!("{stem}.png"));
     let fail = |path: &Path, e: String| {
         PlotError(one_line(&format!(
@@ -100,14 +102,18 @@ pub(super) fn save_both(
             path.display()
         )))
     };
-    {
-        let root = CrispText::new(BitMapBackend::new(&png, size))
-            .map_err(|e| fail(&png, e))?
-            .into_drawing_area();
-        render(&root, fig)
-            .and_then(|()| root.present().map_err(|e| e.to_string()))
-            .map_err(|e| fail(&png, e))?;
-    }
+    let mut drawn = Ok(());
+    write_with(Target::new(&png, force), ".png", |tmp| {
+        drawn = (|| {
+            let root = CrispText::new(BitMapBackend::new(tmp.path(), size))?.into_drawing_area();
+            render(&root, fig).and_then(|()| root.present().map_err(|e| e.to_string()))
+        })();
+        drawn.clone().map_err(std::io::Error::other)
+    })
+    .map_err(|e| match drawn {
+        Err(d) => fail(&png, d),
+        Ok(()) => PlotError(one_line(&e.to_string())),
+    })?;
     written.push(png);
     let svg = dir.join(format!("{stem}.svg"));
     let mut text = String::new();
@@ -117,7 +123,8 @@ pub(super) fn save_both(
             .and_then(|()| root.present().map_err(|e| e.to_string()))
             .map_err(|e| fail(&svg, e))?;
     }
-    std::fs::write(&svg, text).map_err(|e| fail(&svg, e.to_string()))?;
+    write(Target::new(&svg, force), |w| w.write_all(text.as_bytes()))
+        .map_err(|e| PlotError(one_line(&e.to_string())))?;
     written.push(svg);
     Ok(())
 }

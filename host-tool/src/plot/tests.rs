@@ -28,9 +28,8 @@ fn fixture() -> &'static (Dataset, FamilyFit) {
 }
 
 fn tempdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("gonio-plot-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    d
+    // A private parent; the directory itself is left for write_plots to create.
+    crate::outfile::test_dir("plot").join(name)
 }
 
 /// Width and height from a PNG's signature and IHDR chunk.
@@ -46,7 +45,7 @@ fn png_size(bytes: &[u8]) -> (u32, u32) {
 fn writes_one_png_and_svg_per_incidence_and_an_overview() {
     let (data, fam) = fixture();
     let dir = tempdir("all");
-    let files = write_plots(&dir, data, fam).unwrap();
+    let files = write_plots(&dir, data, fam, false).unwrap();
     let names: Vec<String> = files
         .iter()
         .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
@@ -159,7 +158,7 @@ fn an_unwritable_directory_is_a_failure_naming_it() {
     std::fs::create_dir_all(&dir).unwrap();
     let file = dir.join("not-a-dir");
     std::fs::write(&file, b"x").unwrap();
-    let err = write_plots(&file.join("plots"), data, fam).unwrap_err();
+    let err = write_plots(&file.join("plots"), data, fam, false).unwrap_err();
     // A PlotError is a failed job (exit 1) by its type.
     let PlotError(message) = err;
     assert!(message.contains("not-a-dir"), "{message}");

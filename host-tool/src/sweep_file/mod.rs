@@ -26,7 +26,10 @@ use std::fmt;
 mod read;
 mod write;
 
-pub use read::{ANGLE_UNITS, SweepData, looks_like_radians, parse_sweep, read_sweep};
+pub use read::{
+    ANGLE_UNITS, BRDF_MAX, BRDF_MIN, MAX_SWEEP_BYTES, SweepData, looks_like_radians, parse_sweep,
+    read_sweep,
+};
 pub use write::SweepWriter;
 
 /// Why a sweep file could not be read or written.

@@ -1,10 +1,26 @@
 //! Reading a sweep file: metadata, columns found by name, rows, tolerating a last line
-//! cut short.
+//! cut short where a capture was cut; bounded in size, refusing what it cannot read right.
 
 use std::collections::BTreeMap;
+use std::io::Read;
 use std::path::Path;
 
 use super::{COLUMNS, Counters, Row, STATUS_PREFIX, SweepFileError};
+use crate::text::escape_line;
+
+/// Largest sweep file read (bytes): a 240-point capture is about 10 kB, a dense
+/// in-plane export about 0.5 MB; anything larger is refused before it is read.
+pub const MAX_SWEEP_BYTES: u64 = 64 << 20;
+
+/// Readings of a magnitude outside [`BRDF_MIN`, `BRDF_MAX`] (other than 0) are refused:
+/// the fit works with their logarithms and squares, which over- or underflow there.
+pub const BRDF_MIN: f64 = 1e-30;
+
+/// See [`BRDF_MIN`].
+pub const BRDF_MAX: f64 = 1e30;
+
+/// Characters of a field quoted in a message (escaped, see [`escape_line`]).
+const QUOTE_CHARS: usize = 40;
 
 /// What a sweep file holds.
 #[derive(Debug, Clone, Default)]
@@ -23,26 +39,109 @@ pub struct SweepData {
     pub(super) status_offset: Option<u64>,
     /// Length of the file up to its last complete line.
     pub(super) complete_len: u64,
+    /// Rows left out because the capture was cut in the middle of writing them (0 or 1;
+    /// only in a file whose status is `running`).
+    pub cut_rows: usize,
+    /// The last line is a complete row without its newline (a file from another tool).
+    pub(super) no_final_newline: bool,
 }
 
 impl SweepData {
     pub(super) fn columns_are_capture_columns(&self) -> bool {
         self.columns.iter().map(String::as_str).eq(COLUMNS)
     }
+
+    /// The status word of the `# status:` line, if any.
+    pub fn status_word(&self) -> Option<&str> {
+        self.meta.get("status")?.split_whitespace().next()
+    }
+
+    /// What a reader should be told about this file although it can be used: rows left
+    /// out where the capture was cut, a capture that failed or claims to be complete
+    /// with plan points missing.
+    pub fn warnings(&self) -> Vec<String> {
+        let mut w = Vec::new();
+        if self.cut_rows > 0 {
+            w.push(format!(
+                "{} row(s) left out: the capture was cut while writing the last line",
+                self.cut_rows
+            ));
+        }
+        if !self.points.is_empty() {
+            let present: std::collections::BTreeSet<u32> =
+                self.rows.iter().filter_map(|r| r.seq).collect();
+            let missing = self.points.len().saturating_sub(present.len());
+            match self.status_word() {
+                Some("complete") if missing > 0 => w.push(format!(
+                    "the status says complete but {missing} of {} plan points have no reading",
+                    self.points.len()
+                )),
+                Some(s @ ("failed" | "interrupted" | "running")) if missing > 0 => w.push(format!(
+                    "the capture is {s}: {missing} of {} plan points have no reading (--resume continues it)",
+                    self.points.len()
+                )),
+                _ => {}
+            }
+        }
+        w
+    }
 }
 
-/// Reads a sweep file. A last line without its newline (a file cut short) is ignored;
-/// any complete line that does not parse is an error naming the line.
-pub fn read_sweep(path: &Path) -> Result<SweepData, SweepFileError> {
-    let bytes = std::fs::read(path)
+/// Reads at most [`MAX_SWEEP_BYTES`] of `file` (named `path` in messages).
+pub(super) fn read_capped(
+    file: &mut std::fs::File,
+    path: &Path,
+) -> Result<Vec<u8>, SweepFileError> {
+    let mut bytes = Vec::new();
+    file.take(MAX_SWEEP_BYTES + 1)
+        .read_to_end(&mut bytes)
         .map_err(|e| SweepFileError::Invalid(format!("cannot read {}: {e}", path.display())))?;
-    parse_sweep(&bytes)
+    if bytes.len() as u64 > MAX_SWEEP_BYTES {
+        return Err(SweepFileError::Invalid(format!(
+            "{}: larger than {} MiB: not a sweep file gonio reads",
+            path.display(),
+            MAX_SWEEP_BYTES >> 20
+        )));
+    }
+    Ok(bytes)
+}
+
+/// [`parse_sweep`] with errors naming `path`.
+pub(super) fn parse_named(bytes: &[u8], path: &Path) -> Result<SweepData, SweepFileError> {
+    parse_sweep(bytes)
         .map_err(|(line, msg)| SweepFileError::Invalid(format!("{}:{line}: {msg}", path.display())))
+}
+
+/// Reads a sweep file: a regular file of at most [`MAX_SWEEP_BYTES`] (a device, FIFO
+/// or directory is refused before anything is read). See [`parse_sweep`].
+pub fn read_sweep(path: &Path) -> Result<SweepData, SweepFileError> {
+    let cannot =
+        |e: std::io::Error| SweepFileError::Invalid(format!("cannot read {}: {e}", path.display()));
+    let meta = std::fs::metadata(path).map_err(cannot)?;
+    if !meta.is_file() {
+        return Err(SweepFileError::Invalid(format!(
+            "{}: not a regular file (a device, FIFO or directory): gonio reads sweep files",
+            path.display()
+        )));
+    }
+    let mut file = std::fs::File::open(path).map_err(cannot)?;
+    let bytes = read_capped(&mut file, path)?;
+    parse_named(&bytes, path)
 }
 
 /// The angle units a file may declare (`# units: ...`); anything else is refused rather
 /// than fitted with the wrong scale.
 pub const ANGLE_UNITS: [&str; 3] = ["degrees", "degree", "deg"];
+
+/// `# units:` names degrees (one of [`ANGLE_UNITS`] as a word, e.g. `degrees` or
+/// `angles in degrees (...)`) and no radians.
+fn declares_degrees(value: &str) -> bool {
+    let lower = value.to_ascii_lowercase();
+    !lower.contains("radian")
+        && lower
+            .split(|c: char| !c.is_ascii_alphanumeric())
+            .any(|w| ANGLE_UNITS.contains(&w))
+}
 
 /// A hint that angles were written in radians: every angle within +-pi/2 (plus a
 /// rounding margin) while the file spans more than a few points. Returns the largest
@@ -55,16 +154,43 @@ pub fn looks_like_radians(rows: &[Row]) -> Option<f64> {
     (rows.len() >= 5 && max > 0.0 && max <= std::f64::consts::FRAC_PI_2 + 1e-3).then_some(max)
 }
 
-/// Parses sweep file bytes; errors carry the 1-based line number.
+/// Parses sweep file bytes; errors carry the 1-based line number and quote fields
+/// escaped and truncated (one line whatever the input).
+///
+/// A last line without its newline is a row cut short when the file's status is
+/// `running` (a capture that died while writing it): it is left out and counted in
+/// [`SweepData::cut_rows`]. In any other file it is read like every other line.
+/// A UTF-8 byte-order mark is skipped; CR-only line endings (old Mac) are read as line
+/// ends. `# units:` must name degrees.
 pub fn parse_sweep(bytes: &[u8]) -> Result<SweepData, (usize, String)> {
+    let bytes = bytes.strip_prefix(b"\xef\xbb\xbf").unwrap_or(bytes);
+    let cr_only;
+    let bytes = if !bytes.contains(&b'\n') && bytes.contains(&b'\r') {
+        cr_only = bytes
+            .iter()
+            .map(|&b| if b == b'\r' { b'\n' } else { b })
+            .collect::<Vec<u8>>();
+        &cr_only[..]
+    } else {
+        bytes
+    };
     let mut data = SweepData::default();
     let mut col: Option<[Option<usize>; 7]> = None;
     let mut offset = 0u64;
     let mut points_line = 0;
+    let mut seq_line: BTreeMap<u32, (usize, Row)> = BTreeMap::new();
     for (k, raw) in bytes.split_inclusive(|&b| b == b'\n').enumerate() {
         let lineno = k + 1;
         if raw.last() != Some(&b'\n') {
-            break; // cut short: not a complete line
+            let running =
+                data.status_word().is_none_or(|w| w == "running") && data.status_offset.is_some();
+            if running || col.is_none() || raw.iter().all(|b| b.is_ascii_whitespace()) {
+                if col.is_some() && !raw.iter().all(|b| b.is_ascii_whitespace()) {
+                    data.cut_rows = 1;
+                }
+                break; // cut short: not a complete line
+            }
+            data.no_final_newline = true;
         }
         let start = offset;
         offset += raw.len() as u64;
@@ -82,8 +208,17 @@ pub fn parse_sweep(bytes: &[u8]) -> Result<SweepData, (usize, String)> {
                 points_line = lineno;
             }
             if let Some((key, value)) = meta.trim().split_once(':') {
-                data.meta
-                    .insert(key.trim().to_string(), value.trim().to_string());
+                let (key, value) = (key.trim(), value.trim());
+                if key == "units" && !declares_degrees(value) {
+                    return Err((
+                        lineno,
+                        format!(
+                            "units '{}': gonio reads angles in degrees only (convert the file, and write '# units: degrees')",
+                            escape_line(value, QUOTE_CHARS)
+                        ),
+                    ));
+                }
+                data.meta.insert(key.to_string(), value.to_string());
             }
             data.complete_len = offset;
             continue;
@@ -99,7 +234,26 @@ pub fn parse_sweep(bytes: &[u8]) -> Result<SweepData, (usize, String)> {
                 let idx = COLUMNS.map(find);
                 for (name, i) in COLUMNS.iter().zip(idx).take(3) {
                     if i.is_none() {
-                        return Err((lineno, format!("missing column '{name}' (header: {text})")));
+                        let hint = if text.contains('\r') {
+                            " (the file's lines end in a lone CR inside: convert its line endings)"
+                        } else {
+                            ""
+                        };
+                        return Err((
+                            lineno,
+                            format!(
+                                "missing column '{name}' (header: {}){hint}",
+                                escape_line(text, 2 * QUOTE_CHARS)
+                            ),
+                        ));
+                    }
+                }
+                for name in COLUMNS {
+                    if data.columns.iter().filter(|c| *c == name).count() > 1 {
+                        return Err((
+                            lineno,
+                            format!("column '{name}' appears more than once: which one is meant?"),
+                        ));
                     }
                 }
                 col = Some(idx);
@@ -115,7 +269,13 @@ pub fn parse_sweep(bytes: &[u8]) -> Result<SweepData, (usize, String)> {
                         None => Ok(None),
                         Some(s) => match s.parse::<f64>() {
                             Ok(v) if v.is_finite() => Ok(Some(v)),
-                            _ => Err((lineno, format!("{name} '{s}' is not a finite number"))),
+                            _ => Err((
+                                lineno,
+                                format!(
+                                    "{name} '{}' is not a finite number",
+                                    escape_line(s, QUOTE_CHARS)
+                                ),
+                            )),
                         },
                     }
                 };
@@ -125,21 +285,69 @@ pub fn parse_sweep(bytes: &[u8]) -> Result<SweepData, (usize, String)> {
                 let int = |i: Option<usize>, name: &str| -> Result<Option<u64>, (usize, String)> {
                     match get(i) {
                         None => Ok(None),
-                        Some(s) => s
-                            .parse::<u64>()
-                            .map(Some)
-                            .map_err(|_| (lineno, format!("{name} '{s}' is not a whole number"))),
+                        Some(s) => s.parse::<u64>().map(Some).map_err(|_| {
+                            (
+                                lineno,
+                                format!(
+                                    "{name} '{}' is not a whole number",
+                                    escape_line(s, QUOTE_CHARS)
+                                ),
+                            )
+                        }),
                     }
                 };
-                data.rows.push(Row {
+                let int32 = |i: Option<usize>,
+                             name: &str|
+                 -> Result<Option<u32>, (usize, String)> {
+                    int(i, name)?
+                        .map(|v| {
+                            u32::try_from(v).map_err(|_| {
+                                (
+                                    lineno,
+                                    format!("{name} {v} is out of range (at most {})", u32::MAX),
+                                )
+                            })
+                        })
+                        .transpose()
+                };
+                let row = Row {
                     theta_i: need(idx[0], "theta_i")?,
                     theta_r: need(idx[1], "theta_r")?,
                     brdf: need(idx[2], "brdf")?,
                     std: num(idx[3], "std")?,
-                    n: int(idx[4], "n")?.map(|v| v as u32),
-                    seq: int(idx[5], "seq")?.map(|v| v as u32),
+                    n: int32(idx[4], "n")?,
+                    seq: int32(idx[5], "seq")?,
                     t_ms: int(idx[6], "t_ms")?,
-                });
+                };
+                let b = row.brdf.abs();
+                if b != 0.0 && !(BRDF_MIN..=BRDF_MAX).contains(&b) {
+                    return Err((
+                        lineno,
+                        format!(
+                            "brdf {} (theta_i {}, theta_r {}) is outside the magnitudes gonio fits ({BRDF_MIN:e} to {BRDF_MAX:e}, or 0): rescale the readings",
+                            escape_line(get(idx[2]).unwrap_or(""), QUOTE_CHARS),
+                            row.theta_i,
+                            row.theta_r
+                        ),
+                    ));
+                }
+                if let Some(seq) = row.seq {
+                    if let Some((first, prev)) = seq_line.get(&seq) {
+                        let same = (prev.theta_i, prev.theta_r, prev.brdf)
+                            == (row.theta_i, row.theta_r, row.brdf);
+                        if !same {
+                            return Err((
+                                lineno,
+                                format!(
+                                    "seq {seq} was already read on line {first} with another reading: the file mixes two captures"
+                                ),
+                            ));
+                        }
+                    } else {
+                        seq_line.insert(seq, (lineno, row));
+                    }
+                }
+                data.rows.push(row);
             }
         }
         data.complete_len = offset;
@@ -152,7 +360,10 @@ pub fn parse_sweep(bytes: &[u8]) -> Result<SweepData, (usize, String)> {
             let Some(pt) = parsed else {
                 return Err((
                     points_line,
-                    format!("bad point '{item}' in the points line"),
+                    format!(
+                        "bad point '{}' in the points line",
+                        escape_line(item, QUOTE_CHARS)
+                    ),
                 ));
             };
             data.points.push(pt);

@@ -166,20 +166,7 @@ fn bad_files_name_the_line() {
 }
 
 fn tempdir() -> PathBuf {
-    let d = std::env::temp_dir().join(format!(
-        "gonio-test-{}-{:?}",
-        std::process::id(),
-        std::thread::current().id()
-    ));
-    let d = d.join(format!(
-        "{}",
-        std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .unwrap()
-            .as_nanos()
-    ));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    crate::outfile::test_dir("sweep")
 }
 
 #[test]
@@ -199,4 +186,112 @@ fn units_are_declared_and_radians_are_suspected() {
     assert_eq!(looks_like_radians(&rad), Some(1.4));
     let deg: Vec<Row> = (0..9).map(row).collect();
     assert_eq!(looks_like_radians(&deg), None);
+}
+
+#[test]
+fn a_sweep_file_being_written_is_locked() {
+    let dir = tempdir();
+    let path = dir.join("s.csv");
+    let w = SweepWriter::create(&path, &header(), false).unwrap();
+    let err = SweepWriter::resume(&path).err().expect("locked");
+    assert!(matches!(err, SweepFileError::Invalid(_)), "{err}");
+    assert!(err.to_string().contains("locked"), "{err}");
+    drop(w);
+    let (mut w, _) = SweepWriter::resume(&path).unwrap();
+    let err = SweepWriter::resume(&path).err().expect("locked");
+    assert!(err.to_string().contains("another capture"), "{err}");
+    w.append(&row(0)).unwrap();
+}
+
+#[test]
+fn a_shortened_status_line_is_refused_not_overwritten() {
+    let dir = tempdir();
+    let path = dir.join("s.csv");
+    let mut w = SweepWriter::create(&path, &header(), false).unwrap();
+    w.append(&row(0)).unwrap();
+    drop(w);
+    let text = std::fs::read_to_string(&path).unwrap();
+    let status = text.lines().nth(1).unwrap();
+    let edited = text.replacen(status, "# status: running", 1);
+    std::fs::write(&path, &edited).unwrap();
+    let err = SweepWriter::resume(&path).err().expect("refused");
+    assert!(err.to_string().contains("status line was edited"), "{err}");
+    assert_eq!(std::fs::read_to_string(&path).unwrap(), edited);
+}
+
+#[test]
+fn the_last_row_without_newline_is_dropped_only_where_a_capture_was_cut() {
+    // Another tool's file: kept.
+    let data = parse_sweep(b"theta_i,theta_r,brdf\n20,20,5\n20,30,6").unwrap();
+    assert_eq!(data.rows.len(), 2);
+    assert_eq!(data.cut_rows, 0);
+    // A capture still running: the half-written row is left out, and counted.
+    let data = parse_sweep(b"# status: running readings=1\ntheta_i,theta_r,brdf\n20,20,5\n20,30,6")
+        .unwrap();
+    assert_eq!(data.rows.len(), 1);
+    assert_eq!(data.cut_rows, 1);
+    assert!(
+        data.warnings()[0].contains("1 row(s) left out"),
+        "{:?}",
+        data.warnings()
+    );
+    // A complete capture: read.
+    let data = parse_sweep(b"# status: complete\ntheta_i,theta_r,brdf\n20,20,5\n20,30,6").unwrap();
+    assert_eq!(data.rows.len(), 2);
+}
+
+#[test]
+fn bom_and_cr_only_files_are_read() {
+    let data = parse_sweep(b"\xef\xbb\xbftheta_i,theta_r,brdf\n20,20,5\n").unwrap();
+    assert_eq!(data.rows.len(), 1);
+    let data = parse_sweep(b"# units: degrees\rtheta_i,theta_r,brdf\r20,20,5\r20,30,6\r").unwrap();
+    assert_eq!(data.rows.len(), 2);
+    assert_eq!(data.rows[1].brdf, 6.0);
+}
+
+#[test]
+fn misread_inputs_are_refused_with_line_and_value() {
+    for (text, line, msg) in [
+        (
+            &b"# units: radians\ntheta_i,theta_r,brdf\n"[..],
+            1,
+            "degrees only",
+        ),
+        (
+            b"theta_i,theta_r,brdf,seq\n1,2,3,4294967396\n",
+            2,
+            "seq 4294967396 is out of range",
+        ),
+        (
+            b"theta_i,brdf,theta_r,brdf\n1,2,3,4\n",
+            1,
+            "'brdf' appears more than once",
+        ),
+        (b"theta_i,theta_r,brdf\n1,2,1e-320\n", 2, "brdf 1e-320"),
+        (b"theta_i,theta_r,brdf\n1,2,-1e300\n", 2, "brdf -1e300"),
+        (
+            b"theta_i,theta_r,brdf,seq\n1,2,3,0\n1,2,4,0\n",
+            3,
+            "seq 0 was already read on line 2",
+        ),
+        (b"theta_i,theta_r,brdf\n1,2,\x1b[31m\n", 2, "'\\u{1b}[31m'"),
+    ] {
+        let (l, m) = parse_sweep(text).unwrap_err();
+        assert_eq!(l, line, "{m}");
+        assert!(m.contains(msg), "{m}");
+    }
+    // The same reading twice (a resumed capture's overlap) is not a conflict.
+    assert!(parse_sweep(b"theta_i,theta_r,brdf,seq\n1,2,3,0\n1,2,3,0\n").is_ok());
+}
+
+#[test]
+fn non_regular_and_oversized_inputs_are_refused_before_reading() {
+    let err = read_sweep(Path::new("/dev/zero")).unwrap_err();
+    assert!(err.to_string().contains("not a regular file"), "{err}");
+    let dir = tempdir();
+    let big = dir.join("big.csv");
+    let f = std::fs::File::create(&big).unwrap();
+    f.set_len(MAX_SWEEP_BYTES + 1).unwrap();
+    let err = read_sweep(&big).unwrap_err();
+    assert!(err.to_string().contains("larger than 64 MiB"), "{err}");
 }

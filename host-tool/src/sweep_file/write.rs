@@ -1,13 +1,33 @@
 //! Writing a sweep file: the header, one durable row per reading, the status line
-//! rewritten in place; resuming a file a crash or Ctrl-C left behind.
+//! rewritten in place; resuming a file a crash or Ctrl-C left behind. The file is
+//! locked (`flock`, exclusive) while a writer holds it: a second capture or `--resume`
+//! on the same file is refused.
 
 use std::fs::{File, OpenOptions};
 use std::io::{self, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
-use super::{
-    COLUMNS, Counters, Header, Row, SweepData, SweepFileError, SweepStatus, read_sweep, status_line,
-};
+use std::os::unix::fs::OpenOptionsExt;
+use std::os::unix::io::AsRawFd;
+
+use super::{COLUMNS, Counters, Header, Row, SweepData, SweepFileError, SweepStatus, status_line};
+use crate::outfile::{self, OutError, Target};
+
+/// Takes the exclusive lock of a sweep file, or says who holds it.
+fn lock(file: &File, path: &Path) -> Result<(), SweepFileError> {
+    use nix::fcntl::{FlockArg, flock};
+    match flock(file.as_raw_fd(), FlockArg::LockExclusiveNonblock) {
+        Ok(()) => Ok(()),
+        Err(nix::errno::Errno::EWOULDBLOCK) => Err(SweepFileError::Invalid(format!(
+            "{} is being written by another capture (it is locked); wait for it to end",
+            path.display()
+        ))),
+        Err(e) => Err(SweepFileError::Io(format!(
+            "{}: cannot lock: {e}",
+            path.display()
+        ))),
+    }
+}
 
 /// Appends rows to a sweep file; every row is flushed and synced to disk.
 pub struct SweepWriter {
@@ -25,26 +45,30 @@ fn io_err(path: &Path, e: io::Error) -> SweepFileError {
 }
 
 impl SweepWriter {
-    /// Creates `path` (refusing to overwrite an existing file unless `force`) and
-    /// writes the metadata and column header.
-    pub fn create(path: &Path, header: &Header, force: bool) -> Result<Self, SweepFileError> {
-        let mut opts = OpenOptions::new();
-        opts.write(true);
-        if force {
-            opts.create(true).truncate(true);
-        } else {
-            opts.create_new(true);
-        }
-        let mut file = opts.open(path).map_err(|e| {
-            if e.kind() == io::ErrorKind::AlreadyExists {
-                SweepFileError::Invalid(format!(
+    /// Checks, writing nothing, that `path` may be created: see [`crate::outfile::check`];
+    /// an existing file needs `force` (or `--resume`). Captures call this before they
+    /// touch the device.
+    pub fn check_new(path: &Path, force: bool) -> Result<(), SweepFileError> {
+        match outfile::check(Target::new(path, force)) {
+            Ok(()) => Ok(()),
+            Err(OutError::Refused(m)) if !force && path.is_file() => {
+                let _ = m;
+                Err(SweepFileError::Invalid(format!(
                     "{} exists: use --resume to continue it, or --force to overwrite",
                     path.display()
-                ))
-            } else {
-                io_err(path, e)
+                )))
             }
-        })?;
+            Err(OutError::Refused(m)) => Err(SweepFileError::Invalid(m)),
+            Err(OutError::Io(m)) => Err(SweepFileError::Io(m)),
+        }
+    }
+
+    /// Creates `path` (refusing to overwrite an existing file unless `force`, and any
+    /// target that is not a regular file) and writes the metadata and column header:
+    /// through [`crate::outfile`], so the file appears with its whole header or not at
+    /// all. The file stays locked until the writer is dropped.
+    pub fn create(path: &Path, header: &Header, force: bool) -> Result<Self, SweepFileError> {
+        Self::check_new(path, force)?;
         let first = "# gonio sweep v1\n";
         let points: Vec<String> = header
             .points
@@ -68,9 +92,14 @@ impl SweepWriter {
         text.push_str(&format!("# points: {}\n", points.join(" ")));
         text.push_str(&COLUMNS.join(","));
         text.push('\n');
-        file.write_all(text.as_bytes())
-            .map_err(|e| io_err(path, e))?;
-        file.sync_all().map_err(|e| io_err(path, e))?;
+        let file = outfile::write_with(Target::new(path, force), "", |tmp| {
+            tmp.as_file_mut().write_all(text.as_bytes())
+        })
+        .map_err(|e| match e {
+            OutError::Refused(m) => SweepFileError::Invalid(m),
+            OutError::Io(m) => SweepFileError::Io(m),
+        })?;
+        lock(&file, path)?;
         Ok(SweepWriter {
             file,
             path: path.to_path_buf(),
@@ -86,7 +115,22 @@ impl SweepWriter {
     /// Opens an existing sweep file to append to it (`--resume`). Returns the writer and
     /// what the file holds. A last row cut short by a crash is truncated away.
     pub fn resume(path: &Path) -> Result<(Self, SweepData), SweepFileError> {
-        let data = read_sweep(path)?;
+        let meta = std::fs::symlink_metadata(path).map_err(|e| io_err(path, e))?;
+        if !meta.file_type().is_file() {
+            return Err(SweepFileError::Invalid(format!(
+                "{}: not a regular file; cannot resume it",
+                path.display()
+            )));
+        }
+        let mut file = OpenOptions::new()
+            .read(true)
+            .write(true)
+            .custom_flags(nix::libc::O_NOFOLLOW)
+            .open(path)
+            .map_err(|e| io_err(path, e))?;
+        lock(&file, path)?;
+        let bytes = super::read::read_capped(&mut file, path)?;
+        let data = super::read::parse_named(&bytes, path)?;
         if !data.columns_are_capture_columns() {
             return Err(SweepFileError::Invalid(format!(
                 "{}: not a gonio capture file (columns {:?}); cannot resume it",
@@ -94,20 +138,38 @@ impl SweepWriter {
                 data.columns
             )));
         }
-        let mut file = OpenOptions::new()
-            .read(true)
-            .write(true)
-            .open(path)
-            .map_err(|e| io_err(path, e))?;
-        file.set_len(data.complete_len)
-            .map_err(|e| io_err(path, e))?;
-        file.seek(SeekFrom::End(0)).map_err(|e| io_err(path, e))?;
         let status_at = data.status_offset.ok_or_else(|| {
             SweepFileError::Invalid(format!(
                 "{}: no status line; cannot resume it",
                 path.display()
             ))
         })?;
+        // The status line is rewritten in place: only if it is exactly as wide as the
+        // line written now, so the rewrite cannot run into the lines after it.
+        let with_rejected = data
+            .meta
+            .get("status")
+            .is_some_and(|s| s.contains("rejected="));
+        let width = status_line(SweepStatus::Running, &Counters::default(), with_rejected).len();
+        let start = status_at as usize;
+        let line_len = bytes[start..]
+            .iter()
+            .position(|&b| b == b'\n')
+            .map(|n| n + 1);
+        if line_len != Some(width) {
+            return Err(SweepFileError::Invalid(format!(
+                "{}: the status line was edited (it is {} bytes, a capture writes {width}); \
+                 cannot resume it without overwriting the lines after it",
+                path.display(),
+                line_len.unwrap_or(bytes.len() - start)
+            )));
+        }
+        file.set_len(data.complete_len)
+            .map_err(|e| io_err(path, e))?;
+        file.seek(SeekFrom::End(0)).map_err(|e| io_err(path, e))?;
+        if data.no_final_newline {
+            file.write_all(b"\n").map_err(|e| io_err(path, e))?;
+        }
         // The status line may predate a crash: recount what the rows show, keep the
         // cumulative link counters.
         let present: std::collections::BTreeSet<u32> =
@@ -122,10 +184,7 @@ impl SweepWriter {
                 file,
                 path: path.to_path_buf(),
                 status_at,
-                with_rejected: data
-                    .meta
-                    .get("status")
-                    .is_some_and(|s| s.contains("rejected=")),
+                with_rejected,
                 counters,
             },
             data,

@@ -94,7 +94,44 @@ fn fixtures() -> Scratch {
         "fit-range.csv",
         b"theta_i,theta_r,brdf\n10,0,1\n10,95,2\n10,9,3\n",
     );
-    simulated(&d, "fe-0.115");
+    // Issue 16: inputs that were silently misread.
+    w(
+        "radians.csv",
+        b"# units: radians\ntheta_i,theta_r,brdf\n0.3,0.3,5\n",
+    );
+    w("seq.csv", b"theta_i,theta_r,brdf,seq\n20,20,5,4294967396\n");
+    w("dup.csv", b"theta_i,theta_r,brdf,brdf\n20,20,5,6\n");
+    w("tiny.csv", b"theta_i,theta_r,brdf\n20,20,5\n20,30,1e-300\n");
+    w("denormal.csv", b"theta_i,theta_r,brdf\n20,20,1e-320\n");
+    w("big.csv", b"theta_i,theta_r,brdf\n20,20,1e308\n");
+    let mut field = b"theta_i,theta_r,brdf\n20,20,\x00\x1b[2J".to_vec();
+    field.extend(std::iter::repeat_n(b'x', 10_000_000));
+    field.push(b'\n');
+    w("field.csv", &field);
+    let mut many = String::from("theta_i,theta_r,brdf\n");
+    for k in 0..91 {
+        let ti = k as f64 * 0.5;
+        for tr in [-40, 0, 40] {
+            many.push_str(&format!(
+                "{ti},{tr},{}\n",
+                1.0 + (tr as f64 - ti).abs() / 100.0
+            ));
+        }
+    }
+    w("many.csv", many.as_bytes());
+    w(
+        "new.toml",
+        b"incidences = [20]\ndetector = { start = -80, stop = 80, step = 10 }\n",
+    );
+    let sim = simulated(&d, "fe-0.115");
+    // A capture file whose status line was shortened by hand.
+    let text = std::fs::read_to_string(&sim).unwrap();
+    let status = text.lines().nth(1).unwrap().to_string();
+    w(
+        "shortened.csv",
+        text.replacen(&status, "# status: running", 1).as_bytes(),
+    );
+    std::os::unix::fs::symlink(d.join("exists.csv"), d.join("link.csv")).unwrap();
     d
 }
 
@@ -996,6 +1033,236 @@ const CASES: &[Case] = &[
         "/proc/gonio-demo",
     ),
     case(&["demo", "--dir", "{d}/plainfile", "-q"], 1, "plainfile"),
+    // Issue 16: outputs go only where the user meant.
+    out(
+        &[
+            "fit",
+            "{d}/fe-0.115.csv",
+            "--export",
+            "csv={d}/fe-0.115.csv",
+            "--force",
+        ],
+        2,
+        "is the input file",
+        "fe-0.115.csv",
+    ),
+    case(
+        &[
+            "fit",
+            "{d}/fe-0.115.csv",
+            "--export",
+            "csv=/dev/null",
+            "--force",
+        ],
+        2,
+        "not a regular file",
+    ),
+    case(
+        &["fit", "{d}/fe-0.115.csv", "--export", "json=/dev/stdout"],
+        2,
+        "not a regular file",
+    ),
+    out(
+        &["fit", "{d}/fe-0.115.csv", "--export", "json={d}/exists.csv"],
+        2,
+        "use --force",
+        "exists.csv",
+    ),
+    out(
+        &[
+            "fit",
+            "{d}/fe-0.115.csv",
+            "--export",
+            "json={d}/link.csv",
+            "--force",
+        ],
+        2,
+        "symbolic link",
+        "exists.csv",
+    ),
+    case(
+        &["fit", "{d}/fe-0.115.csv", "--plot", "{d}/exists.csv"],
+        2,
+        "directory",
+    ),
+    case(&["bench", "--plot", "{d}/exists.csv"], 2, "use --force"),
+    out(
+        &[
+            "capture",
+            "--port",
+            "/nonexistent/tty",
+            "--out",
+            "{d}/exists.csv",
+            "--raw",
+            "{d}/new.raw",
+        ],
+        2,
+        "exists",
+        "new.raw",
+    ),
+    case(
+        &[
+            "capture",
+            "--port",
+            "/nonexistent/tty",
+            "--out",
+            "{d}/x.csv",
+            "--raw",
+            "/dev/null",
+        ],
+        2,
+        "not a regular file",
+    ),
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--out",
+            "{d}/link.csv",
+            "--force",
+            "-q",
+        ],
+        2,
+        "symbolic link",
+        "exists.csv",
+    ),
+    // Issue 16: resume continues only what the file holds, safely.
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--resume",
+            "--out",
+            "{d}/fe-0.115.csv",
+            "--samples",
+            "9",
+            "-q",
+        ],
+        2,
+        "captured with samples=4",
+        "fe-0.115.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--resume",
+            "--out",
+            "{d}/fe-0.115.csv",
+            "--plan",
+            "{d}/new.toml",
+            "-q",
+        ],
+        2,
+        "captured with plan 'paper'",
+        "fe-0.115.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--resume",
+            "--out",
+            "{d}/shortened.csv",
+            "-q",
+        ],
+        2,
+        "status line was edited",
+        "shortened.csv",
+    ),
+    // Issue 16: silently-wrong inputs are refused, naming line and value.
+    case(&["fit", "{d}/radians.csv"], 2, "degrees only"),
+    case(&["fit", "{d}/seq.csv"], 2, "seq 4294967396 is out of range"),
+    case(
+        &["fit", "{d}/dup.csv"],
+        2,
+        "column 'brdf' appears more than once",
+    ),
+    case(&["fit", "{d}/tiny.csv"], 2, "tiny.csv:3: brdf 1e-300"),
+    case(
+        &["fit", "{d}/denormal.csv"],
+        2,
+        "denormal.csv:2: brdf 1e-320",
+    ),
+    case(&["fit", "{d}/big.csv"], 2, "brdf 1e308"),
+    case(&["fit", "{d}/field.csv"], 2, "'\\0\\u{1b}[2Jxxx"),
+    case(
+        &["fit", "{d}/many.csv", "--plot", "{d}/many"],
+        2,
+        "at most 90 incidences",
+    ),
+    // Issue 16: bounded inputs.
+    case(&["fit", "/dev/zero"], 2, "not a regular file"),
+    case(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--plan",
+            "/dev/zero",
+            "--out",
+            "{d}/z.csv",
+        ],
+        2,
+        "plan /dev/zero",
+    ),
+    case(
+        &[
+            "info",
+            "--port",
+            "/nonexistent/tty",
+            "--timeout",
+            "9223372036854775807",
+        ],
+        2,
+        "1..=3600",
+    ),
+    case(
+        &[
+            "capture",
+            "--port",
+            "/nonexistent/tty",
+            "--out",
+            "{d}/r.csv",
+            "--reconnect",
+            "18446744073709551615",
+        ],
+        2,
+        "0..=86400",
+    ),
+    case(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--pty",
+            "--speed",
+            "1e-300",
+        ],
+        2,
+        "not a speed factor from 0.001",
+    ),
+    case(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--plan",
+            "adaptive",
+            "--prior",
+            "fe-0.115",
+            "--budget",
+            "17",
+            "--out",
+            "{d}/b.csv",
+        ],
+        2,
+        "too few readings",
+    ),
     // no subcommand, unknown subcommand
     case(&[], 2, "missing subcommand"),
     case(&["frobnicate"], 2, "frobnicate"),

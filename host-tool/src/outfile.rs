@@ -1,0 +1,332 @@
+//! The one way gonio writes an output file: the target checked first, a private
+//! temporary file beside it, fsync, rename; nothing half-written is ever left under the
+//! name asked for, nor a temporary file after an error or Ctrl-C.
+//!
+//! Rules every writer (exports, plots, the sweep file's creation, `bench`, `demo`) gets:
+//! - a target that exists and is not a regular file (a device such as `/dev/null` or
+//!   `/dev/stdout`, a symlink, a directory) is refused: gonio writes only regular files;
+//! - a target that is one of the command's input files is refused
+//!   (`gonio fit mine.csv --export csv=mine.csv`);
+//! - an existing regular target is refused unless the command was given `--force`;
+//! - the temporary file is created in the target's directory with a random name,
+//!   `O_CREAT|O_EXCL|O_NOFOLLOW` and mode 0600 (the `tempfile` crate), synced, then
+//!   renamed over the target (without `--force`: linked, so a file that appeared
+//!   meanwhile is never replaced);
+//! - it is removed on any error, and on SIGINT/SIGTERM in commands that do not handle
+//!   Ctrl-C themselves.
+
+use std::fmt;
+use std::fs::File;
+use std::io::{self, BufWriter, Write};
+use std::os::unix::fs::MetadataExt;
+use std::path::{Path, PathBuf};
+use std::sync::{Mutex, OnceLock};
+
+use tempfile::NamedTempFile;
+
+/// Why an output file was not written.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum OutError {
+    /// The target is not one gonio may write (bad input: not a regular file, an input
+    /// file, or existing without `--force`). One line naming it.
+    Refused(String),
+    /// Creating, writing, syncing or renaming failed. One line naming the target.
+    Io(String),
+}
+
+impl fmt::Display for OutError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            OutError::Refused(m) | OutError::Io(m) => f.write_str(m),
+        }
+    }
+}
+
+impl std::error::Error for OutError {}
+
+/// Where an output may go: the path, whether an existing file may be replaced, and the
+/// command's input files (never overwritten).
+#[derive(Debug, Clone, Copy)]
+pub struct Target<'a> {
+    /// The file to write.
+    pub path: &'a Path,
+    /// Replace an existing regular file.
+    pub force: bool,
+    /// The command's input files.
+    pub inputs: &'a [&'a Path],
+}
+
+impl<'a> Target<'a> {
+    /// A target without inputs.
+    pub fn new(path: &'a Path, force: bool) -> Self {
+        Target {
+            path,
+            force,
+            inputs: &[],
+        }
+    }
+
+    /// The same target, never one of `inputs`.
+    pub fn inputs(self, inputs: &'a [&'a Path]) -> Self {
+        Target { inputs, ..self }
+    }
+}
+
+/// Checks `t` without writing anything: see the module rules. Commands call this for
+/// every output before any work (before touching a device).
+pub fn check(t: Target<'_>) -> Result<(), OutError> {
+    let path = t.path;
+    if path.as_os_str().is_empty() || path.as_os_str() == "-" {
+        return Err(OutError::Refused(format!(
+            "'{}' is not a file name (gonio writes files; reports go to stdout)",
+            path.display()
+        )));
+    }
+    let meta = match std::fs::symlink_metadata(path) {
+        Ok(m) => m,
+        Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(()),
+        Err(e) => return Err(OutError::Io(format!("{}: {e}", path.display()))),
+    };
+    if !meta.file_type().is_file() {
+        let what = if meta.file_type().is_symlink() {
+            "a symbolic link"
+        } else if meta.is_dir() {
+            "a directory"
+        } else {
+            "a device or special file"
+        };
+        return Err(OutError::Refused(format!(
+            "{} is {what}, not a regular file: gonio writes only regular files (for stdout use the command's \
+             own output, e.g. fit --json)",
+            path.display()
+        )));
+    }
+    for input in t.inputs {
+        if let Ok(im) = std::fs::metadata(input)
+            && im.dev() == meta.dev()
+            && im.ino() == meta.ino()
+        {
+            return Err(OutError::Refused(format!(
+                "{} is the input file {}: choose another output name",
+                path.display(),
+                input.display()
+            )));
+        }
+    }
+    if !t.force {
+        return Err(OutError::Refused(format!(
+            "{} exists: use --force to overwrite it",
+            path.display()
+        )));
+    }
+    Ok(())
+}
+
+/// Writes `t` through a buffered writer given to `body` (see the module rules).
+pub fn write(
+    t: Target<'_>,
+    body: impl FnOnce(&mut dyn Write) -> io::Result<()>,
+) -> Result<(), OutError> {
+    write_with(t, "", |tmp| {
+        let mut w = BufWriter::new(tmp.as_file_mut());
+        body(&mut w)?;
+        w.flush()
+    })
+    .map(drop)
+}
+
+/// Writes `t` by letting `fill` write the temporary file (by its handle, or by its
+/// path, which ends in `.tmp` and `suffix`: for libraries that pick a format from the
+/// extension),
+/// then syncs and renames it. Returns the target, open, positioned at its end.
+pub fn write_with(
+    t: Target<'_>,
+    suffix: &str,
+    fill: impl FnOnce(&mut NamedTempFile) -> io::Result<()>,
+) -> Result<File, OutError> {
+    check(t)?;
+    let path = t.path;
+    let fail = |e: io::Error| OutError::Io(format!("cannot write {}: {e}", path.display()));
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let mut tmp = tempfile::Builder::new()
+        .prefix(&format!(".{name}."))
+        .suffix(&format!(".tmp{suffix}"))
+        .tempfile_in(dir)
+        .map_err(fail)?;
+    let guard = Pending::register(tmp.path());
+    let result = fill(&mut tmp).and_then(|()| tmp.as_file().sync_all());
+    if let Err(e) = result {
+        drop(tmp); // removes the file
+        drop(guard);
+        return Err(fail(e));
+    }
+    let persisted = if t.force {
+        tmp.persist(path)
+    } else {
+        tmp.persist_noclobber(path)
+    };
+    drop(guard);
+    let mut file = persisted.map_err(|e| {
+        if e.error.kind() == io::ErrorKind::AlreadyExists {
+            OutError::Refused(format!(
+                "{} exists: use --force to overwrite it",
+                path.display()
+            ))
+        } else {
+            fail(e.error)
+        }
+    })?;
+    // The rename itself is durable once the directory is synced.
+    if let Ok(d) = File::open(dir) {
+        let _ = d.sync_all();
+    }
+    io::Seek::seek(&mut file, io::SeekFrom::End(0)).map_err(fail)?;
+    Ok(file)
+}
+
+/// Temporary files being written, removed by the signal handler.
+fn pending() -> &'static Mutex<Vec<PathBuf>> {
+    static PENDING: OnceLock<Mutex<Vec<PathBuf>>> = OnceLock::new();
+    PENDING.get_or_init(|| {
+        // Commands that handle Ctrl-C themselves (capture, simulate) installed their
+        // handler first; then this one is not installed and their temporaries are
+        // removed when the stopped command unwinds normally.
+        let _ = ctrlc::set_handler(|| {
+            remove_pending();
+            eprintln!("gonio: interrupted; no partial output left");
+            std::process::exit(130);
+        });
+        Mutex::new(Vec::new())
+    })
+}
+
+fn remove_pending() {
+    if let Ok(list) = pending().lock() {
+        for p in list.iter() {
+            let _ = std::fs::remove_file(p);
+        }
+    }
+}
+
+/// A registered temporary file, unregistered when dropped.
+struct Pending(PathBuf);
+
+impl Pending {
+    fn register(p: &Path) -> Self {
+        if let Ok(mut list) = pending().lock() {
+            list.push(p.to_path_buf());
+        }
+        Pending(p.to_path_buf())
+    }
+}
+
+impl Drop for Pending {
+    fn drop(&mut self) {
+        if let Ok(mut list) = pending().lock() {
+            list.retain(|p| p != &self.0);
+        }
+    }
+}
+
+/// A private scratch directory for unit tests (random name, mode 0700), kept until the
+/// test removes it: never a predictable `/tmp` path.
+#[cfg(test)]
+pub(crate) fn test_dir(prefix: &str) -> PathBuf {
+    tempfile::Builder::new()
+        .prefix(&format!("gonio-{prefix}-"))
+        .tempdir()
+        .expect("a scratch directory")
+        .keep()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn leftovers(dir: &Path) -> Vec<String> {
+        std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| n.contains(".tmp"))
+            .collect()
+    }
+
+    #[test]
+    fn writes_refuses_existing_and_forces() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("a.txt");
+        write(Target::new(&p, false), |w| w.write_all(b"one")).unwrap();
+        assert_eq!(std::fs::read(&p).unwrap(), b"one");
+        let e = write(Target::new(&p, false), |w| w.write_all(b"two")).unwrap_err();
+        assert!(
+            matches!(&e, OutError::Refused(m) if m.contains("--force")),
+            "{e}"
+        );
+        assert_eq!(std::fs::read(&p).unwrap(), b"one");
+        write(Target::new(&p, true), |w| w.write_all(b"two")).unwrap();
+        assert_eq!(std::fs::read(&p).unwrap(), b"two");
+        assert!(leftovers(d.path()).is_empty());
+    }
+
+    #[test]
+    fn refuses_special_files_symlinks_dirs_and_inputs() {
+        let d = tempfile::tempdir().unwrap();
+        let victim = d.path().join("victim");
+        std::fs::write(&victim, b"keep").unwrap();
+        let link = d.path().join("link");
+        std::os::unix::fs::symlink(&victim, &link).unwrap();
+        for (p, says) in [
+            (Path::new("/dev/null"), "device"),
+            (Path::new("/dev/stdout"), "not a regular file"),
+            (link.as_path(), "symbolic link"),
+            (d.path(), "directory"),
+            (Path::new("-"), "not a file name"),
+        ] {
+            let e = write(Target::new(p, true), |w| w.write_all(b"x")).unwrap_err();
+            assert!(
+                matches!(&e, OutError::Refused(m) if m.contains(says)),
+                "{}: {e}",
+                p.display()
+            );
+        }
+        assert_eq!(std::fs::read(&victim).unwrap(), b"keep");
+        let inputs = [victim.as_path()];
+        let e = write(Target::new(&victim, true).inputs(&inputs), |w| {
+            w.write_all(b"x")
+        })
+        .unwrap_err();
+        assert!(e.to_string().contains("is the input file"), "{e}");
+        assert_eq!(std::fs::read(&victim).unwrap(), b"keep");
+        assert!(leftovers(d.path()).is_empty());
+    }
+
+    #[test]
+    fn a_failed_body_leaves_nothing() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("b.bin");
+        let e = write(Target::new(&p, false), |w| {
+            w.write_all(b"partial")?;
+            Err(io::Error::other("disk full"))
+        })
+        .unwrap_err();
+        assert!(
+            matches!(&e, OutError::Io(m) if m.contains("disk full")),
+            "{e}"
+        );
+        assert!(!p.exists());
+        assert!(leftovers(d.path()).is_empty());
+        // A predictable name planted beside the target is neither used nor touched.
+        let planted = d.path().join("b.bin.tmp");
+        std::os::unix::fs::symlink("/nonexistent-victim", &planted).unwrap();
+        write(Target::new(&p, false), |w| w.write_all(b"ok")).unwrap();
+        assert_eq!(std::fs::read(&p).unwrap(), b"ok");
+        assert!(std::fs::symlink_metadata(&planted).unwrap().is_symlink());
+    }
+}

@@ -34,9 +34,16 @@ pub enum ResidualArg {
 (k_s(theta_i) f_s + k_d); the three-component model with one k_s per incidence (as the paper fits it); and the \
 three-component model with a smooth k_s(theta_i) - by Levenberg–Marquardt with an analytic Jacobian and \
 deterministic multi-start, then select by AICc (BIC reported too) and say which components the data support.\n\n\
+Models are members of one lattice of components (specular, specular-haze, directional-diffuse, ideal-diffuse). \
+A component is called supported only when the two models that differ in it alone favour it by AICc (by more \
+than 2) AND its amplitude is determined (standard error under a third of the value); otherwise the report says \
+it is absent and the selected model leaves it out. Directional diffuse: three-component vs Torrance–Sparrow. \
+Haze: three-component with and without a second specular lobe, both searched on a log-spaced width grid \
+(core sigma 0.002..1, haze 0.02..2; amplitudes solved linearly at every grid point) so a lobe one reading step \
+wide is found.\n\n\
 Every parameter is fitted as its logarithm (positive by construction); standard errors come from the covariance \
 at the optimum. The RMSE table is the paper's Table 3: per incidence, curves normalised to their value at \
-theta_r = theta_i. Angles in degrees, sigma_m in radians, BRDF in the file's relative units.",
+theta_r = theta_i, or at the nearest reading when there is none there (marked *). Angles in degrees, sigma_m in radians, BRDF in the file's relative units.",
     after_help = "Examples:\n  gonio fit fe.csv\n  gonio fit fe.csv --json > fe-fit.json\n  \
 gonio fit fe.csv --plot plots/ --export merl=fe.binary --export json=fe-params.json\n  \
 gonio fit fe.csv --fix sigma_m=0.7 --fix kdd=900 --loss cauchy:0.05\n  \

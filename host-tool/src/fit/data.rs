@@ -77,6 +77,9 @@ pub struct Dataset {
     group_start: Vec<usize>,
     /// Per incidence: the point at theta_r = theta_i, if any (the first one).
     specular: Vec<Option<usize>>,
+    /// Per incidence: the point nearest to theta_r = theta_i (the first of equals),
+    /// the reference of the paper's normalised RMSE when there is no exact one.
+    nearest: Vec<Option<usize>>,
 }
 
 /// Why data cannot be fitted.
@@ -153,11 +156,16 @@ impl Dataset {
         let mut next = group_start.clone();
         let mut order = vec![0; obs.len()];
         let mut specular = vec![None; incidences.len()];
+        let mut nearest: Vec<Option<usize>> = vec![None; incidences.len()];
         for (k, o) in obs.iter().enumerate() {
             order[next[o.inc]] = k;
             next[o.inc] += 1;
             if specular[o.inc].is_none() && (o.theta_r - o.theta_i).abs() < SAME_ANGLE {
                 specular[o.inc] = Some(k);
+            }
+            let d = (o.theta_r - o.theta_i).abs();
+            if nearest[o.inc].is_none_or(|n| d < (obs[n].theta_r - obs[n].theta_i).abs()) {
+                nearest[o.inc] = Some(k);
             }
         }
         Ok(Dataset {
@@ -166,6 +174,7 @@ impl Dataset {
             order,
             group_start,
             specular,
+            nearest,
         })
     }
 
@@ -177,5 +186,14 @@ impl Dataset {
     /// The measured value at the specular angle (theta_r = theta_i) of incidence `j`.
     pub fn specular_value(&self, j: usize) -> Option<f64> {
         self.specular[j].map(|k| self.obs[k].y)
+    }
+
+    /// The reading of incidence `j` that normalises the paper's RMSE: the one at
+    /// theta_r = theta_i, else the one nearest to it (index into `obs`); `None` only
+    /// when the incidence has no reading. `exact` says which.
+    pub fn specular_reference(&self, j: usize) -> Option<(usize, bool)> {
+        self.specular[j]
+            .map(|k| (k, true))
+            .or_else(|| self.nearest[j].map(|k| (k, false)))
     }
 }

@@ -54,6 +54,18 @@ impl Kind {
         }
     }
 
+    /// The member of brdf-core's component lattice this kind is (its report name is the
+    /// member's paper name).
+    pub const fn member(self) -> brdf_core::member::Member {
+        use brdf_core::member::Member;
+        match self {
+            Kind::IdealDiffuse => Member::IDEAL_DIFFUSE,
+            Kind::TorranceSparrow => Member::TORRANCE_SPARROW,
+            Kind::ThreeComponent => Member::THREE_COMPONENT,
+            Kind::ThreeSmooth => Member::THREE_COMPONENT_SMOOTH_KS,
+        }
+    }
+
     /// The canonical name, used in reports, JSON and messages.
     pub const fn name(self) -> &'static str {
         self.names().report

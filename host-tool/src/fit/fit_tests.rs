@@ -317,7 +317,8 @@ fn degenerate_inputs_are_clear_errors_or_flagged() {
     let flat: Vec<Row> = rows.iter().map(|r| Row { brdf: 7.0, ..*r }).collect();
     let f = family(&flat);
     assert_eq!(f.selected, Kind::IdealDiffuse);
-    // No reading at the specular angle: RMSE for that incidence is undefined, flagged.
+    // No reading at the specular angle: RMSE for that incidence is normalised at the
+    // nearest reading (issue 13: never n/d when an incidence has readings), and said.
     let no_spec: Vec<Row> = rows
         .iter()
         .filter(|r| !(r.theta_i == 20.0 && r.theta_r == 20.0))
@@ -325,13 +326,16 @@ fn degenerate_inputs_are_clear_errors_or_flagged() {
         .collect();
     let f = family(&no_spec);
     let three = f.get(Kind::ThreeComponent).unwrap();
-    assert_eq!(three.rmse_by_inc[2], None);
+    assert!(three.rmse_by_inc[2].is_some());
     assert!(three.rmse_by_inc[1].is_some());
     assert!(
         f.notes
             .iter()
-            .any(|n| n.contains("no reading at theta_r = theta_i"))
+            .any(|n| n.contains("no reading at theta_r = theta_i for theta_i 20 (at 10)"))
     );
+    assert_eq!(f.rmse_nearest[2], Some(10.0));
+    assert_eq!(f.rmse_nearest[1], None);
+    assert!(report::family_table(&f, "log").contains("* at theta_r 10"));
     let _ = Geometry::<f64>::in_plane(0.0, 0.0);
 }
 

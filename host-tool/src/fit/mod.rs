@@ -15,10 +15,13 @@ pub mod campaign;
 pub mod data;
 pub mod family;
 pub mod lm;
+pub mod member_fit;
 pub mod report;
 pub mod solve;
 
 use std::time::Instant;
+
+use brdf_core::member::Member;
 
 pub use data::Dataset;
 pub use family::{Fixed, Kind, Names};
@@ -37,6 +40,11 @@ pub struct FamilyFit {
     pub notes: Vec<String>,
     /// Wall time of all fitting (seconds).
     pub fit_seconds: f64,
+    /// The three-component model plus a haze lobe, when the data support the haze.
+    pub haze: Option<member_fit::MemberFit>,
+    /// Per incidence: the detector angle (degrees) the paper's RMSE is normalised at
+    /// when there is no reading exactly at theta_r = theta_i (`None` when there is).
+    pub rmse_nearest: Vec<Option<f64>>,
 }
 
 impl FamilyFit {
@@ -44,6 +52,11 @@ impl FamilyFit {
     pub fn get(&self, kind: Kind) -> Option<&Fit> {
         self.fits.iter().find(|f| f.kind == kind)
     }
+}
+
+/// The largest reading (the scale of "an amplitude at its floor").
+fn three_scale(data: &Dataset) -> f64 {
+    data.obs.iter().map(|o| o.y.abs()).fold(0.0, f64::max)
 }
 
 /// A difference in AICc below this is not evidence for the larger model.
@@ -65,12 +78,22 @@ pub fn fit_family(data: &Dataset, opts: &FitOptions, kinds: &[Kind]) -> Result<F
             )),
         }
     }
+    // The haze lobe: the three-component model with and without a second specular
+    // lobe, both on the width grid (the comparison differs in that component alone).
+    let haze = (opts.loss == Loss::L2
+        && opts.fixed == Fixed::default()
+        && kinds.contains(&Kind::ThreeComponent))
+    .then(|| {
+        let with = Member {
+            haze: Member::THREE_COMPONENT.core,
+            ..Member::THREE_COMPONENT
+        };
+        rayon::join(
+            || member_fit::fit_member(data, Member::THREE_COMPONENT, opts.residual, None),
+            || member_fit::fit_member(data, with, opts.residual, None),
+        )
+    });
     let fit_seconds = t0.elapsed().as_secs_f64();
-    let selected = fits
-        .iter()
-        .min_by(|a, b| a.aicc().total_cmp(&b.aicc()))
-        .map(|f| f.kind)
-        .ok_or("no model could be fitted to these data")?;
     let aicc = |k: Kind| fits.iter().find(|f| f.kind == k).map(Fit::aicc);
     let best_of = |ks: &[Kind]| {
         ks.iter()
@@ -82,26 +105,47 @@ pub fn fit_family(data: &Dataset, opts: &FitOptions, kinds: &[Kind]) -> Result<F
         Kind::ThreeComponent,
         Kind::ThreeSmooth,
     ]);
+    let mut specular_ok = true;
     if let Some(ideal) = aicc(Kind::IdealDiffuse) {
-        notes.push(if with_spec < ideal - AICC_MARGIN {
+        specular_ok = with_spec < ideal - AICC_MARGIN;
+        notes.push(if specular_ok {
             "specular lobe: supported (AICc clearly better than ideal diffuse alone)".to_string()
         } else {
             "specular lobe: NOT supported by these data (no better than a constant)".to_string()
         });
     }
-    if let Some(ts) = aicc(Kind::TorranceSparrow) {
-        let three = best_of(&[Kind::ThreeComponent, Kind::ThreeSmooth]);
-        if three.is_finite() {
-            notes.push(if three < ts - AICC_MARGIN {
-                format!(
-                    "directional diffuse: supported (AICc {:.1} lower than Torrance–Sparrow)",
-                    ts - three
-                )
-            } else {
-                "directional diffuse: NOT supported (Torrance–Sparrow fits as well)".to_string()
-            });
-        }
+    // Directional diffuse: Torrance–Sparrow against the three-component model, which
+    // differ in that term alone (both one k_s per incidence), and k_dd determined.
+    let mut directional_ok = true;
+    if let (Some(ts), Some(three)) = (
+        aicc(Kind::TorranceSparrow),
+        fits.iter().find(|f| f.kind == Kind::ThreeComponent),
+    ) {
+        let (kdd, se) = report::scalar(three, family::Coord::Kdd);
+        let determined = se.is_some_and(|se| se < kdd / 3.0) && kdd > 1e-9 * three_scale(data);
+        let gain = ts - three.aicc();
+        directional_ok = gain > AICC_MARGIN && determined;
+        notes.push(if directional_ok {
+            format!(
+                "directional diffuse: supported (AICc {gain:.1} lower than Torrance–Sparrow, k_dd determined)"
+            )
+        } else if gain > AICC_MARGIN {
+            format!(
+                "directional diffuse: NOT supported (AICc {gain:.1} lower than Torrance–Sparrow, but k_dd = {kdd:.3e} is not determined: absent)"
+            )
+        } else {
+            "directional diffuse: NOT supported (Torrance–Sparrow fits as well): absent".to_string()
+        });
     }
+    // Select among the models whose every component the data support.
+    let allowed = |k: Kind| (specular_ok || !k.specular()) && (directional_ok || !k.directional());
+    let selected = fits
+        .iter()
+        .filter(|f| allowed(f.kind))
+        .min_by(|a, b| a.aicc().total_cmp(&b.aicc()))
+        .or_else(|| fits.iter().min_by(|a, b| a.aicc().total_cmp(&b.aicc())))
+        .map(|f| f.kind)
+        .ok_or("no model could be fitted to these data")?;
     if let (Some(per), Some(smooth)) = (aicc(Kind::ThreeComponent), aicc(Kind::ThreeSmooth)) {
         notes.push(if smooth <= per + AICC_MARGIN {
             "k_s(theta_i): a smooth 3-parameter curve describes it as well as one k_s per angle"
@@ -109,6 +153,39 @@ pub fn fit_family(data: &Dataset, opts: &FitOptions, kinds: &[Kind]) -> Result<F
         } else {
             "k_s(theta_i): needs one value per angle (a smooth curve fits worse)".to_string()
         });
+    }
+    let mut haze_fit = None;
+    if let Some((Some(one), Some(two))) = haze {
+        let gain = one.aicc() - two.aicc();
+        let amp = two.layout.local(0, true);
+        let (h, hse) = two.sigma_haze().unwrap_or((f64::NAN, None));
+        let (s, sse) = two.sigma().unwrap_or((f64::NAN, None));
+        // The haze's amplitude: its k_s at every incidence determined (se < value / 3).
+        let determined = (0..data.incidences.len()).all(|j| {
+            let i = amp + j * two.layout.n_local();
+            let (_, se) = two.natural(i);
+            se.is_some_and(|se| se < 1.0 / 3.0 * two.x[i].exp())
+                && two.x[i] > two.layout.bounds(i).0 + 1.0
+        });
+        let fmt = |v: f64, se: Option<f64>| match se {
+            Some(se) => format!("{v:.4} ± {se:.4}"),
+            None => format!("{v:.4} (n/d)"),
+        };
+        if gain > AICC_MARGIN && determined {
+            notes.push(format!(
+                "specular haze: supported (AICc {gain:.1} lower than three-component; core sigma {}, haze sigma {}, paper RMSE {} against {})",
+                fmt(s, sse),
+                fmt(h, hse),
+                two.rmse.map_or("n/d".into(), |r| format!("{r:.4}")),
+                one.rmse.map_or("n/d".into(), |r| format!("{r:.4}")),
+            ));
+            haze_fit = Some(two);
+        } else {
+            notes.push(
+                "specular haze: absent (a second specular lobe is not supported by these data)"
+                    .into(),
+            );
+        }
     }
     for f in &fits {
         if f.identifiable.iter().any(|ok| !ok) {
@@ -124,11 +201,20 @@ pub fn fit_family(data: &Dataset, opts: &FitOptions, kinds: &[Kind]) -> Result<F
             ));
         }
     }
-    if (0..data.incidences.len()).any(|j| data.specular_value(j).is_none()) {
-        notes.push(
-            "some incidences have no reading at theta_r = theta_i: their paper RMSE is undefined"
-                .into(),
-        );
+    let nearest: Vec<String> = (0..data.incidences.len())
+        .filter_map(|j| match data.specular_reference(j) {
+            Some((k, false)) => Some(format!(
+                "{} (at {})",
+                data.incidences[j], data.obs[k].theta_r
+            )),
+            _ => None,
+        })
+        .collect();
+    if !nearest.is_empty() {
+        notes.push(format!(
+            "no reading at theta_r = theta_i for theta_i {}: their paper RMSE is normalised at the nearest reading",
+            nearest.join(", ")
+        ));
     }
     Ok(FamilyFit {
         incidences: data.incidences.clone(),
@@ -136,6 +222,13 @@ pub fn fit_family(data: &Dataset, opts: &FitOptions, kinds: &[Kind]) -> Result<F
         selected,
         notes,
         fit_seconds,
+        haze: haze_fit,
+        rmse_nearest: (0..data.incidences.len())
+            .map(|j| match data.specular_reference(j) {
+                Some((k, false)) => Some(data.obs[k].theta_r),
+                _ => None,
+            })
+            .collect(),
     })
 }
 

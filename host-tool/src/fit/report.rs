@@ -4,7 +4,9 @@
 use serde_json::{Value, json};
 
 use super::family::{Coord, Kind, scalar_coords};
+use super::member_fit::MemberFit;
 use super::{FamilyFit, Fit};
+use brdf_core::member::Member;
 
 /// A parameter's name in reports.
 pub fn coord_name(kind: Kind, c: Coord, incidences: &[f64]) -> String {
@@ -158,10 +160,56 @@ pub fn model_json(fit: &Fit, incidences: &[f64]) -> Value {
         "bic": num(fit.bic()),
         "n": fit.n,
         "k": k,
+        "components": member_components(fit.kind.member()),
+        "lobes": member_lobes(fit.kind.member()),
         "ssr": num(fit.ssr),
         "converged": fit.converged,
         "evaluations": fit.evaluations,
         "correlations": {"names": names, "matrix": corr},
+    })
+}
+
+/// The member's components, in the fixed vocabulary (`specular`, `specular-haze`,
+/// `directional-diffuse`, `ideal-diffuse`).
+pub fn member_components(m: Member) -> Value {
+    Value::Array(m.components().map(|c| Value::from(c.name())).collect())
+}
+
+/// Each specular lobe's distribution and k_s form: `{"specular": {"distribution":
+/// "beckmann", "ks": "per-incidence"}, ...}`.
+pub fn member_lobes(m: Member) -> Value {
+    let mut map = serde_json::Map::new();
+    for (name, lobe) in [("specular", m.core), ("specular-haze", m.haze)] {
+        if let Some(l) = lobe {
+            map.insert(
+                name.into(),
+                json!({"distribution": l.dist.name(), "ks": l.ks.name()}),
+            );
+        }
+    }
+    Value::Object(map)
+}
+
+/// A member fitted on the width grid ([`super::member_fit`]) as a JSON object.
+pub fn member_fit_json(fit: &MemberFit) -> Value {
+    let m = fit.member();
+    let pair = |p: Option<(f64, Option<f64>)>| match p {
+        Some((v, se)) => json!({"value": num(v), "se": opt(se)}),
+        None => Value::Null,
+    };
+    json!({
+        "name": m.name().as_str(),
+        "components": member_components(m),
+        "lobes": member_lobes(m),
+        "sigma": pair(fit.sigma()),
+        "sigma_haze": pair(fit.sigma_haze()),
+        "aicc": num(fit.aicc()),
+        "rmse": opt(fit.rmse),
+        "rmse_by_theta_i": Value::Array(fit.incidences.iter().zip(&fit.rmse_by_inc).map(|(t, r)| Value::Array(vec![num(*t), opt(*r)])).collect()),
+        "n": fit.n,
+        "k": fit.k(),
+        "ssr": num(fit.ssr),
+        "converged": fit.converged,
     })
 }
 
@@ -198,9 +246,13 @@ impl serde::Serialize for FamilyJson<'_> {
     fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         use serde::ser::SerializeMap;
         let f = self.0;
-        let mut m = s.serialize_map(Some(4))?;
+        let mut m = s.serialize_map(Some(5))?;
         m.serialize_entry("models", &ModelsJson(f))?;
         m.serialize_entry("selected", f.selected.name())?;
+        m.serialize_entry(
+            "haze",
+            &f.haze.as_ref().map_or(Value::Null, member_fit_json),
+        )?;
         m.serialize_entry("notes", &f.notes)?;
         m.serialize_entry("fit_seconds", &num(f.fit_seconds))?;
         m.end()
@@ -284,19 +336,29 @@ pub fn family_table(f: &FamilyFit, residual: &str) -> String {
             .map_or("n/d".to_string(), |r| format!("{r:.4}"))
     };
     for (j, t) in inc.iter().enumerate() {
+        // '*': normalised at the nearest reading (no reading at theta_r = theta_i).
+        let mark = f.rmse_nearest.get(j).copied().flatten();
         let _ = writeln!(
             out,
-            "  {:>8}  {:>12}  {:>16}",
+            "  {:>8}  {:>12}  {:>16}{}",
             t,
             cell(ts, j),
-            cell(three, j)
+            cell(three, j),
+            mark.map_or(String::new(), |r| format!("  * at theta_r {r}"))
         );
     }
     let all = |fit: Option<&Fit>| {
         fit.and_then(|x| x.rmse)
             .map_or("n/d".to_string(), |r| format!("{r:.4}"))
     };
-    let _ = writeln!(out, "  {:>8}  {:>12}  {:>16}\n", "all", all(ts), all(three));
+    let _ = writeln!(out, "  {:>8}  {:>12}  {:>16}", "all", all(ts), all(three));
+    if f.rmse_nearest.iter().any(Option::is_some) {
+        let _ = writeln!(
+            out,
+            "  * no reading at theta_r = theta_i: curves normalised at the nearest reading"
+        );
+    }
+    let _ = writeln!(out);
     let _ = writeln!(out, "selected by AICc: {}", f.selected.name());
     for n in &f.notes {
         let _ = writeln!(out, "  - {n}");

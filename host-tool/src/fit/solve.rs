@@ -166,7 +166,7 @@ impl Fit {
 }
 
 /// One residual of the given kind.
-fn residual_of(kind: Residual, f: f64, y: f64) -> f64 {
+pub(super) fn residual_of(kind: Residual, f: f64, y: f64) -> f64 {
     match kind {
         Residual::Log => f.max(1e-300).ln() - y.ln(),
         Residual::Relative => f / y - 1.0,
@@ -431,7 +431,7 @@ fn linear_start(
 /// Solves the normal equations `J^T J x = -J^T r` of a linear problem, with a tiny
 /// ridge (relative to each diagonal element) when they are singular (a weight no point
 /// constrains).
-fn solve_linear(normal: &Normal) -> Option<Vec<f64>> {
+pub(super) fn solve_linear(normal: &Normal) -> Option<Vec<f64>> {
     let d = normal.diagonal();
     let mean = d.iter().sum::<f64>() / d.len().max(1) as f64;
     let d: Vec<f64> = d
@@ -625,28 +625,38 @@ fn finish(
 }
 
 /// RMSE as in the paper's Table 3: per incidence, measured values divided by the
-/// measured value at theta_r = theta_i, model values by the model's value there.
-/// One pass over the readings.
+/// measured value at theta_r = theta_i, model values by the model's value there; when
+/// an incidence has no reading exactly there, both are normalised at the reading
+/// nearest to it ([`Dataset::specular_reference`]). One pass over the readings.
 pub fn paper_rmse(data: &Dataset, kind: Kind, v: &Values) -> (Vec<Option<f64>>, Option<f64>) {
+    paper_rmse_with(data, |j, g| {
+        v.model(kind, j).and_then(|m| m.eval(g).ok()).map(|e| e.f)
+    })
+}
+
+/// [`paper_rmse`] for any model: `f(j, geometry)` is the model's value at incidence
+/// `j` (None when it cannot be evaluated).
+pub fn paper_rmse_with(
+    data: &Dataset,
+    f: impl Fn(usize, &Geometry<f64>) -> Option<f64>,
+) -> (Vec<Option<f64>>, Option<f64>) {
     let mut per = Vec::with_capacity(data.incidences.len());
     let (mut sum, mut count) = (0.0, 0usize);
-    for (j, &ti) in data.incidences.iter().enumerate() {
-        let (Some(y_spec), Some(model)) = (data.specular_value(j), v.model(kind, j)) else {
+    for j in 0..data.incidences.len() {
+        let Some((r, _)) = data.specular_reference(j) else {
             per.push(None);
             continue;
         };
-        let Ok(f_spec) = Geometry::in_plane(ti, ti)
-            .and_then(|g| model.eval(&g))
-            .map(|e| e.f)
-        else {
+        let y_ref = data.obs[r].y;
+        let Some(f_ref) = f(j, &data.obs[r].geom) else {
             per.push(None);
             continue;
         };
         let (mut s, mut c) = (0.0, 0usize);
         for &k in data.rows_of(j) {
             let o = &data.obs[k];
-            let f = model.eval(&o.geom).map(|e| e.f).unwrap_or(f64::NAN);
-            let d = o.y / y_spec - f / f_spec;
+            let fk = f(j, &o.geom).unwrap_or(f64::NAN);
+            let d = o.y / y_ref - fk / f_ref;
             s += d * d;
             c += 1;
         }

@@ -90,7 +90,6 @@ pub fn find_by_usb_serial<'a>(
     })
 }
 
-
 /// One listed port, ready to print.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct PortRow {

@@ -5,8 +5,8 @@ use std::io::{self, Read, Write};
 use std::path::Path;
 use std::time::Duration;
 
-use super::{Connector, ports};
 use super::link::{FramedLink, LinkError, Transport};
+use super::{Connector, ports};
 
 /// A serial port (USB CDC device or pseudo-terminal).
 pub struct SerialTransport {

@@ -33,8 +33,10 @@ use crate::fit::{FamilyFit, Kind};
 mod csv;
 mod json;
 mod merl;
+mod residuals;
 
 pub use merl::{MERL_DIMS, MERL_INVALID, MERL_LEN, MERL_SCALE, MerlTable};
+pub use residuals::{residual_value, write_residuals};
 
 /// Why an export failed.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -64,6 +66,9 @@ pub enum ExportFormat {
     Merl,
     /// An in-plane grid `theta_i,theta_r,brdf` in the sweep-file format.
     Csv,
+    /// Per reading `theta_i,theta_r,measured,fitted,residual` (needs the data: written
+    /// by [`write_residuals`]).
+    Residuals,
 }
 
 impl ExportFormat {
@@ -73,6 +78,7 @@ impl ExportFormat {
             ExportFormat::Json => "json",
             ExportFormat::Merl => "merl",
             ExportFormat::Csv => "csv",
+            ExportFormat::Residuals => "residuals",
         }
     }
 }
@@ -87,20 +93,7 @@ pub fn write_export(
     fam: &FamilyFit,
     kind: Kind,
 ) -> Result<(), ExportError> {
-    let Some(fit) = fam.get(kind) else {
-        // Canonical names, each with the name the user types.
-        let both = |k: Kind| format!("{} ({})", k.name(), k.names().cli);
-        let fitted: Vec<String> = fam.fits.iter().map(|f| both(f.kind)).collect();
-        return Err(ExportError::NotFitted(format!(
-            "model {} was not fitted; fitted models: {}",
-            both(kind),
-            if fitted.is_empty() {
-                "none".to_string()
-            } else {
-                fitted.join(", ")
-            }
-        )));
-    };
+    let fit = fitted(fam, kind)?;
     match format {
         ExportFormat::Json => {
             let mut text =
@@ -115,12 +108,35 @@ pub fn write_export(
             write_atomic(path, |w| merl::write_merl(w, &table))
         }
         ExportFormat::Csv => write_atomic(path, |w| csv::write_csv(w, fam, fit)),
+        ExportFormat::Residuals => Err(ExportError::Write(format!(
+            "{}: residuals need the fitted data (write_residuals)",
+            path.display()
+        ))),
     }
+}
+
+/// The fit of `kind`, or [`ExportError::NotFitted`] naming the fitted models.
+fn fitted(fam: &FamilyFit, kind: Kind) -> Result<&crate::fit::Fit, ExportError> {
+    let Some(fit) = fam.get(kind) else {
+        // Canonical names, each with the name the user types.
+        let both = |k: Kind| format!("{} ({})", k.name(), k.names().cli);
+        let fitted: Vec<String> = fam.fits.iter().map(|f| both(f.kind)).collect();
+        return Err(ExportError::NotFitted(format!(
+            "model {} was not fitted; fitted models: {}",
+            both(kind),
+            if fitted.is_empty() {
+                "none".to_string()
+            } else {
+                fitted.join(", ")
+            }
+        )));
+    };
+    Ok(fit)
 }
 
 /// Writes through `PATH.tmp`, then renames; on any error removes the temporary file and
 /// reports one line naming `path`.
-fn write_atomic(
+pub(crate) fn write_atomic(
     path: &Path,
     body: impl FnOnce(&mut BufWriter<File>) -> io::Result<()>,
 ) -> Result<(), ExportError> {

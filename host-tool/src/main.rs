@@ -4,7 +4,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use gonio::cli::{
-    CliResult, EXIT_USAGE, bench, capture, demo, eval, fit, flash, info, ports, simulate,
+    CliResult, EXIT_USAGE, bench, capture, demo, eval, fit, flash, import, info, ports, simulate,
 };
 
 /// gonio: measure and model how metal surfaces reflect light.
@@ -34,6 +34,7 @@ enum Command {
     Capture(capture::CaptureArgs),
     Simulate(simulate::SimulateArgs),
     Fit(fit::FitArgs),
+    Import(import::ImportArgs),
     Demo(demo::DemoArgs),
     Bench(bench::BenchArgs),
     Flash(flash::FlashArgs),
@@ -47,6 +48,7 @@ fn run(cli: Cli) -> CliResult {
         Command::Capture(args) => capture::run(&args),
         Command::Simulate(args) => simulate::run(&args),
         Command::Fit(args) => fit::run(&args),
+        Command::Import(args) => import::run(&args),
         Command::Demo(args) => demo::run(&args),
         Command::Bench(args) => bench::run(&args),
         Command::Flash(args) => flash::run(&args),

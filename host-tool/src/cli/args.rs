@@ -256,10 +256,10 @@ pub fn parse_loss(s: &str) -> Result<Loss, String> {
     }
 }
 
-/// Parses `json=PATH`, `merl=PATH` or `csv=PATH` (format case-insensitive; a clap
-/// value parser).
+/// Parses `json=PATH`, `merl=PATH`, `csv=PATH` or `residuals=PATH` (format
+/// case-insensitive; a clap value parser).
 pub fn parse_export(spec: &str) -> Result<(ExportFormat, PathBuf), String> {
-    let expected = "expected json=PATH, merl=PATH or csv=PATH";
+    let expected = "expected json=PATH, merl=PATH, csv=PATH or residuals=PATH";
     let (format, path) = spec
         .split_once('=')
         .ok_or_else(|| format!("export '{spec}': {expected}"))?;
@@ -267,6 +267,7 @@ pub fn parse_export(spec: &str) -> Result<(ExportFormat, PathBuf), String> {
         "json" => ExportFormat::Json,
         "merl" => ExportFormat::Merl,
         "csv" => ExportFormat::Csv,
+        "residuals" => ExportFormat::Residuals,
         other => {
             return Err(format!(
                 "export '{spec}': unknown format '{other}' ({expected})"

@@ -66,7 +66,9 @@ pub struct FitArgs {
     #[arg(long, value_name = "DIR")]
     pub plot: Option<PathBuf>,
     /// Export the selected (or --export-model) fit: json=PATH (parameters),
-    /// merl=PATH (MERL binary table), csv=PATH (in-plane grid). Repeatable.
+    /// merl=PATH (MERL binary table), csv=PATH (in-plane grid), residuals=PATH (CSV
+    /// theta_i,theta_r,measured,fitted,residual per reading, in the file's order, the
+    /// residual in --residual's kind). Repeatable.
     #[arg(long, value_name = "FORMAT=PATH", value_parser = parse_export)]
     pub export: Vec<(ExportFormat, PathBuf)>,
     /// Overwrite existing --export and --plot files (never the sweep file itself, a
@@ -236,12 +238,13 @@ pub fn run(args: &FitArgs) -> CliResult {
     }
     let kind = args.export_model.map_or(fam.selected, |m| m.0);
     for (format, path) in &args.export {
-        export::write_export(
-            *format,
-            Target::new(path, args.force).inputs(&inputs),
-            &fam,
-            kind,
-        )?;
+        let target = Target::new(path, args.force).inputs(&inputs);
+        match format {
+            ExportFormat::Residuals => {
+                export::write_residuals(target, &data, &fam, kind, opts.residual)?;
+            }
+            _ => export::write_export(*format, target, &fam, kind)?,
+        }
     }
     let text = if args.json {
         fit::report::family_json_text(&fam)

@@ -10,6 +10,7 @@ pub mod error;
 pub mod eval;
 pub mod fit;
 pub mod flash;
+pub mod import;
 pub mod info;
 pub mod output;
 pub mod ports;

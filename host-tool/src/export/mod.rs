@@ -34,8 +34,10 @@ use crate::outfile::{self, OutError, Target};
 mod csv;
 mod json;
 mod merl;
+mod residuals;
 
 pub use merl::{MERL_DIMS, MERL_INVALID, MERL_LEN, MERL_SCALE, MerlTable};
+pub use residuals::{residual_value, write_residuals};
 
 /// Why an export failed.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -79,6 +81,9 @@ pub enum ExportFormat {
     Merl,
     /// An in-plane grid `theta_i,theta_r,brdf` in the sweep-file format.
     Csv,
+    /// Per reading `theta_i,theta_r,measured,fitted,residual` (needs the data: written
+    /// by [`write_residuals`]).
+    Residuals,
 }
 
 impl ExportFormat {
@@ -88,6 +93,7 @@ impl ExportFormat {
             ExportFormat::Json => "json",
             ExportFormat::Merl => "merl",
             ExportFormat::Csv => "csv",
+            ExportFormat::Residuals => "residuals",
         }
     }
 }
@@ -103,20 +109,7 @@ pub fn write_export(
     fam: &FamilyFit,
     kind: Kind,
 ) -> Result<(), ExportError> {
-    let Some(fit) = fam.get(kind) else {
-        // Canonical names, each with the name the user types.
-        let both = |k: Kind| format!("{} ({})", k.name(), k.names().cli);
-        let fitted: Vec<String> = fam.fits.iter().map(|f| both(f.kind)).collect();
-        return Err(ExportError::NotFitted(format!(
-            "model {} was not fitted; fitted models: {}",
-            both(kind),
-            if fitted.is_empty() {
-                "none".to_string()
-            } else {
-                fitted.join(", ")
-            }
-        )));
-    };
+    let fit = fitted(fam, kind)?;
     let path = target.path;
     match format {
         ExportFormat::Json => {
@@ -132,11 +125,34 @@ pub fn write_export(
             write_atomic(target, |mut w| merl::write_merl(&mut w, &table))
         }
         ExportFormat::Csv => write_atomic(target, |mut w| csv::write_csv(&mut w, fam, fit)),
+        ExportFormat::Residuals => Err(ExportError::Write(format!(
+            "{}: residuals need the fitted data (write_residuals)",
+            path.display()
+        ))),
     }
 }
 
+/// The fit of `kind`, or [`ExportError::NotFitted`] naming the fitted models.
+fn fitted(fam: &FamilyFit, kind: Kind) -> Result<&crate::fit::Fit, ExportError> {
+    let Some(fit) = fam.get(kind) else {
+        // Canonical names, each with the name the user types.
+        let both = |k: Kind| format!("{} ({})", k.name(), k.names().cli);
+        let fitted: Vec<String> = fam.fits.iter().map(|f| both(f.kind)).collect();
+        return Err(ExportError::NotFitted(format!(
+            "model {} was not fitted; fitted models: {}",
+            both(kind),
+            if fitted.is_empty() {
+                "none".to_string()
+            } else {
+                fitted.join(", ")
+            }
+        )));
+    };
+    Ok(fit)
+}
+
 /// Writes through [`outfile::write`]: checked target, temporary file, sync, rename.
-fn write_atomic(
+pub(crate) fn write_atomic(
     target: Target<'_>,
     body: impl FnOnce(&mut dyn Write) -> io::Result<()>,
 ) -> Result<(), ExportError> {

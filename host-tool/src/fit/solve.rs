@@ -159,6 +159,17 @@ impl Fit {
         v.model(self.kind, 0)
     }
 
+    /// The fitted value at one reading (degrees; theta_r signed), as the fit compares it
+    /// with the measurement: what residual exports and plots use.
+    pub fn predict(&self, incidences: &[f64], theta_i: f64, theta_r: f64) -> Option<f64> {
+        // At a fitted incidence, exactly the model the fit used (its own k_s).
+        let m = match incidences.iter().position(|&t| (t - theta_i).abs() < 1e-6) {
+            Some(j) => self.values.model(self.kind, j)?,
+            None => self.model_at(incidences, theta_i)?,
+        };
+        m.eval_in_plane(theta_i, theta_r).ok().map(|e| e.f)
+    }
+
     /// Standard error of a free coordinate (in its own units), if identifiable.
     pub fn se_coord(&self, i: usize) -> Option<f64> {
         self.identifiable[i].then(|| self.cov.get(i, i).max(0.0).sqrt())

@@ -3,7 +3,10 @@
 
 use plotters::style::RGBColor;
 
-use crate::fit::{Dataset, FamilyFit, Kind};
+use brdf_core::lobe::Distribution;
+use brdf_core::member_model::{DirectionalParams, Ks, LobeParams, MemberModel, MemberParams};
+
+use crate::fit::{Dataset, FamilyFit, Fit, Kind};
 
 /// Label of the y axis of the normalised figures.
 pub(super) const Y_DESC_NORMALISED: &str = "BRDF / BRDF(theta_r = theta_i)";
@@ -46,6 +49,18 @@ pub(super) enum Swatch {
     Marker(RGBColor),
     /// A circle on a line (overview: points and curve of one incidence).
     Both(RGBColor),
+    /// A dashed line of a colour (the components of the selected model).
+    Dashed(RGBColor),
+}
+
+/// A lighter shade of `c` (components drawn under their model's curve).
+pub(super) fn lighter(c: RGBColor) -> RGBColor {
+    let mix = |x: u8| ((x as u16 + 2 * 255) / 3) as u8;
+    RGBColor(
+        mix(c.0).saturating_sub(40),
+        mix(c.1).saturating_sub(40),
+        mix(c.2).saturating_sub(40),
+    )
 }
 
 /// A curve in chart coordinates.
@@ -76,6 +91,69 @@ pub(super) struct Figure {
     pub(super) legend: Vec<(Swatch, String)>,
     /// Small print under the legend.
     pub(super) notes: Vec<String>,
+    /// Each component of the selected model on its own (dashed).
+    pub(super) lobes: Vec<Curve>,
+    /// The residual panel under the chart: ln(measured / fitted) of the selected model
+    /// per reading, against theta_r (empty: no panel).
+    pub(super) residuals: Vec<(f64, f64)>,
+}
+
+/// The selected model at incidence `ti` as a member of the family, for drawing its
+/// components one by one from the member's basis and amplitudes.
+pub(super) fn member_at(fit: &Fit, incidences: &[f64], ti: f64) -> Option<MemberModel<f64>> {
+    let v = &fit.values;
+    let core = fit.kind.specular().then(|| LobeParams {
+        dist: Distribution::Beckmann,
+        ks: Ks::PerIncidence(fit.ks_at(incidences, ti)),
+        sigma: v.sigma,
+    });
+    let directional = fit.kind.directional().then_some(DirectionalParams {
+        kdd: v.kdd,
+        sigma_m: v.sigma_m,
+    });
+    MemberModel::new(&MemberParams {
+        core,
+        haze: None,
+        directional,
+        ideal: Some(v.kid),
+    })
+    .ok()
+}
+
+/// The components of `model` at incidence `ti` on the figures' 0.5-degree grid, each
+/// amplitude x basis divided by `norm`, with its name: the core and haze lobes, the
+/// directional and the ideal diffuse, those that are on.
+pub(super) fn component_curves(
+    model: &MemberModel<f64>,
+    ti: f64,
+    norm: f64,
+) -> Vec<(&'static str, Vec<(f64, f64)>)> {
+    let m = model.member();
+    let a = model.amplitudes();
+    let evals: Vec<(f64, brdf_core::member_model::Parts<f64>)> = (-180..=180)
+        .map(|k| k as f64 * 0.5)
+        .filter_map(|tr| model.eval_in_plane(ti, tr).ok().map(|e| (tr, e.basis)))
+        .collect();
+    let mut out = Vec::new();
+    let mut push = |name: &'static str,
+                    on: bool,
+                    pick: &dyn Fn(&brdf_core::member_model::Parts<f64>) -> f64| {
+        if on {
+            let pts = evals
+                .iter()
+                .map(|(tr, b)| (*tr, pick(b) / norm))
+                .filter(plottable)
+                .collect();
+            out.push((name, pts));
+        }
+    };
+    push("specular core", m.core.is_some(), &|b| a.core * b.core);
+    push("specular haze", m.haze.is_some(), &|b| a.haze * b.haze);
+    push("directional diffuse", m.directional, &|b| {
+        a.directional * b.directional
+    });
+    push("ideal diffuse", m.ideal, &|b| a.ideal * b.ideal);
+    out
 }
 
 /// Splits `text` into lines of at most `width` characters at spaces (a longer word
@@ -160,6 +238,10 @@ pub(super) fn incidence_figure(data: &Dataset, fam: &FamilyFit, j: usize) -> Fig
     }
     let mut curves = Vec::new();
     let mut rmse_parts = Vec::new();
+    let mut lobes = Vec::new();
+    let mut lobe_names = Vec::new();
+    let mut lobe_legend = None;
+    let mut residuals = Vec::new();
     for kind in kinds {
         let Some(fit) = fam.get(kind) else { continue };
         let selected = kind == fam.selected;
@@ -201,6 +283,40 @@ pub(super) fn incidence_figure(data: &Dataset, fam: &FamilyFit, j: usize) -> Fig
         }
         let width = if selected { 3 } else { 2 };
         let color = model_color(kind);
+        if selected {
+            if let Some(member) = member_at(fit, &fam.incidences, ti) {
+                let light = lighter(color);
+                for (name, points) in component_curves(&member, ti, norm) {
+                    lobes.push(Curve {
+                        color: light,
+                        width: 2,
+                        points,
+                    });
+                    lobe_names.push(name);
+                }
+                if !lobe_names.is_empty() {
+                    lobe_legend = Some((
+                        Swatch::Dashed(light),
+                        format!("{}: {}", display_name(kind), lobe_names.join(", ")),
+                    ));
+                }
+            }
+            residuals = jd
+                .map(|jd| {
+                    let mut r: Vec<(f64, f64)> = data
+                        .obs
+                        .iter()
+                        .filter(|o| o.inc == jd && o.y > 0.0)
+                        .filter_map(|o| {
+                            let f = fit.predict(&fam.incidences, o.theta_i, o.theta_r)?;
+                            (f > 0.0).then(|| (o.theta_r, (o.y / f).ln()))
+                        })
+                        .collect();
+                    r.sort_by(|a, b| a.0.total_cmp(&b.0));
+                    r
+                })
+                .unwrap_or_default();
+        }
         curves.push(Curve {
             color,
             width,
@@ -217,7 +333,14 @@ pub(super) fn incidence_figure(data: &Dataset, fam: &FamilyFit, j: usize) -> Fig
     }
     let black = RGBColor(0, 0, 0);
     legend.insert(0, (Swatch::Marker(black), "measured".to_string()));
+    legend.extend(lobe_legend);
     legend.push((Swatch::Guide, "theta_r = theta_i (specular)".to_string()));
+    if !residuals.is_empty() {
+        notes.push(format!(
+            "Lower panel: ln(measured / fitted) of {} per reading.",
+            display_name(fam.selected)
+        ));
+    }
     subtitles.insert(
         0,
         format!("RMSE of the normalised curves: {}", rmse_parts.join(", ")),
@@ -244,6 +367,8 @@ pub(super) fn incidence_figure(data: &Dataset, fam: &FamilyFit, j: usize) -> Fig
         guide: Some(ti),
         legend,
         notes,
+        lobes,
+        residuals,
     }
 }
 
@@ -335,5 +460,7 @@ pub(super) fn overview_figure(data: &Dataset, fam: &FamilyFit) -> Figure {
         guide: None,
         legend,
         notes,
+        lobes: Vec::new(),
+        residuals: Vec::new(),
     }
 }

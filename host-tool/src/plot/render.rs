@@ -150,6 +150,14 @@ fn render<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, fig: &Figure) -> Re
         .map_err(err)?;
     }
     let (plot_area, legend_area) = body.split_horizontally(w - LEGEND_WIDTH);
+    // The residual panel, when there is one, takes the lower quarter of the plot area.
+    let (plot_area, resid_area) = if fig.residuals.is_empty() {
+        (plot_area, None)
+    } else {
+        let (_, h) = plot_area.dim_in_pixel();
+        let (a, b) = plot_area.split_vertically(h * 72 / 100);
+        (a, Some(b))
+    };
 
     let (lo, hi) = y_range(fig);
     let (y_bold, y_light) = log_ticks(lo, hi);
@@ -193,6 +201,16 @@ fn render<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, fig: &Figure) -> Re
             ))
             .map_err(err)?;
     }
+    for c in &fig.lobes {
+        chart
+            .draw_series(DashedLineSeries::new(
+                c.points.iter().copied(),
+                8,
+                5,
+                c.color.stroke_width(c.width),
+            ))
+            .map_err(err)?;
+    }
     for c in &fig.curves {
         chart
             .draw_series(LineSeries::new(
@@ -209,6 +227,10 @@ fn render<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, fig: &Figure) -> Re
                     .map(|&p| Circle::new(p, 4, m.color.filled())),
             )
             .map_err(err)?;
+    }
+
+    if let Some(area) = resid_area {
+        draw_residuals(&area, fig)?;
     }
 
     // The legend panel: one row per entry, then the notes in small print.
@@ -234,6 +256,16 @@ fn render<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, fig: &Figure) -> Re
                         .draw(&PathElement::new(
                             vec![(s, y), ((s + 6).min(x1), y)],
                             grey.stroke_width(1),
+                        ))
+                        .map_err(err)?;
+                }
+            }
+            Swatch::Dashed(c) => {
+                for s in (x0..x1).step_by(13) {
+                    legend_area
+                        .draw(&PathElement::new(
+                            vec![(s, y), ((s + 8).min(x1), y)],
+                            c.stroke_width(2),
                         ))
                         .map_err(err)?;
                 }
@@ -266,6 +298,63 @@ fn render<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, fig: &Figure) -> Re
             ))
             .map_err(err)?;
     }
+    Ok(())
+}
+
+/// The residual panel: ln(measured / fitted) per reading against theta_r, on a linear
+/// axis symmetric about 0 (at least +-0.1, so a good fit is seen as good).
+fn draw_residuals<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    fig: &Figure,
+) -> Result<(), String> {
+    let err = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    let m = fig
+        .residuals
+        .iter()
+        .map(|p| p.1.abs())
+        .filter(|v| v.is_finite())
+        .fold(0.1f64, f64::max)
+        * 1.15;
+    let mut chart = ChartBuilder::on(area)
+        .margin_top(4)
+        .margin_left(10)
+        .margin_right(20)
+        .margin_bottom(6)
+        .x_label_area_size(40)
+        .y_label_area_size(80)
+        .build_cartesian_2d(-90f64..90f64, -m..m)
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_labels(19)
+        .y_labels(5)
+        .x_max_light_lines(1)
+        .y_max_light_lines(1)
+        .x_desc(X_DESC)
+        .y_desc("ln(meas / fit)")
+        .axis_desc_style((FONT, 16))
+        .label_style((FONT, 13))
+        .x_label_formatter(&|v| angle_text(*v))
+        .y_label_formatter(&|v| format!("{:.2}", v))
+        .bold_line_style(RGBColor(225, 225, 225))
+        .light_line_style(RGBColor(240, 240, 240))
+        .draw()
+        .map_err(err)?;
+    let grey = RGBColor(140, 140, 140);
+    chart
+        .draw_series(LineSeries::new(
+            vec![(-90.0, 0.0), (90.0, 0.0)],
+            grey.stroke_width(1),
+        ))
+        .map_err(err)?;
+    chart
+        .draw_series(
+            fig.residuals
+                .iter()
+                .filter(|p| p.1.is_finite())
+                .map(|&p| Circle::new(p, 3, RGBColor(0, 0, 0).filled())),
+        )
+        .map_err(err)?;
     Ok(())
 }
 

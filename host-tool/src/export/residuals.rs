@@ -1,0 +1,77 @@
+//! The residuals export: one row per reading of the fitted sweep, in the file's order,
+//! with the measured and fitted values and the residual the fit minimised.
+
+use std::io::{self, Write};
+
+use super::{ExportError, write_atomic};
+use crate::fit::{Dataset, FamilyFit, Fit, Kind, Residual};
+use crate::outfile::Target;
+
+/// The residual of a reading in the fit's kind (as [`Residual`] defines it: ln f - ln y,
+/// f / y - 1 or f - y), and the words the file's `#` line uses for it.
+pub fn residual_value(kind: Residual, fitted: f64, measured: f64) -> f64 {
+    match kind {
+        Residual::Log => fitted.max(1e-300).ln() - measured.ln(),
+        Residual::Relative => fitted / measured - 1.0,
+        Residual::Absolute => fitted - measured,
+    }
+}
+
+fn residual_words(kind: Residual) -> &'static str {
+    match kind {
+        Residual::Log => "log: ln(fitted) - ln(measured)",
+        Residual::Relative => "rel: fitted / measured - 1",
+        Residual::Absolute => "abs: fitted - measured (the file's brdf units)",
+    }
+}
+
+/// Writes `theta_i,theta_r,measured,fitted,residual` for every reading of `data`, in
+/// its order, predicted by the fitted model `kind` (see [`super::write_export`] for the
+/// errors). A reading the model cannot be evaluated at gets empty `fitted` and
+/// `residual` fields. Values in their shortest exact (round-trip) form.
+pub fn write_residuals(
+    target: Target<'_>,
+    data: &Dataset,
+    fam: &FamilyFit,
+    kind: Kind,
+    residual: Residual,
+) -> Result<(), ExportError> {
+    let fit = super::fitted(fam, kind)?;
+    write_atomic(target, |mut w| write_rows(&mut w, data, fam, fit, residual))
+}
+
+fn write_rows(
+    w: &mut impl Write,
+    data: &Dataset,
+    fam: &FamilyFit,
+    fit: &Fit,
+    residual: Residual,
+) -> io::Result<()> {
+    writeln!(w, "# gonio residuals v1")?;
+    writeln!(w, "# model: {}", fit.kind.name())?;
+    writeln!(
+        w,
+        "# residual: {} (the fit's residual kind)",
+        residual_words(residual)
+    )?;
+    writeln!(
+        w,
+        "# units: angles in degrees (theta_r signed, positive on the specular side), measured and fitted in the sweep's brdf units"
+    )?;
+    writeln!(w, "theta_i,theta_r,measured,fitted,residual")?;
+    for o in &data.obs {
+        match fit.predict(&fam.incidences, o.theta_i, o.theta_r) {
+            Some(f) => writeln!(
+                w,
+                "{},{},{},{},{}",
+                o.theta_i,
+                o.theta_r,
+                o.y,
+                f,
+                residual_value(residual, f, o.y)
+            )?,
+            None => writeln!(w, "{},{},{},,", o.theta_i, o.theta_r, o.y)?,
+        }
+    }
+    Ok(())
+}

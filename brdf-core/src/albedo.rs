@@ -145,27 +145,9 @@ impl GaussLegendre {
             x: [0.0; MAX_NODES],
             w: [0.0; MAX_NODES],
         };
-        let nf = n as f64;
         for k in 0..n.div_ceil(2) {
-            // Tricomi's initial guess for the k-th largest root.
-            let mut z = libm::cos(PI * (k as f64 + 0.75) / (nf + 0.5));
-            let mut dp = 1.0;
-            for _ in 0..100 {
-                let (mut p0, mut p1) = (1.0, z);
-                for j in 2..=n {
-                    let jf = j as f64;
-                    let p2 = ((2.0 * jf - 1.0) * z * p1 - (jf - 1.0) * p0) / jf;
-                    p0 = p1;
-                    p1 = p2;
-                }
-                dp = nf * (z * p1 - p0) / (z * z - 1.0);
-                let dz = p1 / dp;
-                z -= dz;
-                if libm::fabs(dz) < 1e-16 {
-                    break;
-                }
-            }
-            let w = 2.0 / ((1.0 - z * z) * dp * dp);
+            // One Gauss–Legendre routine in the crate (the aperture's).
+            let (z, w) = crate::aperture::gauss_legendre(n, k);
             gl.x[k] = z;
             gl.x[n - 1 - k] = -z;
             gl.w[k] = w;

@@ -226,7 +226,9 @@ fn build_model<T: Real>(args: &EvalArgs) -> CliResult<MemberModel<T>> {
             sigma_m: lit(args.sigma_m, SIGMA_M_PAPER),
         })
     } else {
-        if args.kdd.is_some() || args.kid.is_some() || args.sigma_m.is_some() {
+        // --kid is the constant's other name here (--kd); the directional's are not.
+        if args.kdd.is_some() || args.sigma_m.is_some() || (args.kid.is_some() && args.kd.is_some())
+        {
             return Err(CliError::usage(
                 "--kdd, --kid and --sigma-m belong to --model three; --model ts uses --kd",
             ));

@@ -192,3 +192,131 @@ fn help_explains_units_and_conventions() {
         assert!(out.contains(needle), "eval --help lacks {needle}");
     }
 }
+
+#[test]
+fn every_member_evaluates_by_paper_or_systematic_name() {
+    // The paper's name and the systematic name of three-component give the same values
+    // as the default `three`.
+    let base = [
+        "--material",
+        "fe-0.115",
+        "--theta-i",
+        "20",
+        "--theta-r",
+        "-10,20,45",
+    ];
+    let run = |model: &str| {
+        let mut a = vec!["eval", "--model", model];
+        a.extend(base);
+        let r = gonio(&a);
+        assert_eq!((r.code, r.stderr.as_str()), (0, ""), "{model}");
+        rows(&r.stdout)
+    };
+    let three = run("three");
+    assert_eq!(run("three-component"), three);
+    assert_eq!(run("specular+directional-diffuse+ideal-diffuse"), three);
+    // A haze lobe adds k_s_haze f_s(sigma_haze) to the paper's value: with a GGX haze,
+    // every value grows and stays finite.
+    let mut a = vec![
+        "eval",
+        "--model",
+        "specular+specular-haze:ggx+directional-diffuse+ideal-diffuse",
+        "--ks-haze",
+        "10",
+        "--sigma-haze",
+        "0.3",
+    ];
+    a.extend(base);
+    let r = gonio(&a);
+    assert_eq!((r.code, r.stderr.as_str()), (0, ""));
+    for (h, t) in rows(&r.stdout).iter().zip(&three) {
+        assert!(h.2.is_finite() && h.2 > t.2, "{h:?} vs {t:?}");
+    }
+    // A smooth k_s with c1 = c2 = 0 is the constant k_s = exp(c0).
+    let k = 145f64;
+    let c0 = k.ln().to_string();
+    let smooth = gonio(&[
+        "eval",
+        "--model",
+        "specular:smooth-ks+ideal-diffuse",
+        "--ks-smooth",
+        &format!("{c0},0,0"),
+        "--sigma",
+        "0.115",
+        "--kid",
+        "25",
+        "--theta-i",
+        "30",
+        "--theta-r",
+        "30",
+    ]);
+    let ts = gonio(&[
+        "eval",
+        "--model",
+        "ts",
+        "--ks",
+        "145",
+        "--sigma",
+        "0.115",
+        "--kd",
+        "25",
+        "--theta-i",
+        "30",
+        "--theta-r",
+        "30",
+    ]);
+    assert_eq!(
+        (smooth.code, ts.code),
+        (0, 0),
+        "{}{}",
+        smooth.stderr,
+        ts.stderr
+    );
+    let (a, b) = (rows(&smooth.stdout)[0].2, rows(&ts.stdout)[0].2);
+    assert!((a - b).abs() / b < 1e-12, "{a} vs {b}");
+}
+
+#[test]
+fn member_options_are_checked_with_one_line() {
+    for (args, needle) in [
+        (
+            vec!["--model", "specular+nonsense", "--material", "fe-0.115"],
+            "unknown component",
+        ),
+        (
+            vec![
+                "--model",
+                "specular+specular-haze",
+                "--material",
+                "fe-0.115",
+            ],
+            "--sigma-haze",
+        ),
+        (
+            vec!["--material", "fe-0.115", "--sigma-haze", "0.2"],
+            "belong to members with specular-haze",
+        ),
+        (
+            vec![
+                "--model",
+                "specular:smooth-ks+ideal-diffuse",
+                "--material",
+                "fe-0.115",
+            ],
+            "--ks-smooth",
+        ),
+        (
+            vec!["--model", "ideal-diffuse", "--material", "fe-0.115"],
+            "no specular lobe",
+        ),
+    ] {
+        let mut a = vec!["eval"];
+        a.extend(args.iter().copied());
+        a.extend(["--theta-i", "20", "--theta-r", "0"]);
+        let r = gonio(&a);
+        assert_eq!(r.code, 2, "{a:?}");
+        assert!(r.stdout.is_empty());
+        assert_eq!(r.stderr.lines().count(), 1, "{}", r.stderr);
+        assert!(r.stderr.contains(needle), "{a:?}: {}", r.stderr);
+    }
+}

@@ -431,7 +431,10 @@ mod tests {
         for bad in ["json", "png=x.png", "csv=", "=x"] {
             let e = parse_export(bad).unwrap_err();
             // A value parser's error: clap reports it as bad usage (exit 2).
-            assert!(e.contains("json=PATH, merl=PATH or csv=PATH"), "{bad}: {e}");
+            assert!(
+                e.contains("json=PATH, merl=PATH, csv=PATH or residuals=PATH"),
+                "{bad}: {e}"
+            );
         }
         assert!(
             parse_export("png=x.png")

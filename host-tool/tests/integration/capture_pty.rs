@@ -13,6 +13,14 @@ use gonio::sweep_file::read_sweep;
 
 use crate::util::{Run, gonio_command, scratch};
 
+/// The pty tests run one at a time: a capture now stops on SIGHUP like on Ctrl-C, and
+/// pseudo-terminals closed and reopened by parallel tests (numbers are reused) made
+/// one of them end early about once in four full runs.
+fn one_at_a_time() -> std::sync::MutexGuard<'static, ()> {
+    static PTYS: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    PTYS.lock().unwrap_or_else(|e| e.into_inner())
+}
+
 fn device(speed: Option<f64>) -> PtyDevice {
     let mut cfg = SimConfig::new(Preset::by_name("fe-0.115").unwrap(), 0.005, 5);
     cfg.speed = speed;
@@ -39,7 +47,14 @@ fn rows_in(path: &Path) -> usize {
 fn wait_rows(child: &mut Child, path: &Path, n: usize) {
     let deadline = Instant::now() + Duration::from_secs(60);
     while rows_in(path) < n {
-        assert!(child.try_wait().unwrap().is_none(), "capture ended early");
+        if child.try_wait().unwrap().is_some() {
+            // Say why: the capture's own last words.
+            let mut err = String::new();
+            if let Some(mut e) = child.stderr.take() {
+                let _ = std::io::Read::read_to_string(&mut e, &mut err);
+            }
+            panic!("capture ended early: {err}");
+        }
         assert!(Instant::now() < deadline, "no {n} rows in time");
         std::thread::sleep(Duration::from_millis(20));
     }
@@ -60,6 +75,7 @@ fn seqs(path: &Path) -> Vec<u32> {
 
 #[test]
 fn info_and_a_full_capture_over_a_pty() {
+    let _one = one_at_a_time();
     let dev = device(None);
     let port = dev.path().to_str().unwrap();
     let out: Run = gonio_command()
@@ -109,6 +125,7 @@ fn info_and_a_full_capture_over_a_pty() {
 
 #[test]
 fn ctrl_c_leaves_a_valid_file_and_resume_completes_it() {
+    let _one = one_at_a_time();
     let dev = device(Some(40.0));
     let d = scratch("ctrlc");
     let file = d.join("s.csv");
@@ -168,6 +185,7 @@ fn ctrl_c_leaves_a_valid_file_and_resume_completes_it() {
 
 #[test]
 fn sigterm_and_sighup_stop_a_capture_like_ctrl_c() {
+    let _one = one_at_a_time();
     for signal in ["-TERM", "-HUP"] {
         let dev = device(Some(40.0));
         let d = scratch("sigterm");
@@ -210,6 +228,7 @@ fn sigterm_and_sighup_stop_a_capture_like_ctrl_c() {
 
 #[test]
 fn a_device_that_goes_away_and_comes_back_is_reconnected() {
+    let _one = one_at_a_time();
     let d = scratch("reconnect");
     let link = d.join("port");
     let file = d.join("s.csv");
@@ -256,6 +275,7 @@ fn a_device_that_goes_away_and_comes_back_is_reconnected() {
 
 #[test]
 fn a_device_that_does_not_come_back_ends_with_a_clear_message() {
+    let _one = one_at_a_time();
     let d = scratch("gone");
     let file = d.join("s.csv");
     let plan = small_plan(&d);
@@ -349,6 +369,7 @@ fn foreign_device(version: u16) -> (PathBuf, std::thread::JoinHandle<()>) {
 
 #[test]
 fn protocol_mismatch_says_which_side_to_update() {
+    let _one = one_at_a_time();
     for (version, advice) in [
         (2u16, "update gonio"),
         (0, "update the firmware (gonio flash)"),

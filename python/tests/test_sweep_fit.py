@@ -88,7 +88,7 @@ def test_fit_arrays_and_errors():
         gonio.fit(FE_SWEEP, loss="l3")
     with pytest.raises(gonio.GonioError, match="--fix: unknown parameter 'k'"):
         gonio.fit(FE_SWEEP, fix=["k=1"])
-    with pytest.raises(gonio.GonioError, match="--models 'four'"):
+    with pytest.raises(gonio.GonioError, match="invalid value 'four' for '--models"):
         gonio.fit(FE_SWEEP, models=["four"])
     with pytest.raises(gonio.GonioError, match="at least 3"):
         gonio.fit([10.0], [10.0], [1.0])

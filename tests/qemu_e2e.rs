@@ -246,10 +246,11 @@ fn gonio_capture_engine_against_the_firmware() {
 
     let elf = qemu_elf();
     let qemu = Qemu::start(&elf, Duration::from_secs(600));
-    let dir = std::env::temp_dir().join(format!("gonio-qemu-capture-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let out = dir.join("fe.csv");
-    let _ = std::fs::remove_file(&out);
+    let dir = tempfile::Builder::new()
+        .prefix("gonio-qemu-capture-")
+        .tempdir()
+        .unwrap();
+    let out = dir.path().join("fe.csv");
     let mut setup = CaptureSetup::new(
         Some(HostPlan::paper(&Default::default()).unwrap()),
         out.clone(),

@@ -15,11 +15,12 @@ use gonio::testing::faults::{FaultRates, FaultStats};
 use gonio::testing::{FaultyConnector, assert_each_point_once, paper_index};
 use gonio_e2e::{Qemu, qemu_elf};
 
-fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("gonio-qemu-faults-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+/// A private scratch directory (random name, removed when dropped).
+fn scratch(name: &str) -> tempfile::TempDir {
+    tempfile::Builder::new()
+        .prefix(&format!("gonio-qemu-faults-{name}-"))
+        .tempdir()
+        .unwrap()
 }
 
 fn setup(out: &Path) -> CaptureSetup {
@@ -39,7 +40,7 @@ fn setup(out: &Path) -> CaptureSetup {
 fn capture_from_the_firmware_through_bit_noise() {
     let qemu = Qemu::start(&qemu_elf(), Duration::from_secs(300));
     let d = scratch("noise");
-    let out = d.join("fe.csv");
+    let out = d.path().join("fe.csv");
     let stats = Arc::new(Mutex::new(FaultStats::default()));
     let pty = qemu.pty.clone();
     let mut conn = FaultyConnector::new(
@@ -127,10 +128,10 @@ impl ProgressSink for PullThePlug {
 fn capture_survives_the_firmware_being_killed_mid_sweep() {
     let elf = qemu_elf();
     let d = scratch("kill");
-    let link = d.join("port");
+    let link = d.path().join("port");
     let first = Qemu::start(&elf, Duration::from_secs(300));
     point(&link, &first.pty);
-    let out = d.join("fe.csv");
+    let out = d.path().join("fe.csv");
     let mut plug = PullThePlug {
         at: 40,
         link: link.clone(),

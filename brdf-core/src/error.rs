@@ -2,6 +2,23 @@
 
 use core::fmt;
 
+/// A number for a message, short whatever its size: its shortest exact decimal when
+/// that is short (0, and magnitudes from 1e-4 to below 1e9: `0.115`, `900`), else
+/// scientific (`1e300`, `1.5e-320`), never a 300-digit decimal.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Short(pub f64);
+
+impl fmt::Display for Short {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let a = self.0.abs();
+        if a == 0.0 || !a.is_finite() || (1e-4..1e9).contains(&a) {
+            write!(f, "{}", self.0)
+        } else {
+            write!(f, "{:e}", self.0)
+        }
+    }
+}
+
 /// Why a model could not be built or evaluated. Each variant prints one clear line.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum ModelError {
@@ -70,20 +87,27 @@ impl fmt::Display for ModelError {
         match *self {
             ModelError::NotFinite { what } => write!(f, "{what} must be a finite number"),
             ModelError::NotPositive { what, value } => {
-                write!(f, "{what} must be > 0 (got {value})")
+                write!(f, "{what} must be > 0 (got {})", Short(value))
             }
-            ModelError::Negative { what, value } => write!(f, "{what} must be >= 0 (got {value})"),
+            ModelError::Negative { what, value } => {
+                write!(f, "{what} must be >= 0 (got {})", Short(value))
+            }
             ModelError::OutOfRange {
                 what,
                 value,
                 min,
                 max,
             } => {
-                write!(f, "{what} = {value} is outside [{min}, {max}] degrees")
+                write!(
+                    f,
+                    "{what} = {} is outside [{min}, {max}] degrees",
+                    Short(value)
+                )
             }
             ModelError::Unrepresentable { what, value } => write!(
                 f,
-                "{what} = {value} is too extreme for this float precision (1/{what}^2 does not fit)"
+                "{what} = {} is too extreme for this float precision (1/{what}^2 does not fit)",
+                Short(value)
             ),
             ModelError::NotUnit { what } => write!(f, "{what} must be a unit vector"),
             ModelError::NoHalfVector => write!(
@@ -106,3 +130,31 @@ impl fmt::Display for ModelError {
 }
 
 impl core::error::Error for ModelError {}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn numbers_in_messages_are_short() {
+        assert_eq!(format!("{}", Short(0.115)), "0.115");
+        assert_eq!(format!("{}", Short(900.0)), "900");
+        assert_eq!(format!("{}", Short(0.0)), "0");
+        assert_eq!(format!("{}", Short(1e300)), "1e300");
+        assert_eq!(format!("{}", Short(-1e-300)), "-1e-300");
+        assert_eq!(format!("{}", Short(1.5e-320)), "1.5e-320");
+        let e = ModelError::Unrepresentable {
+            what: "sigma",
+            value: 1e300,
+        };
+        assert_eq!(
+            format!("{e}"),
+            "sigma = 1e300 is too extreme for this float precision (1/sigma^2 does not fit)"
+        );
+        let e = ModelError::Negative {
+            what: "k_dd",
+            value: -1e300,
+        };
+        assert_eq!(format!("{e}"), "k_dd must be >= 0 (got -1e300)");
+    }
+}

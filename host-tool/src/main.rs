@@ -55,6 +55,9 @@ fn run(cli: Cli) -> CliResult {
     }
 }
 
+/// Characters of a command-line error shown (clap's message quotes the value given).
+const MAX_CLAP_MESSAGE: usize = 400;
+
 fn main() -> ExitCode {
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
@@ -85,7 +88,8 @@ fn main() -> ExitCode {
                 .take_while(|l| !l.trim().is_empty())
                 .map(str::trim)
                 .collect();
-            let what = what.join(" ");
+            // It quotes the user's value: escaped and bounded like every quoted input.
+            let what = gonio::text::escape_line(&what.join(" "), MAX_CLAP_MESSAGE);
             eprintln!("gonio: {} (see --help)", what.trim_start_matches("error: "));
             return ExitCode::from(EXIT_USAGE);
         }

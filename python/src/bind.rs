@@ -50,6 +50,7 @@ pub fn write_sweep(
         device: device.into(),
         plan: plan.into(),
         settings: settings.into(),
+        sample: None,
         points: rows
             .iter()
             .map(|r| (r.theta_i as f32, r.theta_r as f32))

@@ -177,8 +177,11 @@ pub fn perf_report() -> Result {
     )?;
     let firmware = firmware_bench()?;
     // gonio against scipy on the same simulated sweeps.
-    let tmp = std::env::temp_dir().join(format!("gonio-perf-{}", std::process::id()));
-    std::fs::create_dir_all(&tmp).map_err(|e| e.to_string())?;
+    let scratch = tempfile::Builder::new()
+        .prefix("gonio-perf-")
+        .tempdir()
+        .map_err(|e| e.to_string())?;
+    let tmp = scratch.path();
     let mut scipy = String::from(
         "| sweep | gonio three-component (µs) | gonio all four models (µs) | scipy three-component (µs) | ratio (three) | RMSE gonio | RMSE scipy |\n|---|---|---|---|---|---|---|\n",
     );
@@ -231,7 +234,7 @@ pub fn perf_report() -> Result {
             scipy_us / three_us
         ));
     }
-    let _ = std::fs::remove_dir_all(&tmp);
+    drop(scratch);
     let cpu = std::fs::read_to_string("/proc/cpuinfo")
         .ok()
         .and_then(|c| {

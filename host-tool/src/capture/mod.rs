@@ -91,6 +91,8 @@ pub struct CaptureSetup {
     pub handshake_timeout: Duration,
     /// Time allowed for homing.
     pub home_timeout: Duration,
+    /// What is measured, if known (the `# sample:` line of the sweep file).
+    pub sample: Option<String>,
 }
 
 impl CaptureSetup {
@@ -107,6 +109,7 @@ impl CaptureSetup {
             retries: 3,
             handshake_timeout: Duration::from_secs(10),
             home_timeout: Duration::from_secs(180),
+            sample: None,
         }
     }
 }
@@ -329,6 +332,7 @@ pub fn capture<C: Connector>(
             device: device_line(&info),
             plan: plan.description.clone(),
             settings: plan.settings_words(),
+            sample: setup.sample.clone(),
             points: plan.points.iter().map(|p| (p.theta_i, p.theta_r)).collect(),
         };
         (

@@ -173,7 +173,9 @@ pub fn sim_config(material: &str, noise: f32, seed: u32) -> CliResult<SimConfig>
         .map_err(|e| CliError::usage(format!("--material '{material}': {e}")))?;
     if !(noise.is_finite() && (0.0..0.5).contains(&noise)) {
         return Err(CliError::usage(format!(
-            "--noise must be in [0, 0.5) (got {noise})"
+            "--noise must be in [0, 0.5) (got {})",
+            // The f32's shortest decimal, then short: `1e30`, not 1.0000000150474662e30.
+            brdf_core::error::Short(noise.to_string().parse().unwrap_or(f64::NAN))
         )));
     }
     Ok(SimConfig::new(preset, noise, seed))

@@ -1,6 +1,7 @@
 //! `gonio eval`: evaluates any member of the model family at one incidence and a list
 //! of detector angles.
 
+use brdf_core::error::Short;
 use brdf_core::lobe::SmoothKs;
 use brdf_core::member::{KsForm, LobeSpec, Member};
 use brdf_core::member_model::{DirectionalParams, Ks, LobeParams, MemberModel, MemberParams};
@@ -122,11 +123,12 @@ fn coefficients(s: &str) -> Result<[f64; 3], String> {
 /// The member `--model` names: the command-line short names of the paper's members
 /// (`three`, `ts`, ...), their paper names, or any systematic name.
 pub fn parse_member(name: &str) -> CliResult<Member> {
+    let shown = crate::text::escape_line(name, 80);
     if let Some(kind) = Kind::from_cli_name(name.trim()) {
         return Member::parse(kind.name())
-            .map_err(|e| CliError::usage(format!("--model '{name}': {e}")));
+            .map_err(|e| CliError::usage(format!("--model '{shown}': {e}")));
     }
-    Member::parse(name).map_err(|e| CliError::usage(format!("--model '{name}': {e}")))
+    Member::parse(name).map_err(|e| CliError::usage(format!("--model '{shown}': {e}")))
 }
 
 /// Runs `gonio eval`: validates everything first, so bad input prints nothing on stdout.
@@ -135,9 +137,59 @@ pub fn run(args: &EvalArgs) -> CliResult {
     let mut csv = String::from("theta_i,theta_r,brdf\n");
     match args.precision {
         Precision::F64 => rows::<f64>(args, theta_r, &mut csv)?,
-        Precision::F32 => rows::<f32>(args, theta_r, &mut csv)?,
+        Precision::F32 => {
+            fits_f32(args)?;
+            rows::<f32>(args, theta_r, &mut csv)?
+        }
     }
     write_stdout(csv.as_bytes())
+}
+
+/// With `--precision f32`: every number given must be an f32 (finite, not rounded to
+/// 0 or to a denormal); else the option is named with the limit it crosses.
+fn fits_f32(args: &EvalArgs) -> CliResult {
+    let one = |name: &str, v: f64| -> CliResult {
+        let a = v.abs();
+        // Not finite: the model's own check says so, naming the quantity.
+        if !a.is_finite() || a == 0.0 {
+            return Ok(());
+        }
+        let limit = if a > f64::from(f32::MAX) {
+            format!("overflows f32 (largest {:e})", f32::MAX)
+        } else if a < f64::from(f32::MIN_POSITIVE) {
+            format!("underflows f32 (smallest normal {:e})", f32::MIN_POSITIVE)
+        } else {
+            return Ok(());
+        };
+        Err(CliError::usage(format!(
+            "{name} {} {limit}: use --precision f64",
+            Short(v)
+        )))
+    };
+    let scalars = [
+        ("--ks", args.ks),
+        ("--sigma", args.sigma),
+        ("--ks-haze", args.ks_haze),
+        ("--sigma-haze", args.sigma_haze),
+        ("--kdd", args.kdd),
+        ("--kid", args.kid),
+        ("--sigma-m", args.sigma_m),
+        ("--kd", args.kd),
+    ];
+    for (name, v) in scalars {
+        if let Some(v) = v {
+            one(name, v)?;
+        }
+    }
+    for (name, c) in [
+        ("--ks-smooth", args.ks_smooth),
+        ("--ks-haze-smooth", args.ks_haze_smooth),
+    ] {
+        for v in c.into_iter().flatten() {
+            one(name, v)?;
+        }
+    }
+    Ok(())
 }
 
 fn rows<T: Real>(args: &EvalArgs, theta_r: &[f64], csv: &mut String) -> CliResult {

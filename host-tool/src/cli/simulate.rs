@@ -77,7 +77,12 @@ pub fn run(args: &SimulateArgs) -> CliResult {
         }
         return Ok(());
     }
-    let setup = setup_from(&args.plan, &args.out)?;
+    let mut setup = setup_from(&args.plan, &args.out)?;
+    let sample = format!("simulated {} noise={}", args.material, args.noise);
+    if setup.resume {
+        check_sample(&setup.out, &sample)?;
+    }
+    setup.sample = Some(sample);
     let resume = format!(
         "gonio simulate --material {} --resume --out {}",
         args.material,
@@ -85,4 +90,18 @@ pub fn run(args: &SimulateArgs) -> CliResult {
     );
     let conn = InProcessConnector::new(InProcessDevice::new(&cfg));
     run_with(conn, &setup, args.out.quiet, &resume)
+}
+
+/// With `--resume`: the file's `# sample:` line (if it has one) must be this sample,
+/// or another material's readings would be mixed in.
+fn check_sample(path: &std::path::Path, sample: &str) -> CliResult {
+    let data = crate::sweep_file::read_sweep(path)?;
+    match data.meta.get("sample") {
+        Some(recorded) if recorded != sample => Err(CliError::usage(format!(
+            "--resume: {} holds readings of '{}', not '{sample}': give the same --material and --noise, or capture into a new file",
+            path.display(),
+            crate::text::escape_line(recorded, 80)
+        ))),
+        _ => Ok(()),
+    }
 }

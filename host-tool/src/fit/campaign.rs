@@ -403,8 +403,7 @@ mod tests {
 
     #[test]
     fn a_bad_file_is_reported_and_the_others_are_fitted() {
-        let dir = std::env::temp_dir().join(format!("gonio-campaign-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
+        let dir = crate::outfile::test_dir("campaign");
         std::fs::create_dir_all(dir.join("in")).unwrap();
         let a = write_sweep(&dir.join("in"), "a.csv", "fe-0.115", 1);
         write_sweep(&dir.join("in"), "b.csv", "cu-0.070", 2);

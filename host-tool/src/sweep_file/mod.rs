@@ -6,6 +6,7 @@
 //! # gonio sweep v1
 //! # status: complete     readings=0000153 missing=0000000 gaps=0000000 dropped=0000000 timeouts=0000000 rejected=0000000
 //! # device: qemu firmware 0.1.0 protocol 1
+//! # sample: simulated fe-0.115 noise=0.005      (only where the capture knows it)
 //! # units: degrees
 //! # plan: paper
 //! # settings: samples=4 settle_ms=50 dark=false exclude_retro=0
@@ -149,6 +150,9 @@ pub struct Header {
     pub plan: String,
     /// Per-point settings, `key=value` words.
     pub settings: String,
+    /// What is measured, where the capture knows it (a simulated device's material):
+    /// the `# sample:` line; `--resume` refuses another sample.
+    pub sample: Option<String>,
     /// Every plan point (theta_i, theta_r) in degrees, in plan order.
     pub points: Vec<(f32, f32)>,
 }

@@ -44,6 +44,10 @@ pub struct SweepData {
     pub cut_rows: usize,
     /// The last line is a complete row without its newline (a file from another tool).
     pub(super) no_final_newline: bool,
+    /// Line of the `points` metadata.
+    pub(super) points_line: usize,
+    /// Angle pairs read more than once with different values (files without `seq`).
+    pub(super) repeats: Repeats,
 }
 
 impl SweepData {
@@ -76,12 +80,27 @@ impl SweepData {
                     "the status says complete but {missing} of {} plan points have no reading",
                     self.points.len()
                 )),
-                Some(s @ ("failed" | "interrupted" | "running")) if missing > 0 => w.push(format!(
-                    "the capture is {s}: {missing} of {} plan points have no reading (--resume continues it)",
-                    self.points.len()
-                )),
+                Some(s @ ("failed" | "interrupted" | "running")) if missing > 0 => {
+                    let how = match s {
+                        "failed" => "failed",
+                        "interrupted" => "was interrupted",
+                        _ => "is still running (or died)",
+                    };
+                    w.push(format!(
+                        "the capture {how}: {missing} of {} plan points have no reading (--resume continues it)",
+                        self.points.len()
+                    ))
+                }
                 _ => {}
             }
+        }
+        if let Some((line, first, ti, tr, v, prev)) = self.repeats.first {
+            w.push(format!(
+                "{} reading(s) repeat an angle pair with another value (first: line {line}, theta_i {ti} theta_r {tr}: {} after {} on line {first}); all are fitted",
+                self.repeats.count,
+                brdf_core::error::Short(v),
+                brdf_core::error::Short(prev)
+            ));
         }
         w
     }
@@ -157,13 +176,22 @@ pub fn looks_like_radians(rows: &[Row]) -> Option<f64> {
 /// Parses sweep file bytes; errors carry the 1-based line number and quote fields
 /// escaped and truncated (one line whatever the input).
 ///
+/// The `#` metadata lines come first (blank lines may sit between them); the table
+/// after them is CSV as RFC 4180 has it (read by the `csv` crate): fields may be
+/// quoted (`"20"`, `"a,b"`, `"say ""x"""`), lines may end in LF, CRLF or a lone CR
+/// (old Mac files), blank lines are skipped, spaces around fields are ignored, and a
+/// UTF-8 byte-order mark is skipped. Time is linear in the file's size.
+///
 /// A last line without its newline is a row cut short when the file's status is
 /// `running` (a capture that died while writing it): it is left out and counted in
 /// [`SweepData::cut_rows`]. In any other file it is read like every other line.
-/// A UTF-8 byte-order mark is skipped; CR-only line endings (old Mac) are read as line
-/// ends. `# units:` must name degrees.
+/// `# units:` must name degrees.
 pub fn parse_sweep(bytes: &[u8]) -> Result<SweepData, (usize, String)> {
-    let bytes = bytes.strip_prefix(b"\xef\xbb\xbf").unwrap_or(bytes);
+    const BOM: &[u8] = b"\xef\xbb\xbf";
+    let bom = if bytes.starts_with(BOM) { BOM.len() } else { 0 };
+    let bytes = &bytes[bom..];
+    // Lone CRs end lines (the csv crate reads them so too); turned into LFs so that
+    // line numbers count them. Same length, so offsets stay those of the file.
     let cr_only;
     let bytes = if !bytes.contains(&b'\n') && bytes.contains(&b'\r') {
         cr_only = bytes
@@ -175,183 +203,8 @@ pub fn parse_sweep(bytes: &[u8]) -> Result<SweepData, (usize, String)> {
         bytes
     };
     let mut data = SweepData::default();
-    let mut col: Option<[Option<usize>; 7]> = None;
-    let mut offset = 0u64;
-    let mut points_line = 0;
-    let mut seq_line: BTreeMap<u32, (usize, Row)> = BTreeMap::new();
-    for (k, raw) in bytes.split_inclusive(|&b| b == b'\n').enumerate() {
-        let lineno = k + 1;
-        if raw.last() != Some(&b'\n') {
-            let running =
-                data.status_word().is_none_or(|w| w == "running") && data.status_offset.is_some();
-            if running || col.is_none() || raw.iter().all(|b| b.is_ascii_whitespace()) {
-                if col.is_some() && !raw.iter().all(|b| b.is_ascii_whitespace()) {
-                    data.cut_rows = 1;
-                }
-                break; // cut short: not a complete line
-            }
-            data.no_final_newline = true;
-        }
-        let start = offset;
-        offset += raw.len() as u64;
-        let text = std::str::from_utf8(raw).map_err(|_| (lineno, "not UTF-8 text".to_string()))?;
-        let text = text.trim_end_matches(['\n', '\r']);
-        if let Some(meta) = text.strip_prefix('#') {
-            if col.is_some() {
-                return Err((lineno, "metadata line after the header row".into()));
-            }
-            if text.starts_with(STATUS_PREFIX) {
-                data.status_offset = Some(start);
-                data.counters = parse_counters(text);
-            }
-            if meta.trim_start().starts_with("points:") {
-                points_line = lineno;
-            }
-            if let Some((key, value)) = meta.trim().split_once(':') {
-                let (key, value) = (key.trim(), value.trim());
-                if key == "units" && !declares_degrees(value) {
-                    return Err((
-                        lineno,
-                        format!(
-                            "units '{}': gonio reads angles in degrees only (convert the file, and write '# units: degrees')",
-                            escape_line(value, QUOTE_CHARS)
-                        ),
-                    ));
-                }
-                data.meta.insert(key.to_string(), value.to_string());
-            }
-            data.complete_len = offset;
-            continue;
-        }
-        if text.trim().is_empty() {
-            data.complete_len = offset;
-            continue;
-        }
-        match &col {
-            None => {
-                data.columns = text.split(',').map(|c| c.trim().to_string()).collect();
-                let find = |name: &str| data.columns.iter().position(|c| c == name);
-                let idx = COLUMNS.map(find);
-                for (name, i) in COLUMNS.iter().zip(idx).take(3) {
-                    if i.is_none() {
-                        let hint = if text.contains('\r') {
-                            " (the file's lines end in a lone CR inside: convert its line endings)"
-                        } else {
-                            ""
-                        };
-                        return Err((
-                            lineno,
-                            format!(
-                                "missing column '{name}' (header: {}){hint}",
-                                escape_line(text, 2 * QUOTE_CHARS)
-                            ),
-                        ));
-                    }
-                }
-                for name in COLUMNS {
-                    if data.columns.iter().filter(|c| *c == name).count() > 1 {
-                        return Err((
-                            lineno,
-                            format!("column '{name}' appears more than once: which one is meant?"),
-                        ));
-                    }
-                }
-                col = Some(idx);
-            }
-            Some(idx) => {
-                let fields: Vec<&str> = text.split(',').map(str::trim).collect();
-                let get = |i: Option<usize>| {
-                    i.and_then(|i| fields.get(i).copied())
-                        .filter(|s| !s.is_empty())
-                };
-                let num = |i: Option<usize>, name: &str| -> Result<Option<f64>, (usize, String)> {
-                    match get(i) {
-                        None => Ok(None),
-                        Some(s) => match s.parse::<f64>() {
-                            Ok(v) if v.is_finite() => Ok(Some(v)),
-                            _ => Err((
-                                lineno,
-                                format!(
-                                    "{name} '{}' is not a finite number",
-                                    escape_line(s, QUOTE_CHARS)
-                                ),
-                            )),
-                        },
-                    }
-                };
-                let need = |i: Option<usize>, name: &str| {
-                    num(i, name)?.ok_or_else(|| (lineno, format!("{name} is empty")))
-                };
-                let int = |i: Option<usize>, name: &str| -> Result<Option<u64>, (usize, String)> {
-                    match get(i) {
-                        None => Ok(None),
-                        Some(s) => s.parse::<u64>().map(Some).map_err(|_| {
-                            (
-                                lineno,
-                                format!(
-                                    "{name} '{}' is not a whole number",
-                                    escape_line(s, QUOTE_CHARS)
-                                ),
-                            )
-                        }),
-                    }
-                };
-                let int32 = |i: Option<usize>,
-                             name: &str|
-                 -> Result<Option<u32>, (usize, String)> {
-                    int(i, name)?
-                        .map(|v| {
-                            u32::try_from(v).map_err(|_| {
-                                (
-                                    lineno,
-                                    format!("{name} {v} is out of range (at most {})", u32::MAX),
-                                )
-                            })
-                        })
-                        .transpose()
-                };
-                let row = Row {
-                    theta_i: need(idx[0], "theta_i")?,
-                    theta_r: need(idx[1], "theta_r")?,
-                    brdf: need(idx[2], "brdf")?,
-                    std: num(idx[3], "std")?,
-                    n: int32(idx[4], "n")?,
-                    seq: int32(idx[5], "seq")?,
-                    t_ms: int(idx[6], "t_ms")?,
-                };
-                let b = row.brdf.abs();
-                if b != 0.0 && !(BRDF_MIN..=BRDF_MAX).contains(&b) {
-                    return Err((
-                        lineno,
-                        format!(
-                            "brdf {} (theta_i {}, theta_r {}) is outside the magnitudes gonio fits ({BRDF_MIN:e} to {BRDF_MAX:e}, or 0): rescale the readings",
-                            escape_line(get(idx[2]).unwrap_or(""), QUOTE_CHARS),
-                            row.theta_i,
-                            row.theta_r
-                        ),
-                    ));
-                }
-                if let Some(seq) = row.seq {
-                    if let Some((first, prev)) = seq_line.get(&seq) {
-                        let same = (prev.theta_i, prev.theta_r, prev.brdf)
-                            == (row.theta_i, row.theta_r, row.brdf);
-                        if !same {
-                            return Err((
-                                lineno,
-                                format!(
-                                    "seq {seq} was already read on line {first} with another reading: the file mixes two captures"
-                                ),
-                            ));
-                        }
-                    } else {
-                        seq_line.insert(seq, (lineno, row));
-                    }
-                }
-                data.rows.push(row);
-            }
-        }
-        data.complete_len = offset;
-    }
+    let (table_at, table_line) = read_metadata(bytes, &mut data)?;
+    read_table(bytes, table_at, table_line, &mut data)?;
     if let Some(p) = data.meta.get("points") {
         for item in p.split_whitespace() {
             let parsed = item
@@ -359,7 +212,7 @@ pub fn parse_sweep(bytes: &[u8]) -> Result<SweepData, (usize, String)> {
                 .and_then(|(a, b)| Some((a.parse().ok()?, b.parse().ok()?)));
             let Some(pt) = parsed else {
                 return Err((
-                    points_line,
+                    data.points_line,
                     format!(
                         "bad point '{}' in the points line",
                         escape_line(item, QUOTE_CHARS)
@@ -369,7 +222,316 @@ pub fn parse_sweep(bytes: &[u8]) -> Result<SweepData, (usize, String)> {
             data.points.push(pt);
         }
     }
+    // Offsets of the file itself, byte-order mark included (resume writes there).
+    data.status_offset = data.status_offset.map(|o| o + bom as u64);
+    data.complete_len += bom as u64;
     Ok(data)
+}
+
+/// The file's status says a capture may have been cut while writing (`running`).
+fn maybe_cut(data: &SweepData) -> bool {
+    data.status_offset.is_some() && data.status_word().is_none_or(|w| w == "running")
+}
+
+/// Reads the `#` lines (and blank lines) before the table into `data`; returns where
+/// the table starts (byte offset, 1-based line).
+fn read_metadata(bytes: &[u8], data: &mut SweepData) -> Result<(usize, usize), (usize, String)> {
+    let mut offset = 0usize;
+    for (k, raw) in bytes.split_inclusive(|&b| b == b'\n').enumerate() {
+        let lineno = k + 1;
+        let is_meta = raw.first() == Some(&b'#');
+        let blank = raw.iter().all(|b| b.is_ascii_whitespace());
+        if !is_meta && !blank {
+            return Ok((offset, lineno));
+        }
+        if raw.last() != Some(&b'\n') {
+            // A metadata line cut short, or trailing spaces: not a complete line.
+            data.complete_len = offset as u64;
+            return Ok((bytes.len(), lineno));
+        }
+        let start = offset;
+        offset += raw.len();
+        data.complete_len = offset as u64;
+        if blank {
+            continue;
+        }
+        let text = std::str::from_utf8(raw).map_err(|_| (lineno, "not UTF-8 text".to_string()))?;
+        let text = text.trim_end_matches(['\n', '\r']);
+        let meta = &text[1..];
+        if text.starts_with(STATUS_PREFIX) {
+            data.status_offset = Some(start as u64);
+            data.counters = parse_counters(text);
+        }
+        if meta.trim_start().starts_with("points:") {
+            data.points_line = lineno;
+        }
+        if let Some((key, value)) = meta.trim().split_once(':') {
+            let (key, value) = (key.trim(), value.trim());
+            if key == "units" && !declares_degrees(value) {
+                return Err((
+                    lineno,
+                    format!(
+                        "units '{}': gonio reads angles in degrees only (convert the file, and write '# units: degrees')",
+                        escape_line(value, QUOTE_CHARS)
+                    ),
+                ));
+            }
+            data.meta.insert(key.to_string(), value.to_string());
+        }
+    }
+    Ok((
+        bytes.len(),
+        bytes.split_inclusive(|&b| b == b'\n').count() + 1,
+    ))
+}
+
+/// Line numbers of byte offsets met in increasing order, counted once (linear time).
+struct LineCounter<'a> {
+    bytes: &'a [u8],
+    at: usize,
+    line: usize,
+}
+
+impl LineCounter<'_> {
+    fn line_of(&mut self, offset: usize) -> usize {
+        let offset = offset.min(self.bytes.len());
+        if offset > self.at {
+            self.line += self.bytes[self.at..offset]
+                .iter()
+                .filter(|&&b| b == b'\n')
+                .count();
+            self.at = offset;
+        }
+        self.line
+    }
+}
+
+/// A repeated angle pair with another value, in a file without `seq`.
+#[derive(Debug, Clone, Default)]
+pub(super) struct Repeats {
+    /// Angle pairs read again with another value.
+    pub count: usize,
+    /// The first: (line, earlier line, theta_i, theta_r, value, earlier value).
+    pub first: Option<(usize, usize, f64, f64, f64, f64)>,
+}
+
+/// Reads the table (`bytes[at..]`, starting on line `first_line`): the header row,
+/// then the rows.
+fn read_table(
+    bytes: &[u8],
+    at: usize,
+    first_line: usize,
+    data: &mut SweepData,
+) -> Result<(), (usize, String)> {
+    let table = &bytes[at..];
+    let terminated = table.last().is_none_or(|&b| b == b'\n' || b == b'\r');
+    let cut = maybe_cut(data) && !terminated;
+    let mut lines = LineCounter {
+        bytes: table,
+        at: 0,
+        line: first_line,
+    };
+    let mut rdr = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .flexible(true)
+        .trim(csv::Trim::All)
+        .from_reader(table);
+    let mut rec = csv::ByteRecord::new();
+    let mut col: Option<[Option<usize>; 7]> = None;
+    let mut seq_line: BTreeMap<u32, (usize, Row)> = BTreeMap::new();
+    let mut pair_line: std::collections::HashMap<(u64, u64), (usize, f64)> =
+        std::collections::HashMap::new();
+    if !table.is_empty() {
+        data.complete_len = (at + table.len()) as u64;
+    }
+    loop {
+        match rdr.read_byte_record(&mut rec) {
+            Ok(true) => {}
+            Ok(false) => break,
+            Err(e) => return Err((lines.line_of(table.len()), format!("unreadable CSV: {e}"))),
+        }
+        // The record's position may point at the line ends before it.
+        let mut start = rec.position().map_or(0, |p| p.byte() as usize);
+        while start < table.len() && matches!(table[start], b'\n' | b'\r') {
+            start += 1;
+        }
+        let lineno = lines.line_of(start);
+        let last_unterminated = !terminated && rdr.position().byte() as usize >= table.len();
+        let blank = rec.iter().all(<[u8]>::is_empty);
+        if last_unterminated && (cut || blank) {
+            if cut && col.is_some() && !blank {
+                data.cut_rows = 1;
+            }
+            data.complete_len = (at + start) as u64;
+            break; // cut short: not a complete line
+        }
+        if blank {
+            continue;
+        }
+        let mut fields = Vec::with_capacity(rec.len());
+        for f in rec.iter() {
+            fields
+                .push(std::str::from_utf8(f).map_err(|_| (lineno, "not UTF-8 text".to_string()))?);
+        }
+        if fields[0].starts_with('#') {
+            return Err((lineno, "metadata line after the header row".into()));
+        }
+        data.no_final_newline = last_unterminated;
+        let Some(idx) = &col else {
+            col = Some(header_columns(&fields, lineno, data)?);
+            continue;
+        };
+        let row = parse_row(&fields, idx, lineno)?;
+        if let Some(seq) = row.seq {
+            if let Some((first, prev)) = seq_line.get(&seq) {
+                let same =
+                    (prev.theta_i, prev.theta_r, prev.brdf) == (row.theta_i, row.theta_r, row.brdf);
+                if !same {
+                    return Err((
+                        lineno,
+                        format!(
+                            "seq {seq} was already read on line {first} with another reading: the file mixes two captures"
+                        ),
+                    ));
+                }
+            } else {
+                seq_line.insert(seq, (lineno, row));
+            }
+        } else {
+            let key = (row.theta_i.to_bits(), row.theta_r.to_bits());
+            match pair_line.get(&key) {
+                Some(&(first, v)) if v != row.brdf => {
+                    data.repeats.count += 1;
+                    data.repeats.first.get_or_insert((
+                        lineno,
+                        first,
+                        row.theta_i,
+                        row.theta_r,
+                        row.brdf,
+                        v,
+                    ));
+                }
+                Some(_) => {}
+                None => {
+                    pair_line.insert(key, (lineno, row.brdf));
+                }
+            }
+        }
+        data.rows.push(row);
+    }
+    Ok(())
+}
+
+/// The header row: where each of [`COLUMNS`] is (the first three required, none twice).
+fn header_columns(
+    fields: &[&str],
+    lineno: usize,
+    data: &mut SweepData,
+) -> Result<[Option<usize>; 7], (usize, String)> {
+    data.columns = fields.iter().map(|c| c.to_string()).collect();
+    let find = |name: &str| data.columns.iter().position(|c| c == name);
+    let idx = COLUMNS.map(find);
+    for (name, i) in COLUMNS.iter().zip(idx).take(3) {
+        if i.is_none() {
+            let shown = fields.join(",");
+            return Err((
+                lineno,
+                format!(
+                    "missing column '{name}' (header: {})",
+                    escape_line(&shown, 2 * QUOTE_CHARS)
+                ),
+            ));
+        }
+    }
+    for name in COLUMNS {
+        if data.columns.iter().filter(|c| *c == name).count() > 1 {
+            return Err((
+                lineno,
+                format!("column '{name}' appears more than once: which one is meant?"),
+            ));
+        }
+    }
+    Ok(idx)
+}
+
+/// One row from its fields (`idx`: where each of [`COLUMNS`] is).
+fn parse_row(
+    fields: &[&str],
+    idx: &[Option<usize>; 7],
+    lineno: usize,
+) -> Result<Row, (usize, String)> {
+    let get = |i: Option<usize>| {
+        i.and_then(|i| fields.get(i).copied())
+            .filter(|s| !s.is_empty())
+    };
+    let quoted = |s: &str| {
+        let hint = if s.contains('\n') {
+            " (a quote opened there is never closed?)"
+        } else {
+            ""
+        };
+        format!("'{}'{hint}", escape_line(s, QUOTE_CHARS))
+    };
+    let num = |i: Option<usize>, name: &str| -> Result<Option<f64>, (usize, String)> {
+        match get(i) {
+            None => Ok(None),
+            Some(s) => match s.parse::<f64>() {
+                Ok(v) if v.is_finite() => Ok(Some(v)),
+                _ => Err((
+                    lineno,
+                    format!("{name} {} is not a finite number", quoted(s)),
+                )),
+            },
+        }
+    };
+    let need = |i: Option<usize>, name: &str| {
+        num(i, name)?.ok_or_else(|| (lineno, format!("{name} is empty")))
+    };
+    let int = |i: Option<usize>, name: &str| -> Result<Option<u64>, (usize, String)> {
+        match get(i) {
+            None => Ok(None),
+            Some(s) => s.parse::<u64>().map(Some).map_err(|_| {
+                (
+                    lineno,
+                    format!("{name} {} is not a whole number", quoted(s)),
+                )
+            }),
+        }
+    };
+    let int32 = |i: Option<usize>, name: &str| -> Result<Option<u32>, (usize, String)> {
+        int(i, name)?
+            .map(|v| {
+                u32::try_from(v).map_err(|_| {
+                    (
+                        lineno,
+                        format!("{name} {v} is out of range (at most {})", u32::MAX),
+                    )
+                })
+            })
+            .transpose()
+    };
+    let row = Row {
+        theta_i: need(idx[0], "theta_i")?,
+        theta_r: need(idx[1], "theta_r")?,
+        brdf: need(idx[2], "brdf")?,
+        std: num(idx[3], "std")?,
+        n: int32(idx[4], "n")?,
+        seq: int32(idx[5], "seq")?,
+        t_ms: int(idx[6], "t_ms")?,
+    };
+    let b = row.brdf.abs();
+    if b != 0.0 && !(BRDF_MIN..=BRDF_MAX).contains(&b) {
+        return Err((
+            lineno,
+            format!(
+                "brdf {} (theta_i {}, theta_r {}) is outside the magnitudes gonio fits ({BRDF_MIN:e} to {BRDF_MAX:e}, or 0): rescale the readings",
+                escape_line(get(idx[2]).unwrap_or(""), QUOTE_CHARS),
+                row.theta_i,
+                row.theta_r
+            ),
+        ));
+    }
+    Ok(row)
 }
 
 fn parse_counters(line: &str) -> Counters {

@@ -11,6 +11,7 @@ fn header() -> Header {
         device: "qemu firmware 0.1.0 protocol 1".into(),
         plan: "paper".into(),
         settings: "samples=4 settle_ms=50 dark=false exclude_retro=0".into(),
+        sample: Some("simulated fe-0.115 noise=0".into()),
         points: vec![(0.0, -80.0), (0.0, -70.0), (10.0, -80.0)],
     }
 }
@@ -294,4 +295,44 @@ fn non_regular_and_oversized_inputs_are_refused_before_reading() {
     f.set_len(MAX_SWEEP_BYTES + 1).unwrap();
     let err = read_sweep(&big).unwrap_err();
     assert!(err.to_string().contains("larger than 64 MiB"), "{err}");
+}
+
+#[test]
+fn the_table_is_rfc_4180_csv_with_file_line_numbers() {
+    // Quoted names and values, a quoted comma and doubled quotes, CRLF, blank lines.
+    let text = b"# units: degrees\r\n\r\n\"theta_i\",theta_r,\"brdf\",note\r\n\"20\",20,5,\"a, \"\"b\"\"\"\r\n\r\n20,30,\"4\",\r\n20,x,3,\r\n";
+    let (line, msg) = parse_sweep(text).unwrap_err();
+    assert_eq!(
+        (line, msg.as_str()),
+        (7, "theta_r 'x' is not a finite number")
+    );
+    let data = parse_sweep(&text[..text.len() - 9]).unwrap();
+    assert_eq!(data.columns, ["theta_i", "theta_r", "brdf", "note"]);
+    assert_eq!(
+        data.rows.iter().map(|r| r.brdf).collect::<Vec<_>>(),
+        [5.0, 4.0]
+    );
+    // A quote never closed swallows the rest: said so, on the line it opened.
+    let (line, msg) =
+        parse_sweep(b"theta_i,theta_r,brdf\n20,20,5\n20,30,\"4\n20,40,3\n").unwrap_err();
+    assert_eq!(line, 3);
+    assert!(msg.contains("never closed"), "{msg}");
+    // A capture file with a byte-order mark: offsets are the file's own.
+    let mut bom = b"\xef\xbb\xbf".to_vec();
+    bom.extend(b"# status: running\ntheta_i,theta_r,brdf\n20,20,5\n20,3");
+    let data = parse_sweep(&bom).unwrap();
+    assert_eq!((data.status_offset, data.cut_rows), (Some(3), 1));
+    assert_eq!(data.complete_len as usize, bom.len() - 4);
+}
+
+#[test]
+fn repeated_angle_pairs_with_other_values_are_warned_about() {
+    let data = parse_sweep(b"theta_i,theta_r,brdf\n20,20,5\n20,30,4\n20,20,50\n20,20,5\n").unwrap();
+    assert_eq!(data.rows.len(), 4);
+    let w = data.warnings();
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(
+        w[0].starts_with("1 reading(s) repeat an angle pair with another value (first: line 4, theta_i 20 theta_r 20: 50 after 5 on line 2)"),
+        "{w:?}"
+    );
 }

@@ -82,6 +82,9 @@ impl SweepWriter {
             true,
         ));
         text.push_str(&format!("# device: {}\n", header.device));
+        if let Some(sample) = &header.sample {
+            text.push_str(&format!("# sample: {sample}\n"));
+        }
         text.push_str("# units: degrees\n");
         text.push_str(&format!("# plan: {}\n", header.plan));
         text.push_str(&format!("# settings: {}\n", header.settings));

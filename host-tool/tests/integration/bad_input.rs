@@ -132,7 +132,70 @@ fn fixtures() -> Scratch {
         text.replacen(&status, "# status: running", 1).as_bytes(),
     );
     std::os::unix::fs::symlink(d.join("exists.csv"), d.join("link.csv")).unwrap();
+    w(
+        "seqdup.csv",
+        b"theta_i,theta_r,brdf,seq\n20,20,5,0\n20,30,6,0\n",
+    );
+    w("unclosed.toml", b"incidences = [20\n");
+    let mut big = b"incidences = [20]\n".to_vec();
+    big.extend(std::iter::repeat_n(b'#', 64 << 10));
+    w("bigplan.toml", &big);
+    // Held locked by the test (a capture writing it).
+    w("locked.csv", text.as_bytes());
+    accepted_fixtures(&d, &text);
     d
+}
+
+/// Files `fit` reads as meant (see [`ACCEPTED`]), made from a simulated capture's `text`.
+fn accepted_fixtures(d: &Path, text: &str) {
+    let w = |name: &str, bytes: &[u8]| std::fs::write(d.join(name), bytes).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    let status = lines[1];
+    let with_status = |word: &str, keep: usize| {
+        let mut t = lines[..keep].join("\n").replacen(
+            status,
+            &status.replacen("complete", &format!("{word:<8}"), 1),
+            1,
+        );
+        t.push('\n');
+        t
+    };
+    let mut bom = b"\xef\xbb\xbf".to_vec();
+    bom.extend(text.as_bytes());
+    w("ok-bom.csv", &bom);
+    w("ok-cr.csv", text.replace('\n', "\r").as_bytes());
+    w("ok-crlf.csv", text.replace('\n', "\r\n").as_bytes());
+    // RFC 4180 quoting: quoted names and numbers, a quoted comma in an extra column.
+    w(
+        "ok-quoted.csv",
+        b"\"theta_i\",\"theta_r\",\"brdf\",note\n\"20\",\"20\",5,\"a, b\"\n20,30,\"4\",\"say \"\"x\"\"\"\n\n20,40,3,\n",
+    );
+    // Another tool's file whose last row lacks its newline: read.
+    w(
+        "ok-nonl.csv",
+        b"theta_i,theta_r,brdf\n20,20,5\n20,30,4\n20,40,3",
+    );
+    // A capture cut while writing its last row: that row is left out, and said.
+    let cut = with_status("running", lines.len());
+    w("ok-cut.csv", &cut.as_bytes()[..cut.len() - 4]);
+    w(
+        "ok-failed.csv",
+        with_status("failed", lines.len() - 53).as_bytes(),
+    );
+    w(
+        "ok-complete-missing.csv",
+        with_status("complete", lines.len() - 3).as_bytes(),
+    );
+    w(
+        "ok-repeat.csv",
+        b"theta_i,theta_r,brdf\n20,20,5\n20,30,4\n20,20,50\n",
+    );
+    w(
+        "ok-big.csv",
+        b"theta_i,theta_r,brdf\n20,20,1e30\n20,30,4\n20,40,1e-30\n",
+    );
+    // A symlink where a predictable temporary name would be: never written through.
+    std::os::unix::fs::symlink(d.join("exists.csv"), d.join("out.json.tmp")).unwrap();
 }
 
 const CASES: &[Case] = &[
@@ -1263,16 +1326,233 @@ const CASES: &[Case] = &[
         2,
         "too few readings",
     ),
+    // Issue 16, second part: every item of the issue not above.
+    case(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--resume",
+            "--out",
+            "{d}/locked.csv",
+            "-q",
+        ],
+        2,
+        "being written by another capture",
+    ),
+    out(
+        &[
+            "simulate",
+            "--material",
+            "cu-0.070",
+            "--resume",
+            "--out",
+            "{d}/fe-0.115.csv",
+            "-q",
+        ],
+        2,
+        "holds readings of 'simulated fe-0.115 noise=0.005', not 'simulated cu-0.070",
+        "fe-0.115.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--noise",
+            "0.02",
+            "--resume",
+            "--out",
+            "{d}/fe-0.115.csv",
+            "-q",
+        ],
+        2,
+        "noise=0.02",
+        "fe-0.115.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--resume",
+            "--out",
+            "{d}/fe-0.115.csv",
+            "--exclude-retro",
+            "5",
+            "-q",
+        ],
+        2,
+        "captured with exclude_retro=0",
+        "fe-0.115.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--resume",
+            "--out",
+            "{d}/fe-0.115.csv",
+            "--dark",
+            "-q",
+        ],
+        2,
+        "captured with dark=false",
+        "fe-0.115.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--resume",
+            "--out",
+            "{d}/fe-0.115.csv",
+            "--settle",
+            "70",
+            "-q",
+        ],
+        2,
+        "captured with settle_ms=50",
+        "fe-0.115.csv",
+    ),
+    case(
+        &["fit", "{d}/seqdup.csv"],
+        2,
+        "seqdup.csv:3: seq 0 was already read on line 2",
+    ),
+    case(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--plan",
+            "{d}/bigplan.toml",
+            "--out",
+            "{d}/p.csv",
+        ],
+        2,
+        "larger than 64 KiB",
+    ),
+    case(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--plan",
+            "{d}/unclosed.toml",
+            "--out",
+            "{d}/p.csv",
+        ],
+        2,
+        "unclosed.toml",
+    ),
+    case(
+        &[
+            "eval",
+            "--material",
+            "fe-0.115",
+            "--theta-i",
+            "30",
+            "--theta-r",
+            "30",
+            "--precision",
+            "f32",
+            "--kdd",
+            "1e300",
+        ],
+        2,
+        "--kdd 1e300 overflows f32",
+    ),
+    case(
+        &[
+            "eval",
+            "--material",
+            "fe-0.115",
+            "--theta-i",
+            "30",
+            "--theta-r",
+            "30",
+            "--precision",
+            "f32",
+            "--sigma",
+            "1e-40",
+        ],
+        2,
+        "--sigma 1e-40 underflows f32",
+    ),
+    case(
+        &[
+            "eval",
+            "--material",
+            "fe-0.115",
+            "--theta-i",
+            "30",
+            "--theta-r",
+            "30",
+            "--sigma",
+            "1e300",
+        ],
+        2,
+        "sigma = 1e300 is too extreme",
+    ),
+    case(
+        &[
+            "eval",
+            "--material",
+            "fe-0.115",
+            "--theta-i",
+            "30",
+            "--theta-r",
+            "30",
+            "--kdd",
+            "-1e300",
+        ],
+        2,
+        "k_dd must be >= 0 (got -1e300)",
+    ),
+    case(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--noise",
+            "1e30",
+            "--out",
+            "{d}/n.csv",
+        ],
+        2,
+        "(got 1e30)",
+    ),
+    case(
+        &["fit", "{d}/fe-0.115.csv", "--models", "{long}"],
+        2,
+        "'\\u{1b}[2J\\u{7}xxx",
+    ),
     // no subcommand, unknown subcommand
     case(&[], 2, "missing subcommand"),
     case(&["frobnicate"], 2, "frobnicate"),
 ];
 
+/// Longest error line any case may print (bytes).
+const MAX_LINE: usize = 1000;
+
+/// A 100,000-character value with control bytes (argv cannot hold NUL) (`{long}` in a case's arguments).
+fn long_value() -> String {
+    let mut v = String::from("\x1b[2J\x07");
+    v.push_str(&"x".repeat(100_000));
+    v
+}
+
 fn run(d: &Path, c: &Case) {
     let args: Vec<String> = c
         .args
         .iter()
-        .map(|a| a.replace("{d}", d.to_str().unwrap()))
+        .map(|a| {
+            a.replace("{d}", d.to_str().unwrap())
+                .replace("{long}", &long_value())
+        })
         .collect();
     let before = c.no_output.and_then(|p| std::fs::read(d.join(p)).ok());
     let out: Run = gonio_command()
@@ -1289,6 +1569,11 @@ fn run(d: &Path, c: &Case) {
         assert_eq!(out.stdout, "", "{ctx}: bad input printed on stdout");
     }
     assert_eq!(err.lines().count(), 1, "{ctx}: not one line: {err}");
+    assert!(
+        err.len() <= MAX_LINE,
+        "{ctx}: {} bytes on stderr",
+        err.len()
+    );
     assert!(err.starts_with("gonio: "), "{ctx}: {err}");
     assert!(
         err.to_lowercase().contains(&c.says.to_lowercase()),
@@ -1317,6 +1602,8 @@ fn run(d: &Path, c: &Case) {
 #[test]
 fn every_subcommand_rejects_bad_input_cleanly() {
     let d = fixtures();
+    // A capture writing locked.csv (the lock is what a second capture meets).
+    let _writer = gonio::sweep_file::SweepWriter::resume(&d.join("locked.csv")).unwrap();
     let mut failures = Vec::new();
     for c in CASES {
         if let Err(e) = std::panic::catch_unwind(|| run(&d, c)) {
@@ -1335,4 +1622,138 @@ fn every_subcommand_rejects_bad_input_cleanly() {
         CASES.len(),
         failures.join("\n")
     );
+}
+
+/// A file `fit` must read as meant: the readings it fits and what it must say on stderr
+/// (`""`: nothing).
+struct Accepted {
+    file: &'static str,
+    n: u64,
+    warns: &'static str,
+}
+
+const ACCEPTED: &[Accepted] = &[
+    Accepted {
+        file: "fe-0.115.csv",
+        n: 153,
+        warns: "",
+    },
+    Accepted {
+        file: "ok-bom.csv",
+        n: 153,
+        warns: "",
+    },
+    Accepted {
+        file: "ok-cr.csv",
+        n: 153,
+        warns: "",
+    },
+    Accepted {
+        file: "ok-crlf.csv",
+        n: 153,
+        warns: "",
+    },
+    Accepted {
+        file: "ok-quoted.csv",
+        n: 3,
+        warns: "",
+    },
+    Accepted {
+        file: "ok-nonl.csv",
+        n: 3,
+        warns: "",
+    },
+    Accepted {
+        file: "ok-cut.csv",
+        n: 152,
+        warns: "1 row(s) left out: the capture was cut while writing the last line",
+    },
+    Accepted {
+        file: "ok-failed.csv",
+        n: 100,
+        warns: "the capture failed: 53 of 153 plan points have no reading",
+    },
+    Accepted {
+        file: "ok-complete-missing.csv",
+        n: 150,
+        warns: "the status says complete but 3 of 153 plan points have no reading",
+    },
+    Accepted {
+        file: "ok-repeat.csv",
+        n: 3,
+        warns: "line 4, theta_i 20 theta_r 20: 50 after 5 on line 2",
+    },
+    Accepted {
+        file: "ok-big.csv",
+        n: 3,
+        warns: "",
+    },
+];
+
+#[test]
+fn files_are_read_as_meant_and_what_is_left_out_is_said() {
+    let d = fixtures();
+    let mut failures = Vec::new();
+    for a in ACCEPTED {
+        let path = d.join(a.file);
+        let out =
+            crate::util::gonio(&["fit", path.to_str().unwrap(), "--models", "ideal", "--json"]);
+        let ctx = format!("fit {}", a.file);
+        if out.code != 0 {
+            failures.push(format!("{ctx}: exit {}: {}", out.code, out.stderr));
+            continue;
+        }
+        let json: serde_json::Value = serde_json::from_str(&out.stdout).unwrap();
+        let n = json["models"][0]["n"].as_u64();
+        if n != Some(a.n) {
+            failures.push(format!("{ctx}: fitted {n:?} readings, not {}", a.n));
+        }
+        let ok = if a.warns.is_empty() {
+            out.stderr.is_empty()
+        } else {
+            out.stderr
+                .lines()
+                .any(|l| l.starts_with("gonio: warning: ") && l.contains(a.warns))
+        };
+        if !ok {
+            failures.push(format!(
+                "{ctx}: stderr {:?} lacks {:?}",
+                out.stderr, a.warns
+            ));
+        }
+    }
+    // A pre-planted symlink at the old temporary name is neither followed nor moved.
+    let target = d.join("out.json");
+    let out = crate::util::gonio(&[
+        "fit",
+        d.join("fe-0.115.csv").to_str().unwrap(),
+        "--export",
+        &format!("json={}", target.display()),
+    ]);
+    assert!(out.ok(), "{}", out.stderr);
+    assert_eq!(std::fs::read(d.join("exists.csv")).unwrap(), b"precious\n");
+    assert!(
+        std::fs::symlink_metadata(d.join("out.json.tmp"))
+            .unwrap()
+            .is_symlink()
+    );
+    assert!(std::fs::symlink_metadata(&target).unwrap().is_file());
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// docs/RELIABILITY.md states both tables' sizes: kept true by this test.
+#[test]
+fn the_reliability_page_counts_these_cases() {
+    let doc =
+        std::fs::read_to_string(crate::util::repo_root().join("docs/RELIABILITY.md")).unwrap();
+    for said in [
+        format!("bad input to every subcommand ({} cases", CASES.len()),
+        format!("{} cases in one table", CASES.len()),
+        format!("{} files read as meant", ACCEPTED.len()),
+    ] {
+        assert!(
+            doc.contains(&said),
+            "docs/RELIABILITY.md should say '{said}'"
+        );
+    }
 }

@@ -35,6 +35,9 @@ pub enum LinkError {
     Io(io::Error),
     /// Nothing arrived in time.
     Timeout(&'static str),
+    /// Writing the raw frame log (`--raw`) failed: an error on the host's side (a full
+    /// disk), not the device's. What arrived was decoded before the log was written.
+    Log(io::Error),
     /// The device speaks another protocol version.
     Version {
         /// The device's version.
@@ -48,6 +51,10 @@ impl fmt::Display for LinkError {
             LinkError::Open { path, reason } => write!(f, "cannot open {path}: {reason}"),
             LinkError::Io(e) => write!(f, "device link failed: {e}"),
             LinkError::Timeout(what) => write!(f, "device did not answer: {what}"),
+            LinkError::Log(e) => write!(
+                f,
+                "writing the raw frame log failed on this computer ({e}), not on the device"
+            ),
             LinkError::Version { device } if *device > PROTOCOL_VERSION => write!(
                 f,
                 "device speaks protocol v{device}, this gonio speaks v{PROTOCOL_VERSION}: update gonio"
@@ -75,6 +82,8 @@ pub struct FramedLink<T> {
     decoder: FrameDecoder<MAX_FRAME_LEN>,
     inbox: VecDeque<Event>,
     raw_log: Option<Box<dyn Write + Send>>,
+    /// A raw-log write that failed, reported once the events decoded before it are taken.
+    log_error: Option<io::Error>,
     foreign_version: Option<u16>,
 }
 
@@ -86,6 +95,7 @@ impl<T: Transport> FramedLink<T> {
             decoder: FrameDecoder::new(),
             inbox: VecDeque::new(),
             raw_log: None,
+            log_error: None,
             foreign_version: None,
         }
     }
@@ -125,7 +135,9 @@ impl<T: Transport> FramedLink<T> {
     }
 
     /// The next event, waiting at most `timeout`; `Ok(None)` if none came. Dropped
-    /// frames are counted in [`FramedLink::stats`], never returned.
+    /// frames are counted in [`FramedLink::stats`], never returned. Bytes are decoded
+    /// before they are logged: when the raw log fails, every event that arrived is
+    /// still returned first, then [`LinkError::Log`] (once; the log is closed).
     pub fn recv(&mut self, timeout: Duration) -> Result<Option<Event>, LinkError> {
         let deadline = Instant::now() + timeout;
         let mut buf = [0u8; 4096];
@@ -133,11 +145,11 @@ impl<T: Transport> FramedLink<T> {
             if let Some(ev) = self.inbox.pop_front() {
                 return Ok(Some(ev));
             }
+            if let Some(e) = self.log_error.take() {
+                return Err(LinkError::Log(e));
+            }
             let left = deadline.saturating_duration_since(Instant::now());
             let n = self.transport.recv(&mut buf, left)?;
-            if let Some(log) = &mut self.raw_log {
-                log.write_all(&buf[..n])?;
-            }
             for &b in &buf[..n] {
                 match self.decoder.push::<Event>(b) {
                     Some(Ok(ev)) => self.inbox.push_back(ev),
@@ -152,6 +164,15 @@ impl<T: Transport> FramedLink<T> {
                     }
                     Some(Err(_)) | None => {}
                 }
+            }
+            if let Some(log) = &mut self.raw_log {
+                if let Err(e) = log.write_all(&buf[..n]) {
+                    self.raw_log = None;
+                    self.log_error = Some(e);
+                }
+            }
+            if self.log_error.is_some() {
+                continue;
             }
             if self.inbox.is_empty() && Instant::now() >= deadline {
                 return Ok(None);
@@ -204,5 +225,60 @@ impl<T: Transport> FramedLink<T> {
             }
         }
         Err(LinkError::Timeout("no Info to GetInfo"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::device::{InProcessDevice, SimConfig};
+
+    /// A raw log on a full disk.
+    struct Full;
+
+    impl Write for Full {
+        fn write(&mut self, _: &[u8]) -> io::Result<usize> {
+            Err(io::Error::from_raw_os_error(28))
+        }
+        fn flush(&mut self) -> io::Result<()> {
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn events_are_decoded_before_a_failing_log_and_the_error_is_ours() {
+        let dev = InProcessDevice::new(&SimConfig::new(
+            brdf_core::Preset::by_name("fe-0.115").unwrap(),
+            0.0,
+            1,
+        ));
+        let mut link = FramedLink::new(dev);
+        link.set_raw_log(Box::new(Full));
+        link.send(&Command::Ping(7)).unwrap();
+        let mut got = Vec::new();
+        let err = loop {
+            match link.recv(Duration::from_millis(100)) {
+                Ok(Some(ev)) => got.push(ev),
+                Ok(None) => panic!("no error from the full log"),
+                Err(e) => break e,
+            }
+        };
+        assert_eq!(
+            got,
+            vec![Event::Pong(7)],
+            "the chunk that failed to log was decoded"
+        );
+        assert!(matches!(err, LinkError::Log(_)));
+        let msg = err.to_string();
+        assert!(
+            msg.contains("on this computer") && msg.contains("not on the device"),
+            "{msg}"
+        );
+        // Reported once; the link itself still works.
+        link.send(&Command::Ping(8)).unwrap();
+        assert_eq!(
+            link.recv(Duration::from_millis(500)).unwrap(),
+            Some(Event::Pong(8))
+        );
     }
 }

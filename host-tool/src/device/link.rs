@@ -43,6 +43,8 @@ pub enum LinkError {
         /// The device's version.
         device: u16,
     },
+    /// The device's Info names this gonio's protocol version but does not decode.
+    BadInfo,
 }
 
 impl fmt::Display for LinkError {
@@ -62,6 +64,10 @@ impl fmt::Display for LinkError {
             LinkError::Version { device } => write!(
                 f,
                 "device speaks protocol v{device}, this gonio speaks v{PROTOCOL_VERSION}: update the firmware (gonio flash)"
+            ),
+            LinkError::BadInfo => write!(
+                f,
+                "the device's Info says protocol v{PROTOCOL_VERSION}, as this gonio, but does not decode (a broken or foreign firmware build): reflash it (gonio flash)"
             ),
         }
     }
@@ -85,6 +91,8 @@ pub struct FramedLink<T> {
     /// A raw-log write that failed, reported once the events decoded before it are taken.
     log_error: Option<io::Error>,
     foreign_version: Option<u16>,
+    /// An Info of our protocol version arrived that did not decode.
+    bad_info: bool,
 }
 
 impl<T: Transport> FramedLink<T> {
@@ -97,6 +105,7 @@ impl<T: Transport> FramedLink<T> {
             raw_log: None,
             log_error: None,
             foreign_version: None,
+            bad_info: false,
         }
     }
 
@@ -156,10 +165,10 @@ impl<T: Transport> FramedLink<T> {
                     Some(Err(FrameError::Decode)) => {
                         // Intact but not ours: a device of another protocol version
                         // still shows its version in an Info.
-                        if let Some(v) = peek_info_version(self.decoder.undecoded_payload())
-                            .filter(|&v| v != PROTOCOL_VERSION)
-                        {
-                            self.foreign_version = Some(v);
+                        match peek_info_version(self.decoder.undecoded_payload()) {
+                            Some(PROTOCOL_VERSION) => self.bad_info = true,
+                            Some(v) => self.foreign_version = Some(v),
+                            None => {}
                         }
                     }
                     Some(Err(_)) | None => {}
@@ -224,6 +233,9 @@ impl<T: Transport> FramedLink<T> {
                 return Err(LinkError::Version { device });
             }
         }
+        if self.bad_info {
+            return Err(LinkError::BadInfo);
+        }
         Err(LinkError::Timeout("no Info to GetInfo"))
     }
 }
@@ -243,6 +255,45 @@ mod tests {
         fn flush(&mut self) -> io::Result<()> {
             Ok(())
         }
+    }
+
+    /// Answers every command with a Pong to the handshake's Ping and an Info of this
+    /// protocol version that is cut short.
+    struct BrokenInfo(VecDeque<u8>);
+
+    impl Transport for BrokenInfo {
+        fn send(&mut self, _: &[u8]) -> io::Result<()> {
+            let mut buf = [0u8; 64];
+            let n = frame::encode(&Event::Pong(0x676F_6E69), &mut buf).unwrap();
+            self.0.extend(&buf[..n]);
+            // Variant 0 (Info) and its first field, the version, then nothing.
+            let n = frame::encode(&(0u8, PROTOCOL_VERSION), &mut buf).unwrap();
+            self.0.extend(&buf[..n]);
+            Ok(())
+        }
+        fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<usize> {
+            let n = self.0.len().min(buf.len());
+            if n == 0 {
+                std::thread::sleep(timeout.min(Duration::from_millis(5)));
+            }
+            for (b, x) in buf.iter_mut().zip(self.0.drain(..n)) {
+                *b = x;
+            }
+            Ok(n)
+        }
+    }
+
+    #[test]
+    fn an_info_of_our_version_that_does_not_decode_says_so() {
+        let mut link = FramedLink::new(BrokenInfo(VecDeque::new()));
+        let err = link.handshake(Duration::from_millis(400)).unwrap_err();
+        assert!(matches!(err, LinkError::BadInfo), "{err:?}");
+        let msg = err.to_string();
+        assert!(msg.contains("does not decode"), "{msg}");
+        assert!(
+            !msg.contains("update"),
+            "no version advice when versions agree: {msg}"
+        );
     }
 
     #[test]

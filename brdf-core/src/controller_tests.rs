@@ -583,3 +583,6 @@ proptest! {
         }
     }
 }
+
+#[path = "protocol_doc_tests.rs"]
+mod protocol_doc;

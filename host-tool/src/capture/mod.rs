@@ -15,6 +15,7 @@ use crate::device::{Connector, FramedLink, LinkError, Transport};
 use crate::sweep_file::{Counters, Header, Row, SweepFileError, SweepStatus, SweepWriter};
 
 pub mod check;
+pub mod liveness;
 pub mod plan;
 pub mod progress;
 mod sweep;
@@ -144,6 +145,9 @@ struct Run<'a, C: Connector> {
     dropped_before: u64,
     tol: Tolerance,
 }
+
+/// How long the Abort sent to a stalled device may go unanswered.
+const STOP_ANSWER: Duration = Duration::from_secs(5);
 
 /// Rejected readings described on the terminal; later ones are only counted.
 const REJECTS_SHOWN: u64 = 5;
@@ -382,6 +386,9 @@ pub fn capture<C: Connector>(
 impl<C: Connector> Run<'_, C> {
     fn all_rounds(&mut self, link: &mut FramedLink<C::T>) -> Result<SweepStatus> {
         let mut round = 0;
+        // Reconnects in a row after which no new reading arrived, and the count then.
+        let mut fruitless = 0;
+        let mut mark = self.present.len();
         loop {
             let sweeps = self.plan.sweeps_for(&self.present, self.next_id);
             if sweeps.is_empty() {
@@ -408,6 +415,19 @@ impl<C: Connector> Run<'_, C> {
                     Outcome::Done => {}
                     Outcome::Interrupted => return Ok(SweepStatus::Interrupted),
                     Outcome::Lost(why) => {
+                        if self.present.len() > mark {
+                            fruitless = 0;
+                        }
+                        mark = self.present.len();
+                        fruitless += 1;
+                        if fruitless > liveness::MAX_FRUITLESS_RECONNECTS
+                            && self.conn.can_reconnect()
+                        {
+                            self.writer.set_status(SweepStatus::Failed)?;
+                            return Err(CaptureError::Device(format!(
+                                "gave up: the device was lost {fruitless} times in a row without a new reading in between (last: {why}); it drops the link while starting the sweep? continue later with --resume"
+                            )));
+                        }
                         self.reconnect(link, &why)?;
                         round = 0; // the loss was the link's, not a reading's
                         break;
@@ -462,14 +482,77 @@ impl<C: Connector> Run<'_, C> {
         link.send(cmd).map_err(|e| e.to_string())
     }
 
+    /// Stops the device and the capture for a reason that is not the link's: the
+    /// device is alive but useless (`why` says how), or our own side failed.
+    fn give_up(&mut self, link: &mut FramedLink<C::T>, why: String) -> Result<Outcome> {
+        let _ = link.send(&Command::Abort);
+        self.writer.set_status(SweepStatus::Failed)?;
+        Err(CaptureError::Device(why))
+    }
+
+    /// A receive error: ours (the raw log) stops the device and the capture; any other
+    /// means the device was lost.
+    fn on_link_error(&mut self, link: &mut FramedLink<C::T>, e: LinkError) -> Result<Outcome> {
+        if let LinkError::Log(_) = e {
+            let raw = self
+                .setup
+                .raw
+                .as_ref()
+                .map_or(String::new(), |p| format!(" {}", p.display()));
+            return self.give_up(
+                link,
+                format!(
+                    "--raw{raw}: {e}; the device was stopped (Abort sent) and the sweep file holds every reading that arrived; free space, then continue with --resume"
+                ),
+            );
+        }
+        Ok(Outcome::Lost(e.to_string()))
+    }
+
+    /// Why a device that answers Ping but brings no reading was given up on.
+    fn stalled(&self, progress_at: Instant, allowed: Duration) -> String {
+        format!(
+            "gave up: the device answers Ping but brought no new reading for {:.0} s (a point of this plan may take {:.0} s: settle, samples, dark and the move at {} deg/s, with margin); check the arms and detector, then continue with --resume",
+            progress_at.elapsed().as_secs_f64(),
+            allowed.as_secs_f64(),
+            liveness::ASSUMED_ARM_SPEED_DEG_S
+        )
+    }
+
+    /// Time allowed for the next reading of `sw` the device owes (see [`liveness`]).
+    fn allowance(&self, sw: &DeviceSweep, state: &SweepState) -> Duration {
+        let k = state.seq.expected.saturating_sub(u32::from(sw.plan.skip)) as usize;
+        let at = |k: usize| {
+            sw.map
+                .get(k)
+                .and_then(|&i| self.plan.points.get(i as usize))
+                .copied()
+        };
+        let Some(to) = at(k).or_else(|| at(sw.map.len().saturating_sub(1))) else {
+            return liveness::MARGIN;
+        };
+        let from = k.checked_sub(1).and_then(at);
+        liveness::point_allowance(&self.plan.settings, from, to)
+    }
+
     /// Runs one device sweep: sends it, follows it with a [`SweepState`] and records
-    /// its readings; pings a silent device and stops a sweep whose end was lost.
+    /// its readings. Liveness is apart from progress: a silent device is pinged (no
+    /// answer: lost), a live one asked whether it still runs the sweep; a device that
+    /// is alive but brings no new reading within the time its next point may take,
+    /// floods, or ignores StartSweep is given up on with a message saying which.
     fn one_sweep(&mut self, link: &mut FramedLink<C::T>, sw: &DeviceSweep) -> Result<Outcome> {
         let mut state = SweepState::new(sw);
         if let Err(e) = self.send(link, &Command::StartSweep(state.plan.clone())) {
             return Ok(Outcome::Lost(e));
         }
         let mut silent_since = Instant::now();
+        // The last new reading (or the start): progress, as opposed to liveness.
+        let mut progress_at = Instant::now();
+        // Events since the last new reading (a flood, when too many).
+        let mut chatter = 0u32;
+        let mut start_resends = 0u32;
+        // When the Abort of a stalled sweep was sent.
+        let mut stop_sent_at: Option<Instant> = None;
         // Events that arrived while waiting for a Pong: handled before new ones.
         let mut pending: VecDeque<Event> = VecDeque::new();
         // The device is lost, but what arrived while pinging is recorded first.
@@ -489,11 +572,31 @@ impl<C: Connector> Run<'_, C> {
                     return Ok(Outcome::Lost(why));
                 }
             }
+            let allowed = self.allowance(sw, &state);
+            if state.started
+                && !state.stop_sent
+                && state.abort_sent_at.is_none()
+                && state.done_at.is_none()
+                && progress_at.elapsed() > allowed
+            {
+                // Alive (or flooding) but no new reading in the time a point may take:
+                // stop it; a SweepDone (aborted) says it was stalled, a Status that it
+                // had finished and its last events were lost.
+                if let Err(e) = self.send(link, &Command::Abort) {
+                    return Ok(Outcome::Lost(e));
+                }
+                state.stop_sent = true;
+                stop_sent_at = Some(Instant::now());
+            }
+            if stop_sent_at.is_some_and(|t| t.elapsed() > STOP_ANSWER) {
+                // Not even the Abort was answered, though Pings are.
+                return self.give_up(link, self.stalled(progress_at, allowed));
+            }
             let ev = match pending.pop_front() {
                 Some(ev) => Some(ev),
                 None => match link.recv(state.recv_timeout()) {
                     Ok(ev) => ev,
-                    Err(e) => return Ok(Outcome::Lost(e.to_string())),
+                    Err(e) => return self.on_link_error(link, e),
                 },
             };
             let Some(ev) = ev else {
@@ -509,23 +612,32 @@ impl<C: Connector> Run<'_, C> {
                     if !state.started {
                         // The StartSweep may have been lost on the way: send it again
                         // (a device already running it answers Busy, which is fine).
+                        start_resends += 1;
+                        if start_resends > liveness::MAX_START_RESENDS {
+                            return self.give_up(link, format!(
+                                "gave up: the device answers Ping but ignored the sweep command ({} times sent, {} s apart); check the firmware, then continue with --resume",
+                                start_resends,
+                                self.setup.event_timeout.as_secs()
+                            ));
+                        }
                         if let Err(e) = self.send(link, &Command::StartSweep(state.plan.clone())) {
                             return Ok(Outcome::Lost(e));
                         }
-                    } else if pending.is_empty() {
-                        // Alive, but silent while our sweep ran: its last events (the
-                        // SweepDone at least) were lost. Stop it; its answer ends this
-                        // sweep, and the next round measures what is missing.
-                        if let Err(e) = self.send(link, &Command::Abort) {
+                    } else if pending.is_empty() && !state.stop_sent {
+                        // Alive but silent while our sweep ran: still measuring (a long
+                        // settle answers Busy), or finished with its SweepDone lost
+                        // (answers Status: the laser is off after a sweep anyway).
+                        if let Err(e) = self.send(link, &Command::SetLaser(false)) {
                             return Ok(Outcome::Lost(e));
                         }
-                        state.stop_sent = true;
+                        state.probe_sent = true;
                     }
                     silent_since = Instant::now();
                 }
                 continue;
             };
             silent_since = Instant::now();
+            let before = self.present.len();
             let step = state.on_event(
                 ev,
                 &mut self.writer.counters().gaps,
@@ -548,6 +660,7 @@ impl<C: Connector> Run<'_, C> {
                     return Err(self.other_plan(&why));
                 }
                 Step::End(outcome) => return Ok(outcome),
+                Step::Stalled => return self.give_up(link, self.stalled(progress_at, allowed)),
                 Step::Restart { abort_first } => {
                     if abort_first {
                         if let Err(e) = self.send(link, &Command::Abort) {
@@ -558,12 +671,24 @@ impl<C: Connector> Run<'_, C> {
                     if let Err(e) = self.send(link, &Command::StartSweep(state.plan.clone())) {
                         return Ok(Outcome::Lost(e));
                     }
+                    progress_at = Instant::now();
                 }
                 Step::Fail { why, mark_failed } => {
                     if mark_failed {
                         self.writer.set_status(SweepStatus::Failed)?;
                     }
                     return Err(CaptureError::Device(why));
+                }
+            }
+            if self.present.len() > before {
+                progress_at = Instant::now();
+                chatter = 0;
+            } else {
+                chatter += 1;
+                if chatter > liveness::FLOOD_EVENTS {
+                    return self.give_up(link, format!(
+                        "gave up: the device floods the link ({chatter} events, such as Pong or Progress, without a new reading); continue with --resume"
+                    ));
                 }
             }
         }
@@ -588,6 +713,9 @@ impl<C: Connector> Run<'_, C> {
                     Ok(Some(Event::Pong(t))) if t == token => return Ok(true),
                     Ok(Some(ev)) => pending.push_back(ev),
                     Ok(None) => {}
+                    Err(e @ LinkError::Log(_)) => {
+                        return Err(CaptureError::Device(format!("{e}; continue with --resume")));
+                    }
                     Err(_) => return Ok(false),
                 }
             }

@@ -44,6 +44,9 @@ pub(super) enum Step {
     Reject(String),
     /// The device's plan is not the plan gonio sent (why, one line): the capture stops.
     OtherPlan(String),
+    /// The device was still running our sweep when it was stopped for making no
+    /// progress: alive, but stalled; the capture gives up.
+    Stalled,
     /// Send [`SweepState::plan`] again, after an Abort when `abort_first` (the device was
     /// busy: the plan already carries a fresh sweep id).
     Restart {
@@ -125,9 +128,13 @@ pub(super) struct SweepState {
     pub restarts: u32,
     /// When the user asked to stop (Ctrl-C) and Abort was sent.
     pub abort_sent_at: Option<Instant>,
-    /// Abort sent because the device went silent while running our sweep: its answer
-    /// (SweepDone, or Status if it had finished) ends the sweep.
+    /// Abort sent because the device made no progress for longer than a point may
+    /// take: a SweepDone (aborted) means it was stalled, a Status that it had finished.
     pub stop_sent: bool,
+    /// `SetLaser(false)` sent to a silent device that answers Ping, to learn whether it
+    /// still runs our sweep (answered `Busy`) or finished it and its SweepDone was lost
+    /// (answered `Status`; the laser is off after a sweep anyway).
+    pub probe_sent: bool,
     /// When the device's SweepDone arrived; readings may still come late for [`LINGER`].
     pub done_at: Option<Instant>,
 }
@@ -145,6 +152,7 @@ impl SweepState {
             restarts: 0,
             abort_sent_at: None,
             stop_sent: false,
+            probe_sent: false,
             done_at: None,
         }
     }
@@ -204,7 +212,7 @@ impl SweepState {
                 }
                 Step::Wait
             }
-            Event::Status(_) if self.stop_sent => {
+            Event::Status(_) if self.stop_sent || self.probe_sent => {
                 // The device had finished: the readings after the last one that
                 // arrived were all sent and lost.
                 count(self.seq.sent_before(self.end_seq));
@@ -214,6 +222,8 @@ impl SweepState {
                 count(self.seq.sent_before(d.next_seq.min(self.end_seq)));
                 if self.abort_sent_at.is_some() {
                     Step::End(Outcome::Interrupted)
+                } else if self.stop_sent && d.aborted {
+                    Step::Stalled
                 } else if self.stop_sent {
                     Step::End(Outcome::Done)
                 } else if d.aborted {

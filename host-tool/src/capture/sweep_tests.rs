@@ -276,3 +276,35 @@ fn a_progress_of_another_plan_length_is_another_plan() {
         steps[1]
     );
 }
+
+#[test]
+fn a_probe_tells_a_finished_sweep_from_a_running_one() {
+    let status = Event::Status(Status {
+        source_deg: 0.0,
+        detector_deg: 0.0,
+        laser: false,
+        homed: true,
+    });
+    let busy = Event::Error(ErrorEvent::new(ErrorCode::Busy, "busy"));
+    let mut s = SweepState::new(&sweep(0, 4));
+    let mut gaps = 0;
+    s.on_event(reading(7, 0), &mut gaps, &mut 0, Instant::now());
+    s.probe_sent = true;
+    // Still running: Busy is no reason to stop.
+    assert_eq!(
+        s.on_event(busy, &mut gaps, &mut 0, Instant::now()),
+        Step::Wait
+    );
+    // Idle: its SweepDone was lost, the readings after seq 0 with it.
+    assert_eq!(
+        s.on_event(status, &mut gaps, &mut 0, Instant::now()),
+        Step::End(Outcome::Done)
+    );
+    assert_eq!(gaps, 3);
+    // Stopped for making no progress, and it was still running: stalled.
+    let mut s = SweepState::new(&sweep(0, 4));
+    s.on_event(reading(7, 0), &mut gaps, &mut 0, Instant::now());
+    s.stop_sent = true;
+    let (steps, _) = feed(&mut s, vec![done(7, 1, true)]);
+    assert_eq!(steps, [Step::Stalled]);
+}

@@ -24,7 +24,10 @@ synced to disk, so a crash or unplug loses nothing that arrived).\n\n\
 The device is homed first if needed. Sequence gaps, dropped frames and silences are counted and written to the \
 file's `# status` line; readings lost on the link are measured again, never filled in. Ctrl-C stops the arms \
 and leaves a valid file; --resume continues it. A device that disappears is waited for (--reconnect seconds, \
-found again by path or USB serial number) and the sweep continues where it stopped.",
+found again by path or USB serial number) and the sweep continues where it stopped. A device that answers Ping \
+but brings no new reading within the time its next point may take, floods the link, ignores the sweep command, or \
+is lost 4 times in a row without a new reading is stopped (Abort) and given up on with a message saying which; \
+SIGTERM and SIGHUP act like Ctrl-C.",
     after_help = "Examples:\n  gonio capture --port /dev/ttyACM0 --out fe.csv\n  \
 gonio capture --port /dev/ttyACM0 --plan adaptive --prior fe-0.115 --out fe-adaptive.csv\n  \
 gonio capture --port /dev/ttyACM0 --plan plan.toml --exclude-retro 3 --samples 16 --out fe.csv\n  \
@@ -41,7 +44,9 @@ pub struct CaptureArgs {
     #[command(flatten)]
     pub out: OutArgs,
     /// Seconds of silence after which the device is pinged (and, if it does not
-    /// answer, considered lost); 1 to 3600.
+    /// answer, considered lost); 1 to 3600. A device that answers is waited for as
+    /// long as the plan's next point may take (settle, samples, dark, the move; see
+    /// docs/protocol.md), then given up on.
     #[arg(long = "event-timeout", default_value_t = 30, value_name = "S",
           value_parser = clap::value_parser!(u64).range(1..=super::args::MAX_TIMEOUT_S))]
     pub event_timeout: u64,

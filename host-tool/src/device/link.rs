@@ -35,11 +35,16 @@ pub enum LinkError {
     Io(io::Error),
     /// Nothing arrived in time.
     Timeout(&'static str),
+    /// Writing the raw frame log (`--raw`) failed: an error on the host's side (a full
+    /// disk), not the device's. What arrived was decoded before the log was written.
+    Log(io::Error),
     /// The device speaks another protocol version.
     Version {
         /// The device's version.
         device: u16,
     },
+    /// The device's Info names this gonio's protocol version but does not decode.
+    BadInfo,
 }
 
 impl fmt::Display for LinkError {
@@ -48,6 +53,10 @@ impl fmt::Display for LinkError {
             LinkError::Open { path, reason } => write!(f, "cannot open {path}: {reason}"),
             LinkError::Io(e) => write!(f, "device link failed: {e}"),
             LinkError::Timeout(what) => write!(f, "device did not answer: {what}"),
+            LinkError::Log(e) => write!(
+                f,
+                "writing the raw frame log failed on this computer ({e}), not on the device"
+            ),
             LinkError::Version { device } if *device > PROTOCOL_VERSION => write!(
                 f,
                 "device speaks protocol v{device}, this gonio speaks v{PROTOCOL_VERSION}: update gonio"
@@ -55,6 +64,10 @@ impl fmt::Display for LinkError {
             LinkError::Version { device } => write!(
                 f,
                 "device speaks protocol v{device}, this gonio speaks v{PROTOCOL_VERSION}: update the firmware (gonio flash)"
+            ),
+            LinkError::BadInfo => write!(
+                f,
+                "the device's Info says protocol v{PROTOCOL_VERSION}, as this gonio, but does not decode (a broken or foreign firmware build): reflash it (gonio flash)"
             ),
         }
     }
@@ -75,7 +88,11 @@ pub struct FramedLink<T> {
     decoder: FrameDecoder<MAX_FRAME_LEN>,
     inbox: VecDeque<Event>,
     raw_log: Option<Box<dyn Write + Send>>,
+    /// A raw-log write that failed, reported once the events decoded before it are taken.
+    log_error: Option<io::Error>,
     foreign_version: Option<u16>,
+    /// An Info of our protocol version arrived that did not decode.
+    bad_info: bool,
 }
 
 impl<T: Transport> FramedLink<T> {
@@ -86,7 +103,9 @@ impl<T: Transport> FramedLink<T> {
             decoder: FrameDecoder::new(),
             inbox: VecDeque::new(),
             raw_log: None,
+            log_error: None,
             foreign_version: None,
+            bad_info: false,
         }
     }
 
@@ -125,7 +144,9 @@ impl<T: Transport> FramedLink<T> {
     }
 
     /// The next event, waiting at most `timeout`; `Ok(None)` if none came. Dropped
-    /// frames are counted in [`FramedLink::stats`], never returned.
+    /// frames are counted in [`FramedLink::stats`], never returned. Bytes are decoded
+    /// before they are logged: when the raw log fails, every event that arrived is
+    /// still returned first, then [`LinkError::Log`] (once; the log is closed).
     pub fn recv(&mut self, timeout: Duration) -> Result<Option<Event>, LinkError> {
         let deadline = Instant::now() + timeout;
         let mut buf = [0u8; 4096];
@@ -133,25 +154,34 @@ impl<T: Transport> FramedLink<T> {
             if let Some(ev) = self.inbox.pop_front() {
                 return Ok(Some(ev));
             }
+            if let Some(e) = self.log_error.take() {
+                return Err(LinkError::Log(e));
+            }
             let left = deadline.saturating_duration_since(Instant::now());
             let n = self.transport.recv(&mut buf, left)?;
-            if let Some(log) = &mut self.raw_log {
-                log.write_all(&buf[..n])?;
-            }
             for &b in &buf[..n] {
                 match self.decoder.push::<Event>(b) {
                     Some(Ok(ev)) => self.inbox.push_back(ev),
                     Some(Err(FrameError::Decode)) => {
                         // Intact but not ours: a device of another protocol version
                         // still shows its version in an Info.
-                        if let Some(v) = peek_info_version(self.decoder.undecoded_payload())
-                            .filter(|&v| v != PROTOCOL_VERSION)
-                        {
-                            self.foreign_version = Some(v);
+                        match peek_info_version(self.decoder.undecoded_payload()) {
+                            Some(PROTOCOL_VERSION) => self.bad_info = true,
+                            Some(v) => self.foreign_version = Some(v),
+                            None => {}
                         }
                     }
                     Some(Err(_)) | None => {}
                 }
+            }
+            if let Some(log) = &mut self.raw_log {
+                if let Err(e) = log.write_all(&buf[..n]) {
+                    self.raw_log = None;
+                    self.log_error = Some(e);
+                }
+            }
+            if self.log_error.is_some() {
+                continue;
             }
             if self.inbox.is_empty() && Instant::now() >= deadline {
                 return Ok(None);
@@ -203,6 +233,103 @@ impl<T: Transport> FramedLink<T> {
                 return Err(LinkError::Version { device });
             }
         }
+        if self.bad_info {
+            return Err(LinkError::BadInfo);
+        }
         Err(LinkError::Timeout("no Info to GetInfo"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::device::{InProcessDevice, SimConfig};
+
+    /// A raw log on a full disk.
+    struct Full;
+
+    impl Write for Full {
+        fn write(&mut self, _: &[u8]) -> io::Result<usize> {
+            Err(io::Error::from_raw_os_error(28))
+        }
+        fn flush(&mut self) -> io::Result<()> {
+            Ok(())
+        }
+    }
+
+    /// Answers every command with a Pong to the handshake's Ping and an Info of this
+    /// protocol version that is cut short.
+    struct BrokenInfo(VecDeque<u8>);
+
+    impl Transport for BrokenInfo {
+        fn send(&mut self, _: &[u8]) -> io::Result<()> {
+            let mut buf = [0u8; 64];
+            let n = frame::encode(&Event::Pong(0x676F_6E69), &mut buf).unwrap();
+            self.0.extend(&buf[..n]);
+            // Variant 0 (Info) and its first field, the version, then nothing.
+            let n = frame::encode(&(0u8, PROTOCOL_VERSION), &mut buf).unwrap();
+            self.0.extend(&buf[..n]);
+            Ok(())
+        }
+        fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<usize> {
+            let n = self.0.len().min(buf.len());
+            if n == 0 {
+                std::thread::sleep(timeout.min(Duration::from_millis(5)));
+            }
+            for (b, x) in buf.iter_mut().zip(self.0.drain(..n)) {
+                *b = x;
+            }
+            Ok(n)
+        }
+    }
+
+    #[test]
+    fn an_info_of_our_version_that_does_not_decode_says_so() {
+        let mut link = FramedLink::new(BrokenInfo(VecDeque::new()));
+        let err = link.handshake(Duration::from_millis(400)).unwrap_err();
+        assert!(matches!(err, LinkError::BadInfo), "{err:?}");
+        let msg = err.to_string();
+        assert!(msg.contains("does not decode"), "{msg}");
+        assert!(
+            !msg.contains("update"),
+            "no version advice when versions agree: {msg}"
+        );
+    }
+
+    #[test]
+    fn events_are_decoded_before_a_failing_log_and_the_error_is_ours() {
+        let dev = InProcessDevice::new(&SimConfig::new(
+            brdf_core::Preset::by_name("fe-0.115").unwrap(),
+            0.0,
+            1,
+        ));
+        let mut link = FramedLink::new(dev);
+        link.set_raw_log(Box::new(Full));
+        link.send(&Command::Ping(7)).unwrap();
+        let mut got = Vec::new();
+        let err = loop {
+            match link.recv(Duration::from_millis(100)) {
+                Ok(Some(ev)) => got.push(ev),
+                Ok(None) => panic!("no error from the full log"),
+                Err(e) => break e,
+            }
+        };
+        assert_eq!(
+            got,
+            vec![Event::Pong(7)],
+            "the chunk that failed to log was decoded"
+        );
+        assert!(matches!(err, LinkError::Log(_)));
+        let msg = err.to_string();
+        assert!(
+            msg.contains("on this computer") && msg.contains("not on the device"),
+            "{msg}"
+        );
+        // Reported once; the link itself still works.
+        link.send(&Command::Ping(8)).unwrap();
+        assert_eq!(
+            link.recv(Duration::from_millis(500)).unwrap(),
+            Some(Event::Pong(8))
+        );
     }
 }

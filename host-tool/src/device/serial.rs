@@ -18,17 +18,28 @@ pub struct SerialTransport {
 
 impl SerialTransport {
     /// Opens `path` at 115200 baud, 8N1, no flow control (the baud rate does not
-    /// matter for USB CDC or QEMU, but real UARTs need one).
+    /// matter for USB CDC or QEMU, but real UARTs need one), and locks it: besides the
+    /// tty's exclusive mode (TIOCEXCL, which root bypasses) an advisory `flock`, which
+    /// binds root too, so two gonio processes never share a port (a capture waiting to
+    /// reconnect cannot take a device that another one measures on a reused path).
     pub fn open(path: &str) -> Result<Self, LinkError> {
+        use nix::fcntl::{FlockArg, flock};
+        use std::os::fd::AsRawFd;
+        let cannot = |reason: String| LinkError::Open {
+            path: path.to_string(),
+            reason,
+        };
         let port = serialport::new(path, 115_200)
             .timeout(Duration::from_millis(20))
-            .open()
-            .map_err(|e| LinkError::Open {
-                path: path.to_string(),
-                reason: e.to_string(),
-            })?;
+            .open_native()
+            .map_err(|e| cannot(e.to_string()))?;
+        flock(port.as_raw_fd(), FlockArg::LockExclusiveNonblock).map_err(|e| {
+            cannot(format!(
+                "in use by another program (it holds the port's lock: {e})"
+            ))
+        })?;
         Ok(SerialTransport {
-            port: Some(port),
+            port: Some(Box::new(port)),
             path: path.to_string(),
         })
     }
@@ -117,5 +128,32 @@ impl Connector for SerialConnector {
 
     fn can_reconnect(&self) -> bool {
         true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::device::{PtyDevice, SimConfig};
+
+    #[test]
+    fn a_port_is_held_by_one_opener_and_released_on_close() {
+        let dev = PtyDevice::start(&SimConfig::new(
+            brdf_core::Preset::by_name("fe-0.115").unwrap(),
+            0.0,
+            1,
+        ))
+        .unwrap();
+        let path = dev.path().to_str().unwrap();
+        let mut first = SerialTransport::open(path).unwrap();
+        let err = SerialTransport::open(path)
+            .err()
+            .expect("second opener refused");
+        // Refused by the tty's exclusive mode (not root) or by the lock (root).
+        let m = err.to_string();
+        assert!(m.contains("in use") || m.contains("exclusive"), "{m}");
+        // What a reconnect does first: release the old port, then open it again.
+        first.close();
+        SerialTransport::open(path).unwrap();
     }
 }

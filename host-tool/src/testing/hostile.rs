@@ -1,17 +1,22 @@
-//! A hostile device: wraps a device's transport and rewrites what the device says, one
-//! [`Lie`] per failure a capture must survive (bad values, wild angles, a seq or count
-//! that would drive allocation, another plan, control characters in its text). Lies
-//! are told in the first sweep only, so a capture that rejects them and measures again
-//! can finish.
+//! A hostile device: wraps a device's transport and rewrites what the device says (or
+//! hears), one [`Lie`] per failure a capture must survive (bad values, wild angles, a
+//! seq or count that would drive allocation, another plan, control characters in its
+//! text, a slow device, floods, an ignored command, a link dropped on every sweep).
+//! Lies about readings are told in the first sweep only, so a capture that rejects
+//! them and measures again can finish.
 
 use std::collections::VecDeque;
 use std::io;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use brdf_core::frame::{self, FrameDecoder, MAX_FRAME_LEN};
-use brdf_core::protocol::{ErrorCode, ErrorEvent, Event};
+use brdf_core::protocol::{Command, ErrorCode, ErrorEvent, Event, Progress};
 
-use crate::device::{Connector, FramedLink, InProcessDevice, LinkError, Transport};
+use crate::device::{Connector, FramedLink, InProcessDevice, LinkError, SimConfig, Transport};
+
+/// How long [`Lie::Slow`] holds each reading (wall time): longer than the capture's
+/// `--event-timeout` in the tests, shorter than the plan's time per point.
+pub const SLOW_READING: Duration = Duration::from_millis(1500);
 
 /// What the hostile device lies about.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -32,6 +37,19 @@ pub enum Lie {
     Board,
     /// A DetectorFault whose detail holds an ANSI escape and a newline.
     ErrorText,
+    /// Each reading arrives [`SLOW_READING`] after the previous one (a long settle);
+    /// Pong is answered at once: slow but alive.
+    Slow,
+    /// After two readings, only Pongs, 20 at a time, and nothing else.
+    FloodPong,
+    /// After two readings, only Progress of the running sweep, 20 at a time.
+    FloodProgress,
+    /// After two readings, nothing but Pong: alive, but the sweep makes no progress.
+    Stall,
+    /// Every StartSweep is dropped before the device hears it; it answers all else.
+    IgnoreStart,
+    /// The link breaks on every StartSweep (each connection is a fresh device).
+    DropOnStart,
 }
 
 /// A transport whose device lies as its [`Lie`] says.
@@ -39,9 +57,18 @@ pub struct HostileTransport<T> {
     inner: T,
     lie: Lie,
     decoder: FrameDecoder<MAX_FRAME_LEN>,
+    /// Commands on their way to the device, decoded to drop or act on.
+    commands: FrameDecoder<MAX_FRAME_LEN>,
+    frame_out: Vec<u8>,
+    /// Frames held until their time ([`Lie::Slow`]).
+    held: VecDeque<(Instant, Vec<u8>)>,
+    last_release: Option<Instant>,
     out: VecDeque<u8>,
     first_sweep: Option<u32>,
     previous: Option<(f32, f32)>,
+    readings: u32,
+    last_progress: Option<Progress>,
+    broken: bool,
 }
 
 impl<T: Transport> HostileTransport<T> {
@@ -51,10 +78,51 @@ impl<T: Transport> HostileTransport<T> {
             inner,
             lie,
             decoder: FrameDecoder::new(),
+            commands: FrameDecoder::new(),
+            frame_out: Vec::new(),
+            held: VecDeque::new(),
+            last_release: None,
             out: VecDeque::new(),
             first_sweep: None,
             previous: None,
+            readings: 0,
+            last_progress: None,
+            broken: false,
         }
+    }
+
+    fn flooding(&self) -> bool {
+        matches!(self.lie, Lie::FloodPong | Lie::FloodProgress) && self.readings >= 2
+    }
+
+    fn encode(ev: &Event) -> Vec<u8> {
+        let mut frame = [0u8; MAX_FRAME_LEN];
+        let len = frame::encode(ev, &mut frame).expect("events fit a frame");
+        frame[..len].to_vec()
+    }
+
+    /// Queues `ev` for the host, held back as the lie says.
+    fn queue(&mut self, ev: &Event) {
+        let now = Instant::now();
+        let at = match (self.lie, ev) {
+            (Lie::Slow, Event::Pong(_)) => {
+                // Answered at once, ahead of the readings held back.
+                self.out.extend(Self::encode(ev));
+                return;
+            }
+            (Lie::Slow, _) => {
+                let base = self.last_release.map_or(now, |t| t.max(now));
+                let at = if matches!(ev, Event::Reading(_)) {
+                    base + SLOW_READING
+                } else {
+                    base
+                };
+                self.last_release = Some(at);
+                at
+            }
+            _ => now,
+        };
+        self.held.push_back((at, Self::encode(ev)));
     }
 
     fn in_first_sweep(&mut self, sweep_id: u32) -> bool {
@@ -62,6 +130,17 @@ impl<T: Transport> HostileTransport<T> {
     }
 
     fn rewrite(&mut self, ev: Event) -> Vec<Event> {
+        if let Event::Progress(p) = &ev {
+            self.last_progress = Some(*p);
+        }
+        if self.flooding()
+            || (self.lie == Lie::Stall && self.readings >= 2 && !matches!(ev, Event::Pong(_)))
+        {
+            return Vec::new();
+        }
+        if let Event::Reading(_) = ev {
+            self.readings += 1;
+        }
         match (self.lie, ev) {
             (Lie::Values, Event::Reading(mut r)) if self.in_first_sweep(r.sweep_id) => {
                 match r.seq % 4 {
@@ -128,38 +207,95 @@ impl<T: Transport> Transport for HostileTransport<T> {
     }
 
     fn send(&mut self, bytes: &[u8]) -> io::Result<()> {
-        self.inner.send(bytes)
+        if self.broken {
+            return Err(io::ErrorKind::BrokenPipe.into());
+        }
+        if !matches!(self.lie, Lie::IgnoreStart | Lie::DropOnStart) {
+            return self.inner.send(bytes);
+        }
+        for &b in bytes {
+            self.frame_out.push(b);
+            let decoded = self.commands.push::<Command>(b);
+            if b != 0 {
+                continue;
+            }
+            let frame = std::mem::take(&mut self.frame_out);
+            match decoded {
+                Some(Ok(Command::StartSweep(_))) if self.lie == Lie::IgnoreStart => {}
+                Some(Ok(Command::StartSweep(_))) => {
+                    self.broken = true;
+                    return Err(io::ErrorKind::BrokenPipe.into());
+                }
+                _ => self.inner.send(&frame)?,
+            }
+        }
+        // Bytes of an unfinished frame wait for its end.
+        Ok(())
     }
 
     fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<usize> {
-        if self.out.is_empty() {
+        if self.broken {
+            return Err(io::ErrorKind::BrokenPipe.into());
+        }
+        let deadline = Instant::now() + timeout;
+        loop {
+            let now = Instant::now();
+            while self.held.front().is_some_and(|(at, _)| *at <= now) {
+                let (_, f) = self.held.pop_front().expect("front exists");
+                self.out.extend(f);
+            }
+            if self.out.is_empty() && self.flooding() {
+                let ev = match (self.lie, self.last_progress) {
+                    (Lie::FloodProgress, Some(p)) => Event::Progress(p),
+                    _ => Event::Pong(0xF100D),
+                };
+                for _ in 0..20 {
+                    self.out.extend(Self::encode(&ev));
+                }
+            }
+            if !self.out.is_empty() {
+                let n = buf.len().min(self.out.len());
+                for (b, x) in buf.iter_mut().zip(self.out.drain(..n)) {
+                    *b = x;
+                }
+                return Ok(n);
+            }
+            if now >= deadline {
+                return Ok(0);
+            }
             let mut tmp = [0u8; 1024];
-            let n = self.inner.recv(&mut tmp, timeout)?;
+            let slice = deadline
+                .saturating_duration_since(now)
+                .min(Duration::from_millis(5));
+            let n = self.inner.recv(&mut tmp, slice)?;
             for &b in &tmp[..n] {
                 if let Some(Ok(ev)) = self.decoder.push::<Event>(b) {
                     for ev in self.rewrite(ev) {
-                        let mut frame = [0u8; MAX_FRAME_LEN];
-                        let len = frame::encode(&ev, &mut frame).expect("events fit a frame");
-                        self.out.extend(&frame[..len]);
+                        self.queue(&ev);
                     }
                 }
             }
         }
-        let n = buf.len().min(self.out.len());
-        for (b, x) in buf.iter_mut().zip(self.out.drain(..n)) {
-            *b = x;
-        }
-        Ok(n)
     }
 }
 
-/// Connects once to an in-process simulated device that lies.
-pub struct HostileConnector(Option<HostileTransport<InProcessDevice>>);
+/// Connects to an in-process simulated device that lies: once, or (for
+/// [`Lie::DropOnStart`]) again and again, each time to a fresh device.
+pub struct HostileConnector {
+    cfg: SimConfig,
+    lie: Lie,
+    /// Connections made so far.
+    pub connections: u32,
+}
 
 impl HostileConnector {
-    /// `device`, lying as `lie` says.
-    pub fn new(device: InProcessDevice, lie: Lie) -> Self {
-        HostileConnector(Some(HostileTransport::new(device, lie)))
+    /// A device measuring as `cfg` says, lying as `lie` says.
+    pub fn new(cfg: SimConfig, lie: Lie) -> Self {
+        HostileConnector {
+            cfg,
+            lie,
+            connections: 0,
+        }
     }
 }
 
@@ -167,13 +303,17 @@ impl Connector for HostileConnector {
     type T = HostileTransport<InProcessDevice>;
 
     fn connect(&mut self) -> Result<FramedLink<Self::T>, LinkError> {
-        self.0
-            .take()
-            .map(FramedLink::new)
-            .ok_or(LinkError::Timeout("the hostile device is gone"))
+        if self.connections > 0 && !self.can_reconnect() {
+            return Err(LinkError::Timeout("the hostile device is gone"));
+        }
+        self.connections += 1;
+        Ok(FramedLink::new(HostileTransport::new(
+            InProcessDevice::new(&self.cfg),
+            self.lie,
+        )))
     }
 
     fn can_reconnect(&self) -> bool {
-        false
+        self.lie == Lie::DropOnStart
     }
 }

@@ -13,9 +13,11 @@ use gonio::sweep_file::read_sweep;
 
 use crate::util::{Run, gonio_command, scratch};
 
-/// The pty tests run one at a time: a capture now stops on SIGHUP like on Ctrl-C, and
-/// pseudo-terminals closed and reopened by parallel tests (numbers are reused) made
-/// one of them end early about once in four full runs.
+/// The pty tests run one at a time. Pty numbers are reused: a capture reconnecting to
+/// the path of a device that was dropped could open another test's new device (as
+/// root, the tty's exclusive mode does not stop it), send it Abort, and end that test's
+/// capture early. Ports are now also `flock`ed (`SerialTransport::open`), which binds
+/// root, across test binaries and worktrees too.
 fn one_at_a_time() -> std::sync::MutexGuard<'static, ()> {
     static PTYS: std::sync::Mutex<()> = std::sync::Mutex::new(());
     PTYS.lock().unwrap_or_else(|e| e.into_inner())

@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 
 use brdf_core::Preset;
 use gonio::capture::{CaptureError, CaptureReport, CaptureSetup, HostPlan, Quiet, capture};
-use gonio::device::{InProcessDevice, SimConfig};
+use gonio::device::SimConfig;
 use gonio::sweep_file::{SweepStatus, read_sweep};
 use gonio::testing::assert_each_point_once;
 use gonio::testing::hostile::{HostileConnector, Lie};
@@ -33,27 +33,52 @@ fn peak_rss() -> u64 {
 /// Runs a paper capture against a device telling `lie`; checks time, memory and that
 /// every row in the file is a valid reading of its plan point.
 fn run(lie: Lie, name: &str) -> (Result<CaptureReport, CaptureError>, PathBuf, Scratch) {
+    let plan = HostPlan::paper(&Default::default()).unwrap();
+    run_plan(
+        lie,
+        name,
+        plan,
+        Duration::from_secs(2),
+        Duration::from_secs(60),
+    )
+}
+
+/// A three-point plan whose points settle 2.5 s each.
+fn slow_plan() -> HostPlan {
+    HostPlan::from_toml_str(
+        "incidences = [20]\ndetector = { start = 0, stop = 20, step = 10 }\nsettle_ms = 2500\n",
+        "slow.toml",
+        &Default::default(),
+    )
+    .unwrap()
+}
+
+/// Runs `plan` against a device telling `lie` with `--event-timeout event_timeout`;
+/// the capture must end within `limit`.
+fn run_plan(
+    lie: Lie,
+    name: &str,
+    plan: HostPlan,
+    event_timeout: Duration,
+    limit: Duration,
+) -> (Result<CaptureReport, CaptureError>, PathBuf, Scratch) {
     let dir = scratch(name);
     let path = dir.join("sweep.csv");
-    let device = InProcessDevice::new(&SimConfig::new(
-        Preset::by_name("fe-0.115").unwrap(),
-        0.005,
-        3,
-    ));
-    let plan = HostPlan::paper(&Default::default()).unwrap();
+    let cfg = SimConfig::new(Preset::by_name("fe-0.115").unwrap(), 0.005, 3);
     let points = plan.points.clone();
     let mut setup = CaptureSetup::new(Some(plan), path.clone());
-    setup.event_timeout = Duration::from_secs(2);
+    setup.event_timeout = event_timeout;
     let t0 = Instant::now();
     let result = capture(
-        &mut HostileConnector::new(device, lie),
+        &mut HostileConnector::new(cfg, lie),
         &setup,
         &mut Quiet,
         &AtomicBool::new(false),
     );
     assert!(
-        t0.elapsed() < Duration::from_secs(60),
-        "{lie:?}: bounded time"
+        t0.elapsed() < limit,
+        "{lie:?}: bounded time: {:?}",
+        t0.elapsed()
     );
     assert!(
         peak_rss() < MEMORY_BOUND,
@@ -152,4 +177,73 @@ fn error_details_are_escaped() {
     let msg = r.unwrap_err().to_string();
     assert!(!msg.contains('\u{1b}') && !msg.contains('\n'), "{msg:?}");
     assert!(msg.contains("\\u{1b}[31mred\\nline"), "{msg}");
+}
+
+#[test]
+fn a_slow_device_that_answers_ping_is_waited_for() {
+    // Each reading comes 1.5 s after the last, the event timeout is 1 s: pinged,
+    // alive, asked whether it still runs the sweep (Busy), and waited for.
+    let (r, path, _dir) = run_plan(
+        Lie::Slow,
+        "hostile-slow",
+        slow_plan(),
+        Duration::from_secs(1),
+        Duration::from_secs(30),
+    );
+    let r = r.unwrap();
+    assert_eq!(r.status, SweepStatus::Complete);
+    assert!(r.counters.timeouts >= 2, "{:?}", r.counters);
+    assert_each_point_once(&read_sweep(&path).unwrap().rows, 3, "slow");
+}
+
+fn gave_up(lie: Lie, name: &str, says: &str) {
+    let (r, path, _dir) = run_plan(
+        lie,
+        name,
+        slow_plan(),
+        Duration::from_secs(1),
+        Duration::from_secs(30),
+    );
+    let msg = r.unwrap_err().to_string();
+    assert!(
+        msg.contains("gave up") && msg.contains(says),
+        "{lie:?}: {msg}"
+    );
+    let data = read_sweep(&path).unwrap();
+    assert!(data.meta["status"].starts_with("failed"), "{:?}", data.meta);
+}
+
+#[test]
+fn a_device_flooding_pong_is_given_up_on() {
+    gave_up(Lie::FloodPong, "hostile-flood-pong", "floods the link");
+}
+
+#[test]
+fn a_device_flooding_progress_is_given_up_on() {
+    gave_up(
+        Lie::FloodProgress,
+        "hostile-flood-progress",
+        "floods the link",
+    );
+}
+
+#[test]
+fn a_device_ignoring_start_sweep_is_given_up_on() {
+    gave_up(
+        Lie::IgnoreStart,
+        "hostile-ignore",
+        "ignored the sweep command (4 times",
+    );
+}
+
+#[test]
+fn a_device_dropping_the_link_on_every_sweep_is_given_up_on() {
+    gave_up(Lie::DropOnStart, "hostile-drop", "lost 4 times in a row");
+}
+
+#[test]
+fn a_device_alive_but_without_progress_is_given_up_on() {
+    // Two readings, then only Pongs: given up after the time its next point may take
+    // (9 s for a 10-degree move with 2.5 s settle), not after --event-timeout.
+    gave_up(Lie::Stall, "hostile-stall", "brought no new reading for");
 }

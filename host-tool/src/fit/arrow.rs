@@ -776,6 +776,44 @@ mod tests {
     }
 
     #[test]
+    fn held_parameters_get_no_step_and_the_others_the_dense_reduced_solve() {
+        for (seed, ng, locals) in CASES {
+            let p = random_problem(seed, ng, locals);
+            let np = p.shape.n_params();
+            // Hold the first global and the last parameter (a local when there is one).
+            let held = [0, np - 1];
+            let mut n = accumulate(&p);
+            let d = n.diagonal();
+            for &i in &held {
+                n.hold(i);
+            }
+            let free: Vec<usize> = (0..np).filter(|i| !held.contains(i)).collect();
+            let j = DMatrix::from_fn(p.j.nrows(), free.len(), |r, c| p.j[(r, free[c])]);
+            let lambda = 1e-2;
+            let mut a = j.transpose() * &j;
+            for (c, &i) in free.iter().enumerate() {
+                a[(c, c)] += lambda * d[i];
+            }
+            let dense = a.cholesky().unwrap().solve(&(-(j.transpose() * &p.r)));
+            let mut x = vec![f64::NAN; np];
+            assert!(solve_damped(
+                &n,
+                &d,
+                lambda,
+                &mut Workspace::default(),
+                &mut x
+            ));
+            for &i in &held {
+                assert_eq!(x[i], 0.0, "seed {seed}");
+            }
+            let scale = dense.amax().max(1.0);
+            for (c, &i) in free.iter().enumerate() {
+                assert!((x[i] - dense[c]).abs() < 1e-10 * scale, "seed {seed} {i}");
+            }
+        }
+    }
+
+    #[test]
     fn inverse_equals_the_dense_inverse() {
         for (seed, ng, locals) in CASES {
             let p = random_problem(seed, ng, locals);

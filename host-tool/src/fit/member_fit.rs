@@ -683,6 +683,12 @@ pub fn fit_member(
                     continue;
                 };
                 starts.push((cost, [*sc, *sh], *sm, ks, kdd, kid));
+                // Only the best few are ever refined: memory O(incidences), not
+                // O(grid points x incidences) (a spare in case a start vector fails).
+                if starts.len() > 2 * REFINED {
+                    starts.sort_by(|a, b| a.0.total_cmp(&b.0));
+                    starts.truncate(REFINED + 1);
+                }
             }
         }
     }

@@ -7,9 +7,11 @@
 use std::hint::black_box;
 
 use brdf_core::Preset;
+use brdf_core::member::Member;
 use criterion::{Criterion, criterion_group, criterion_main};
 use gonio::fit::data::{synthetic_paper_sweep, synthetic_sweep};
-use gonio::fit::{Dataset, FitOptions, Kind, fit_family, fit_kind};
+use gonio::fit::member_fit::fit_member;
+use gonio::fit::{Dataset, FitOptions, Kind, Residual, fit_family, fit_kind};
 use gonio::sweep_file::Row;
 
 fn paper_sweep(name: &str, noise: f64) -> Vec<Row> {
@@ -38,6 +40,14 @@ pub fn many_incidences(name: &str, n_inc: usize, per: usize) -> Vec<Row> {
     synthetic_sweep(&inc, det, |ti| p.model(ti).unwrap(), 0.005, 7)
 }
 
+/// The three-component member with a second (haze) specular lobe.
+fn with_haze() -> Member {
+    Member {
+        haze: Member::THREE_COMPONENT.core,
+        ..Member::THREE_COMPONENT
+    }
+}
+
 fn bench(c: &mut Criterion) {
     let opts = FitOptions::default();
     let mut g = c.benchmark_group("fit 9x17 sweep");
@@ -48,6 +58,20 @@ fn bench(c: &mut Criterion) {
         });
         g.bench_function(format!("{name} three-component"), |b| {
             b.iter(|| fit_kind(black_box(&data), Kind::ThreeComponent, &opts).unwrap())
+        });
+        // The lattice members (width grid + NNLS + LM), as the family fits them.
+        g.bench_function(format!("{name} member three-component"), |b| {
+            b.iter(|| {
+                fit_member(
+                    black_box(&data),
+                    Member::THREE_COMPONENT,
+                    Residual::Log,
+                    None,
+                )
+            })
+        });
+        g.bench_function(format!("{name} member three-component + haze"), |b| {
+            b.iter(|| fit_member(black_box(&data), with_haze(), Residual::Log, None))
         });
     }
     g.finish();
@@ -60,6 +84,16 @@ fn bench(c: &mut Criterion) {
     });
     g.bench_function("fe-0.115 three-component", |b| {
         b.iter(|| fit_kind(black_box(&data), Kind::ThreeComponent, &opts).unwrap())
+    });
+    g.bench_function("fe-0.115 member three-component", |b| {
+        b.iter(|| {
+            fit_member(
+                black_box(&data),
+                Member::THREE_COMPONENT,
+                Residual::Log,
+                None,
+            )
+        })
     });
     g.finish();
 

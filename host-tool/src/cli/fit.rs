@@ -165,6 +165,7 @@ fn run_campaign(args: &FitArgs, opts: &FitOptions, kinds: &[Kind]) -> CliResult 
         ));
     }
     let files = campaign::expand_inputs(&args.sweeps).map_err(CliError::usage)?;
+    campaign::check_outputs(&args.out, &files, args.force).map_err(CliError::usage)?;
     let bar = indicatif::ProgressBar::new(files.len() as u64).with_style(
         indicatif::ProgressStyle::with_template(
             "{bar:30} {pos}/{len} sweeps  {per_sec}  eta {eta}",
@@ -173,9 +174,14 @@ fn run_campaign(args: &FitArgs, opts: &FitOptions, kinds: &[Kind]) -> CliResult 
     );
     let results = campaign::fit_files(&files, opts, kinds, &|_, _| bar.inc(1));
     bar.finish_and_clear();
-    let (csv, _) =
-        campaign::write_reports(&args.out, &results, args.json, residual_name(opts.residual))
-            .map_err(CliError::failed)?;
+    let (csv, _) = campaign::write_reports(
+        &args.out,
+        &results,
+        args.json,
+        residual_name(opts.residual),
+        args.force,
+    )
+    .map_err(CliError::failed)?;
     let failed: Vec<&campaign::CampaignFile> =
         results.iter().filter(|f| f.outcome.is_err()).collect();
     for f in &results {

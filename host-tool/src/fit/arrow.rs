@@ -67,11 +67,54 @@ impl Shape {
 
     /// Largest local block.
     fn max_local(&self) -> usize {
-        (0..self.groups())
-            .map(|k| self.n_local(k))
-            .max()
-            .unwrap_or(0)
+        self.blocks().map(|b| b.nl).max().unwrap_or(0)
     }
+
+    /// Where group `k`'s blocks live.
+    #[inline]
+    pub fn block(&self, k: usize) -> Block {
+        let ls = self.local_start[k];
+        Block {
+            k,
+            nl: self.local_start[k + 1] - ls,
+            lo: self.n_global + ls,
+            ls,
+            vb: self.v_start[k],
+            wb: self.n_global * ls,
+        }
+    }
+
+    /// Every group's blocks, in order: the one walk the accumulation, the solves and
+    /// the inverse share.
+    pub fn blocks(&self) -> impl Iterator<Item = Block> + '_ {
+        (0..self.groups()).map(|k| self.block(k))
+    }
+
+    /// The group holding local index `li` (parameter `n_global + li`) and the index
+    /// within it.
+    fn locate(&self, li: usize) -> (Block, usize) {
+        let k = self.local_start.partition_point(|&s| s <= li) - 1;
+        let b = self.block(k);
+        (b, li - b.ls)
+    }
+}
+
+/// The positions of one group's blocks: its local columns, its `n_local^2` local block
+/// and its `n_global x n_local` coupling.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Block {
+    /// The group.
+    pub k: usize,
+    /// Its local columns.
+    pub nl: usize,
+    /// Index of its first local parameter in the parameter vector.
+    pub lo: usize,
+    /// Index of its first local among all locals (`lo - n_global`).
+    pub ls: usize,
+    /// Offset of its local block in the local-block storage.
+    pub vb: usize,
+    /// Offset of its coupling block (row-major `n_global x nl`) in the coupling storage.
+    pub wb: usize,
 }
 
 /// Receives a problem's rows: residual `r`, its derivatives `jg` by the globals and
@@ -143,23 +186,49 @@ impl Normal {
         if i < ng {
             return self.u[i * ng + i];
         }
-        let li = i - ng;
-        let k = self.shape.local_start.partition_point(|&s| s <= li) - 1;
-        let nl = self.shape.n_local(k);
-        let a = li - self.shape.local_start[k];
-        self.v[self.shape.v_start[k] + a * nl + a]
+        let (b, a) = self.shape.locate(i - ng);
+        self.v[b.vb + a * b.nl + a]
     }
 
     /// The whole diagonal of `J^T J`, in O(parameters).
     pub fn diagonal(&self) -> Vec<f64> {
         let ng = self.shape.n_global;
         let mut d: Vec<f64> = (0..ng).map(|i| self.u[i * ng + i]).collect();
-        for k in 0..self.shape.groups() {
-            let nl = self.shape.n_local(k);
-            let vb = self.shape.v_start[k];
-            d.extend((0..nl).map(|a| self.v[vb + a * nl + a]));
+        for b in self.shape.blocks() {
+            d.extend((0..b.nl).map(|a| self.v[b.vb + a * b.nl + a]));
         }
         d
+    }
+
+    /// Holds parameter `i` where it is: its row and column of `J^T J` and its gradient
+    /// become those of a decoupled unit column with zero gradient, so a damped solve
+    /// gives it a zero step and solves for the others as if it were a constant (the
+    /// active set of a bound-constrained step).
+    pub fn hold(&mut self, i: usize) {
+        let s = &self.shape;
+        let ng = s.n_global;
+        self.g[i] = 0.0;
+        if i < ng {
+            for b in 0..ng {
+                self.u[i * ng + b] = 0.0;
+                self.u[b * ng + i] = 0.0;
+            }
+            self.u[i * ng + i] = 1.0;
+            for blk in s.blocks() {
+                self.w[blk.wb + i * blk.nl..blk.wb + (i + 1) * blk.nl].fill(0.0);
+            }
+            return;
+        }
+        let (blk, m) = s.locate(i - ng);
+        let nl = blk.nl;
+        for l in 0..nl {
+            self.v[blk.vb + m * nl + l] = 0.0;
+            self.v[blk.vb + l * nl + m] = 0.0;
+        }
+        self.v[blk.vb + m * nl + m] = 1.0;
+        for a in 0..ng {
+            self.w[blk.wb + a * nl + m] = 0.0;
+        }
     }
 
     /// `x^T (J^T J) x`, in O(parameters x globals).
@@ -173,14 +242,11 @@ impl Normal {
                 q += xg[a] * self.u[a * ng + b] * xg[b];
             }
         }
-        for k in 0..s.groups() {
-            let nl = s.n_local(k);
+        for Block { nl, lo, vb, wb, .. } in s.blocks() {
             if nl == 0 {
                 continue;
             }
-            let xl = &x[s.local_offset(k)..s.local_offset(k) + nl];
-            let wb = ng * s.local_start[k];
-            let vb = s.v_start[k];
+            let xl = &x[lo..lo + nl];
             for a in 0..ng {
                 for l in 0..nl {
                     q += 2.0 * xg[a] * self.w[wb + a * nl + l] * xl[l];
@@ -216,9 +282,7 @@ impl RowSink for Normal {
         if nl == 0 {
             return;
         }
-        let lo = s.local_offset(group);
-        let wb = ng * s.local_start[group];
-        let vb = s.v_start[group];
+        let Block { lo, vb, wb, .. } = s.block(group);
         for l in 0..nl {
             self.g[lo + l] += jl[l] * r;
             for m in 0..nl {
@@ -304,15 +368,13 @@ pub fn solve_damped(n: &Normal, d: &[f64], lambda: f64, ws: &mut Workspace, x: &
         ws.s[a * ng + a] += lambda * d[a];
         x[a] = -n.g[a];
     }
-    for k in 0..s.groups() {
-        let nl = s.n_local(k);
+    for Block {
+        nl, lo, ls, vb, wb, ..
+    } in s.blocks()
+    {
         if nl == 0 {
             continue;
         }
-        let lo = s.local_offset(k);
-        let ls = s.local_start[k];
-        let vb = s.v_start[k];
-        let wb = ng * ls;
         let m = &mut ws.m[..nl * nl];
         m.copy_from_slice(&n.v[vb..vb + nl * nl]);
         for l in 0..nl {
@@ -360,9 +422,7 @@ pub fn solve_damped(n: &Normal, d: &[f64], lambda: f64, ws: &mut Workspace, x: &
     }
     cholesky_solve(&ws.s, ng, &mut x[..ng]);
     let (xg, xl) = x.split_at_mut(ng);
-    for k in 0..s.groups() {
-        let nl = s.n_local(k);
-        let ls = s.local_start[k];
+    for Block { nl, ls, .. } in s.blocks() {
         for l in 0..nl {
             let yrow = &ws.y[(ls + l) * ng..(ls + l + 1) * ng];
             let mut t = ws.yl[ls + l];
@@ -467,15 +527,13 @@ impl ArrowInverse {
         let mut e = vec![0.0; nl_total * ng];
         let mut local_null: Vec<usize> = Vec::new();
         let mut vk = Vec::new();
-        for k in 0..s.groups() {
-            let nl = s.n_local(k);
+        for Block {
+            nl, lo, ls, vb, wb, ..
+        } in s.blocks()
+        {
             if nl == 0 {
                 continue;
             }
-            let lo = s.local_offset(k);
-            let ls = s.local_start[k];
-            let vb = s.v_start[k];
-            let wb = ng * ls;
             vk.clear();
             for l in 0..nl {
                 for m in 0..nl {
@@ -574,12 +632,6 @@ impl ArrowInverse {
         &self.identifiable
     }
 
-    /// Group of local index `li` (parameter `n_global + li`) and its index in the group.
-    fn locate(&self, li: usize) -> (usize, usize) {
-        let k = self.shape.local_start.partition_point(|&s| s <= li) - 1;
-        (k, li - self.shape.local_start[k])
-    }
-
     /// Element `(i, j)` of the inverse (times the factor).
     pub fn get(&self, i: usize, j: usize) -> f64 {
         let ng = self.shape.n_global;
@@ -605,11 +657,10 @@ impl ArrowInverse {
                         t += ei[a] * si(a, b) * ej[b];
                     }
                 }
-                let (ki, ai) = self.locate(li);
-                let (kj, aj) = self.locate(lj);
-                if ki == kj {
-                    let nl = self.shape.n_local(ki);
-                    t += self.v_inv[self.shape.v_start[ki] + ai * nl + aj];
+                let (bi, ai) = self.shape.locate(li);
+                let (bj, aj) = self.shape.locate(lj);
+                if bi.k == bj.k {
+                    t += self.v_inv[bi.vb + ai * bi.nl + aj];
                 }
                 t
             }
@@ -720,6 +771,44 @@ mod tests {
                 let qd =
                     (DVector::from_vec(x.clone()).transpose() * &jtj * DVector::from_vec(x))[0];
                 assert!((q - qd).abs() < 1e-10 * qd.abs().max(1.0));
+            }
+        }
+    }
+
+    #[test]
+    fn held_parameters_get_no_step_and_the_others_the_dense_reduced_solve() {
+        for (seed, ng, locals) in CASES {
+            let p = random_problem(seed, ng, locals);
+            let np = p.shape.n_params();
+            // Hold the first global and the last parameter (a local when there is one).
+            let held = [0, np - 1];
+            let mut n = accumulate(&p);
+            let d = n.diagonal();
+            for &i in &held {
+                n.hold(i);
+            }
+            let free: Vec<usize> = (0..np).filter(|i| !held.contains(i)).collect();
+            let j = DMatrix::from_fn(p.j.nrows(), free.len(), |r, c| p.j[(r, free[c])]);
+            let lambda = 1e-2;
+            let mut a = j.transpose() * &j;
+            for (c, &i) in free.iter().enumerate() {
+                a[(c, c)] += lambda * d[i];
+            }
+            let dense = a.cholesky().unwrap().solve(&(-(j.transpose() * &p.r)));
+            let mut x = vec![f64::NAN; np];
+            assert!(solve_damped(
+                &n,
+                &d,
+                lambda,
+                &mut Workspace::default(),
+                &mut x
+            ));
+            for &i in &held {
+                assert_eq!(x[i], 0.0, "seed {seed}");
+            }
+            let scale = dense.amax().max(1.0);
+            for (c, &i) in free.iter().enumerate() {
+                assert!((x[i] - dense[c]).abs() < 1e-10 * scale, "seed {seed} {i}");
             }
         }
     }

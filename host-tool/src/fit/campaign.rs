@@ -13,6 +13,7 @@ use serde_json::{Value, json};
 use super::family::{Coord, Kind, scalar_coords};
 use super::report::{family_json_text, family_table, scalar};
 use super::{Dataset, FamilyFit, FitOptions, Residual, fit_family};
+use crate::outfile::{self, Target};
 use crate::sweep_file::{looks_like_radians, read_sweep};
 
 /// Why one file could not be fitted.
@@ -180,16 +181,42 @@ pub fn report_names(files: &[CampaignFile], ext: &str) -> Vec<Option<String>> {
         .collect()
 }
 
+/// The summary files of a campaign writing into `dir`.
+pub fn summary_paths(dir: &Path) -> (PathBuf, PathBuf) {
+    (dir.join("summary.csv"), dir.join("summary.json"))
+}
+
+/// Checks before any fitting that the summaries can be written into `dir` (the
+/// reports are checked again as each is written): the rules of [`outfile`], the
+/// sweeps being the inputs.
+pub fn check_outputs(dir: &Path, inputs: &[PathBuf], force: bool) -> Result<(), String> {
+    let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
+    let (csv, js) = summary_paths(dir);
+    for p in [&csv, &js] {
+        outfile::check(Target::new(p, force).inputs(&inputs)).map_err(|e| e.to_string())?;
+    }
+    Ok(())
+}
+
 /// Writes one report per fitted file into `dir` (the `gonio fit` table, or its JSON
-/// with `json`), plus `summary.csv` and `summary.json`. Returns the summary paths.
+/// with `json`), plus `summary.csv` and `summary.json`, each through the one safe
+/// writer ([`outfile`]: existing files only with `force`, never over an input).
+/// Returns the summary paths.
 pub fn write_reports(
     dir: &Path,
     files: &[CampaignFile],
     json: bool,
     residual: &str,
+    force: bool,
 ) -> Result<(PathBuf, PathBuf), String> {
-    let io = |p: &Path, e: std::io::Error| format!("cannot write {}: {e}", p.display());
-    std::fs::create_dir_all(dir).map_err(|e| io(dir, e))?;
+    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    let inputs: Vec<&Path> = files.iter().map(|f| f.path.as_path()).collect();
+    let put = |p: &Path, bytes: &[u8]| {
+        outfile::write(Target::new(p, force).inputs(&inputs), |w| {
+            w.write_all(bytes)
+        })
+        .map_err(|e| e.to_string())
+    };
     let names = report_names(files, if json { "json" } else { "txt" });
     for (f, name) in files.iter().zip(&names) {
         let (Ok(fit), Some(name)) = (&f.outcome, name) else {
@@ -200,15 +227,13 @@ pub fn write_reports(
         } else {
             family_table(&fit.family, residual).into_bytes()
         };
-        let p = dir.join(name);
-        std::fs::write(&p, text).map_err(|e| io(&p, e))?;
+        put(&dir.join(name), &text)?;
     }
-    let csv = dir.join("summary.csv");
-    std::fs::write(&csv, summary_csv(files, &names)).map_err(|e| io(&csv, e))?;
-    let js = dir.join("summary.json");
+    let (csv, js) = summary_paths(dir);
+    put(&csv, summary_csv(files, &names).as_bytes())?;
     let mut s = serde_json::to_string_pretty(&summary_json(files, &names)).expect("JSON");
     s.push('\n');
-    std::fs::write(&js, s).map_err(|e| io(&js, e))?;
+    put(&js, s.as_bytes())?;
     Ok((csv, js))
 }
 
@@ -419,7 +444,7 @@ mod tests {
         };
         assert!((sigma(0) / 0.115 - 1.0).abs() < 0.02);
         assert!((sigma(1) / 0.070 - 1.0).abs() < 0.02);
-        let (csv, js) = write_reports(&dir.join("out"), &files, false, "log").unwrap();
+        let (csv, js) = write_reports(&dir.join("out"), &files, false, "log", false).unwrap();
         let text = std::fs::read_to_string(csv).unwrap();
         let lines: Vec<&str> = text.lines().collect();
         assert_eq!(lines.len(), 6);
@@ -437,6 +462,16 @@ mod tests {
             (Some(3), Some(2))
         );
         assert!(v["files"][0]["params"]["sigma"]["se"].as_f64().unwrap() > 0.0);
+        // The safe writer's rules: existing reports only with force.
+        let again = write_reports(&dir.join("out"), &files, false, "log", false).unwrap_err();
+        assert!(
+            again.contains("exists") && again.contains("--force"),
+            "{again}"
+        );
+        let inputs: Vec<PathBuf> = files.iter().map(|f| f.path.clone()).collect();
+        assert!(check_outputs(&dir.join("out"), &inputs, false).is_err());
+        assert!(check_outputs(&dir.join("out"), &inputs, true).is_ok());
+        write_reports(&dir.join("out"), &files, false, "log", true).unwrap();
         let _ = std::fs::remove_dir_all(&dir);
         assert!(expand_inputs(&[std::env::temp_dir().join("gonio-no-such-dir-x")]).is_ok());
     }

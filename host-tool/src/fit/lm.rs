@@ -98,6 +98,89 @@ fn update_scale(d: &mut [f64], diag: &[f64]) {
     }
 }
 
+/// Storage of [`bounded_step`].
+struct BoundedScratch {
+    held: Vec<usize>,
+    masked: Normal,
+    full: Vec<f64>,
+    ws: Workspace,
+}
+
+/// Projects `x + step` onto the bounds into `trial`; returns the indices it moved.
+fn project_step<P: ArrowProblem>(
+    p: &P,
+    x: &[f64],
+    step: &[f64],
+    full: &mut [f64],
+    trial: &mut [f64],
+) {
+    for i in 0..x.len() {
+        full[i] = x[i] + step[i];
+        trial[i] = full[i];
+    }
+    p.project(trial);
+}
+
+/// Re-solves the damped step with the parameters in `held` kept where they are.
+#[allow(clippy::too_many_arguments)]
+fn held_step<P: ArrowProblem>(
+    p: &P,
+    normal: &Normal,
+    bs: &mut BoundedScratch,
+    dscale: &[f64],
+    lambda: f64,
+    x: &[f64],
+    step: &mut [f64],
+    trial: &mut [f64],
+) {
+    bs.masked.clone_from(normal);
+    for &i in &bs.held {
+        bs.masked.hold(i);
+    }
+    if solve_damped(&bs.masked, dscale, lambda, &mut bs.ws, step) {
+        for &i in &bs.held {
+            step[i] = 0.0;
+        }
+        project_step(p, x, step, &mut bs.full, trial);
+    }
+}
+
+/// The damped step already in `step`, made feasible: `trial` = the new point within
+/// the bounds, `step` = `trial - x`; returns the reduction of the cost the linear
+/// model predicts for it.
+///
+/// A parameter at its bound that the step pushes outwards is held there and the step
+/// solved again for the others (an active set): projecting the full step instead
+/// bends the others' steps through the coupling and stalls the iteration at a bound.
+#[allow(clippy::too_many_arguments)]
+fn bounded_step<P: ArrowProblem>(
+    p: &P,
+    normal: &Normal,
+    bs: &mut BoundedScratch,
+    dscale: &[f64],
+    lambda: f64,
+    x: &[f64],
+    step: &mut [f64],
+    trial: &mut [f64],
+) -> f64 {
+    let np = x.len();
+    project_step(p, x, step, &mut bs.full, trial);
+    bs.held.clear();
+    bs.held
+        .extend((0..np).filter(|&i| trial[i] == x[i] && step[i] != 0.0));
+    if !bs.held.is_empty() {
+        held_step(p, normal, bs, dscale, lambda, x, step, trial);
+    }
+    let predicted_of = |step: &[f64]| {
+        let gs: f64 = step.iter().zip(normal.gradient()).map(|(s, g)| s * g).sum();
+        -2.0 * gs - normal.quad(step)
+    };
+    for i in 0..np {
+        step[i] = trial[i] - x[i];
+    }
+    predicted_of(step)
+}
+
 /// Minimises the sum of squared residuals of `p` from `x0`.
 pub fn minimize<P: ArrowProblem>(p: &mut P, x0: &[f64], opts: &LmOptions) -> LmReport {
     let shape = p.shape().clone();
@@ -127,6 +210,12 @@ pub fn minimize<P: ArrowProblem>(p: &mut P, x0: &[f64], opts: &LmOptions) -> LmR
     let mut ws = Workspace::default();
     let mut step = vec![0.0; np];
     let mut trial = vec![0.0; np];
+    let mut bs = BoundedScratch {
+        held: Vec::new(),
+        masked: normal.clone(),
+        full: vec![0.0; np],
+        ws: Workspace::default(),
+    };
     let mut cost = normal.cost();
     let mut termination = Termination::MaxIterations;
     let mut iterations = 0;
@@ -155,16 +244,9 @@ pub fn minimize<P: ArrowProblem>(p: &mut P, x0: &[f64], opts: &LmOptions) -> LmR
             }
             continue;
         }
-        for i in 0..np {
-            trial[i] = x[i] + step[i];
-        }
-        p.project(&mut trial);
-        for i in 0..np {
-            step[i] = trial[i] - x[i];
-        }
-        // Predicted reduction of |r + J s|^2, and the scaled step and parameters.
-        let gs: f64 = step.iter().zip(normal.gradient()).map(|(s, g)| s * g).sum();
-        let predicted = -2.0 * gs - normal.quad(&step);
+        let predicted = bounded_step(
+            p, &normal, &mut bs, &dscale, lambda, &x, &mut step, &mut trial,
+        );
         let snorm = step
             .iter()
             .zip(&dscale)

@@ -60,7 +60,9 @@ pub struct Layout {
     pub member: Member,
     /// ln sigma of the core lobe.
     pub sigma: Option<usize>,
-    /// ln sigma of the haze lobe.
+    /// ln sigma of the haze lobe; with a core lobe, ln(sigma_haze / sigma), at least
+    /// ln [`HAZE_OVER_CORE`] (a box bound that keeps the lobes' roles: without it the
+    /// two lobes can merge on data with one lobe, a flat valley LM crawls along).
     pub sigma_haze: Option<usize>,
     /// ln sigma_m.
     pub sigma_m: Option<usize>,
@@ -142,10 +144,27 @@ impl Layout {
         self.n_global + j * self.n_local() + usize::from(haze && self.core_local)
     }
 
+    /// The haze width is a ratio to the core's (see [`Layout::sigma_haze`]).
+    pub fn haze_ratio(&self) -> bool {
+        self.sigma.is_some() && self.sigma_haze.is_some()
+    }
+
+    /// ln sigma_haze at `x`.
+    pub fn ln_sigma_haze(&self, x: &[f64]) -> Option<f64> {
+        let h = x[self.sigma_haze?];
+        Some(if self.haze_ratio() {
+            h + x[self.sigma.unwrap_or(0)]
+        } else {
+            h
+        })
+    }
+
     /// Box bounds of parameter `i` (log coordinates; smooth c1, c2 plain).
     pub fn bounds(&self, i: usize) -> (f64, f64) {
         let poly = |p: Option<usize>| p.is_some_and(|p| i > p && i < p + 3);
-        if Some(i) == self.sigma || Some(i) == self.sigma_haze {
+        if Some(i) == self.sigma_haze && self.haze_ratio() {
+            (HAZE_OVER_CORE.ln(), (20.0f64 / 1e-4).ln())
+        } else if Some(i) == self.sigma || Some(i) == self.sigma_haze {
             (1e-4f64.ln(), 20f64.ln())
         } else if Some(i) == self.sigma_m {
             (1e-3f64.ln(), 20f64.ln())
@@ -158,7 +177,7 @@ impl Layout {
 
     /// The member's parameters at incidence `j` from the vector `x`.
     pub fn params(&self, x: &[f64], j: usize) -> MemberParams<f64> {
-        let lobe = |spec: LobeSpec, sigma: usize, poly: Option<usize>, haze: bool| LobeParams {
+        let lobe = |spec: LobeSpec, ln_sigma: f64, poly: Option<usize>, haze: bool| LobeParams {
             dist: spec.dist,
             ks: match poly {
                 Some(p) => Ks::Smooth(SmoothKs {
@@ -166,17 +185,21 @@ impl Layout {
                 }),
                 None => Ks::PerIncidence(x[self.local(j, haze)].exp()),
             },
-            sigma: x[sigma].exp(),
+            sigma: ln_sigma.exp(),
         };
         MemberParams {
             core: self
                 .member
                 .core
-                .map(|s| lobe(s, self.sigma.unwrap_or(0), self.core_poly, false)),
-            haze: self
-                .member
-                .haze
-                .map(|s| lobe(s, self.sigma_haze.unwrap_or(0), self.haze_poly, true)),
+                .map(|s| lobe(s, x[self.sigma.unwrap_or(0)], self.core_poly, false)),
+            haze: self.member.haze.map(|s| {
+                lobe(
+                    s,
+                    self.ln_sigma_haze(x).unwrap_or(0.0),
+                    self.haze_poly,
+                    true,
+                )
+            }),
             directional: self.member.directional.then(|| DirectionalParams {
                 kdd: x[self.kdd.unwrap_or(0)].exp(),
                 sigma_m: x[self.sigma_m.unwrap_or(0)].exp(),
@@ -193,12 +216,40 @@ impl Layout {
     }
 }
 
+/// The residual of every reading, with ln y computed once (the log residual's
+/// logarithms are half of a cost evaluation otherwise).
+struct Residuals {
+    kind: Residual,
+    /// ln y per reading (log residuals only).
+    ln_y: Vec<f64>,
+}
+
+impl Residuals {
+    fn new(data: &Dataset, kind: Residual) -> Self {
+        let ln_y = match kind {
+            Residual::Log => data.obs.iter().map(|o| o.y.ln()).collect(),
+            _ => Vec::new(),
+        };
+        Residuals { kind, ln_y }
+    }
+
+    /// The residual of model value `f` at reading `k` (value `y`).
+    #[inline]
+    fn of(&self, f: f64, k: usize, y: f64) -> f64 {
+        match self.kind {
+            Residual::Log => f.max(1e-300).ln() - self.ln_y[k],
+            kind => residual_of(kind, f, y),
+        }
+    }
+}
+
 /// One member's least-squares problem in arrow form.
 struct Problem<'a> {
     data: &'a Dataset,
     layout: Layout,
     shape: Shape,
     residual: Residual,
+    resid: &'a Residuals,
     aperture: Option<f64>,
 }
 
@@ -247,8 +298,8 @@ impl ArrowProblem for Problem<'_> {
     fn cost(&mut self, x: &[f64]) -> Option<f64> {
         let models = self.layout.models(x)?;
         let mut c = 0.0;
-        for o in &self.data.obs {
-            let r = residual_of(self.residual, self.value(&models[o.inc], o)?, o.y);
+        for (k, o) in self.data.obs.iter().enumerate() {
+            let r = self.resid.of(self.value(&models[o.inc], o)?, k, o.y);
             c += r * r;
         }
         Some(c)
@@ -277,7 +328,13 @@ impl ArrowProblem for Problem<'_> {
                         jg[i] = scale * v;
                     }
                 };
-                set(l.sigma, g.core.ln_sigma);
+                // With the haze's width a ratio to the core's, the core's width moves both.
+                let core_sigma = if l.haze_ratio() {
+                    g.core.ln_sigma + g.haze.ln_sigma
+                } else {
+                    g.core.ln_sigma
+                };
+                set(l.sigma, core_sigma);
                 set(l.sigma_haze, g.haze.ln_sigma);
                 set(l.sigma_m, g.ln_sigma_m);
                 set(l.kdd, g.ln_kdd);
@@ -298,7 +355,7 @@ impl ArrowProblem for Problem<'_> {
                     jl[n] = scale * g.haze.ln_ks;
                     n += 1;
                 }
-                let r = residual_of(self.residual, e.f, o.y);
+                let r = self.resid.of(e.f, k, o.y);
                 sink.row(j, r, &jg, &jl[..n]);
             }
         }
@@ -373,9 +430,17 @@ impl MemberFit {
         self.layout.sigma.map(|i| self.natural(i))
     }
 
-    /// The haze lobe's sigma and its standard error.
+    /// The haze lobe's sigma and its standard error (delta method; with a core lobe
+    /// from the variances of ln sigma and the log ratio and their covariance).
     pub fn sigma_haze(&self) -> Option<(f64, Option<f64>)> {
-        self.layout.sigma_haze.map(|i| self.natural(i))
+        let h = self.layout.sigma_haze?;
+        let v = self.layout.ln_sigma_haze(&self.x)?.exp();
+        let se = match self.layout.sigma.filter(|_| self.layout.haze_ratio()) {
+            None => self.identifiable[h].then(|| self.cov.get(h, h)),
+            Some(c) => (self.identifiable[h] && self.identifiable[c])
+                .then(|| self.cov.get(h, h) + self.cov.get(c, c) + 2.0 * self.cov.get(h, c)),
+        };
+        Some((v, se.map(|var| v * var.max(0.0).sqrt())))
     }
 
     /// The fitted model at any incidence (degrees): per-incidence k_s interpolated
@@ -448,7 +513,7 @@ fn unit_lobe(dist: Distribution, sigma: f64) -> MemberParams<f64> {
 #[allow(clippy::type_complexity)]
 fn amplitudes(
     data: &Dataset,
-    residual: Residual,
+    residual: &Residuals,
     lobes: [Option<&[f64]>; 2],
     dd: Option<&[f64]>,
     ideal: bool,
@@ -457,32 +522,40 @@ fn amplitudes(
     let nl = lobes.iter().filter(|l| l.is_some()).count();
     let ng = usize::from(dd.is_some()) + usize::from(ideal);
     let shape = Shape::new(ng, (0..n_inc).map(|_| nl));
+    // The normal equations once; each pass of the active set holds the columns it
+    // removed at zero (the same as zeroing them in J) on a copy.
+    let mut normal = Normal::new(shape.clone());
+    for j in 0..n_inc {
+        let base = shape.local_offset(j);
+        debug_assert_eq!(base, ng + j * nl);
+        for &k in data.rows_of(j) {
+            let o = &data.obs[k];
+            let w = if o.y > 0.0 { 1.0 / o.y } else { 1.0 };
+            let mut jg = [0.0; 2];
+            let mut c = 0;
+            if let Some(b) = dd {
+                jg[c] = b[k] * w;
+                c += 1;
+            }
+            if ideal {
+                jg[c] = w;
+            }
+            let mut jl = [0.0; 2];
+            for (s, b) in lobes.iter().flatten().enumerate() {
+                jl[s] = b[k] * w;
+            }
+            normal.row(j, -o.y * w, &jg[..ng], &jl[..nl]);
+        }
+    }
     let mut off = vec![false; shape.n_params()];
     let mut sol = vec![0.0; shape.n_params()];
+    let mut held = normal.clone();
     for _ in 0..4 {
-        let mut normal = Normal::new(shape.clone());
-        for j in 0..n_inc {
-            for &k in data.rows_of(j) {
-                let o = &data.obs[k];
-                let w = if o.y > 0.0 { 1.0 / o.y } else { 1.0 };
-                let mut jg = [0.0; 2];
-                let mut c = 0;
-                if let Some(b) = dd {
-                    jg[c] = if off[c] { 0.0 } else { b[k] * w };
-                    c += 1;
-                }
-                if ideal {
-                    jg[c] = if off[c] { 0.0 } else { w };
-                }
-                let mut jl = [0.0; 2];
-                let base = shape.local_offset(j);
-                for (s, b) in lobes.iter().flatten().enumerate() {
-                    jl[s] = if off[base + s] { 0.0 } else { b[k] * w };
-                }
-                normal.row(j, -o.y * w, &jg[..ng], &jl[..nl]);
-            }
+        held.clone_from(&normal);
+        for (i, _) in off.iter().enumerate().filter(|(_, o)| **o) {
+            held.hold(i);
         }
-        sol = solve_linear(&normal)?;
+        sol = solve_linear(&held)?;
         let mut changed = false;
         for (v, o) in sol.iter_mut().zip(off.iter_mut()) {
             if *o || *v < 0.0 {
@@ -530,7 +603,7 @@ fn amplitudes(
                 f += ks[o.inc][slot] * b[k];
             }
         }
-        let r = residual_of(residual, f, o.y);
+        let r = residual.of(f, k, o.y);
         cost += r * r;
     }
     Some((ks, kdd, kid, cost))
@@ -590,7 +663,10 @@ pub fn fit_member(
     } else {
         vec![(1.0, Vec::new())]
     };
-    let mut starts: Vec<(f64, Vec<f64>)> = Vec::new();
+    let resid = Residuals::new(data, residual);
+    // Every grid point's cost and amplitudes; start vectors only for the best.
+    type Start = (f64, [f64; 2], f64, Vec<[f64; 2]>, f64, f64);
+    let mut starts: Vec<Start> = Vec::new();
     for (sc, bc) in &cores {
         for (sh, bh) in &hazes {
             if member.haze.is_some() && *sh < HAZE_OVER_CORE * sc {
@@ -602,13 +678,16 @@ pub fn fit_member(
                     member.haze.map(|_| bh.as_slice()),
                 ];
                 let dd = member.directional.then_some(bd.as_slice());
-                let Some((ks, kdd, kid, cost)) =
-                    amplitudes(data, residual, lobes, dd, member.ideal)
+                let Some((ks, kdd, kid, cost)) = amplitudes(data, &resid, lobes, dd, member.ideal)
                 else {
                     continue;
                 };
-                if let Some(x) = start_vector(data, &layout, [*sc, *sh], *sm, &ks, kdd, kid) {
-                    starts.push((cost, x));
+                starts.push((cost, [*sc, *sh], *sm, ks, kdd, kid));
+                // Only the best few are ever refined: memory O(incidences), not
+                // O(grid points x incidences) (a spare in case a start vector fails).
+                if starts.len() > 2 * REFINED {
+                    starts.sort_by(|a, b| a.0.total_cmp(&b.0));
+                    starts.truncate(REFINED + 1);
                 }
             }
         }
@@ -621,9 +700,16 @@ pub fn fit_member(
         shape: layout.shape(),
         layout: layout.clone(),
         residual,
+        resid: &resid,
         aperture,
     };
-    for (_, x0) in starts.into_iter().take(REFINED) {
+    let x0s = starts
+        .iter()
+        .filter_map(|(_, sig, sm, ks, kdd, kid)| {
+            start_vector(data, &layout, *sig, *sm, ks, *kdd, *kid)
+        })
+        .take(REFINED);
+    for x0 in x0s {
         let rep = minimize(&mut p, &x0, &lm);
         if rep.cost.is_finite() && best.as_ref().is_none_or(|b| rep.cost < b.0) {
             best = Some((rep.cost, rep.x, rep.normal, rep.termination.converged()));
@@ -675,7 +761,14 @@ fn start_vector(
         }
     };
     put(l.sigma, sigmas[0]);
-    put(l.sigma_haze, sigmas[1]);
+    put(
+        l.sigma_haze,
+        if l.haze_ratio() {
+            sigmas[1] / sigmas[0]
+        } else {
+            sigmas[1]
+        },
+    );
     put(l.sigma_m, sigma_m);
     put(l.kdd, kdd);
     put(l.kid, kid);

@@ -256,7 +256,7 @@ fn residuals_export_has_one_row_per_reading_in_file_order() {
     ]);
     assert!(!out.ok());
     assert!(
-        out.stderr.contains("three-component was not fitted"),
+        out.stderr.contains("three-component") && out.stderr.contains("was not fitted"),
         "{}",
         out.stderr
     );

@@ -6,14 +6,13 @@ use std::path::PathBuf;
 
 use brdf_core::Preset;
 use brdf_core::protocol::MAX_PLAN_POINTS;
-use clap::builder::PossibleValue;
-use clap::{Args, ValueEnum};
+use clap::Args;
 
 use super::error::{CliError, CliResult};
 use crate::capture::{DEFAULT_ADAPTIVE_BUDGET, HostPlan, SettingsOverride};
 use crate::device::SimConfig;
 use crate::export::ExportFormat;
-use crate::fit::{Kind, Loss};
+use crate::fit::Loss;
 
 /// Which plan to run; shared by `capture`, `simulate` and `demo`.
 #[derive(Debug, Clone, Args)]
@@ -179,46 +178,6 @@ pub fn sim_config(material: &str, noise: f32, seed: u32) -> CliResult<SimConfig>
         )));
     }
     Ok(SimConfig::new(preset, noise, seed))
-}
-
-/// A model on the command line (`fit --models`, `fit --export-model`): its name and
-/// help come from the vocabulary table, [`Kind::names`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct ModelArg(pub Kind);
-
-impl ValueEnum for ModelArg {
-    fn value_variants<'a>() -> &'a [Self] {
-        const ALL: [ModelArg; 4] = [
-            ModelArg(Kind::ALL[0]),
-            ModelArg(Kind::ALL[1]),
-            ModelArg(Kind::ALL[2]),
-            ModelArg(Kind::ALL[3]),
-        ];
-        &ALL
-    }
-
-    fn to_possible_value(&self) -> Option<PossibleValue> {
-        let n = self.0.names();
-        Some(PossibleValue::new(n.cli).help(n.help))
-    }
-}
-
-/// The models `gonio eval` evaluates (three-component, Torrance–Sparrow), named as in
-/// [`ModelArg`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct EvalModel(pub Kind);
-
-impl ValueEnum for EvalModel {
-    fn value_variants<'a>() -> &'a [Self] {
-        &[
-            EvalModel(Kind::ThreeComponent),
-            EvalModel(Kind::TorranceSparrow),
-        ]
-    }
-
-    fn to_possible_value(&self) -> Option<PossibleValue> {
-        ModelArg(self.0).to_possible_value()
-    }
 }
 
 /// Longest timeout a command accepts (`info --timeout`, `capture --event-timeout`), s.

@@ -5,7 +5,9 @@ use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
 
-use super::args::{ModelArg, parse_export, parse_loss};
+use brdf_core::member::Member;
+
+use super::args::{parse_export, parse_loss};
 use super::error::{CliError, CliResult};
 use super::output::write_stdout;
 use crate::export::ExportFormat;
@@ -29,24 +31,38 @@ pub enum ResidualArg {
 /// `gonio fit`.
 #[derive(Debug, Args)]
 #[command(
-    about = "Fit the BRDF models to a sweep file",
-    long_about = "Fit the nested family of models to a sweep file - ideal diffuse only; Torrance–Sparrow \
-(k_s(theta_i) f_s + k_d); the three-component model with one k_s per incidence (as the paper fits it); and the \
-three-component model with a smooth k_s(theta_i) - by Levenberg–Marquardt with an analytic Jacobian and \
-deterministic multi-start, then select by AICc (BIC reported too) and say which components the data support.\n\n\
-Models are members of one lattice of components (specular, specular-haze, directional-diffuse, ideal-diffuse). \
-A component is called supported only when the two models that differ in it alone favour it by AICc (by more \
-than 2) AND its amplitude is determined (standard error under a third of the value); otherwise the report says \
-it is absent and the selected model leaves it out. Directional diffuse: three-component vs Torrance–Sparrow. \
-Haze: three-component with and without a second specular lobe, both searched on a log-spaced width grid \
-(core sigma 0.002..1, haze 0.02..2; amplitudes solved linearly at every grid point) so a lobe one reading step \
-wide is found.\n\n\
-Every parameter is fitted as its logarithm (positive by construction); standard errors come from the covariance \
-at the optimum. The RMSE table is the paper's Table 3: per incidence, curves normalised to their value at \
-theta_r = theta_i, or at the nearest reading when there is none there (marked *). Angles in degrees, sigma_m in radians, BRDF in the file's relative units.",
+    about = "Fit the BRDF model family to a sweep file",
+    long_about = "Fit a family of BRDF models to a sweep file and say which components the data support.\n\n\
+The family is built from four components: specular (the paper's lobe, eq. 3-4), specular-haze (a second, wider \
+lobe with its own width), directional-diffuse (eq. 5) and ideal-diffuse (eq. 6); each lobe Beckmann or GGX \
+(Trowbridge–Reitz), its k_s one value per incidence or a smooth k_s(theta_i). The paper's members keep their \
+names (ideal-diffuse, torrance-sparrow, three-component, three-component-smooth-ks); the others are named by \
+their components, e.g. specular:ggx+specular-haze+ideal-diffuse.\n\n\
+The default does not fit every combination. It fits what is needed to decide: first every component set with \
+the ideal diffuse and the paper's lobe (ideal-diffuse, directional-diffuse+ideal-diffuse, torrance-sparrow, \
+three-component, and both with a haze lobe) plus three-component-smooth-ks; then, for the component set \
+selected, the lobe variants (Beckmann or GGX, k_s per incidence or smooth). --models fits exactly the members \
+named.\n\n\
+Selection: a component is supported only when the comparison that adds that component alone favours it by AICc \
+(by more than 2) AND its amplitude is determined (not at its bound, standard error under a third of the value; \
+one k_s per incidence counts as one amplitude). The selected model is the lowest-AICc member whose every \
+component is supported; BIC's choice by the same rule is reported when it differs. When the sweep has std and n \
+columns (gonio's captures do), the reduced chi-square against the readings' noise says whether a member fits \
+within it, and the report says so plainly when none does.\n\n\
+Each member is fitted on a log-spaced grid of lobe widths with its amplitudes solved linearly (non-negative) at \
+every grid point, so a lobe one reading step wide is found, then refined by Levenberg–Marquardt with an \
+analytic Jacobian; members are fitted in parallel. With --fix or a robust --loss only the paper's four models \
+are fitted, from multi-start Levenberg–Marquardt. Every parameter is fitted as its logarithm; standard errors \
+come from the covariance at the optimum.\n\n\
+--aperture (or a `# aperture: DEG` line in the sweep) averages each model over the detector's acceptance cone \
+before comparing, so widths are the surface's. The RMSE table is the paper's Table 3: per incidence, curves \
+normalised to their value at theta_r = theta_i, or at the nearest reading when there is none there (marked *). \
+Angles in degrees, sigma_m in radians, BRDF in the file's units.",
     after_help = "Examples:\n  gonio fit fe.csv\n  gonio fit fe.csv --json > fe-fit.json\n  \
 gonio fit fe.csv --plot plots/ --export merl=fe.binary --export json=fe-params.json\n  \
 gonio fit fe.csv --fix sigma_m=0.7 --fix kdd=900 --loss cauchy:0.05\n  \
+gonio fit metal.csv --models torrance-sparrow,specular:ggx+specular-haze+ideal-diffuse --aperture 0.5\n  \
+gonio fit metal.csv --export residuals=metal-residuals.csv\n  \
 gonio fit sweeps/ extra.csv --out reports/   (a campaign: reports/summary.csv)"
 )]
 pub struct FitArgs {
@@ -75,9 +91,11 @@ pub struct FitArgs {
     /// device, a symlink or a directory).
     #[arg(long)]
     pub force: bool,
-    /// Which fitted model to export [default: the selected one].
-    #[arg(long = "export-model", value_enum, value_name = "MODEL")]
-    pub export_model: Option<ModelArg>,
+    /// Which fitted model to export [default: the selected one]: a name as --models
+    /// takes. json, merl and csv exports take the paper's four models; residuals any
+    /// fitted member.
+    #[arg(long = "export-model", value_name = "MODEL", value_parser = parse_member)]
+    pub export_model: Option<Member>,
     /// Residuals to minimise.
     #[arg(long, value_enum, default_value_t = ResidualArg::Log)]
     pub residual: ResidualArg,
@@ -89,9 +107,38 @@ pub struct FitArgs {
     /// Repeatable.
     #[arg(long = "fix", value_name = "NAME=VALUE")]
     pub fix: Vec<String>,
-    /// Models to fit, comma-separated [default: all].
-    #[arg(long, value_enum, value_delimiter = ',', value_name = "MODELS")]
-    pub models: Vec<ModelArg>,
+    /// Members to fit instead of the default family, comma-separated: the paper's names
+    /// (ideal-diffuse, torrance-sparrow, three-component, three-component-smooth-ks, or
+    /// their short forms ideal, ts, three, three-smooth) or systematic names, components
+    /// joined by '+' (specular, specular-haze, directional-diffuse, ideal-diffuse), a
+    /// lobe optionally with :beckmann or :ggx and :smooth-ks, e.g.
+    /// specular:ggx+specular-haze+ideal-diffuse.
+    #[arg(long, value_delimiter = ',', value_name = "MODELS", value_parser = parse_member)]
+    pub models: Vec<Member>,
+    /// The detector's acceptance half-angle in degrees (0 to 10): every model is
+    /// averaged over the detector's cone before it is compared with the readings, so
+    /// the widths are the surface's. Overrides the sweep's `# aperture:` line; 0 turns
+    /// it off.
+    #[arg(long, value_name = "DEG", value_parser = parse_aperture_arg)]
+    pub aperture: Option<Aperture>,
+}
+
+/// `--aperture`'s value: a half-angle, or 0 (a point detector).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Aperture(pub Option<f64>);
+
+fn parse_aperture_arg(s: &str) -> Result<Aperture, String> {
+    fit::data::parse_aperture(s).map(Aperture)
+}
+
+/// A member name on the command line: a paper name, its short form, or a systematic
+/// name (see [`Member::parse`]).
+pub fn parse_member(s: &str) -> Result<Member, String> {
+    let t = s.trim();
+    if let Some(k) = Kind::from_cli_name(t) {
+        return Ok(k.member());
+    }
+    Member::parse(t).map_err(|e| format!("'{}': {e}", crate::text::escape_line(s, 60)))
 }
 
 /// The fit options and models from the command line.
@@ -111,12 +158,24 @@ pub fn options(args: &FitArgs) -> CliResult<(FitOptions, Vec<Kind>)> {
         fixed,
         ..FitOptions::default()
     };
+    let mut opts = opts;
+    if let Some(a) = args.aperture {
+        opts.aperture = a.0;
+    }
+    if args.aperture.is_some() && (opts.loss != Loss::L2 || opts.fixed != Fixed::default()) {
+        return Err(CliError::usage(
+            "--aperture cannot be combined with --fix or a robust --loss",
+        ));
+    }
     let kinds = if args.models.is_empty() {
         Kind::ALL.to_vec()
     } else {
-        let mut k: Vec<Kind> = args.models.iter().map(|m| m.0).collect();
-        k.sort();
-        k.dedup();
+        let mut m = args.models.clone();
+        m.sort();
+        m.dedup();
+        // The paper's kinds among them, for the older interface (Python).
+        let k: Vec<Kind> = m.iter().filter_map(|&m| fit::paper::kind_of(m)).collect();
+        opts.members = Some(m);
         k
     };
     Ok((opts, kinds))
@@ -222,7 +281,11 @@ pub fn run(args: &FitArgs) -> CliResult {
         return run_campaign(args, &opts, &kinds);
     }
     let sweep = args.sweeps[0].as_path();
-    let (data, warnings) = campaign::read_data(sweep, &opts).map_err(file_error)?;
+    let (mut data, warnings) = campaign::read_data(sweep, &opts).map_err(file_error)?;
+    if let Some(a) = args.aperture {
+        // --aperture wins over the file's line; 0 turns it off.
+        data.aperture = a.0;
+    }
     for w in &warnings {
         eprintln!("gonio: warning: {w}");
     }
@@ -242,14 +305,22 @@ pub fn run(args: &FitArgs) -> CliResult {
     if let Some(dir) = &args.plot {
         plot::write_plots(dir, &data, &fam, args.force)?;
     }
-    let kind = args.export_model.map_or(fam.selected, |m| m.0);
+    let member = args.export_model.unwrap_or(fam.selected_member);
     for (format, path) in &args.export {
         let target = Target::new(path, args.force).inputs(&inputs);
         match format {
             ExportFormat::Residuals => {
-                export::write_residuals(target, &data, &fam, kind, opts.residual)?;
+                export::write_residuals(target, &data, &fam, member, opts.residual)?;
             }
-            _ => export::write_export(*format, target, &fam, kind)?,
+            _ => {
+                let kind = fit::paper::kind_of(member).ok_or_else(|| {
+                    CliError::usage(format!(
+                        "--export {}: exports only the paper's four models so far, and {member} is not one; choose one with --export-model (e.g. three-component)",
+                        format.name()
+                    ))
+                })?;
+                export::write_export(*format, target, &fam, kind)?
+            }
         }
     }
     let text = if args.json {

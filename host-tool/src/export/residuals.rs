@@ -4,7 +4,9 @@
 use std::io::{self, Write};
 
 use super::{ExportError, write_atomic};
-use crate::fit::{Dataset, FamilyFit, Fit, Kind, Residual};
+use brdf_core::member::Member;
+
+use crate::fit::{Dataset, FamilyFit, Residual, goodness};
 use crate::outfile::Target;
 
 /// The residual of a reading in the fit's kind (as [`Residual`] defines it: ln f - ln y,
@@ -26,29 +28,47 @@ fn residual_words(kind: Residual) -> &'static str {
 }
 
 /// Writes `theta_i,theta_r,measured,fitted,residual` for every reading of `data`, in
-/// its order, predicted by the fitted model `kind` (see [`super::write_export`] for the
-/// errors). A reading the model cannot be evaluated at gets empty `fitted` and
-/// `residual` fields. Values in their shortest exact (round-trip) form.
+/// its order, with the fitted member `member`'s value as the fit compared it (the
+/// reading's own incidence's k_s, averaged over the detector aperture if the fit was).
+/// A member that was not fitted is [`ExportError::NotFitted`]. A reading the model
+/// cannot be evaluated at gets empty `fitted` and `residual` fields. Values in their
+/// shortest exact (round-trip) form.
 pub fn write_residuals(
     target: Target<'_>,
     data: &Dataset,
     fam: &FamilyFit,
-    kind: Kind,
+    member: Member,
     residual: Residual,
 ) -> Result<(), ExportError> {
-    let fit = super::fitted(fam, kind)?;
-    write_atomic(target, |mut w| write_rows(&mut w, data, fam, fit, residual))
+    let fitted = match (fam.member(member), crate::fit::paper::kind_of(member)) {
+        (Some(m), _) => goodness::member_fitted(m, data),
+        (None, Some(k)) => goodness::kind_fitted(super::fitted(fam, k)?, data),
+        (None, None) => {
+            let names: Vec<String> = fam
+                .candidates
+                .iter()
+                .map(|c| c.member.to_string())
+                .collect();
+            return Err(ExportError::NotFitted(format!(
+                "model {member} was not fitted; fitted models: {}",
+                names.join(", ")
+            )));
+        }
+    };
+    write_atomic(target, |mut w| {
+        write_rows(&mut w, data, member, &fitted, residual)
+    })
 }
 
 fn write_rows(
     w: &mut impl Write,
     data: &Dataset,
-    fam: &FamilyFit,
-    fit: &Fit,
+    member: Member,
+    fitted: &[Option<f64>],
     residual: Residual,
 ) -> io::Result<()> {
     writeln!(w, "# gonio residuals v1")?;
-    writeln!(w, "# model: {}", fit.kind.name())?;
+    writeln!(w, "# model: {member}")?;
     writeln!(
         w,
         "# residual: {} (the fit's residual kind)",
@@ -59,8 +79,8 @@ fn write_rows(
         "# units: angles in degrees (theta_r signed, positive on the specular side), measured and fitted in the sweep's brdf units"
     )?;
     writeln!(w, "theta_i,theta_r,measured,fitted,residual")?;
-    for o in &data.obs {
-        match fit.predict(&fam.incidences, o.theta_i, o.theta_r) {
+    for (o, f) in data.obs.iter().zip(fitted) {
+        match f {
             Some(f) => writeln!(
                 w,
                 "{},{},{},{},{}",
@@ -68,7 +88,7 @@ fn write_rows(
                 o.theta_r,
                 o.y,
                 f,
-                residual_value(residual, f, o.y)
+                residual_value(residual, *f, o.y)
             )?,
             None => writeln!(w, "{},{},{},,", o.theta_i, o.theta_r, o.y)?,
         }

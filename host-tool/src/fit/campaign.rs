@@ -63,8 +63,12 @@ pub fn read_data(path: &Path, opts: &FitOptions) -> Result<(Dataset, Vec<String>
             path.display()
         ));
     }
-    let data = Dataset::from_rows(&sweep.rows, opts.residual != Residual::Absolute)
+    let mut data = Dataset::from_rows(&sweep.rows, opts.residual != Residual::Absolute)
         .map_err(|e| FileError::Input(format!("{}: {}", path.display(), e.0)))?;
+    if let Some(a) = sweep.meta.get("aperture") {
+        data.aperture = super::data::parse_aperture(a)
+            .map_err(|e| FileError::Input(format!("{}: # aperture: {e}", path.display())))?;
+    }
     Ok((data, warnings))
 }
 

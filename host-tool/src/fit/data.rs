@@ -62,6 +62,9 @@ pub struct Observation {
     pub inc: usize,
     /// Parameter-independent geometry of the point.
     pub geom: Geometry<f64>,
+    /// Standard error of the reading (brdf units): the sweep's per-sample `std` over
+    /// sqrt(`n`), when the file has both (gonio's captures do).
+    pub sigma_y: Option<f64>,
 }
 
 /// A sweep ready to fit.
@@ -80,11 +83,36 @@ pub struct Dataset {
     /// Per incidence: the point nearest to theta_r = theta_i (the first of equals),
     /// the reference of the paper's normalised RMSE when there is no exact one.
     nearest: Vec<Option<usize>>,
+    /// The detector's acceptance half-angle (degrees) the sweep declares in its
+    /// `# aperture:` header line, if any.
+    pub aperture: Option<f64>,
 }
 
 /// Why data cannot be fitted.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DataError(pub String);
+
+/// Largest detector acceptance half-angle accepted (degrees).
+pub const MAX_APERTURE: f64 = 10.0;
+
+/// Parses a detector acceptance half-angle in degrees (`--aperture`, the `# aperture:`
+/// header line, which may add the word `deg` or `degrees`): finite, in
+/// [0, [`MAX_APERTURE`]]; 0 means a point detector (`None`).
+pub fn parse_aperture(text: &str) -> Result<Option<f64>, String> {
+    let t = text.trim();
+    let t = t
+        .strip_suffix("degrees")
+        .or_else(|| t.strip_suffix("deg"))
+        .unwrap_or(t)
+        .trim();
+    match t.parse::<f64>() {
+        Ok(v) if v.is_finite() && (0.0..=MAX_APERTURE).contains(&v) => Ok((v > 0.0).then_some(v)),
+        _ => Err(format!(
+            "aperture '{}': expected a half-angle in degrees from 0 to {MAX_APERTURE}",
+            crate::text::escape_line(text, 40)
+        )),
+    }
+}
 
 /// Incidence angles closer than this (degrees) are the same incidence.
 const SAME_ANGLE: f64 = 1e-6;
@@ -122,6 +150,12 @@ impl Dataset {
                 y: r.brdf,
                 inc: 0,
                 geom,
+                sigma_y: match (r.std, r.n) {
+                    (Some(s), Some(n)) if s.is_finite() && s > 0.0 && n > 0 => {
+                        Some(s / f64::from(n).sqrt())
+                    }
+                    _ => None,
+                },
             });
         }
         // Distinct incidences: sort, then merge neighbours within SAME_ANGLE of the
@@ -175,7 +209,13 @@ impl Dataset {
             group_start,
             specular,
             nearest,
+            aperture: None,
         })
+    }
+
+    /// Every reading has a standard error ([`Observation::sigma_y`]).
+    pub fn has_noise(&self) -> bool {
+        self.obs.iter().all(|o| o.sigma_y.is_some())
     }
 
     /// Indices into `obs` of incidence `j`'s points, in file order.

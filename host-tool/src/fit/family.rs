@@ -1,4 +1,5 @@
-//! The nested model family and each member's parameter layout.
+//! The model family: the paper's four models and their parameters, and the default
+//! members drawn from brdf-core's lattice.
 
 use brdf_core::{Components, Model, Params};
 
@@ -289,4 +290,39 @@ pub fn coords(kind: Kind, n_inc: usize) -> Vec<Coord> {
         Kind::IdealDiffuse => {}
     }
     c
+}
+
+/// The first stage of the default family, generated from brdf-core's lattice: every
+/// member with the ideal diffuse on and the reference lobe (Beckmann, one k_s per
+/// incidence) for whichever of the core and haze lobes are on — the six component sets
+/// whose comparisons decide each component — plus the paper's members (which adds
+/// `three-component-smooth-ks`). Simplest first.
+pub fn default_members() -> Vec<brdf_core::member::Member> {
+    use brdf_core::member::{LobeSpec, Member};
+    let reference = |l: Option<LobeSpec>| l.is_none_or(|l| l == LobeSpec::PAPER);
+    let mut out: Vec<Member> = Member::lattice()
+        .filter(|m| m.ideal && reference(m.core) && reference(m.haze))
+        .chain(Member::PAPER.iter().map(|&(_, m)| m))
+        .collect();
+    out.sort_by_key(|m| (m.components().count(), m.haze.is_some(), *m));
+    out.dedup();
+    out
+}
+
+/// The second stage: the variants of the selected member's component set that decide
+/// its core lobe's distribution (Beckmann or GGX) and k_s form (per incidence or
+/// smooth), from the lattice: same components, same haze lobe, any core lobe.
+pub fn variants_of(selected: brdf_core::member::Member) -> Vec<brdf_core::member::Member> {
+    use brdf_core::member::Member;
+    if selected.core.is_none() {
+        return Vec::new();
+    }
+    Member::lattice()
+        .filter(|m| {
+            m.core.is_some()
+                && m.haze == selected.haze
+                && m.directional == selected.directional
+                && m.ideal == selected.ideal
+        })
+        .collect()
 }

@@ -1,8 +1,11 @@
-//! Fitting captured sweeps: the nested model family (ideal diffuse; Torrance–Sparrow;
-//! three-component; three-component with smooth k_s(theta_i)), fitted by
-//! Levenberg–Marquardt over the problems' arrow structure (scalar parameters global,
-//! k_s per incidence local) with an analytic Jacobian, compared by AICc (BIC reported
-//! too). `campaign` fits many sweep files in parallel.
+//! Fitting captured sweeps: a family of models generated from brdf-core's component
+//! lattice ([`brdf_core::member::Member`]: specular, specular-haze, directional-diffuse,
+//! ideal-diffuse; Beckmann or GGX lobes; k_s per incidence or smooth), each member
+//! fitted on a log-spaced width grid with its amplitudes solved linearly, then refined
+//! by Levenberg–Marquardt over the arrow structure ([`member_fit`]), members in
+//! parallel; selection by AICc (BIC reported too) with the rule of [`select`]. With
+//! `--fix` or a robust loss the paper's four models are fitted by [`solve`] instead.
+//! `campaign` fits many sweep files in parallel.
 //!
 //! Positivity: every parameter is fitted as its natural logarithm (p = exp(u)), within
 //! box bounds (sigma in [1e-4, 20], sigma_m in [1e-3, 20] rad, weights in
@@ -14,191 +17,234 @@ pub mod arrow;
 pub mod campaign;
 pub mod data;
 pub mod family;
+pub mod goodness;
 pub mod lm;
 pub mod member_fit;
+pub mod paper;
 pub mod report;
+pub mod select;
 pub mod solve;
 
 use std::time::Instant;
 
 use brdf_core::member::Member;
+use rayon::prelude::*;
 
 pub use data::Dataset;
 pub use family::{Fixed, Kind, Names};
 pub use solve::{Fit, FitOptions, Loss, Residual, fit_kind};
+
+use goodness::Goodness;
+use member_fit::MemberFit;
+use select::{Candidate, Criterion, Selection};
 
 /// Every model of the family fitted to one dataset.
 #[derive(Debug, Clone)]
 pub struct FamilyFit {
     /// The data's incidence angles (degrees).
     pub incidences: Vec<f64>,
-    /// The models that could be fitted, simplest first.
+    /// The paper's members among the fitted ones, in the paper's form, simplest first.
     pub fits: Vec<Fit>,
-    /// The model with the lowest AICc.
+    /// Every member fitted on the width grid, in the order fitted (empty when the
+    /// paper's models were fitted by [`fit_kind`]: `--fix`, robust losses).
+    pub members: Vec<MemberFit>,
+    /// What selection used of every fitted model (members, or the paper fits).
+    pub candidates: Vec<Candidate>,
+    /// The member selected (see [`select`]).
+    pub selected_member: Member,
+    /// The best of the paper's members by the same rule, for consumers that know only
+    /// those (equal to `selected_member` when that is a paper member).
     pub selected: Kind,
+    /// The member BIC would select by the same rule.
+    pub selected_bic: Member,
     /// Plain statements: which components the data supports, what could not be fitted.
     pub notes: Vec<String>,
     /// Wall time of all fitting (seconds).
     pub fit_seconds: f64,
-    /// The three-component model plus a haze lobe, when the data support the haze.
-    pub haze: Option<member_fit::MemberFit>,
     /// Per incidence: the detector angle (degrees) the paper's RMSE is normalised at
     /// when there is no reading exactly at theta_r = theta_i (`None` when there is).
     pub rmse_nearest: Vec<Option<f64>>,
+    /// The detector half-angle the models were averaged over (degrees).
+    pub aperture: Option<f64>,
+    /// The sweep carries std and n: goodness of fit against the noise is known.
+    pub has_noise: bool,
 }
 
 impl FamilyFit {
-    /// The fit of one kind, if it was fitted.
+    /// The paper-form fit of one kind, if it was fitted.
     pub fn get(&self, kind: Kind) -> Option<&Fit> {
         self.fits.iter().find(|f| f.kind == kind)
     }
-}
 
-/// The largest reading (the scale of "an amplitude at its floor").
-fn three_scale(data: &Dataset) -> f64 {
-    data.obs.iter().map(|o| o.y.abs()).fold(0.0, f64::max)
+    /// The grid fit of a member, if it was fitted.
+    pub fn member(&self, m: Member) -> Option<&MemberFit> {
+        self.members.iter().find(|f| f.member() == m)
+    }
+
+    /// What selection knows of a member, if it was fitted.
+    pub fn candidate(&self, m: Member) -> Option<&Candidate> {
+        self.candidates.iter().find(|c| c.member == m)
+    }
+
+    /// The selected member's grid fit (`None` on the paper-form path).
+    pub fn selected_fit(&self) -> Option<&MemberFit> {
+        self.member(self.selected_member)
+    }
 }
 
 /// A difference in AICc below this is not evidence for the larger model.
-pub const AICC_MARGIN: f64 = 2.0;
+pub const AICC_MARGIN: f64 = select::MARGIN;
 
-/// Fits the given kinds and selects by AICc.
-pub fn fit_family(data: &Dataset, opts: &FitOptions, kinds: &[Kind]) -> Result<FamilyFit, String> {
-    let t0 = Instant::now();
-    let mut fits = Vec::new();
-    let mut notes = Vec::new();
-    for &kind in kinds {
-        match fit_kind(data, kind, opts) {
-            Some(f) => fits.push(f),
+/// Fits every member in `members` (in parallel), noting those that cannot be fitted.
+fn fit_members(
+    data: &Dataset,
+    members: &[Member],
+    residual: Residual,
+    aperture: Option<f64>,
+    notes: &mut Vec<String>,
+) -> Vec<MemberFit> {
+    let fitted: Vec<Option<MemberFit>> = members
+        .par_iter()
+        .map(|&m| member_fit::fit_member(data, m, residual, aperture))
+        .collect();
+    let mut out = Vec::new();
+    for (m, f) in members.iter().zip(fitted) {
+        match f {
+            Some(f) => out.push(f),
             None => notes.push(format!(
-                "{}: not fitted ({} readings at {} incidence(s) cannot determine its parameters)",
-                kind.name(),
+                "{m}: not fitted ({} readings at {} incidence(s) cannot determine its parameters)",
                 data.obs.len(),
                 data.incidences.len()
             )),
         }
     }
-    // The haze lobe: the three-component model with and without a second specular
-    // lobe, both on the width grid (the comparison differs in that component alone).
-    let haze = (opts.loss == Loss::L2
-        && opts.fixed == Fixed::default()
-        && kinds.contains(&Kind::ThreeComponent))
-    .then(|| {
-        let with = Member {
-            haze: Member::THREE_COMPONENT.core,
-            ..Member::THREE_COMPONENT
-        };
-        rayon::join(
-            || member_fit::fit_member(data, Member::THREE_COMPONENT, opts.residual, None),
-            || member_fit::fit_member(data, with, opts.residual, None),
-        )
+    out
+}
+
+/// Fits the family and selects a member. `kinds` is the paper-model list of the older
+/// interface: all four (the default) means the default family unless
+/// [`FitOptions::members`] names members; fewer means exactly those.
+pub fn fit_family(data: &Dataset, opts: &FitOptions, kinds: &[Kind]) -> Result<FamilyFit, String> {
+    let t0 = Instant::now();
+    let aperture = opts.aperture.or(data.aperture);
+    let requested: Option<Vec<Member>> = opts.members.clone().or_else(|| {
+        (kinds != Kind::ALL.as_slice()).then(|| kinds.iter().map(|k| k.member()).collect())
     });
-    let fit_seconds = t0.elapsed().as_secs_f64();
-    let aicc = |k: Kind| fits.iter().find(|f| f.kind == k).map(Fit::aicc);
-    let best_of = |ks: &[Kind]| {
-        ks.iter()
-            .filter_map(|&k| aicc(k))
-            .fold(f64::INFINITY, f64::min)
-    };
-    let with_spec = best_of(&[
-        Kind::TorranceSparrow,
-        Kind::ThreeComponent,
-        Kind::ThreeSmooth,
-    ]);
-    let mut specular_ok = true;
-    if let Some(ideal) = aicc(Kind::IdealDiffuse) {
-        specular_ok = with_spec < ideal - AICC_MARGIN;
-        notes.push(if specular_ok {
-            "specular lobe: supported (AICc clearly better than ideal diffuse alone)".to_string()
-        } else {
-            "specular lobe: NOT supported by these data (no better than a constant)".to_string()
-        });
-    }
-    // Directional diffuse: Torrance–Sparrow against the three-component model, which
-    // differ in that term alone (both one k_s per incidence), and k_dd determined.
-    let mut directional_ok = true;
-    if let (Some(ts), Some(three)) = (
-        aicc(Kind::TorranceSparrow),
-        fits.iter().find(|f| f.kind == Kind::ThreeComponent),
-    ) {
-        let (kdd, se) = report::scalar(three, family::Coord::Kdd);
-        let determined = se.is_some_and(|se| se < kdd / 3.0) && kdd > 1e-9 * three_scale(data);
-        let gain = ts - three.aicc();
-        directional_ok = gain > AICC_MARGIN && determined;
-        notes.push(if directional_ok {
-            format!(
-                "directional diffuse: supported (AICc {gain:.1} lower than Torrance–Sparrow, k_dd determined)"
-            )
-        } else if gain > AICC_MARGIN {
-            format!(
-                "directional diffuse: NOT supported (AICc {gain:.1} lower than Torrance–Sparrow, but k_dd = {kdd:.3e} is not determined: absent)"
-            )
-        } else {
-            "directional diffuse: NOT supported (Torrance–Sparrow fits as well): absent".to_string()
-        });
-    }
-    // Select among the models whose every component the data support.
-    let allowed = |k: Kind| (specular_ok || !k.specular()) && (directional_ok || !k.directional());
-    let selected = fits
-        .iter()
-        .filter(|f| allowed(f.kind))
-        .min_by(|a, b| a.aicc().total_cmp(&b.aicc()))
-        .or_else(|| fits.iter().min_by(|a, b| a.aicc().total_cmp(&b.aicc())))
-        .map(|f| f.kind)
-        .ok_or("no model could be fitted to these data")?;
-    if let (Some(per), Some(smooth)) = (aicc(Kind::ThreeComponent), aicc(Kind::ThreeSmooth)) {
-        notes.push(if smooth <= per + AICC_MARGIN {
-            "k_s(theta_i): a smooth 3-parameter curve describes it as well as one k_s per angle"
-                .to_string()
-        } else {
-            "k_s(theta_i): needs one value per angle (a smooth curve fits worse)".to_string()
-        });
-    }
-    let mut haze_fit = None;
-    if let Some((Some(one), Some(two))) = haze {
-        let gain = one.aicc() - two.aicc();
-        let amp = two.layout.local(0, true);
-        let (h, hse) = two.sigma_haze().unwrap_or((f64::NAN, None));
-        let (s, sse) = two.sigma().unwrap_or((f64::NAN, None));
-        // The haze's amplitude: its k_s at every incidence determined (se < value / 3).
-        let determined = (0..data.incidences.len()).all(|j| {
-            let i = amp + j * two.layout.n_local();
-            let (_, se) = two.natural(i);
-            se.is_some_and(|se| se < 1.0 / 3.0 * two.x[i].exp())
-                && two.x[i] > two.layout.bounds(i).0 + 1.0
-        });
-        let fmt = |v: f64, se: Option<f64>| match se {
-            Some(se) => format!("{v:.4} ± {se:.4}"),
-            None => format!("{v:.4} (n/d)"),
+    let grid = opts.loss == Loss::L2 && opts.fixed == Fixed::default();
+    let mut notes = Vec::new();
+    let mut members = Vec::new();
+    let mut fits = Vec::new();
+    if grid {
+        let stage_a = requested.clone().unwrap_or_else(family::default_members);
+        members = fit_members(data, &stage_a, opts.residual, aperture, &mut notes);
+        if requested.is_none() {
+            // Stage two: the selected component set's lobe variants (GGX, smooth k_s).
+            let cands = candidates_of_members(data, &members, opts.residual);
+            if let Some(best) = Selection::new(&cands, Criterion::Aicc).best() {
+                let more: Vec<Member> = family::variants_of(best.member)
+                    .into_iter()
+                    .filter(|m| !stage_a.contains(m))
+                    .collect();
+                members.extend(fit_members(
+                    data,
+                    &more,
+                    opts.residual,
+                    aperture,
+                    &mut notes,
+                ));
+            }
+        }
+        fits = Kind::ALL
+            .iter()
+            .filter_map(|k| members.iter().find(|f| f.member() == k.member()))
+            .filter_map(paper::to_fit)
+            .collect();
+    } else {
+        if aperture.is_some() {
+            return Err("--aperture cannot be combined with --fix or a robust --loss".into());
+        }
+        let kinds: Vec<Kind> = match &requested {
+            None => Kind::ALL.to_vec(),
+            Some(ms) => ms
+                .iter()
+                .map(|&m| {
+                    paper::kind_of(m).ok_or_else(|| {
+                        format!("{m}: with --fix or a robust --loss only the paper's four models can be fitted")
+                    })
+                })
+                .collect::<Result<_, _>>()?,
         };
-        if gain > AICC_MARGIN && determined {
-            notes.push(format!(
-                "specular haze: supported (AICc {gain:.1} lower than three-component; core sigma {}, haze sigma {}, paper RMSE {} against {})",
-                fmt(s, sse),
-                fmt(h, hse),
-                two.rmse.map_or("n/d".into(), |r| format!("{r:.4}")),
-                one.rmse.map_or("n/d".into(), |r| format!("{r:.4}")),
-            ));
-            haze_fit = Some(two);
-        } else {
-            notes.push(
-                "specular haze: absent (a second specular lobe is not supported by these data)"
-                    .into(),
-            );
+        for kind in kinds {
+            match fit_kind(data, kind, opts) {
+                Some(f) => fits.push(f),
+                None => notes.push(format!(
+                    "{}: not fitted ({} readings at {} incidence(s) cannot determine its parameters)",
+                    kind.name(),
+                    data.obs.len(),
+                    data.incidences.len()
+                )),
+            }
         }
     }
-    for f in &fits {
+    let fit_seconds = t0.elapsed().as_secs_f64();
+    let candidates: Vec<Candidate> = if members.is_empty() {
+        fits.iter()
+            .map(|f| {
+                let g =
+                    goodness::goodness(data, &goodness::kind_fitted(f, data), opts.residual, f.k());
+                Candidate::of_fit(f, &data.incidences, g)
+            })
+            .collect()
+    } else {
+        candidates_of_members(data, &members, opts.residual)
+    };
+    let sel = Selection::new(&candidates, Criterion::Aicc);
+    let selected_member = sel
+        .best()
+        .map(|c| c.member)
+        .ok_or("no model could be fitted to these data")?;
+    let selected = sel.best_paper().unwrap_or(Kind::IdealDiffuse);
+    let selected_bic = Selection::new(&candidates, Criterion::Bic)
+        .best()
+        .map_or(selected_member, |c| c.member);
+    let mut summary = select::component_notes(&sel, selected_member);
+    summary.extend(variant_notes(&candidates, selected_member));
+    if selected_bic != selected_member {
+        summary.push(format!(
+            "BIC (stricter with many readings) would select {selected_bic} by the same rule"
+        ));
+    }
+    summary.push(goodness_note(data, &candidates, selected_member));
+    summary.append(&mut notes);
+    let mut notes = summary;
+    for f in &members {
         if f.identifiable.iter().any(|ok| !ok) {
             notes.push(format!(
                 "{}: some parameters are not determined by these data (flagged)",
-                f.kind.name()
+                f.member()
             ));
         }
         if !f.converged {
             notes.push(format!(
                 "{}: the optimiser stopped before its tolerances were met",
-                f.kind.name()
+                f.member()
             ));
+        }
+    }
+    if members.is_empty() {
+        for f in &fits {
+            if f.identifiable.iter().any(|ok| !ok) {
+                notes.push(format!(
+                    "{}: some parameters are not determined by these data (flagged)",
+                    f.kind.name()
+                ));
+            }
+            if !f.converged {
+                notes.push(format!(
+                    "{}: the optimiser stopped before its tolerances were met",
+                    f.kind.name()
+                ));
+            }
         }
     }
     let nearest: Vec<String> = (0..data.incidences.len())
@@ -216,20 +262,124 @@ pub fn fit_family(data: &Dataset, opts: &FitOptions, kinds: &[Kind]) -> Result<F
             nearest.join(", ")
         ));
     }
+    if let Some(a) = aperture {
+        notes.push(format!(
+            "every model was averaged over the detector's aperture (half-angle {a} deg) before comparison; parameters are the surface's"
+        ));
+    }
     Ok(FamilyFit {
         incidences: data.incidences.clone(),
         fits,
+        members,
+        candidates,
+        selected_member,
         selected,
+        selected_bic,
         notes,
         fit_seconds,
-        haze: haze_fit,
         rmse_nearest: (0..data.incidences.len())
             .map(|j| match data.specular_reference(j) {
                 Some((k, false)) => Some(data.obs[k].theta_r),
                 _ => None,
             })
             .collect(),
+        aperture,
+        has_noise: data.has_noise(),
     })
+}
+
+fn candidates_of_members(
+    data: &Dataset,
+    members: &[MemberFit],
+    residual: Residual,
+) -> Vec<Candidate> {
+    members
+        .iter()
+        .map(|f| {
+            let g: Option<Goodness> =
+                goodness::goodness(data, &goodness::member_fitted(f, data), residual, f.k());
+            Candidate::of_member(f, g)
+        })
+        .collect()
+}
+
+/// The lobe shape of the selected component set: how its fitted variants compare.
+fn variant_notes(cands: &[Candidate], sel: Member) -> Vec<String> {
+    let Some(core) = sel.core else {
+        return Vec::new();
+    };
+    let same = |m: Member| {
+        m.core.is_some()
+            && m.haze == sel.haze
+            && m.directional == sel.directional
+            && m.ideal == sel.ideal
+    };
+    let Some(best) = cands.iter().find(|c| c.member == sel) else {
+        return Vec::new();
+    };
+    let others: Vec<String> = cands
+        .iter()
+        .filter(|c| same(c.member) && c.member != sel)
+        .map(|c| format!("{} {:+.1}", c.member, c.aicc - best.aicc))
+        .collect();
+    if others.is_empty() {
+        return Vec::new();
+    }
+    vec![format!(
+        "specular lobe shape: {} with k_s {} has the lowest AICc of these components (AICc of the others: {})",
+        core.dist.name(),
+        core.ks.name(),
+        others.join(", ")
+    )]
+}
+
+/// Goodness of fit of the selected member against the readings' noise, said plainly.
+fn goodness_note(data: &Dataset, cands: &[Candidate], sel: Member) -> String {
+    if !data.has_noise() {
+        return "goodness of fit against noise: not known (the sweep has no std and n columns)"
+            .into();
+    }
+    let Some(g) = cands
+        .iter()
+        .find(|c| c.member == sel)
+        .and_then(|c| c.goodness)
+    else {
+        return "goodness of fit against noise: not known".into();
+    };
+    let within: Vec<&Candidate> = cands
+        .iter()
+        .filter(|c| c.goodness.is_some_and(|g| g.within_noise()))
+        .collect();
+    if g.within_noise() {
+        format!(
+            "goodness of fit: reduced chi-square {:.2} over {} degrees of freedom (limit {:.2}): {sel} fits within the readings' noise",
+            g.reduced(),
+            g.dof,
+            g.limit()
+        )
+    } else if within.is_empty() {
+        let best = cands
+            .iter()
+            .filter_map(|c| c.goodness.map(|g| (c.member, g.reduced())))
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        format!(
+            "NO member fits these data within their noise: reduced chi-square {:.1} for {sel} (best {}, limit {:.2}); the residuals are larger than the readings' std/sqrt(n) say they should be",
+            g.reduced(),
+            best.map_or("n/d".into(), |(m, r)| format!("{r:.1}, {m}")),
+            g.limit()
+        )
+    } else {
+        format!(
+            "goodness of fit: reduced chi-square {:.1} for {sel} is above the noise limit {:.2}; within noise: {}",
+            g.reduced(),
+            g.limit(),
+            within
+                .iter()
+                .map(|c| c.member.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    }
 }
 
 #[cfg(test)]

@@ -5,6 +5,7 @@ use serde_json::{Value, json};
 
 use super::family::{Coord, Kind, scalar_coords};
 use super::member_fit::MemberFit;
+use super::select::Candidate;
 use super::{FamilyFit, Fit};
 use brdf_core::member::Member;
 
@@ -190,27 +191,126 @@ pub fn member_lobes(m: Member) -> Value {
     Value::Object(map)
 }
 
-/// A member fitted on the width grid ([`super::member_fit`]) as a JSON object.
-pub fn member_fit_json(fit: &MemberFit) -> Value {
+/// The parameters of a member fitted on the width grid, in report order: widths and
+/// scalar weights, smooth-k_s coefficients, then each per-incidence k_s; value and
+/// standard error (`None`: not determined).
+pub fn member_params(fit: &MemberFit) -> Vec<(String, f64, Option<f64>)> {
+    let l = &fit.layout;
     let m = fit.member();
-    let pair = |p: Option<(f64, Option<f64>)>| match p {
-        Some((v, se)) => json!({"value": num(v), "se": opt(se)}),
-        None => Value::Null,
+    let mut out = Vec::new();
+    let kid_name = if m == Member::TORRANCE_SPARROW {
+        "k_d"
+    } else {
+        "k_id"
     };
+    for (slot, name) in [
+        (l.sigma, "sigma"),
+        (l.sigma_haze, "sigma_haze"),
+        (l.sigma_m, "sigma_m"),
+        (l.kdd, "k_dd"),
+        (l.kid, kid_name),
+    ] {
+        if let Some(i) = slot {
+            let (v, se) = fit.natural(i);
+            out.push((name.to_string(), v, se));
+        }
+    }
+    for (poly, name) in [(l.core_poly, "ln_ks_c"), (l.haze_poly, "ln_ks_haze_c")] {
+        if let Some(p) = poly {
+            for k in 0..3 {
+                let i = p + k;
+                let se = fit.identifiable[i].then(|| fit.cov.get(i, i).max(0.0).sqrt());
+                out.push((format!("{name}{k}"), fit.x[i], se));
+            }
+        }
+    }
+    for (local, haze, name) in [
+        (l.core_local, false, "k_s"),
+        (l.haze_local, true, "k_s_haze"),
+    ] {
+        if local {
+            for (j, t) in fit.incidences.iter().enumerate() {
+                let (v, se) = fit.natural(l.local(j, haze));
+                out.push((format!("{name}({t})"), v, se));
+            }
+        }
+    }
+    out
+}
+
+/// A member fitted on the width grid ([`super::member_fit`]) as a JSON object: the
+/// fields of [`model_json`] where they apply (`params` and `std_errors` by parameter
+/// name, per-incidence k_s as `[theta_i, value]` pairs), plus the reduced chi-square.
+pub fn member_fit_json(fit: &MemberFit, cand: Option<&Candidate>) -> Value {
+    let m = fit.member();
+    let mut params = serde_json::Map::new();
+    let mut errors = serde_json::Map::new();
+    let mut ks: [Vec<Value>; 2] = [Vec::new(), Vec::new()];
+    let mut ks_se: [Vec<Value>; 2] = [Vec::new(), Vec::new()];
+    let l = &fit.layout;
+    for (slot, (local, haze)) in [(l.core_local, false), (l.haze_local, true)]
+        .into_iter()
+        .enumerate()
+    {
+        if local {
+            for (j, t) in fit.incidences.iter().enumerate() {
+                let (v, se) = fit.natural(l.local(j, haze));
+                ks[slot].push(json!([num(*t), num(v)]));
+                ks_se[slot].push(json!([num(*t), opt(se)]));
+            }
+        }
+    }
+    for (name, v, se) in member_params(fit) {
+        if name.starts_with("k_s(") || name.starts_with("k_s_haze(") {
+            continue;
+        }
+        params.insert(name.clone(), num(v));
+        errors.insert(name, opt(se));
+    }
+    for (slot, name) in ["k_s", "k_s_haze"].into_iter().enumerate() {
+        if !ks[slot].is_empty() {
+            params.insert(name.into(), Value::Array(std::mem::take(&mut ks[slot])));
+            errors.insert(name.into(), Value::Array(std::mem::take(&mut ks_se[slot])));
+        }
+    }
     json!({
         "name": m.name().as_str(),
         "components": member_components(m),
         "lobes": member_lobes(m),
-        "sigma": pair(fit.sigma()),
-        "sigma_haze": pair(fit.sigma_haze()),
-        "aicc": num(fit.aicc()),
+        "params": params,
+        "std_errors": errors,
         "rmse": opt(fit.rmse),
         "rmse_by_theta_i": Value::Array(fit.incidences.iter().zip(&fit.rmse_by_inc).map(|(t, r)| Value::Array(vec![num(*t), opt(*r)])).collect()),
+        "aicc": num(fit.aicc()),
+        "bic": num(cand.map_or(f64::NAN, |c| c.bic)),
         "n": fit.n,
         "k": fit.k(),
         "ssr": num(fit.ssr),
         "converged": fit.converged,
+        "aperture_deg": opt(fit.aperture),
+        "reduced_chi2": opt(cand.and_then(|c| c.goodness).map(|g| g.reduced())),
     })
+}
+
+/// One fitted member as JSON: a paper member in [`model_json`]'s form (with
+/// correlations), any other in [`member_fit_json`]'s; both carry `components`,
+/// `lobes` and `reduced_chi2`.
+fn any_member_json(f: &FamilyFit, fit: &MemberFit) -> Value {
+    let cand = f.candidate(fit.member());
+    match super::paper::kind_of(fit.member()).and_then(|k| f.get(k)) {
+        Some(paper) => {
+            let mut v = model_json(paper, &f.incidences);
+            if let Value::Object(map) = &mut v {
+                map.insert("aperture_deg".into(), opt(fit.aperture));
+                map.insert(
+                    "reduced_chi2".into(),
+                    opt(cand.and_then(|c| c.goodness).map(|g| g.reduced())),
+                );
+            }
+            v
+        }
+        None => member_fit_json(fit, cand),
+    }
 }
 
 /// The whole result as the `gonio fit --json` object.
@@ -234,9 +334,22 @@ struct ModelsJson<'a>(&'a FamilyFit);
 impl serde::Serialize for ModelsJson<'_> {
     fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         use serde::ser::SerializeSeq;
-        let mut seq = s.serialize_seq(Some(self.0.fits.len()))?;
-        for m in &self.0.fits {
-            seq.serialize_element(&model_json(m, &self.0.incidences))?;
+        let f = self.0;
+        if f.members.is_empty() {
+            let mut seq = s.serialize_seq(Some(f.fits.len()))?;
+            for m in &f.fits {
+                let mut v = model_json(m, &f.incidences);
+                if let Value::Object(map) = &mut v {
+                    let g = f.candidate(m.kind.member()).and_then(|c| c.goodness);
+                    map.insert("reduced_chi2".into(), opt(g.map(|g| g.reduced())));
+                }
+                seq.serialize_element(&v)?;
+            }
+            return seq.end();
+        }
+        let mut seq = s.serialize_seq(Some(f.members.len()))?;
+        for m in &f.members {
+            seq.serialize_element(&any_member_json(f, m))?;
         }
         seq.end()
     }
@@ -246,13 +359,13 @@ impl serde::Serialize for FamilyJson<'_> {
     fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         use serde::ser::SerializeMap;
         let f = self.0;
-        let mut m = s.serialize_map(Some(5))?;
+        let mut m = s.serialize_map(Some(8))?;
         m.serialize_entry("models", &ModelsJson(f))?;
-        m.serialize_entry("selected", f.selected.name())?;
-        m.serialize_entry(
-            "haze",
-            &f.haze.as_ref().map_or(Value::Null, member_fit_json),
-        )?;
+        m.serialize_entry("selected", f.selected_member.name().as_str())?;
+        m.serialize_entry("selected_bic", f.selected_bic.name().as_str())?;
+        m.serialize_entry("selected_paper", f.selected.name())?;
+        m.serialize_entry("selected_components", &member_components(f.selected_member))?;
+        m.serialize_entry("aperture_deg", &opt(f.aperture))?;
         m.serialize_entry("notes", &f.notes)?;
         m.serialize_entry("fit_seconds", &num(f.fit_seconds))?;
         m.end()
@@ -276,63 +389,133 @@ pub fn fmt_se(v: f64, se: Option<f64>) -> String {
     }
 }
 
+fn fit_line(
+    f: &FamilyFit,
+    m: Member,
+    residual: &str,
+    ssr: f64,
+    n: usize,
+    rmse: Option<f64>,
+) -> String {
+    let c = f.candidate(m);
+    let chi = c
+        .and_then(|c| c.goodness)
+        .map_or(String::new(), |g| format!("  chi2/dof {:.2}", g.reduced()));
+    format!(
+        "  AICc {:.2}  BIC {:.2}  SSR({residual}) {ssr:.4e}  n {n}  RMSE {}{chi}\n",
+        c.map_or(f64::NAN, |c| c.aicc),
+        c.map_or(f64::NAN, |c| c.bic),
+        rmse.map_or("n/d".into(), |r| format!("{r:.4}"))
+    )
+}
+
+fn kind_block(out: &mut String, f: &FamilyFit, fit: &Fit, residual: &str) {
+    use std::fmt::Write;
+    let inc = &f.incidences;
+    let mark = if fit.kind.member() == f.selected_member {
+        "  <- selected"
+    } else {
+        ""
+    };
+    let _ = writeln!(
+        out,
+        "{} ({} free parameters){mark}",
+        fit.kind.name(),
+        fit.k()
+    );
+    for c in scalar_coords(fit.kind) {
+        let (v, se) = scalar(fit, c);
+        let fixed = if fit.free.contains(&c) {
+            ""
+        } else {
+            " (fixed)"
+        };
+        let _ = writeln!(
+            out,
+            "  {:<12} {}{fixed}",
+            coord_name(fit.kind, c, inc),
+            fmt_se(v, se)
+        );
+    }
+    if fit.kind.specular() {
+        for (t, k, se) in ks_table(fit, inc) {
+            let _ = writeln!(out, "  {:<12} {}", format!("k_s({t})"), fmt_se(k, se));
+        }
+    }
+    let _ = writeln!(
+        out,
+        "{}",
+        fit_line(f, fit.kind.member(), residual, fit.ssr, fit.n, fit.rmse)
+    );
+}
+
+fn member_block(out: &mut String, f: &FamilyFit, fit: &MemberFit, residual: &str) {
+    use std::fmt::Write;
+    let m = fit.member();
+    let mark = if m == f.selected_member {
+        "  <- selected"
+    } else {
+        ""
+    };
+    let _ = writeln!(out, "{m} ({} free parameters){mark}", fit.k());
+    for (name, v, se) in member_params(fit) {
+        let _ = writeln!(out, "  {name:<12} {}", fmt_se(v, se));
+    }
+    let _ = writeln!(
+        out,
+        "{}",
+        fit_line(f, m, residual, fit.ssr, fit.n, fit.rmse)
+    );
+}
+
 /// The readable table.
 pub fn family_table(f: &FamilyFit, residual: &str) -> String {
     use std::fmt::Write;
     let mut out = String::new();
     let inc = &f.incidences;
-    for fit in &f.fits {
-        let mark = if fit.kind == f.selected {
-            "  <- selected"
-        } else {
-            ""
-        };
-        let _ = writeln!(
-            out,
-            "{} ({} free parameters){mark}",
-            fit.kind.name(),
-            fit.k()
-        );
-        for c in scalar_coords(fit.kind) {
-            let (v, se) = scalar(fit, c);
-            let fixed = if fit.free.contains(&c) {
-                ""
-            } else {
-                " (fixed)"
-            };
-            let _ = writeln!(
-                out,
-                "  {:<10} {}{fixed}",
-                coord_name(fit.kind, c, inc),
-                fmt_se(v, se)
-            );
+    if f.members.is_empty() {
+        for fit in &f.fits {
+            kind_block(&mut out, f, fit, residual);
         }
-        if fit.kind.specular() {
-            for (t, k, se) in ks_table(fit, inc) {
-                let _ = writeln!(out, "  {:<10} {}", format!("k_s({t})"), fmt_se(k, se));
+    } else {
+        for m in &f.members {
+            match super::paper::kind_of(m.member()).and_then(|k| f.get(k)) {
+                Some(fit) => kind_block(&mut out, f, fit, residual),
+                None => member_block(&mut out, f, m, residual),
             }
         }
-        let _ = writeln!(
-            out,
-            "  AICc {:.2}  BIC {:.2}  SSR({residual}) {:.4e}  n {}  RMSE {}\n",
-            fit.aicc(),
-            fit.bic(),
-            fit.ssr,
-            fit.n,
-            fit.rmse.map_or("n/d".into(), |r| format!("{r:.4}"))
-        );
     }
-    // The paper's Table 3: RMSE1 (T–S) beside RMSE2 (three-component), normalised curves.
-    let ts = f.get(Kind::TorranceSparrow);
-    let three = f.get(Kind::ThreeComponent);
+    // The paper's Table 3: RMSE1 (T–S) beside RMSE2 (three-component), normalised
+    // curves; and the selected member's when it is neither.
+    let ts = f
+        .get(Kind::TorranceSparrow)
+        .map(|x| (&x.rmse_by_inc, x.rmse));
+    let three = f
+        .get(Kind::ThreeComponent)
+        .map(|x| (&x.rmse_by_inc, x.rmse));
+    let sel = f
+        .selected_fit()
+        .filter(|s| {
+            super::paper::kind_of(s.member())
+                .is_none_or(|k| !matches!(k, Kind::TorranceSparrow | Kind::ThreeComponent))
+        })
+        .map(|x| (&x.rmse_by_inc, x.rmse));
     let _ = writeln!(out, "RMSE of normalised curves (as the paper's Table 3)");
     let _ = writeln!(
         out,
-        "  {:>8}  {:>12}  {:>16}",
-        "theta_i", "RMSE1 (T-S)", "RMSE2 (three)"
+        "  {:>8}  {:>12}  {:>16}{}",
+        "theta_i",
+        "RMSE1 (T-S)",
+        "RMSE2 (three)",
+        if sel.is_some() {
+            format!("  {:>16}", "RMSE (selected)")
+        } else {
+            String::new()
+        }
     );
-    let cell = |fit: Option<&Fit>, j: usize| {
-        fit.and_then(|x| x.rmse_by_inc[j])
+    type Col<'a> = Option<(&'a Vec<Option<f64>>, Option<f64>)>;
+    let cell = |c: Col<'_>, j: usize| {
+        c.and_then(|x| x.0[j])
             .map_or("n/d".to_string(), |r| format!("{r:.4}"))
     };
     for (j, t) in inc.iter().enumerate() {
@@ -340,18 +523,34 @@ pub fn family_table(f: &FamilyFit, residual: &str) -> String {
         let mark = f.rmse_nearest.get(j).copied().flatten();
         let _ = writeln!(
             out,
-            "  {:>8}  {:>12}  {:>16}{}",
+            "  {:>8}  {:>12}  {:>16}{}{}",
             t,
             cell(ts, j),
             cell(three, j),
+            if sel.is_some() {
+                format!("  {:>16}", cell(sel, j))
+            } else {
+                String::new()
+            },
             mark.map_or(String::new(), |r| format!("  * at theta_r {r}"))
         );
     }
-    let all = |fit: Option<&Fit>| {
-        fit.and_then(|x| x.rmse)
+    let all = |c: Col<'_>| {
+        c.and_then(|x| x.1)
             .map_or("n/d".to_string(), |r| format!("{r:.4}"))
     };
-    let _ = writeln!(out, "  {:>8}  {:>12}  {:>16}", "all", all(ts), all(three));
+    let _ = writeln!(
+        out,
+        "  {:>8}  {:>12}  {:>16}{}",
+        "all",
+        all(ts),
+        all(three),
+        if sel.is_some() {
+            format!("  {:>16}", all(sel))
+        } else {
+            String::new()
+        }
+    );
     if f.rmse_nearest.iter().any(Option::is_some) {
         let _ = writeln!(
             out,
@@ -359,7 +558,7 @@ pub fn family_table(f: &FamilyFit, residual: &str) -> String {
         );
     }
     let _ = writeln!(out);
-    let _ = writeln!(out, "selected by AICc: {}", f.selected.name());
+    let _ = writeln!(out, "selected by AICc: {}", f.selected_member);
     for n in &f.notes {
         let _ = writeln!(out, "  - {n}");
     }

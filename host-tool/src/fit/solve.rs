@@ -58,6 +58,12 @@ pub struct FitOptions {
     /// LM's relative tolerance on the cost and on the parameters (ftol = xtol; gtol is
     /// a hundredth of it). 1e-10 is far below any parameter's statistical uncertainty.
     pub tol: f64,
+    /// The family's members to fit (`None`: the default family, see
+    /// [`super::family::default_members`]). Set by `gonio fit --models`.
+    pub members: Option<Vec<brdf_core::member::Member>>,
+    /// The detector's acceptance half-angle (degrees): the model is averaged over it
+    /// before it is compared with the readings (`gonio fit --aperture`).
+    pub aperture: Option<f64>,
 }
 
 impl Default for FitOptions {
@@ -70,6 +76,8 @@ impl Default for FitOptions {
             sigma_m_starts: vec![0.3, 0.7, 1.5],
             refine: 3,
             tol: 1e-10,
+            members: None,
+            aperture: None,
         }
     }
 }

@@ -209,7 +209,11 @@ fn the_merl_export_reads_back_at_bin_edges() {
     // detector angle), so these differ from the model by more than rounding.
     let swapped = m.value(Channel::Mean, in_plane_index(10.0, 30.0)).unwrap();
     let direct = fit.predict(&fam.incidences, 30.0, 10.0).unwrap();
-    assert_eq!(swapped, direct);
+    // The same cell as the direct evaluation, to rounding (two paths to one geometry).
+    assert!(
+        (swapped - direct).abs() <= 1e-12 * direct,
+        "{swapped} vs {direct}"
+    );
     let model = fit.predict(&fam.incidences, 10.0, 30.0).unwrap();
     assert!(
         (swapped - model).abs() / model > 1e-3,

@@ -6,6 +6,9 @@ use plotters::style::RGBColor;
 use brdf_core::lobe::Distribution;
 use brdf_core::member_model::{DirectionalParams, Ks, LobeParams, MemberModel, MemberParams};
 
+use brdf_core::member::Member;
+
+use crate::fit::member_fit::MemberFit;
 use crate::fit::{Dataset, FamilyFit, Fit, Kind};
 
 /// Label of the y axis of the normalised figures.
@@ -98,7 +101,7 @@ pub(super) struct Figure {
     pub(super) residuals: Vec<(f64, f64)>,
 }
 
-/// The selected model at incidence `ti` as a member of the family, for drawing its
+/// A paper-form fit at incidence `ti` as a member of the family, for drawing its
 /// components one by one from the member's basis and amplitudes.
 pub(super) fn member_at(fit: &Fit, incidences: &[f64], ti: f64) -> Option<MemberModel<f64>> {
     let v = &fit.values;
@@ -120,6 +123,94 @@ pub(super) fn member_at(fit: &Fit, incidences: &[f64], ti: f64) -> Option<Member
     .ok()
 }
 
+/// A fitted model as the figures draw it: a member fit on the width grid, or a
+/// paper-form fit (`--fix`, robust losses).
+#[derive(Clone, Copy)]
+pub(super) enum Shown<'a> {
+    /// A member fit.
+    Member(&'a MemberFit),
+    /// A paper-form fit.
+    Paper(&'a Fit),
+}
+
+impl Shown<'_> {
+    /// The member drawn.
+    pub(super) fn member(&self) -> Member {
+        match self {
+            Shown::Member(f) => f.member(),
+            Shown::Paper(f) => f.kind.member(),
+        }
+    }
+
+    /// Its name in figures: the paper's words for a paper member, else the member name.
+    pub(super) fn name(&self) -> String {
+        match crate::fit::paper::kind_of(self.member()) {
+            Some(k) => display_name(k).to_string(),
+            None => self.member().to_string(),
+        }
+    }
+
+    /// Its colour.
+    pub(super) fn color(&self) -> RGBColor {
+        crate::fit::paper::kind_of(self.member()).map_or(RGBColor(150, 40, 160), model_color)
+    }
+
+    /// Per incidence: the paper's RMSE.
+    pub(super) fn rmse_by_inc(&self) -> &[Option<f64>] {
+        match self {
+            Shown::Member(f) => &f.rmse_by_inc,
+            Shown::Paper(f) => &f.rmse_by_inc,
+        }
+    }
+
+    /// The paper's RMSE over all readings.
+    pub(super) fn rmse(&self) -> Option<f64> {
+        match self {
+            Shown::Member(f) => f.rmse,
+            Shown::Paper(f) => f.rmse,
+        }
+    }
+
+    /// The surface's model at incidence `ti` (degrees).
+    pub(super) fn model_at(&self, fam: &FamilyFit, ti: f64) -> Option<MemberModel<f64>> {
+        match self {
+            Shown::Member(f) => f.model_at(ti),
+            Shown::Paper(f) => member_at(f, &fam.incidences, ti),
+        }
+    }
+
+    /// The fitted value at every reading, as the fit compared it (file order).
+    pub(super) fn fitted(&self, data: &Dataset) -> Vec<Option<f64>> {
+        match self {
+            Shown::Member(f) => crate::fit::goodness::member_fitted(f, data),
+            Shown::Paper(f) => crate::fit::goodness::kind_fitted(f, data),
+        }
+    }
+}
+
+/// The fit of member `m`, in whichever form the family holds it.
+pub(super) fn shown(fam: &FamilyFit, m: Member) -> Option<Shown<'_>> {
+    fam.member(m).map(Shown::Member).or_else(|| {
+        crate::fit::paper::kind_of(m)
+            .and_then(|k| fam.get(k))
+            .map(Shown::Paper)
+    })
+}
+
+/// The detector angles curves are drawn at (degrees): every 0.5 degree, and every 0.02
+/// degree within 3 degrees of the mirror direction, where a sharp core lobe lives.
+pub(super) fn curve_angles(ti: f64) -> Vec<f64> {
+    let mut x: Vec<f64> = (-180..=180).map(|k| k as f64 * 0.5).collect();
+    x.extend(
+        (-150..=150)
+            .map(|k| ti + k as f64 * 0.02)
+            .filter(|t| t.abs() <= 90.0),
+    );
+    x.sort_by(f64::total_cmp);
+    x.dedup();
+    x
+}
+
 /// The components of `model` at incidence `ti` on the figures' 0.5-degree grid, each
 /// amplitude x basis divided by `norm`, with its name: the core and haze lobes, the
 /// directional and the ideal diffuse, those that are on.
@@ -130,8 +221,8 @@ pub(super) fn component_curves(
 ) -> Vec<(&'static str, Vec<(f64, f64)>)> {
     let m = model.member();
     let a = model.amplitudes();
-    let evals: Vec<(f64, brdf_core::member_model::Parts<f64>)> = (-180..=180)
-        .map(|k| k as f64 * 0.5)
+    let evals: Vec<(f64, brdf_core::member_model::Parts<f64>)> = curve_angles(ti)
+        .into_iter()
         .filter_map(|tr| model.eval_in_plane(ti, tr).ok().map(|e| (tr, e.basis)))
         .collect();
     let mut out = Vec::new();
@@ -199,42 +290,45 @@ pub(super) fn incidence_figure(data: &Dataset, fam: &FamilyFit, j: usize) -> Fig
         })
         .unwrap_or_default();
     obs.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let spec = jd
-        .and_then(|jd| data.specular_value(jd))
-        .filter(|&y| y > 0.0);
-    let reference = match spec {
-        Some(y) => Some(y),
-        None => {
-            let max = obs.iter().map(|p| p.1).fold(f64::NEG_INFINITY, f64::max);
-            if obs.is_empty() {
-                subtitles.push("No readings at this incidence.".to_string());
-                None
-            } else if max > 0.0 {
-                let at = obs.iter().find(|p| p.1 == max).map_or(0.0, |p| p.0);
+    // Normalised at the reading at theta_r = theta_i, else at the nearest one (as the
+    // paper's RMSE is): measured and fitted curves divided at the same angle.
+    let reference_reading = jd.and_then(|jd| data.specular_reference(jd));
+    let reference = match reference_reading {
+        Some((k, exact)) if data.obs[k].y > 0.0 => {
+            if !exact {
                 subtitles.push(format!(
-                    "No reading at theta_r = theta_i: measured points divided by their largest value \
-                     ({max:.4} at theta_r = {}).",
-                    angle_text(at)
+                    "No reading at theta_r = theta_i: every curve divided by its value at the nearest reading, theta_r = {}.",
+                    angle_text(data.obs[k].theta_r)
                 ));
-                Some(max)
-            } else {
-                subtitles.push(
-                    "No positive reading at this incidence: nothing to normalise.".to_string(),
-                );
-                None
             }
+            Some(data.obs[k].y)
+        }
+        Some(_) => {
+            subtitles.push(
+                "The reading nearest to theta_r = theta_i is not positive: nothing to normalise."
+                    .to_string(),
+            );
+            None
+        }
+        None => {
+            subtitles.push("No readings at this incidence.".to_string());
+            None
         }
     };
+    let norm_at = reference_reading.map_or(ti, |(k, _)| data.obs[k].theta_r);
     let measured: Vec<(f64, f64)> = match reference {
         Some(r) => obs.iter().map(|&(x, y)| (x, y / r)).collect(),
         None => Vec::new(),
     };
     let hidden = measured.iter().filter(|p| !plottable(p)).count();
     let measured: Vec<(f64, f64)> = measured.into_iter().filter(plottable).collect();
-    // The paper's two models, and the selected one if it is neither.
-    let mut kinds = vec![Kind::TorranceSparrow, Kind::ThreeComponent];
-    if !kinds.contains(&fam.selected) {
-        kinds.push(fam.selected);
+    // The paper's two models, and the selected member if it is neither.
+    let mut wanted = vec![
+        Kind::TorranceSparrow.member(),
+        Kind::ThreeComponent.member(),
+    ];
+    if !wanted.contains(&fam.selected_member) {
+        wanted.push(fam.selected_member);
     }
     let mut curves = Vec::new();
     let mut rmse_parts = Vec::new();
@@ -242,29 +336,26 @@ pub(super) fn incidence_figure(data: &Dataset, fam: &FamilyFit, j: usize) -> Fig
     let mut lobe_names = Vec::new();
     let mut lobe_legend = None;
     let mut residuals = Vec::new();
-    for kind in kinds {
-        let Some(fit) = fam.get(kind) else { continue };
-        let selected = kind == fam.selected;
+    for m in wanted {
+        let Some(fit) = shown(fam, m) else { continue };
+        let selected = m == fam.selected_member;
         let mark = if selected { " (selected)" } else { "" };
-        let rmse = fit.rmse_by_inc.get(j).copied().flatten();
+        let rmse = fit.rmse_by_inc().get(j).copied().flatten();
         rmse_parts.push(format!(
             "{}{mark} {}",
-            display_name(kind),
+            fit.name(),
             rmse.map_or("n/d".to_string(), |r| format!("{r:.4}"))
         ));
-        let Some(model) = fit.model_at(&fam.incidences, ti) else {
-            notes.push(format!(
-                "{}: no model at this incidence",
-                display_name(kind)
-            ));
+        let Some(model) = fit.model_at(fam, ti) else {
+            notes.push(format!("{}: no model at this incidence", fit.name()));
             continue;
         };
-        let raw: Vec<(f64, f64)> = (-180..=180)
-            .map(|k| k as f64 * 0.5)
+        let raw: Vec<(f64, f64)> = curve_angles(ti)
+            .into_iter()
             .filter_map(|tr| model.eval_in_plane(ti, tr).ok().map(|e| (tr, e.f)))
             .collect();
         let at_spec = model
-            .eval_in_plane(ti, ti)
+            .eval_in_plane(ti, norm_at)
             .ok()
             .map(|e| e.f)
             .filter(|f| f.is_finite() && *f > 0.0);
@@ -272,8 +363,8 @@ pub(super) fn incidence_figure(data: &Dataset, fam: &FamilyFit, j: usize) -> Fig
             Some(f) => f,
             None => {
                 notes.push(format!(
-                    "{}: no value at theta_r = theta_i; divided by its maximum",
-                    display_name(kind)
+                    "{}: no value at the normalising angle; divided by its maximum",
+                    fit.name()
                 ));
                 raw.iter().map(|p| p.1).fold(0.0, f64::max)
             }
@@ -282,11 +373,11 @@ pub(super) fn incidence_figure(data: &Dataset, fam: &FamilyFit, j: usize) -> Fig
             continue;
         }
         let width = if selected { 3 } else { 2 };
-        let color = model_color(kind);
+        let color = fit.color();
         if selected {
-            if let Some(member) = member_at(fit, &fam.incidences, ti) {
+            {
                 let light = lighter(color);
-                for (name, points) in component_curves(&member, ti, norm) {
+                for (name, points) in component_curves(&model, ti, norm) {
                     lobes.push(Curve {
                         color: light,
                         width: 2,
@@ -297,18 +388,20 @@ pub(super) fn incidence_figure(data: &Dataset, fam: &FamilyFit, j: usize) -> Fig
                 if !lobe_names.is_empty() {
                     lobe_legend = Some((
                         Swatch::Dashed(light),
-                        format!("{}: {}", display_name(kind), lobe_names.join(", ")),
+                        format!("selected, by component: {}", lobe_names.join(", ")),
                     ));
                 }
             }
             residuals = jd
                 .map(|jd| {
+                    let fitted = fit.fitted(data);
                     let mut r: Vec<(f64, f64)> = data
                         .obs
                         .iter()
-                        .filter(|o| o.inc == jd && o.y > 0.0)
-                        .filter_map(|o| {
-                            let f = fit.predict(&fam.incidences, o.theta_i, o.theta_r)?;
+                        .zip(&fitted)
+                        .filter(|(o, _)| o.inc == jd && o.y > 0.0)
+                        .filter_map(|(o, f)| {
+                            let f = (*f)?;
                             (f > 0.0).then(|| (o.theta_r, (o.y / f).ln()))
                         })
                         .collect();
@@ -326,10 +419,7 @@ pub(super) fn incidence_figure(data: &Dataset, fam: &FamilyFit, j: usize) -> Fig
                 .filter(plottable)
                 .collect(),
         });
-        legend.push((
-            Swatch::Line(color, width),
-            format!("{}{mark}", display_name(kind)),
-        ));
+        legend.push((Swatch::Line(color, width), format!("{}{mark}", fit.name())));
     }
     let black = RGBColor(0, 0, 0);
     legend.insert(0, (Swatch::Marker(black), "measured".to_string()));
@@ -338,7 +428,7 @@ pub(super) fn incidence_figure(data: &Dataset, fam: &FamilyFit, j: usize) -> Fig
     if !residuals.is_empty() {
         notes.push(format!(
             "Lower panel: ln(measured / fitted) of {} per reading.",
-            display_name(fam.selected)
+            shown(fam, fam.selected_member).map_or(String::new(), |f| f.name())
         ));
     }
     subtitles.insert(
@@ -347,7 +437,7 @@ pub(super) fn incidence_figure(data: &Dataset, fam: &FamilyFit, j: usize) -> Fig
     );
     notes.insert(
         0,
-        "Each curve is divided by its own value at theta_r = theta_i; log axis.".to_string(),
+        "Each curve is divided by its own value at theta_r = theta_i (or the nearest reading); log axis.".to_string(),
     );
     if hidden > 0 {
         notes.push(format!("{hidden} reading(s) <= 0 not shown (log axis)."));
@@ -400,7 +490,7 @@ pub(super) fn ramp_color(k: usize, n: usize) -> RGBColor {
 /// instrument's units.
 pub(super) fn overview_figure(data: &Dataset, fam: &FamilyFit) -> Figure {
     let n = fam.incidences.len();
-    let fit = fam.get(fam.selected);
+    let fit = shown(fam, fam.selected_member);
     let mut curves = Vec::new();
     let mut markers = Vec::new();
     let mut legend = Vec::new();
@@ -421,9 +511,9 @@ pub(super) fn overview_figure(data: &Dataset, fam: &FamilyFit) -> Figure {
                 points: pts.into_iter().filter(plottable).collect(),
             });
         }
-        if let Some(model) = fit.and_then(|f| f.model_at(&fam.incidences, ti)) {
-            let points = (-180..=180)
-                .map(|k| k as f64 * 0.5)
+        if let Some(model) = fit.and_then(|f| f.model_at(fam, ti)) {
+            let points = curve_angles(ti)
+                .into_iter()
                 .filter_map(|tr| model.eval_in_plane(ti, tr).ok().map(|e| (tr, e.f)))
                 .filter(plottable)
                 .collect();
@@ -438,9 +528,9 @@ pub(super) fn overview_figure(data: &Dataset, fam: &FamilyFit) -> Figure {
             format!("theta_i = {} degrees", angle_text(ti)),
         ));
     }
-    let name = display_name(fam.selected);
+    let name = fit.map_or(fam.selected_member.to_string(), |f| f.name());
     let rmse = fit
-        .and_then(|f| f.rmse)
+        .and_then(|f| f.rmse())
         .map_or("n/d".to_string(), |r| format!("{r:.4}"));
     let mut notes = vec![
         "Points: measured.".to_string(),

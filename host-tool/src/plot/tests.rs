@@ -123,12 +123,14 @@ fn normalised_curves_and_points_are_one_at_the_specular_angle() {
         assert!((p.1 - 1.0).abs() < 1e-12);
         assert_eq!(c.points.first().unwrap().0, -90.0);
         assert_eq!(c.points.last().unwrap().0, 90.0);
-        assert_eq!(c.points.len(), 361, "0.5-degree steps");
+        // Every 0.5 degree, and every 0.02 degree within 3 degrees of the mirror.
+        assert_eq!(c.points.iter().filter(|p| p.0.abs() > 40.0).count(), 200);
+        assert!(c.points.iter().filter(|p| (p.0 - 30.0).abs() < 0.5).count() > 40);
     }
 }
 
 #[test]
-fn without_a_specular_reading_points_are_divided_by_the_largest_and_the_title_says_so() {
+fn without_a_specular_reading_curves_are_divided_at_the_nearest_reading_and_the_title_says_so() {
     let data = Dataset::from_rows(&rows("fe-0.115", &[20.0]), true).unwrap();
     let fam = fit_family(&data, &FitOptions::default(), &Kind::ALL).unwrap();
     let fig = incidence_figure(&data, &fam, 2);
@@ -139,12 +141,18 @@ fn without_a_specular_reading_points_are_divided_by_the_largest_and_the_title_sa
         "{:?}",
         fig.subtitles
     );
-    let max = fig.markers[0]
-        .points
-        .iter()
-        .map(|p| p.1)
-        .fold(0.0, f64::max);
-    assert_eq!(max, 1.0);
+    // The readings nearest to 20 degrees are at 10 and 30; the first (10) is the
+    // reference: measured and every curve are 1 there.
+    let at = |pts: &[(f64, f64)]| pts.iter().find(|p| p.0 == 10.0).unwrap().1;
+    assert_eq!(at(&fig.markers[0].points), 1.0);
+    for c in &fig.curves {
+        assert!((at(&c.points) - 1.0).abs() < 1e-12);
+    }
+    assert!(
+        fig.subtitles
+            .iter()
+            .any(|s| s.contains("nearest reading, theta_r = 10"))
+    );
     // Issue 13: the paper RMSE is normalised at the nearest reading, never n/d.
     assert!(
         !fig.subtitles[0].contains("n/d"),

@@ -13,16 +13,43 @@ fn json_follows_the_contract() {
         serde_json::from_str(&out.stdout).expect("one JSON object on stdout");
     let models = v["models"].as_array().unwrap();
     let names: Vec<&str> = models.iter().map(|m| m["name"].as_str().unwrap()).collect();
+    // The default family holds the paper's four members under their names, and more.
+    for paper in [
+        "ideal-diffuse",
+        "torrance-sparrow",
+        "three-component",
+        "three-component-smooth-ks",
+    ] {
+        assert!(names.contains(&paper), "{names:?}");
+    }
+    assert!(names.contains(&"specular:beckmann+specular-haze:beckmann+ideal-diffuse"));
+    let by_name = |n: &str| models.iter().find(|m| m["name"] == n).unwrap();
+    // Every model names its components from the fixed vocabulary, and its lobes.
+    for m in models {
+        let comps = m["components"].as_array().unwrap();
+        assert!(!comps.is_empty());
+        for c in comps {
+            assert!(
+                [
+                    "specular",
+                    "specular-haze",
+                    "directional-diffuse",
+                    "ideal-diffuse"
+                ]
+                .contains(&c.as_str().unwrap())
+            );
+        }
+        if comps.iter().any(|c| c == "specular") {
+            let lobe = &m["lobes"]["specular"];
+            assert!(["beckmann", "ggx"].contains(&lobe["distribution"].as_str().unwrap()));
+            assert!(["per-incidence", "smooth"].contains(&lobe["ks"].as_str().unwrap()));
+        }
+    }
+    let three = by_name("three-component");
     assert_eq!(
-        names,
-        [
-            "ideal-diffuse",
-            "torrance-sparrow",
-            "three-component",
-            "three-component-smooth-ks"
-        ]
+        three["components"],
+        serde_json::json!(["specular", "directional-diffuse", "ideal-diffuse"])
     );
-    let three = &models[2];
     for key in ["sigma", "sigma_m", "k_dd", "k_id"] {
         assert!(three["params"][key].as_f64().unwrap() > 0.0, "{key}");
         assert!(three["std_errors"][key].as_f64().unwrap() > 0.0, "{key}");
@@ -39,7 +66,7 @@ fn json_follows_the_contract() {
     for key in ["rmse", "aicc", "bic"] {
         assert!(three[key].is_number(), "{key}");
     }
-    let ts = &models[1];
+    let ts = by_name("torrance-sparrow");
     assert!(ts["params"]["k_d"].as_f64().unwrap() > 0.0 && ts["params"].get("k_dd").is_none());
     assert_eq!(
         v["selected"]
@@ -157,4 +184,80 @@ fn a_campaign_fits_every_sweep_and_skips_the_bad_one() {
         "x",
     ]);
     assert_eq!(o.code, 2);
+}
+
+#[test]
+fn residuals_export_has_one_row_per_reading_in_file_order() {
+    let d = scratch("residuals");
+    let f = simulated(&d, "fe-0.115");
+    let out_path = d.join("res.csv");
+    let out = gonio(&[
+        "fit",
+        f.to_str().unwrap(),
+        "--export",
+        &format!("residuals={}", out_path.display()),
+    ]);
+    assert!(out.ok(), "{}", out.stderr);
+    let text = std::fs::read_to_string(&out_path).unwrap();
+    let sweep = std::fs::read_to_string(&f).unwrap();
+    // The sweep's readings, in its order: theta_i, theta_r, brdf.
+    let readings: Vec<(f64, f64, f64)> = sweep
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .skip(1)
+        .map(|l| {
+            let v: Vec<f64> = l.split(',').take(3).map(|x| x.parse().unwrap()).collect();
+            (v[0], v[1], v[2])
+        })
+        .collect();
+    assert!(text.contains("# model: three-component\n"), "{text}");
+    let mut lines = text.lines().filter(|l| !l.starts_with('#'));
+    assert_eq!(
+        lines.next(),
+        Some("theta_i,theta_r,measured,fitted,residual")
+    );
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), readings.len());
+    let mut ss = 0.0;
+    for (r, (ti, tr, y)) in rows.iter().zip(&readings) {
+        assert_eq!((r[0], r[1], r[2]), (*ti, *tr, *y));
+        // The residual is the log residual of the two values beside it.
+        assert!((r[4] - (r[3].ln() - r[2].ln())).abs() < 1e-12);
+        ss += r[4] * r[4];
+    }
+    // 0.5 % noise per sample, 4 samples: the residuals are at that level.
+    let rms = (ss / rows.len() as f64).sqrt();
+    assert!(rms > 0.0005 && rms < 0.01, "rms {rms}");
+    // Any fitted member can be exported by name; one not fitted is refused.
+    let out = gonio(&[
+        "fit",
+        f.to_str().unwrap(),
+        "--models",
+        "ts,specular:ggx+ideal-diffuse",
+        "--export-model",
+        "specular:ggx+ideal-diffuse",
+        "--export",
+        &format!("residuals={}", d.join("ggx.csv").display()),
+    ]);
+    assert!(out.ok(), "{}", out.stderr);
+    let ggx = std::fs::read_to_string(d.join("ggx.csv")).unwrap();
+    assert!(ggx.contains("# model: specular:ggx+ideal-diffuse\n"));
+    let out = gonio(&[
+        "fit",
+        f.to_str().unwrap(),
+        "--models",
+        "ts",
+        "--export-model",
+        "three",
+        "--export",
+        &format!("residuals={}", d.join("no.csv").display()),
+    ]);
+    assert!(!out.ok());
+    assert!(
+        out.stderr.contains("three-component") && out.stderr.contains("was not fitted"),
+        "{}",
+        out.stderr
+    );
 }

@@ -1,0 +1,445 @@
+//! Selection over the member lattice: which components the data support, each judged
+//! by the one comparison that adds that component alone, and the member chosen.
+//!
+//! A component c of member M is *supported* when M without c was fitted too, M's
+//! criterion (AICc, or BIC) is lower by more than [`MARGIN`], AND c's amplitude in M is
+//! determined (its standard error under a third of its value, and not at its lower
+//! bound). A member is *admissible* when every component it has is supported, or
+//! untested because the member without it was not fitted. Variants of a component set
+//! (GGX instead of Beckmann, a smooth k_s(theta_i)) inherit the verdicts of the
+//! reference member of that set (Beckmann lobes, one k_s per incidence) when their own
+//! neighbours were not fitted. The selected member is the admissible one with the
+//! lowest criterion.
+
+use brdf_core::member::{Component, LobeSpec, Member};
+
+use super::family::{Coord, Kind};
+use super::goodness::Goodness;
+use super::member_fit::MemberFit;
+use super::report::{ks_table, scalar};
+use super::solve::Fit;
+
+/// A difference in the criterion below this is not evidence for the larger model.
+pub const MARGIN: f64 = 2.0;
+
+/// A component's amplitude: its value, standard error (`None`: not determined) and
+/// whether it sits at its lower bound. For one k_s per incidence, the least
+/// determined incidence.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Amplitude {
+    /// Value (natural units).
+    pub value: f64,
+    /// Standard error.
+    pub se: Option<f64>,
+    /// At (within a factor e of) its lower bound.
+    pub at_bound: bool,
+}
+
+impl Amplitude {
+    /// Determined: not at a bound, standard error under a third of the value.
+    pub fn determined(&self) -> bool {
+        !self.at_bound && self.se.is_some_and(|s| s < self.value / 3.0)
+    }
+
+    /// One amplitude from one k_s per incidence: the inverse-variance combination of
+    /// their logarithms (geometric-mean value, relative error 1 / sqrt(sum 1 / r_j^2)
+    /// over the incidences whose k_s is determined and off its bound, r_j = se_j /
+    /// k_s_j); at its bound when every incidence is.
+    pub fn combine(parts: &[Amplitude]) -> Option<Amplitude> {
+        if parts.is_empty() {
+            return None;
+        }
+        let n = parts.len() as f64;
+        let value = (parts.iter().map(|a| a.value.max(1e-300).ln()).sum::<f64>() / n).exp();
+        let at_bound = parts.iter().all(|a| a.at_bound);
+        let info: f64 = parts
+            .iter()
+            .filter(|a| !a.at_bound)
+            .filter_map(|a| a.se.map(|s| (a.value / s.max(1e-300)).powi(2)))
+            .sum();
+        let se = (info > 0.0).then(|| value / info.sqrt());
+        Some(Amplitude {
+            value,
+            se,
+            at_bound,
+        })
+    }
+}
+
+/// What selection needs of one fitted member.
+#[derive(Debug, Clone)]
+pub struct Candidate {
+    /// The member.
+    pub member: Member,
+    /// AICc.
+    pub aicc: f64,
+    /// BIC.
+    pub bic: f64,
+    /// Free parameters.
+    pub k: usize,
+    /// The paper's RMSE over all readings.
+    pub rmse: Option<f64>,
+    /// Per component (in [`Component::ALL`] order): its amplitude, if on.
+    pub amplitude: [Option<Amplitude>; 4],
+    /// Residuals against the readings' noise, when the sweep has std and n.
+    pub goodness: Option<Goodness>,
+}
+
+fn slot(c: Component) -> usize {
+    Component::ALL.iter().position(|&x| x == c).unwrap_or(0)
+}
+
+impl Candidate {
+    /// From a member fit.
+    pub fn of_member(fit: &MemberFit, goodness: Option<Goodness>) -> Self {
+        let l = &fit.layout;
+        let nat = |i: usize| {
+            let (value, se) = fit.natural(i);
+            Amplitude {
+                value,
+                se,
+                at_bound: fit.x[i] <= l.bounds(i).0 + 1.0,
+            }
+        };
+        let lobe = |local: bool, poly: Option<usize>, haze: bool| -> Option<Amplitude> {
+            if let Some(p) = poly {
+                // ln k_s(t) = c0 + c1 t + c2 t^2: its level where the data determine it
+                // best (c0 alone is the extrapolation to theta_i = 0).
+                let ident = (0..3).all(|a| fit.identifiable[p + a]);
+                return fit
+                    .incidences
+                    .iter()
+                    .map(|ti| {
+                        let t = ti / 90.0;
+                        let g = [1.0, t, t * t];
+                        let ln = (0..3).map(|a| g[a] * fit.x[p + a]).sum::<f64>();
+                        let var: f64 = (0..3)
+                            .flat_map(|a| (0..3).map(move |b| (a, b)))
+                            .map(|(a, b)| g[a] * g[b] * fit.cov.get(p + a, p + b))
+                            .sum();
+                        let value = ln.exp();
+                        Amplitude {
+                            value,
+                            se: ident.then(|| value * var.max(0.0).sqrt()),
+                            at_bound: ln <= l.bounds(p).0 + 1.0,
+                        }
+                    })
+                    .min_by(|a, b| {
+                        let r = |x: &Amplitude| x.se.map_or(f64::INFINITY, |s| s / x.value);
+                        r(a).total_cmp(&r(b))
+                    });
+            }
+            if !local {
+                return None;
+            }
+            let parts: Vec<Amplitude> = (0..l.n_inc).map(|j| nat(l.local(j, haze))).collect();
+            Amplitude::combine(&parts)
+        };
+        let m = fit.member();
+        let mut amplitude = [None; 4];
+        if m.core.is_some() {
+            amplitude[0] = lobe(l.core_local, l.core_poly, false);
+        }
+        if m.haze.is_some() {
+            amplitude[1] = lobe(l.haze_local, l.haze_poly, true);
+        }
+        amplitude[2] = l.kdd.map(nat);
+        amplitude[3] = l.kid.map(nat);
+        Candidate {
+            member: m,
+            aicc: fit.aicc(),
+            bic: bic(fit.ssr, fit.n, fit.k()),
+            k: fit.k(),
+            rmse: fit.rmse,
+            amplitude,
+            goodness,
+        }
+    }
+
+    /// From a paper-form fit (`--fix`, robust losses).
+    pub fn of_fit(fit: &Fit, incidences: &[f64], goodness: Option<Goodness>) -> Self {
+        let scalar_amp = |c: Coord| {
+            let (value, se) = scalar(fit, c);
+            Amplitude {
+                value,
+                se,
+                at_bound: fit.values.get(c) <= c.bounds().0 + 1.0,
+            }
+        };
+        let kind = fit.kind;
+        let mut amplitude = [None; 4];
+        if kind.specular() {
+            let parts: Vec<Amplitude> = ks_table(fit, incidences)
+                .into_iter()
+                .map(|(_, v, se)| Amplitude {
+                    value: v,
+                    se,
+                    at_bound: v.ln() <= Coord::Ks(0).bounds().0 + 1.0,
+                })
+                .collect();
+            amplitude[0] = if fit.values.poly.is_some() {
+                // A smooth k_s: its level c0 is one coefficient; the table's values
+                // share it, so take the best-determined one rather than combining.
+                parts.into_iter().min_by(|a, b| {
+                    let r = |x: &Amplitude| x.se.map_or(f64::INFINITY, |s| s / x.value);
+                    r(a).total_cmp(&r(b))
+                })
+            } else {
+                Amplitude::combine(&parts)
+            };
+        }
+        if kind.directional() {
+            amplitude[2] = Some(scalar_amp(Coord::Kdd));
+        }
+        amplitude[3] = Some(scalar_amp(Coord::Kid));
+        Candidate {
+            member: kind.member(),
+            aicc: fit.aicc(),
+            bic: fit.bic(),
+            k: fit.k(),
+            rmse: fit.rmse,
+            amplitude,
+            goodness,
+        }
+    }
+
+    /// The amplitude of component `c`, if on.
+    pub fn amplitude(&self, c: Component) -> Option<Amplitude> {
+        self.amplitude[slot(c)]
+    }
+}
+
+/// BIC from the sum of squares.
+pub fn bic(ssr: f64, n: usize, k: usize) -> f64 {
+    let (n, k) = (n as f64, k as f64);
+    n * (ssr / n).max(1e-300).ln() + k * n.ln()
+}
+
+/// The criterion selection ranks by.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Criterion {
+    /// AICc.
+    Aicc,
+    /// BIC (stricter with many readings).
+    Bic,
+}
+
+impl Criterion {
+    fn of(self, c: &Candidate) -> f64 {
+        match self {
+            Criterion::Aicc => c.aicc,
+            Criterion::Bic => c.bic,
+        }
+    }
+
+    /// Its name in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Criterion::Aicc => "AICc",
+            Criterion::Bic => "BIC",
+        }
+    }
+}
+
+/// The reference member of `m`'s component set: every lobe Beckmann with one k_s per
+/// incidence.
+pub fn reference(m: Member) -> Member {
+    Member {
+        core: m.core.map(|_| LobeSpec::PAPER),
+        haze: m.haze.map(|_| LobeSpec::PAPER),
+        ..m
+    }
+}
+
+/// `m` with component `c` added (a lobe as the reference lobe); `None` if it is on
+/// already or the result is not a member.
+pub fn with(m: Member, c: Component) -> Option<Member> {
+    if m.has(c) {
+        return None;
+    }
+    let mut n = m;
+    match c {
+        Component::Specular => n.core = Some(LobeSpec::PAPER),
+        Component::SpecularHaze => n.haze = Some(LobeSpec::PAPER),
+        Component::DirectionalDiffuse => n.directional = true,
+        Component::IdealDiffuse => n.ideal = true,
+    }
+    n.is_valid().then_some(n)
+}
+
+/// One comparison: a member against itself without one component.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Test {
+    /// The member with the component.
+    pub member: Member,
+    /// The member without it.
+    pub without: Member,
+    /// Criterion of `without` minus that of `member` (> 0: the component helps).
+    pub gain: f64,
+    /// The component's amplitude in `member`.
+    pub amplitude: Option<Amplitude>,
+}
+
+impl Test {
+    /// The component is supported.
+    pub fn supports(&self) -> bool {
+        self.gain > MARGIN && self.amplitude.is_some_and(|a| a.determined())
+    }
+}
+
+/// Selection over a set of fitted candidates.
+#[derive(Debug, Clone)]
+pub struct Selection<'a> {
+    cands: &'a [Candidate],
+    crit: Criterion,
+}
+
+impl<'a> Selection<'a> {
+    /// Selection by `crit` over `cands`.
+    pub fn new(cands: &'a [Candidate], crit: Criterion) -> Self {
+        Selection { cands, crit }
+    }
+
+    /// The candidate of a member, if fitted.
+    pub fn get(&self, m: Member) -> Option<&'a Candidate> {
+        self.cands.iter().find(|c| c.member == m)
+    }
+
+    /// The comparison that decides component `c` in `m`: `m` against `m` without `c`
+    /// when both were fitted, else the same for `m`'s reference member.
+    pub fn test(&self, m: Member, c: Component) -> Option<Test> {
+        let direct = |m: Member| -> Option<Test> {
+            let a = self.get(m)?;
+            let without = m.without(c);
+            let b = self.get(without)?;
+            Some(Test {
+                member: m,
+                without,
+                gain: self.crit.of(b) - self.crit.of(a),
+                amplitude: a.amplitude(c),
+            })
+        };
+        if !m.has(c) {
+            return None;
+        }
+        direct(m).or_else(|| (reference(m) != m).then(|| direct(reference(m))).flatten())
+    }
+
+    /// Every component of `m` is supported or untested.
+    pub fn admissible(&self, m: Member) -> bool {
+        m.components()
+            .all(|c| self.test(m, c).is_none_or(|t| t.supports()))
+    }
+
+    /// The admissible candidate with the lowest criterion (if none is admissible, the
+    /// lowest overall).
+    pub fn best(&self) -> Option<&'a Candidate> {
+        let key = |c: &&Candidate| self.crit.of(c);
+        self.cands
+            .iter()
+            .filter(|c| self.admissible(c.member) && key(c).is_finite())
+            .min_by(|a, b| key(a).total_cmp(&key(b)))
+            .or_else(|| self.cands.iter().min_by(|a, b| key(a).total_cmp(&key(b))))
+    }
+
+    /// The best admissible paper member (for paper-only consumers).
+    pub fn best_paper(&self) -> Option<Kind> {
+        let key = |c: &&Candidate| self.crit.of(c);
+        let paper = || {
+            self.cands
+                .iter()
+                .filter(|c| c.member.paper_name().is_some())
+        };
+        paper()
+            .filter(|c| self.admissible(c.member))
+            .min_by(|a, b| key(a).total_cmp(&key(b)))
+            .or_else(|| paper().min_by(|a, b| key(a).total_cmp(&key(b))))
+            .and_then(|c| super::paper::kind_of(c.member))
+    }
+}
+
+fn amp_text(c: Component, a: Option<Amplitude>) -> String {
+    let name = match c {
+        Component::Specular => "k_s",
+        Component::SpecularHaze => "k_s of the haze",
+        Component::DirectionalDiffuse => "k_dd",
+        Component::IdealDiffuse => "k_id",
+    };
+    match a {
+        None => format!("{name} unknown"),
+        Some(a) if a.at_bound => format!("{name} = {:.3e} is at its lower bound", a.value),
+        Some(a) => match a.se {
+            Some(se) => format!("{name} = {:.3e} ± {:.1e}", a.value, se),
+            None => format!("{name} = {:.3e} (not determined)", a.value),
+        },
+    }
+}
+
+/// One line per component of the vocabulary, saying whether the data support it,
+/// relative to the selected member `sel` (a component on in `sel`: its own test; one
+/// that is off: the test of adding it to `sel`).
+pub fn component_notes(s: &Selection<'_>, sel: Member) -> Vec<String> {
+    let crit = s.crit.name();
+    let mut out = Vec::new();
+    for c in Component::ALL {
+        let line = if sel.has(c) {
+            match s.test(sel, c) {
+                Some(t) if t.supports() => format!(
+                    "{}: supported ({crit} {:.1} lower than {}, {} determined)",
+                    c.name(),
+                    t.gain,
+                    t.without,
+                    amp_text(c, t.amplitude)
+                ),
+                Some(t) => format!(
+                    "{}: kept but NOT supported ({crit} {:+.1} against {}, {}): no admissible member is without it",
+                    c.name(),
+                    t.gain,
+                    t.without,
+                    amp_text(c, t.amplitude)
+                ),
+                None => format!(
+                    "{}: on in the selected member, not tested (the member without it was not fitted)",
+                    c.name()
+                ),
+            }
+        } else {
+            let Some(t) = with(sel, c).and_then(|m| s.test(m, c)) else {
+                if with(sel, c).is_some() {
+                    out.push(format!(
+                        "{}: absent (not tested: {} was not fitted)",
+                        c.name(),
+                        with(sel, c).map_or(String::new(), |m| m.to_string())
+                    ));
+                }
+                continue;
+            };
+            if t.supports() {
+                format!(
+                    "{}: absent from the selection, though {} favours it ({crit} {:.1} lower, {}): another of its components is not supported",
+                    c.name(),
+                    t.member,
+                    t.gain,
+                    amp_text(c, t.amplitude)
+                )
+            } else if t.gain <= MARGIN {
+                format!(
+                    "{}: absent ({} fits no better: {crit} {:+.1})",
+                    c.name(),
+                    t.member,
+                    t.gain
+                )
+            } else {
+                format!(
+                    "{}: absent ({} has {crit} {:.1} lower, but {}: NOT supported)",
+                    c.name(),
+                    t.member,
+                    t.gain,
+                    amp_text(c, t.amplitude)
+                )
+            }
+        };
+        out.push(line);
+    }
+    out
+}

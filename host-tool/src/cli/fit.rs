@@ -43,7 +43,10 @@ Haze: three-component with and without a second specular lobe, both searched on 
 wide is found.\n\n\
 Every parameter is fitted as its logarithm (positive by construction); standard errors come from the covariance \
 at the optimum. The RMSE table is the paper's Table 3: per incidence, curves normalised to their value at \
-theta_r = theta_i, or at the nearest reading when there is none there (marked *). Angles in degrees, sigma_m in radians, BRDF in the file's relative units.",
+theta_r = theta_i, or at the nearest reading when there is none there (marked *). Angles in degrees, sigma_m in radians, BRDF in the file's units (its `# brdf:` line: relative, or 1/sr; \
+--instrument fits in 1/sr). The report ends with physical checks of every model: the directional albedo \
+rho(theta_i) at each incidence (rho > 1 in 1/sr is flagged non-physical) and the largest reciprocity ratio \
+f(i->o)/f(o->i).",
     after_help = "Examples:\n  gonio fit fe.csv\n  gonio fit fe.csv --json > fe-fit.json\n  \
 gonio fit fe.csv --plot plots/ --export merl=fe.binary --export json=fe-params.json\n  \
 gonio fit fe.csv --fix sigma_m=0.7 --fix kdd=900 --loss cauchy:0.05\n  \
@@ -92,6 +95,11 @@ pub struct FitArgs {
     /// Models to fit, comma-separated [default: all].
     #[arg(long, value_enum, value_delimiter = ',', value_name = "MODELS")]
     pub models: Vec<ModelArg>,
+    /// Fit in 1/sr: divide the (relative) readings by K from this instrument file
+    /// (`gonio calibrate`); the report shows each amplitude's u(K) beside its fit
+    /// uncertainty. Refused for a sweep already in 1/sr.
+    #[arg(long, value_name = "instrument.toml")]
+    pub instrument: Option<PathBuf>,
 }
 
 /// The fit options and models from the command line.
@@ -164,7 +172,13 @@ fn run_campaign(args: &FitArgs, opts: &FitOptions, kinds: &[Kind]) -> CliResult 
             "--plot and --export take one sweep file; a campaign writes its reports to --out",
         ));
     }
+    if args.instrument.is_some() {
+        return Err(CliError::usage(
+            "--instrument takes one sweep file (convert the campaign's files with gonio convert)",
+        ));
+    }
     let files = campaign::expand_inputs(&args.sweeps).map_err(CliError::usage)?;
+    super::fit_units::check_campaign_units(&files)?;
     let bar = indicatif::ProgressBar::new(files.len() as u64).with_style(
         indicatif::ProgressStyle::with_template(
             "{bar:30} {pos}/{len} sweeps  {per_sec}  eta {eta}",
@@ -216,10 +230,20 @@ pub fn run(args: &FitArgs) -> CliResult {
         return run_campaign(args, &opts, &kinds);
     }
     let sweep = args.sweeps[0].as_path();
-    let (data, warnings) = campaign::read_data(sweep, &opts).map_err(file_error)?;
+    let (mut data, warnings) = campaign::read_data(sweep, &opts).map_err(file_error)?;
     for w in &warnings {
         eprintln!("gonio: warning: {w}");
     }
+    let mut units = super::fit_units::units_of(sweep)?;
+    let inst = match &args.instrument {
+        Some(p) => {
+            let i = super::fit_units::apply_instrument(sweep, units, p, &mut data)?;
+            units = crate::sweep_file::BrdfUnits::PerSr;
+            Some((i, p.as_path()))
+        }
+        None => None,
+    };
+    let inst = inst.as_ref().map(|(i, p)| (i, *p));
     // Every output is checked before the fit: nothing is computed for a refused one.
     let inputs = [sweep];
     for (_, path) in &args.export {
@@ -243,13 +267,19 @@ pub fn run(args: &FitArgs) -> CliResult {
             ExportFormat::Residuals => {
                 export::write_residuals(target, &data, &fam, kind, opts.residual)?;
             }
+            ExportFormat::Merl => {
+                let note = export::write_merl_export(target, &fam, kind)?;
+                eprintln!("gonio: note: {}: {note}", path.display());
+            }
             _ => export::write_export(*format, target, &fam, kind)?,
         }
     }
     let text = if args.json {
-        fit::report::family_json_text(&fam)
+        super::fit_units::report_json(&fit::report::family_json_text(&fam), &fam, units, inst)
     } else {
-        fit::report::family_table(&fam, residual).into_bytes()
+        let mut t = fit::report::family_table(&fam, residual);
+        t.push_str(&super::fit_units::report_text(&fam, units, inst));
+        t.into_bytes()
     };
     write_stdout(&text)
 }

@@ -16,6 +16,7 @@ pub mod data;
 pub mod family;
 pub mod lm;
 pub mod member_fit;
+pub mod physical;
 pub mod report;
 pub mod solve;
 

@@ -218,6 +218,9 @@ pub fn parse_sweep(bytes: &[u8]) -> Result<SweepData, (usize, String)> {
                         ),
                     ));
                 }
+                if key == super::units::BRDF_KEY {
+                    super::units::BrdfUnits::parse(value).map_err(|m| (lineno, m))?;
+                }
                 data.meta.insert(key.to_string(), value.to_string());
             }
             data.complete_len = offset;

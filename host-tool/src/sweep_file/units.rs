@@ -128,6 +128,28 @@ mod tests {
     }
 
     #[test]
+    fn a_capture_says_relative_and_a_converted_file_is_not_resumed() {
+        use crate::sweep_file::{Header, SweepWriter, read_sweep};
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("s.csv");
+        let header = Header {
+            device: "sim".into(),
+            plan: "paper".into(),
+            settings: "samples=4".into(),
+            points: vec![(0.0, 10.0), (0.0, 20.0)],
+        };
+        drop(SweepWriter::create(&path, &header, false).unwrap());
+        assert_eq!(
+            read_sweep(&path).unwrap().declared_brdf_units(),
+            Some(BrdfUnits::Relative)
+        );
+        let text = std::fs::read_to_string(&path).unwrap();
+        std::fs::write(&path, text.replace("# brdf: relative", "# brdf: 1/sr")).unwrap();
+        let e = SweepWriter::resume(&path).err().unwrap().to_string();
+        assert!(e.contains("its brdf is in 1/sr (a converted file)"), "{e}");
+    }
+
+    #[test]
     fn mixing_is_refused_naming_both() {
         let p = std::path::Path::new("a.csv");
         assert!(refuse_mixed("x", (p, BrdfUnits::PerSr), ("b", BrdfUnits::PerSr)).is_ok());

@@ -4,7 +4,8 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use gonio::cli::{
-    CliResult, EXIT_USAGE, bench, capture, demo, eval, fit, flash, import, info, ports, simulate,
+    CliResult, EXIT_USAGE, bench, calibrate, capture, convert, demo, eval, fit, flash, import,
+    info, ports, simulate,
 };
 
 /// gonio: measure and model how metal surfaces reflect light.
@@ -18,7 +19,7 @@ three-component model for metals (specular + directional diffuse + ideal diffuse
 Wang et al., Chinese Physics B 25 (2016) 094201).\n\n\
 Conventions everywhere: angles in degrees; theta_i in [0, 90]; theta_r signed in \
 [-90, 90], positive on the specular side (theta_r = +theta_i is the mirror direction, \
--theta_i is retro-reflection); BRDF values in the paper's relative units.\n\n\
+-theta_i is retro-reflection); BRDF values in the paper's relative units unless a sweep's `# brdf: 1/sr` line says otherwise (gonio calibrate and gonio convert make them absolute).\n\n\
 Exit status: 0 success, 1 the job failed, 2 bad usage or bad input."
 )]
 struct Cli {
@@ -34,6 +35,8 @@ enum Command {
     Capture(capture::CaptureArgs),
     Simulate(simulate::SimulateArgs),
     Fit(fit::FitArgs),
+    Calibrate(calibrate::CalibrateArgs),
+    Convert(convert::ConvertArgs),
     Import(import::ImportArgs),
     Demo(demo::DemoArgs),
     Bench(bench::BenchArgs),
@@ -48,6 +51,8 @@ fn run(cli: Cli) -> CliResult {
         Command::Capture(args) => capture::run(&args),
         Command::Simulate(args) => simulate::run(&args),
         Command::Fit(args) => fit::run(&args),
+        Command::Calibrate(args) => calibrate::run(&args),
+        Command::Convert(args) => convert::run(&args),
         Command::Import(args) => import::run(&args),
         Command::Demo(args) => demo::run(&args),
         Command::Bench(args) => bench::run(&args),

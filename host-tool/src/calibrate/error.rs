@@ -70,6 +70,8 @@ pub enum CalibrationError {
     BadStandard(String),
     /// A bad instrument file or instrument constant.
     BadInstrument(String),
+    /// A sweep in units the operation does not take (e.g. already in 1/sr).
+    WrongUnits(String),
 }
 
 impl fmt::Display for CalibrationError {
@@ -131,6 +133,7 @@ impl fmt::Display for CalibrationError {
             ),
             CalibrationError::BadStandard(m) => write!(f, "reference standard: {m}"),
             CalibrationError::BadInstrument(m) => write!(f, "instrument: {m}"),
+            CalibrationError::WrongUnits(m) => f.write_str(m),
         }
     }
 }

@@ -32,7 +32,7 @@ pub struct Reading {
 }
 
 /// What a reading's value is proportional to.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Quantity {
     /// The detector signal V = K f cos(theta_r) (issue 17's equation).

@@ -33,6 +33,16 @@ pub struct Instrument {
     pub date: String,
     /// Reference readings used.
     pub readings: usize,
+    /// What the reference sweep's brdf column held (and so what a sweep converted
+    /// with this instrument holds): `relative-brdf` (K f, what a capture writes) or
+    /// `detector-signal` (V = K f cos(theta_r)). Absent in a hand-written file:
+    /// `relative-brdf`.
+    #[serde(default = "relative_brdf")]
+    pub quantity: Quantity,
+}
+
+fn relative_brdf() -> Quantity {
+    Quantity::RelativeBrdf
 }
 
 /// Now as RFC 3339 in UTC, to the second (e.g. `2026-12-01T18:30:00Z`).
@@ -40,28 +50,15 @@ pub fn now_utc() -> String {
     humantime::format_rfc3339_seconds(std::time::SystemTime::now()).to_string()
 }
 
-/// A TOML basic string: quotes, with `\` `"` and control characters escaped.
-fn toml_string(s: &str) -> String {
-    let mut out = String::with_capacity(s.len() + 2);
-    out.push('"');
-    for c in s.chars() {
-        match c {
-            '"' => out.push_str("\\\""),
-            '\\' => out.push_str("\\\\"),
-            '\n' => out.push_str("\\n"),
-            '\t' => out.push_str("\\t"),
-            '\r' => out.push_str("\\r"),
-            c if c.is_control() => out.push_str(&format!("\\u{:04X}", c as u32)),
-            c => out.push(c),
-        }
-    }
-    out.push('"');
-    out
-}
-
 impl Instrument {
     /// The instrument of a calibration against `standard` from `reference_file` at `date`.
-    pub fn new(cal: &Calibration, standard: &Standard, reference_file: &str, date: &str) -> Self {
+    pub fn new(
+        cal: &Calibration,
+        quantity: Quantity,
+        standard: &Standard,
+        reference_file: &str,
+        date: &str,
+    ) -> Self {
         Instrument {
             k: cal.k,
             u_k: cal.u_k,
@@ -69,6 +66,7 @@ impl Instrument {
             reference_file: reference_file.to_string(),
             date: date.to_string(),
             readings: cal.residuals.len(),
+            quantity,
         }
     }
 
@@ -94,20 +92,12 @@ impl Instrument {
         Ok(())
     }
 
-    /// The TOML file: a comment saying what K is, then one `key = value` line per field.
-    /// (Written here because the workspace's `toml` is built without its writer; it is
-    /// read back with `toml` and the round trip is tested.)
+    /// The TOML file: a comment saying what K is, then the fields, written by the
+    /// `toml` crate (numbers in their shortest exact form; the round trip is tested).
     pub fn to_toml(&self) -> String {
-        // `{:?}` prints the shortest f64 that reads back exactly, always with a `.` or `e`.
+        let body = toml::to_string(self).expect("an instrument is plain numbers and strings");
         format!(
-            "# gonio instrument: V = K f cos(theta_r), f in 1/sr; u_k is the standard uncertainty of k\n\
-             k = {:?}\nu_k = {:?}\nstandard = {}\nreference_file = {}\ndate = {}\nreadings = {}\n",
-            self.k,
-            self.u_k,
-            toml_string(&self.standard),
-            toml_string(&self.reference_file),
-            toml_string(&self.date),
-            self.readings
+            "# gonio instrument: V = K f cos(theta_r), f in 1/sr; u_k is the standard uncertainty of k\n{body}"
         )
     }
 
@@ -185,27 +175,36 @@ pub struct AbsoluteParam {
 /// Converts parameters fitted to relative data into 1/sr: amplitudes scale with 1/K and
 /// gain K's relative uncertainty, widths do not change. A pure function of its inputs.
 pub fn absolute_parameters(params: &[FittedParam], inst: &Instrument) -> Vec<AbsoluteParam> {
-    let rel = inst.relative_uncertainty();
-    params
+    let scaled: Vec<FittedParam> = params
         .iter()
         .map(|p| match p.kind {
-            ParamKind::Amplitude => {
-                let value = p.value / inst.k;
-                let u_fit = p.std_error / inst.k;
-                let u_instrument = value.abs() * rel;
-                AbsoluteParam {
-                    value,
-                    u_fit,
-                    u_instrument,
-                    u_total: u_fit.hypot(u_instrument),
-                }
-            }
-            ParamKind::Width => AbsoluteParam {
+            ParamKind::Amplitude => FittedParam {
+                value: p.value / inst.k,
+                std_error: p.std_error / inst.k,
+                ..*p
+            },
+            ParamKind::Width => *p,
+        })
+        .collect();
+    combine_uncertainty(&scaled, inst.relative_uncertainty())
+}
+
+/// Parameters already in 1/sr (fitted to converted data) with K's relative uncertainty
+/// `rel` beside the fit's: |value| rel for amplitudes, 0 for widths.
+pub fn combine_uncertainty(params: &[FittedParam], rel: f64) -> Vec<AbsoluteParam> {
+    params
+        .iter()
+        .map(|p| {
+            let u_instrument = match p.kind {
+                ParamKind::Amplitude => p.value.abs() * rel,
+                ParamKind::Width => 0.0,
+            };
+            AbsoluteParam {
                 value: p.value,
                 u_fit: p.std_error,
-                u_instrument: 0.0,
-                u_total: p.std_error,
-            },
+                u_instrument,
+                u_total: p.std_error.hypot(u_instrument),
+            }
         })
         .collect()
 }
@@ -222,6 +221,7 @@ mod tests {
             reference_file: "C:\\data\\ref.csv".into(),
             date: "2026-12-01T18:30:00Z".into(),
             readings: 153,
+            quantity: Quantity::RelativeBrdf,
         }
     }
 
@@ -235,7 +235,11 @@ mod tests {
         assert_eq!(Instrument::from_toml(&text).unwrap(), i);
         let t = inst().to_toml();
         assert!(t.contains("k = 2500.0\n"), "{t}");
+        assert!(t.contains("quantity = \"relative-brdf\"\n"), "{t}");
         assert_eq!(Instrument::from_toml(&t).unwrap(), inst());
+        // A hand-written file without `quantity` reads relative BRDFs.
+        let hand = t.replace("quantity = \"relative-brdf\"\n", "");
+        assert_eq!(Instrument::from_toml(&hand).unwrap(), inst());
     }
 
     #[test]

@@ -5,21 +5,27 @@
 //! - [`standard`]: the reference standard (Lambertian R, or a certified table).
 //! - [`estimate`]: [`calibrate`]: K by weighted least squares, u(K), the residual table.
 //! - [`instrument`]: the instrument file (TOML), [`to_absolute`] and [`absolute_parameters`].
+//! - [`sweep`]: sweep files as readings, and a sweep converted to 1/sr.
+//! - [`report`], [`chart`]: the calibration's text report and departure plot.
 //!
 //! Engine only: plain slices of [`Reading`] in, values out, errors as
 //! [`CalibrationError`] (one line each). Angles in degrees (theta_r signed, positive on
 //! the specular side); readings in the instrument's units; BRDF out in 1/sr.
 //! docs/units.md explains the equation and what to measure for an absolute result.
 
+pub mod chart;
 pub mod error;
 pub mod estimate;
 pub mod instrument;
+pub mod report;
 pub mod standard;
+pub mod sweep;
 
 pub use error::CalibrationError;
 pub use estimate::{Calibration, Quantity, Reading, ResidualRow, calibrate};
 pub use instrument::{
-    AbsoluteParam, FittedParam, Instrument, ParamKind, absolute_parameters, now_utc, to_absolute,
+    AbsoluteParam, FittedParam, Instrument, ParamKind, absolute_parameters, combine_uncertainty,
+    now_utc, to_absolute,
 };
 pub use standard::{ReflectanceTable, Standard};
 

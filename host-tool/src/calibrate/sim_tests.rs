@@ -100,7 +100,7 @@ fn detector_signals_calibrate_and_convert_to_the_absolute_brdf() {
         cal.chi2_dof
     );
     assert!(cal.max_departure < 0.036, "{}", cal.max_departure); // 3.46 sigma bound
-    let inst = Instrument::new(&cal, &standard, "ref.csv", &now_utc());
+    let inst = Instrument::new(&cal, q, &standard, "ref.csv", &now_utc());
     let inst = Instrument::from_toml(&inst.to_toml()).unwrap();
 
     for p in &brdf_core::PRESETS {
@@ -137,7 +137,7 @@ fn virtual_sample_readings_convert_with_the_relative_brdf_convention() {
         .unwrap();
     let cal = calibrate(&reference, q, &standard).unwrap();
     assert!(((cal.k - SCALE) / SCALE).abs() < 3.0 * cal.relative_uncertainty());
-    let inst = Instrument::new(&cal, &standard, "ref.csv", "2026-12-01T00:00:00Z");
+    let inst = Instrument::new(&cal, q, &standard, "ref.csv", "2026-12-01T00:00:00Z");
     let cu = Preset::by_name("cu-0.070").unwrap();
     let mut vs = VirtualSample::new(cu, 0.002, 99);
     let sample: Vec<Reading> = plan()

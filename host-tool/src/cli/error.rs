@@ -129,5 +129,11 @@ impl From<FlashError> for CliError {
     }
 }
 
+impl From<crate::calibrate::CalibrationError> for CliError {
+    fn from(e: crate::calibrate::CalibrationError) -> Self {
+        CliError::usage(e.to_string())
+    }
+}
+
 /// Result type of every subcommand.
 pub type CliResult<T = ()> = Result<T, CliError>;

@@ -57,7 +57,10 @@ come from the covariance at the optimum.\n\n\
 --aperture (or a `# aperture: DEG` line in the sweep) averages each model over the detector's acceptance cone \
 before comparing, so widths are the surface's. The RMSE table is the paper's Table 3: per incidence, curves \
 normalised to their value at theta_r = theta_i, or at the nearest reading when there is none there (marked *). \
-Angles in degrees, sigma_m in radians, BRDF in the file's units.",
+Angles in degrees, sigma_m in radians, BRDF in the file's units (its `# brdf:` line: relative, or 1/sr; \
+--instrument fits in 1/sr). The report ends with physical checks of every model: the directional albedo \
+rho(theta_i) at each incidence (rho > 1 in 1/sr is flagged non-physical) and the largest reciprocity ratio \
+f(i->o)/f(o->i).",
     after_help = "Examples:\n  gonio fit fe.csv\n  gonio fit fe.csv --json > fe-fit.json\n  \
 gonio fit fe.csv --plot plots/ --export merl=fe.binary --export json=fe-params.json\n  \
 gonio fit fe.csv --fix sigma_m=0.7 --fix kdd=900 --loss cauchy:0.05\n  \
@@ -121,6 +124,11 @@ pub struct FitArgs {
     /// it off.
     #[arg(long, value_name = "DEG", value_parser = parse_aperture_arg)]
     pub aperture: Option<Aperture>,
+    /// Fit in 1/sr: divide the (relative) readings by K from this instrument file
+    /// (`gonio calibrate`); the report shows each amplitude's u(K) beside its fit
+    /// uncertainty. Refused for a sweep already in 1/sr.
+    #[arg(long, value_name = "instrument.toml")]
+    pub instrument: Option<PathBuf>,
 }
 
 /// `--aperture`'s value: a half-angle, or 0 (a point detector).
@@ -223,8 +231,14 @@ fn run_campaign(args: &FitArgs, opts: &FitOptions, kinds: &[Kind]) -> CliResult 
             "--plot and --export take one sweep file; a campaign writes its reports to --out",
         ));
     }
+    if args.instrument.is_some() {
+        return Err(CliError::usage(
+            "--instrument takes one sweep file (convert the campaign's files with gonio convert)",
+        ));
+    }
     let files = campaign::expand_inputs(&args.sweeps).map_err(CliError::usage)?;
     campaign::check_outputs(&args.out, &files, args.force).map_err(CliError::usage)?;
+    super::fit_units::check_campaign_units(&files)?;
     let bar = indicatif::ProgressBar::new(files.len() as u64).with_style(
         indicatif::ProgressStyle::with_template(
             "{bar:30} {pos}/{len} sweeps  {per_sec}  eta {eta}",
@@ -289,6 +303,16 @@ pub fn run(args: &FitArgs) -> CliResult {
     for w in &warnings {
         eprintln!("gonio: warning: {w}");
     }
+    let mut units = super::fit_units::units_of(sweep)?;
+    let inst = match &args.instrument {
+        Some(p) => {
+            let i = super::fit_units::apply_instrument(sweep, units, p, &mut data)?;
+            units = crate::sweep_file::BrdfUnits::PerSr;
+            Some((i, p.as_path()))
+        }
+        None => None,
+    };
+    let inst = inst.as_ref().map(|(i, p)| (i, *p));
     // Every output is checked before the fit: nothing is computed for a refused one.
     let inputs = [sweep];
     for (_, path) in &args.export {
@@ -319,14 +343,21 @@ pub fn run(args: &FitArgs) -> CliResult {
                         format.name()
                     ))
                 })?;
-                export::write_export(*format, target, &fam, kind)?
+                if *format == ExportFormat::Merl {
+                    let note = export::write_merl_export(target, &fam, kind)?;
+                    eprintln!("gonio: note: {}: {note}", path.display());
+                } else {
+                    export::write_export(*format, target, &fam, kind)?
+                }
             }
         }
     }
     let text = if args.json {
-        fit::report::family_json_text(&fam)
+        super::fit_units::report_json(&fit::report::family_json_text(&fam), &fam, units, inst)
     } else {
-        fit::report::family_table(&fam, residual).into_bytes()
+        let mut t = fit::report::family_table(&fam, residual);
+        t.push_str(&super::fit_units::report_text(&fam, units, inst));
+        t.into_bytes()
     };
     write_stdout(&text)
 }

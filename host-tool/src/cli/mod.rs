@@ -4,11 +4,14 @@
 
 pub mod args;
 pub mod bench;
+pub mod calibrate;
 pub mod capture;
+pub mod convert;
 pub mod demo;
 pub mod error;
 pub mod eval;
 pub mod fit;
+pub mod fit_units;
 pub mod flash;
 pub mod import;
 pub mod info;

@@ -157,21 +157,45 @@ pub(super) fn merl_sample(fam: &FamilyFit, fit: &Fit, w_in: [f64; 3], w_out: [f6
         .unwrap_or(MERL_INVALID)
 }
 
-/// The grey table (one value per cell, in the paper's relative units), in file order:
-/// theta_half slowest, phi_diff fastest; phi_half = 0 (the model is isotropic).
-pub(super) fn merl_values(fam: &FamilyFit, fit: &Fit) -> Vec<f64> {
+/// Largest reciprocity ratio f(in->out)/f(out->in) over the table's cells for which the
+/// MERL export still writes the reciprocal mean; beyond it the export is refused (the
+/// mean would be more than a factor sqrt(limit) from what either direction measured).
+/// The paper's presets reach 7.6 on brdf-core's reciprocity grid.
+pub const MERL_MAX_RATIO: f64 = 20.0;
+
+/// The grey table (one value per cell, in the fit's units), in file order: theta_half
+/// slowest, phi_diff fastest; phi_half = 0 (the model is isotropic). Each cell holds
+/// the reciprocal mean (f(in->out) + f(out->in)) / 2: MERL folds phi_diff by
+/// reciprocity, so a lookup with the directions swapped lands on the same cell, and
+/// the value must not depend on which of the two a rounding picked. Also returns the
+/// largest ratio of the two over the cells (1 for a reciprocal model).
+pub(super) fn merl_values(fam: &FamilyFit, fit: &Fit) -> (Vec<f64>, f64) {
     let mut out = Vec::with_capacity(MERL_LEN);
+    let mut worst: f64 = 1.0;
     for i in 0..MERL_DIMS[0] {
         let th = merl_theta_half(i);
         for j in 0..MERL_DIMS[1] {
             let td = merl_theta_diff(j);
             for k in 0..MERL_DIMS[2] {
                 let (w_in, w_out) = half_diff_to_vectors(th, 0.0, td, merl_phi_diff(k));
-                out.push(merl_sample(fam, fit, w_in, w_out));
+                let ab = merl_sample(fam, fit, w_in, w_out);
+                let ba = merl_sample(fam, fit, w_out, w_in);
+                // A direction without a value (below the horizon, no half vector) has
+                // none either way; a single failed evaluation leaves the other.
+                let v = match (ab > 0.0, ba > 0.0) {
+                    (true, true) => {
+                        worst = worst.max(ab.max(ba) / ab.min(ba));
+                        0.5 * (ab + ba)
+                    }
+                    (true, false) => ab,
+                    (false, true) => ba,
+                    (false, false) => MERL_INVALID,
+                };
+                out.push(v);
             }
         }
     }
-    out
+    (out, worst)
 }
 
 /// The MERL binary layout: three little-endian i32 dims (90, 90, 180), then the R, G

@@ -6,8 +6,8 @@
 //! symlink, the input file or (without `--force`) an existing file.
 //!
 //! Units: angles in degrees (sigma_m in radians, sigma dimensionless), BRDF values in
-//! the paper's relative units (sr^-1 up to the instrument's unknown scale), never
-//! absolute sr^-1: a renderer reading the MERL table may need to rescale it.
+//! the fit's units: the sweep's relative units, or 1/sr when the sweep was converted
+//! (`gonio convert`) or fitted with `--instrument`; a renderer needs the latter.
 //!
 //! MERL conventions chosen here (see [`ExportFormat::Merl`]):
 //! - cell (i, j, k) holds the model at theta_half = (i/90)^2 * 90 degrees, theta_diff =
@@ -17,8 +17,10 @@
 //! - the reference code's `in` vector is our w_i (toward the source: k_s is taken at its
 //!   polar angle) and `out` is w_r (toward the detector). MERL folds phi_diff into
 //!   [0, 180) by reciprocity, i.e. it assumes f(in, out) = f(out, in); the fitted model
-//!   is not exactly reciprocal (f_dd depends on the detector angle, k_s on the
-//!   incidence), so a lookup with the two directions swapped returns f(in, out);
+//!   is not reciprocal (f_dd depends on the detector angle, k_s on the incidence), so
+//!   each cell holds the reciprocal mean (f(in, out) + f(out, in)) / 2 and the export
+//!   says the largest ratio of the two; above [`MERL_MAX_RATIO`] it is refused. A
+//!   lookup never depends on which direction a rounding picked;
 //! - [`MERL_INVALID`] (0) where a direction is below the horizon or the model has no
 //!   value (no half vector);
 //! - grey: the same BRDF in R, G and B, stored as value * 1500, value * 1500 / 1.15 and
@@ -36,7 +38,7 @@ mod json;
 mod merl;
 mod residuals;
 
-pub use merl::{MERL_DIMS, MERL_INVALID, MERL_LEN, MERL_SCALE, MerlTable};
+pub use merl::{MERL_DIMS, MERL_INVALID, MERL_LEN, MERL_MAX_RATIO, MERL_SCALE, MerlTable};
 pub use residuals::{residual_value, write_residuals};
 
 /// Why an export failed.
@@ -120,16 +122,38 @@ pub fn write_export(
             text.push('\n');
             write_atomic(target, |w| w.write_all(text.as_bytes()))
         }
-        ExportFormat::Merl => {
-            let table = merl::merl_values(fam, fit);
-            write_atomic(target, |mut w| merl::write_merl(&mut w, &table))
-        }
+        ExportFormat::Merl => write_merl_export(target, fam, kind).map(drop),
         ExportFormat::Csv => write_atomic(target, |mut w| csv::write_csv(&mut w, fam, fit)),
         ExportFormat::Residuals => Err(ExportError::Write(format!(
             "{}: residuals need the fitted data (write_residuals)",
             path.display()
         ))),
     }
+}
+
+/// Writes the MERL table of `kind` (reciprocal mean per cell, see the module docs) and
+/// returns the sentence saying so with the largest ratio f(i->o)/f(o->i) over the
+/// cells. Refused ([`ExportError::Refused`], nothing written) above [`MERL_MAX_RATIO`].
+pub fn write_merl_export(
+    target: Target<'_>,
+    fam: &FamilyFit,
+    kind: Kind,
+) -> Result<String, ExportError> {
+    let fit = fitted(fam, kind)?;
+    outfile::check(target)?;
+    let (table, ratio) = merl::merl_values(fam, fit);
+    if ratio.is_nan() || ratio > MERL_MAX_RATIO {
+        return Err(ExportError::Refused(format!(
+            "{}: the {} fit is far from reciprocal (f(i->o)/f(o->i) up to {ratio:.3} over the MERL cells, above {MERL_MAX_RATIO}): a MERL table looked up both ways cannot represent it",
+            target.path.display(),
+            kind.name()
+        )));
+    }
+    write_atomic(target, |mut w| merl::write_merl(&mut w, &table))?;
+    Ok(format!(
+        "MERL table of the reciprocal mean (f(i->o) + f(o->i))/2 of the {} fit: its largest ratio f(i->o)/f(o->i) over the cells is {ratio:.4}",
+        kind.name()
+    ))
 }
 
 /// The fit of `kind`, or [`ExportError::NotFitted`] naming the fitted models.

@@ -21,6 +21,7 @@ pub mod goodness;
 pub mod lm;
 pub mod member_fit;
 pub mod paper;
+pub mod physical;
 pub mod report;
 pub mod select;
 pub mod solve;

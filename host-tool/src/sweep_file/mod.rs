@@ -8,6 +8,7 @@
 //! # device: qemu firmware 0.1.0 protocol 1
 //! # sample: simulated fe-0.115 noise=0.005      (only where the capture knows it)
 //! # units: degrees
+//! # brdf: relative
 //! # plan: paper
 //! # settings: samples=4 settle_ms=50 dark=false exclude_retro=0
 //! # started: 2026-11-22T00:15:02Z
@@ -16,21 +17,24 @@
 //! 0,-80,95.16103,0.41,4,0,12
 //! ```
 //!
-//! Angles in degrees (theta_r signed, positive on the specular side), brdf in the
-//! instrument's relative units. Readers find columns by name; only
-//! `theta_i,theta_r,brdf` are required. The `status` line has a fixed width and is
+//! Angles in degrees (theta_r signed, positive on the specular side), brdf (and std) in
+//! the units of the `# brdf:` line: `relative` (the instrument's units, what a capture
+//! writes; also assumed when the line is absent) or `1/sr` (after `gonio convert`).
+//! Readers find columns by name; only `theta_i,theta_r,brdf` are required. The `status` line has a fixed width and is
 //! rewritten in place when the capture ends; `points` lists the whole plan (after the
 //! exclusion zone) so `--resume` knows what is missing; `seq` indexes it.
 
 use std::fmt;
 
 mod read;
+mod units;
 mod write;
 
 pub use read::{
     ANGLE_UNITS, BRDF_MAX, BRDF_MIN, MAX_SWEEP_BYTES, SweepData, looks_like_radians, parse_sweep,
     read_sweep,
 };
+pub use units::{BRDF_KEY, BrdfUnits, refuse_mixed};
 pub use write::SweepWriter;
 
 /// Why a sweep file could not be read or written.
@@ -63,7 +67,7 @@ pub struct Row {
     pub theta_i: f64,
     /// Signed detector angle (degrees).
     pub theta_r: f64,
-    /// BRDF (relative units).
+    /// BRDF, in the file's [`BrdfUnits`].
     pub brdf: f64,
     /// Standard deviation of one sample.
     pub std: Option<f64>,

@@ -276,6 +276,9 @@ fn read_metadata(bytes: &[u8], data: &mut SweepData) -> Result<(usize, usize), (
                     ),
                 ));
             }
+            if key == super::units::BRDF_KEY {
+                super::units::BrdfUnits::parse(value).map_err(|m| (lineno, m))?;
+            }
             data.meta.insert(key.to_string(), value.to_string());
         }
     }

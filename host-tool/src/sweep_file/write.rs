@@ -86,6 +86,8 @@ impl SweepWriter {
             text.push_str(&format!("# sample: {sample}\n"));
         }
         text.push_str("# units: degrees\n");
+        // A capture records the instrument's readings: relative until `gonio convert`.
+        text.push_str(&super::BrdfUnits::Relative.header_line());
         text.push_str(&format!("# plan: {}\n", header.plan));
         text.push_str(&format!("# settings: {}\n", header.settings));
         text.push_str(&format!(
@@ -139,6 +141,13 @@ impl SweepWriter {
                 "{}: not a gonio capture file (columns {:?}); cannot resume it",
                 path.display(),
                 data.columns
+            )));
+        }
+        if data.brdf_units() != super::BrdfUnits::Relative {
+            return Err(SweepFileError::Invalid(format!(
+                "{}: its brdf is in {} (a converted file): resume the relative capture it came from, then convert again",
+                path.display(),
+                data.brdf_units()
             )));
         }
         let status_at = data.status_offset.ok_or_else(|| {

@@ -11,3 +11,4 @@ mod fault_injection;
 mod fit_cli;
 mod hostile;
 mod ports_flash;
+mod units_cli;

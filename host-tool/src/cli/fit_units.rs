@@ -1,0 +1,209 @@
+//! The units side of `gonio fit`: the sweep's `# brdf:` units, `--instrument` (the data
+//! converted to 1/sr, K's uncertainty beside the fit's in the amplitudes) and the
+//! physical checks section of the report.
+
+use std::fmt::Write;
+use std::path::{Path, PathBuf};
+
+use serde_json::{Value, json};
+
+use super::convert::read_instrument;
+use super::error::{CliError, CliResult};
+use crate::calibrate::{FittedParam, Instrument, ParamKind, Quantity, combine_uncertainty};
+use crate::fit::family::{Coord, scalar_coords};
+use crate::fit::report::{coord_name, ks_table, scalar};
+use crate::fit::{Dataset, FamilyFit, physical};
+use crate::sweep_file::{BrdfUnits, read_sweep};
+
+/// The units a sweep file declares (relative when it has no `# brdf:` line).
+pub fn units_of(path: &Path) -> CliResult<BrdfUnits> {
+    Ok(read_sweep(path)?.brdf_units())
+}
+
+/// Refuses a campaign whose files are in different units (files that cannot be read
+/// are left to the campaign, which reports them).
+pub fn check_campaign_units(files: &[PathBuf]) -> CliResult {
+    let mut first: Option<(&PathBuf, BrdfUnits)> = None;
+    for f in files {
+        let Ok(u) = units_of(f) else { continue };
+        match first {
+            None => first = Some((f, u)),
+            Some((p, pu)) => {
+                crate::sweep_file::refuse_mixed("fit", (p, pu), (&f.display().to_string(), u))
+                    .map_err(CliError::usage)?
+            }
+        }
+    }
+    Ok(())
+}
+
+/// `fit --instrument FILE`: refuses a sweep already in 1/sr, then divides every
+/// reading by K (and cos(theta_r) for detector signals). Returns the instrument.
+pub fn apply_instrument(
+    sweep: &Path,
+    units: BrdfUnits,
+    instrument: &Path,
+    data: &mut Dataset,
+) -> CliResult<Instrument> {
+    if units != BrdfUnits::Relative {
+        return Err(CliError::usage(format!(
+            "fit --instrument: {} already holds brdf in {units} (its '# brdf:' line): the instrument converts relative readings only (fit it without --instrument)",
+            sweep.display()
+        )));
+    }
+    let inst = read_instrument(instrument)?;
+    for o in &mut data.obs {
+        o.y /= inst.k * inst.quantity.factor(o.theta_r);
+        if !o.y.is_finite() {
+            return Err(CliError::usage(format!(
+                "fit --instrument: the reading at theta_i {}, theta_r {} cannot be converted (grazing detector)",
+                o.theta_i, o.theta_r
+            )));
+        }
+    }
+    if inst.quantity == Quantity::DetectorSignal {
+        eprintln!("gonio: note: readings are detector signals: divided by K cos(theta_r)");
+    }
+    Ok(inst)
+}
+
+/// A model's name and its parameters: name, [value, u(fit), u(K), u(total)].
+type ModelRows = (String, Vec<(String, [f64; 4])>);
+
+/// Each fitted model's parameters in 1/sr with the fit's and K's uncertainty side by side.
+fn rows(fam: &FamilyFit, inst: &Instrument) -> Vec<ModelRows> {
+    let rel = inst.relative_uncertainty();
+    fam.fits
+        .iter()
+        .map(|fit| {
+            let mut named = Vec::new();
+            for c in scalar_coords(fit.kind) {
+                let (v, se) = scalar(fit, c);
+                let kind = match c {
+                    Coord::Sigma | Coord::SigmaM => ParamKind::Width,
+                    _ => ParamKind::Amplitude,
+                };
+                named.push((coord_name(fit.kind, c, &fam.incidences), v, se, kind));
+            }
+            if fit.kind.specular() {
+                for (t, k, se) in ks_table(fit, &fam.incidences) {
+                    named.push((format!("k_s({t})"), k, se, ParamKind::Amplitude));
+                }
+            }
+            let params: Vec<FittedParam> = named
+                .iter()
+                .map(|(_, v, se, kind)| FittedParam {
+                    value: *v,
+                    std_error: se.unwrap_or(f64::NAN),
+                    kind: *kind,
+                })
+                .collect();
+            let abs = combine_uncertainty(&params, rel);
+            let out = named
+                .into_iter()
+                .zip(abs)
+                .map(|((n, ..), a)| (n, [a.value, a.u_fit, a.u_instrument, a.u_total]))
+                .collect();
+            (fit.kind.name().to_string(), out)
+        })
+        .collect()
+}
+
+/// The `--instrument` section of the report.
+pub fn instrument_text(fam: &FamilyFit, inst: &Instrument, path: &Path) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "\nin 1/sr with instrument {} (K = {:.6e} ± {:.3} %, {}, {}): amplitudes carry u(K)/K, widths do not",
+        path.display(),
+        inst.k,
+        100.0 * inst.relative_uncertainty(),
+        inst.standard,
+        inst.date
+    );
+    let _ = writeln!(
+        s,
+        "  {:<22} {:<10} {:>14} {:>11} {:>11} {:>11}",
+        "model", "parameter", "value", "u(fit)", "u(K)", "u(total)"
+    );
+    let f = |x: f64| {
+        if x.is_finite() {
+            format!("{x:.4e}")
+        } else {
+            "n/d".into()
+        }
+    };
+    for (model, params) in rows(fam, inst) {
+        for (name, [v, uf, uk, ut]) in params {
+            let _ = writeln!(
+                s,
+                "  {model:<22} {name:<10} {:>14} {:>11} {:>11} {:>11}",
+                f(v),
+                f(uf),
+                f(uk),
+                f(ut)
+            );
+        }
+    }
+    s
+}
+
+/// The `--instrument` part of `fit --json`.
+pub fn instrument_json(fam: &FamilyFit, inst: &Instrument, path: &Path) -> Value {
+    let num = |x: f64| if x.is_finite() { json!(x) } else { Value::Null };
+    let models: Vec<Value> = rows(fam, inst)
+        .into_iter()
+        .map(|(m, p)| {
+            let params: serde_json::Map<String, Value> = p
+                .into_iter()
+                .map(|(n, [v, uf, uk, ut])| {
+                    (
+                        n,
+                        json!({"value": num(v), "u_fit": num(uf), "u_instrument": num(uk), "u_total": num(ut)}),
+                    )
+                })
+                .collect();
+            json!({"name": m, "params": params})
+        })
+        .collect();
+    json!({"file": path.display().to_string(), "k": inst.k, "u_k": inst.u_k, "standard": inst.standard,
+           "reference_file": inst.reference_file, "date": inst.date, "models": models})
+}
+
+/// The text appended to `fit`'s report: the instrument section (if any) and the
+/// physical checks.
+pub fn report_text(
+    fam: &FamilyFit,
+    units: BrdfUnits,
+    inst: Option<(&Instrument, &Path)>,
+) -> String {
+    let mut s = String::new();
+    if let Some((i, p)) = inst {
+        s.push_str(&instrument_text(fam, i, p));
+    }
+    s.push_str(&physical::checks_text(&physical::check_family(fam), units));
+    s
+}
+
+/// `fit --json` with `brdf_units`, `physical_checks` and (with --instrument) `instrument` added.
+pub fn report_json(
+    json_text: &[u8],
+    fam: &FamilyFit,
+    units: BrdfUnits,
+    inst: Option<(&Instrument, &Path)>,
+) -> Vec<u8> {
+    let mut v: Value = serde_json::from_slice(json_text).expect("our own JSON");
+    if let Value::Object(m) = &mut v {
+        m.insert("brdf_units".into(), json!(units.word()));
+        m.insert(
+            "physical_checks".into(),
+            physical::checks_json(&physical::check_family(fam), units),
+        );
+        if let Some((i, p)) = inst {
+            m.insert("instrument".into(), instrument_json(fam, i, p));
+        }
+    }
+    let mut out = serde_json::to_vec_pretty(&v).expect("JSON of numbers");
+    out.push(b'\n');
+    out
+}

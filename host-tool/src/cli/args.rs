@@ -256,10 +256,10 @@ pub fn parse_loss(s: &str) -> Result<Loss, String> {
     }
 }
 
-/// Parses `json=PATH`, `merl=PATH`, `csv=PATH` or `residuals=PATH` (format
+/// Parses `json=PATH`, `merl=PATH`, `csv=PATH`, `residuals=PATH` or `mitsuba=DIR` (format
 /// case-insensitive; a clap value parser).
 pub fn parse_export(spec: &str) -> Result<(ExportFormat, PathBuf), String> {
-    let expected = "expected json=PATH, merl=PATH, csv=PATH or residuals=PATH";
+    let expected = "expected json=PATH, merl=PATH, csv=PATH, residuals=PATH or mitsuba=DIR";
     let (format, path) = spec
         .split_once('=')
         .ok_or_else(|| format!("export '{spec}': {expected}"))?;
@@ -268,6 +268,7 @@ pub fn parse_export(spec: &str) -> Result<(ExportFormat, PathBuf), String> {
         "merl" => ExportFormat::Merl,
         "csv" => ExportFormat::Csv,
         "residuals" => ExportFormat::Residuals,
+        "mitsuba" => ExportFormat::Mitsuba,
         other => {
             return Err(format!(
                 "export '{spec}': unknown format '{other}' ({expected})"

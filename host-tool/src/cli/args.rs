@@ -429,11 +429,15 @@ mod tests {
             (ExportFormat::Merl, PathBuf::from("a=b.binary"))
         );
         assert_eq!(parse_export("csv=grid.csv").unwrap().0, ExportFormat::Csv);
+        assert_eq!(
+            parse_export("mitsuba=fe/").unwrap().0,
+            ExportFormat::Mitsuba
+        );
         for bad in ["json", "png=x.png", "csv=", "=x"] {
             let e = parse_export(bad).unwrap_err();
             // A value parser's error: clap reports it as bad usage (exit 2).
             assert!(
-                e.contains("json=PATH, merl=PATH, csv=PATH or residuals=PATH"),
+                e.contains("json=PATH, merl=PATH, csv=PATH, residuals=PATH or mitsuba=DIR"),
                 "{bad}: {e}"
             );
         }

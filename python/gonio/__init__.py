@@ -79,10 +79,23 @@ class Model:
         """The paper's three-component model of a preset (``gonio.presets()``)."""
         return cls._wrap(_gonio.Model.preset(name, **overrides))
 
+    @classmethod
+    def load(cls, path: Union[str, os.PathLike]) -> "Model":
+        """A model saved by ``gonio fit --export mitsuba=DIR`` (``DIR/model.json``): any
+        member of the family, with the file's units (``to_per_sr``)."""
+        return cls._wrap(_gonio.Model.load(os.fspath(path)))
+
     @property
     def member(self) -> str:
         """The member's canonical name."""
         return self._m.member
+
+    @property
+    def to_per_sr(self) -> Optional[float]:
+        """The factor from the model's BRDF unit to 1/sr, or None for relative units (a
+        preset, a fit of data in the instrument's units): such a model has no absolute
+        scale."""
+        return self._m.to_per_sr
 
     @property
     def components(self) -> list:
@@ -209,6 +222,12 @@ class FitResult:
         return self._r.selected
 
     @property
+    def model_names(self) -> list:
+        """Every fitted model's name (for ``model(name)``), simplest first; a member
+        with a haze lobe the data support last."""
+        return self._r.model_names
+
+    @property
     def notes(self) -> list:
         """What the data support, what could not be fitted."""
         return self._json["notes"]
@@ -233,12 +252,21 @@ class FitResult:
         return {k: r[:, j].copy() for j, k in enumerate(("theta_i", "theta_r", "measured", "fitted", "residual"))}
 
     def model(self, name: Optional[str] = None) -> Model:
-        """A fitted model as a :class:`Model` (evaluate it anywhere)."""
+        """A fitted model (any member the family fitted: ``model_names``) as a
+        :class:`Model` (evaluate it anywhere)."""
         return Model._wrap(self._r.model(name))
 
     def to_json(self) -> str:
         """Exactly what ``gonio fit --json`` prints."""
         return self._r.to_json()
+
+    def export_mitsuba(self, dir: Union[str, os.PathLike], name: Optional[str] = None, *,
+                       to_per_sr: Optional[float] = None, force: bool = False) -> None:
+        """What ``gonio fit --export mitsuba=DIR`` writes, for a fitted model (the selected
+        one by default): the plugin ``gonio_bsdf.py``, ``model.json`` and ``sphere.xml``.
+        ``to_per_sr`` is the instrument's factor from the data's BRDF unit to 1/sr (None:
+        relative units, rendered only with an explicit or display scale)."""
+        self._r.export_mitsuba(os.fspath(dir), name, force, to_per_sr)
 
     def __repr__(self) -> str:
         return f"gonio.FitResult(selected={self.selected!r}, models={list(self.models)})"

@@ -2,11 +2,12 @@
 //! when its module paths or the fit API change, this is the file to port.
 
 use std::path::Path;
-use std::sync::Arc;
 
 use clap::Parser;
 use gonio::cli::fit::{self as fit_cmd, FitArgs};
+use gonio::export::mitsuba::{self, MemberTable};
 use gonio::fit::{self, Dataset, FamilyFit, Fit, Kind, Residual};
+use gonio::outfile::Target;
 use gonio::sweep_file::{self, Header, Row, SweepData, SweepStatus as Status, SweepWriter};
 
 /// A sweep file's contents as plain vectors.
@@ -158,15 +159,17 @@ pub fn to_json(o: &FitOutcome) -> String {
     s
 }
 
-/// The names of the fitted models, simplest first, and the selected one.
-pub fn model_names(o: &FitOutcome) -> (Vec<&'static str>, &'static str) {
-    (
-        o.family.fits.iter().map(|f| f.kind.name()).collect(),
-        o.family.selected.name(),
-    )
+/// The names of the fitted models, simplest first (a haze member the data support
+/// last), and the selected one.
+pub fn model_names(o: &FitOutcome) -> (Vec<String>, &'static str) {
+    let mut names: Vec<String> = o.family.fits.iter().map(|f| f.kind.name().into()).collect();
+    if let Some(h) = &o.family.haze {
+        names.push(h.member().to_string());
+    }
+    (names, o.family.selected.name())
 }
 
-/// The fit of a model by name (the selected one for `None`).
+/// The fit of a model of the paper's family by name (the selected one for `None`).
 pub fn get_fit<'a>(o: &'a FitOutcome, name: Option<&str>) -> Result<&'a Fit, String> {
     let kind = match name {
         None => o.family.selected,
@@ -180,43 +183,45 @@ pub fn get_fit<'a>(o: &'a FitOutcome, name: Option<&str>) -> Result<&'a Fit, Str
         .ok_or_else(|| format!("{} was not fitted", kind.name()))
 }
 
-/// What a fitted model is as member parameters: sigma, sigma_m, k_dd, k_id, and k_s
-/// either as a smooth polynomial or per incidence through the fit's own interpolation.
-pub struct FittedParams {
-    /// The member's (paper) name.
-    pub name: &'static str,
-    /// sigma (if the model has a lobe).
-    pub sigma: Option<f64>,
-    /// (k_dd, sigma_m) if the model has the directional diffuse.
-    pub directional: Option<(f64, f64)>,
-    /// k_id.
-    pub kid: f64,
-    /// ln k_s coefficients of a smooth k_s.
-    pub poly: Option<[f64; 3]>,
-    /// k_s at any incidence (per-incidence fits).
-    pub ks_at: Option<Arc<dyn Fn(f64) -> f64 + Send + Sync>>,
+/// Any fitted member by name (the selected one for `None`) as brdf-core's member
+/// parameters per incidence: the one path from a fit to a model, whatever member the
+/// family fitted.
+pub fn fitted_table(o: &FitOutcome, name: Option<&str>) -> Result<(MemberTable, String), String> {
+    if let (Some(n), Some(h)) = (name, &o.family.haze)
+        && n == h.member().to_string()
+    {
+        return Ok((MemberTable::of_member_fit(h), n.to_string()));
+    }
+    let fit = get_fit(o, name)?;
+    Ok((
+        MemberTable::of_fit(fit, &o.data.incidences),
+        fit.kind.name().to_string(),
+    ))
 }
 
-/// The parameters of a fitted model.
-pub fn fitted_params(o: &FitOutcome, fit: &Fit) -> FittedParams {
-    let kind = fit.kind;
-    let v = &fit.values;
-    let ks_at: Option<Arc<dyn Fn(f64) -> f64 + Send + Sync>> =
-        if kind.specular() && v.poly.is_none() {
-            let f = fit.clone();
-            let inc = o.data.incidences.clone();
-            Some(Arc::new(move |t| f.ks_at(&inc, t)))
-        } else {
-            None
-        };
-    FittedParams {
-        name: kind.name(),
-        sigma: kind.specular().then_some(v.sigma),
-        directional: kind.directional().then_some((v.kdd, v.sigma_m)),
-        kid: v.kid,
-        poly: if kind.specular() { v.poly } else { None },
-        ks_at,
+/// `gonio fit --export mitsuba=DIR` for a fitted member (see `gonio::export::mitsuba`);
+/// `to_per_sr` is the instrument's scale to 1/sr (`None`: relative units).
+pub fn export_mitsuba(
+    o: &FitOutcome,
+    name: Option<&str>,
+    dir: &Path,
+    force: bool,
+    to_per_sr: Option<f64>,
+) -> Result<(), String> {
+    if let Some(s) = to_per_sr
+        && !(s > 0.0 && s.is_finite())
+    {
+        return Err(format!("to_per_sr = {s}: must be a positive number"));
     }
+    let (mut table, _) = fitted_table(o, name)?;
+    table.to_per_sr = to_per_sr;
+    mitsuba::write_mitsuba(Target::new(dir, force), &table).map_err(|e| e.to_string())
+}
+
+/// Reads a `model.json` (of `gonio fit --export mitsuba=DIR`).
+pub fn load_table(path: &Path) -> Result<MemberTable, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    MemberTable::from_json(&text).map_err(|e| format!("{}: {e}", path.display()))
 }
 
 /// Per reading of the data: theta_i, theta_r, measured y, fitted f and the residual of

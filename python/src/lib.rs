@@ -146,6 +146,7 @@ impl PyModel {
             directional,
             ideal,
             origin: "parameters".into(),
+            to_per_sr: None,
         };
         def.at(0.0).map_err(model_err)?;
         Ok(PyModel { def })
@@ -166,6 +167,23 @@ impl PyModel {
         let def = model::preset_def(p, sigma, kdd, sigma_m, kid);
         def.at(0.0).map_err(model_err)?;
         Ok(PyModel { def })
+    }
+
+    /// A model saved by `gonio fit --export mitsuba=DIR` (its model.json): any member,
+    /// with the file's units (`to_per_sr`).
+    #[staticmethod]
+    fn load(path: PathBuf) -> PyResult<Self> {
+        let table = bind::load_table(&path).map_err(err)?;
+        let def = model::table_def(table, format!("loaded from {}", path.display()));
+        def.at(0.0).map_err(model_err)?;
+        Ok(PyModel { def })
+    }
+
+    /// The factor from the model's BRDF unit to 1/sr, or None for relative units (a
+    /// preset, a fit of relative data): such a model has no absolute scale.
+    #[getter]
+    fn to_per_sr(&self) -> Option<f64> {
+        self.def.to_per_sr
     }
 
     /// The member's name, e.g. 'three-component' or 'specular:ggx+ideal-diffuse'.
@@ -514,7 +532,7 @@ impl PyFit {
 
     /// The models fitted, simplest first.
     #[getter]
-    fn model_names(&self) -> Vec<&'static str> {
+    fn model_names(&self) -> Vec<String> {
         bind::model_names(&self.outcome).0
     }
 
@@ -544,30 +562,30 @@ impl PyFit {
         flat.into_pyarray(py).reshape([n, 5])
     }
 
-    /// The fitted model (the selected one by default) as a `gonio.Model`.
+    /// The fitted model (the selected one by default) as a `gonio.Model`: any member
+    /// the family fitted, built from its parameters per incidence.
     #[pyo3(signature = (name=None))]
     fn model(&self, name: Option<&str>) -> PyResult<PyModel> {
-        let fit = bind::get_fit(&self.outcome, name).map_err(err)?;
-        let p = bind::fitted_params(&self.outcome, fit);
-        let ks = match (p.poly, p.ks_at) {
-            (Some(c), _) => KsSrc::Smooth(c),
-            (None, Some(f)) => KsSrc::Table(f),
-            (None, None) => KsSrc::Const(0.0),
-        };
-        let def = ModelDef {
-            core: p.sigma.map(|sigma| LobeDef {
-                dist: Distribution::Beckmann,
-                ks,
-                sigma,
-            }),
-            haze: None,
-            directional: p.directional,
-            ideal: Some(p.kid),
-            origin: format!("fitted {}", p.name),
-        };
-        debug_assert_eq!(def.member().to_string(), p.name);
+        let (table, name) = bind::fitted_table(&self.outcome, name).map_err(err)?;
+        let def = model::table_def(table, format!("fitted {name}"));
         def.at(0.0).map_err(model_err)?;
         Ok(PyModel { def })
+    }
+
+    /// Writes `gonio fit --export mitsuba=DIR` for a fitted model (the selected one by
+    /// default): the plugin, model.json and the sphere scene. to_per_sr: the factor
+    /// from the data's BRDF unit to 1/sr (an instrument calibration; None: relative).
+    #[pyo3(signature = (dir, name=None, force=false, to_per_sr=None))]
+    fn export_mitsuba(
+        &self,
+        py: Python<'_>,
+        dir: PathBuf,
+        name: Option<&str>,
+        force: bool,
+        to_per_sr: Option<f64>,
+    ) -> PyResult<()> {
+        py.detach(|| bind::export_mitsuba(&self.outcome, name, &dir, force, to_per_sr))
+            .map_err(err)
     }
 }
 

@@ -11,6 +11,7 @@ use brdf_core::member::{Component, KsForm, Member};
 use brdf_core::member_model::{DirectionalParams, Ks, LobeParams, MemberModel, MemberParams};
 use brdf_core::model::{KDD_PAPER, KID_PAPER, SIGMA_M_PAPER};
 use brdf_core::{Components, Model as PaperModel, ModelError, Params, Preset};
+use gonio::export::mitsuba::MemberTable;
 
 /// Where a lobe's k_s at an incidence comes from.
 #[derive(Clone)]
@@ -49,6 +50,8 @@ pub struct ModelDef {
     pub ideal: Option<f64>,
     /// Where it came from (preset name, fit), for repr.
     pub origin: String,
+    /// The factor from the model's BRDF unit to 1/sr; `None`: relative units.
+    pub to_per_sr: Option<f64>,
 }
 
 fn ks_of(src: &KsSrc, theta_i: f64) -> Result<Ks<f64>, ModelError> {
@@ -274,6 +277,7 @@ impl ModelDef {
             directional: None,
             ideal: None,
             origin: format!("{} of {}", c.name(), self.origin),
+            to_per_sr: self.to_per_sr,
         };
         match c {
             Component::Specular => m.core = Some(self.core.clone()?),
@@ -309,5 +313,40 @@ pub fn preset_def(
         directional: Some((kdd.unwrap_or(KDD_PAPER), sigma_m.unwrap_or(SIGMA_M_PAPER))),
         ideal: Some(kid.unwrap_or(KID_PAPER)),
         origin: format!("preset {}", p.name),
+        to_per_sr: None,
+    }
+}
+
+/// Any fitted member (a fit, or a `model.json`): its global parameters as they are,
+/// a per-incidence k_s through the table's own interpolation (`MemberTable::params_at`).
+pub fn table_def(t: MemberTable, origin: String) -> ModelDef {
+    let t = Arc::new(t);
+    let p = t.params[0];
+    let lobe = |l: Option<LobeParams<f64>>, haze: bool| {
+        l.map(|l| LobeDef {
+            dist: l.dist,
+            sigma: l.sigma,
+            ks: match l.ks {
+                Ks::Smooth(s) => KsSrc::Smooth(s.c),
+                Ks::PerIncidence(_) => {
+                    let t = Arc::clone(&t);
+                    KsSrc::Table(Arc::new(move |theta_i| {
+                        let p = t.params_at(theta_i);
+                        match (if haze { p.haze } else { p.core }).map(|l| l.ks) {
+                            Some(Ks::PerIncidence(k)) => k,
+                            _ => f64::NAN,
+                        }
+                    }))
+                }
+            },
+        })
+    };
+    ModelDef {
+        core: lobe(p.core, false),
+        haze: lobe(p.haze, true),
+        directional: p.directional.map(|d| (d.kdd, d.sigma_m)),
+        ideal: p.ideal,
+        origin,
+        to_per_sr: t.to_per_sr,
     }
 }

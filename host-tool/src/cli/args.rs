@@ -217,10 +217,10 @@ pub fn parse_loss(s: &str) -> Result<Loss, String> {
     }
 }
 
-/// Parses `json=PATH`, `merl=PATH`, `csv=PATH` or `residuals=PATH` (format
+/// Parses `json=PATH`, `merl=PATH`, `csv=PATH`, `residuals=PATH` or `mitsuba=DIR` (format
 /// case-insensitive; a clap value parser).
 pub fn parse_export(spec: &str) -> Result<(ExportFormat, PathBuf), String> {
-    let expected = "expected json=PATH, merl=PATH, csv=PATH or residuals=PATH";
+    let expected = "expected json=PATH, merl=PATH, csv=PATH, residuals=PATH or mitsuba=DIR";
     let (format, path) = spec
         .split_once('=')
         .ok_or_else(|| format!("export '{spec}': {expected}"))?;
@@ -229,6 +229,7 @@ pub fn parse_export(spec: &str) -> Result<(ExportFormat, PathBuf), String> {
         "merl" => ExportFormat::Merl,
         "csv" => ExportFormat::Csv,
         "residuals" => ExportFormat::Residuals,
+        "mitsuba" => ExportFormat::Mitsuba,
         other => {
             return Err(format!(
                 "export '{spec}': unknown format '{other}' ({expected})"
@@ -389,11 +390,15 @@ mod tests {
             (ExportFormat::Merl, PathBuf::from("a=b.binary"))
         );
         assert_eq!(parse_export("csv=grid.csv").unwrap().0, ExportFormat::Csv);
+        assert_eq!(
+            parse_export("mitsuba=fe/").unwrap().0,
+            ExportFormat::Mitsuba
+        );
         for bad in ["json", "png=x.png", "csv=", "=x"] {
             let e = parse_export(bad).unwrap_err();
             // A value parser's error: clap reports it as bad usage (exit 2).
             assert!(
-                e.contains("json=PATH, merl=PATH, csv=PATH or residuals=PATH"),
+                e.contains("json=PATH, merl=PATH, csv=PATH, residuals=PATH or mitsuba=DIR"),
                 "{bad}: {e}"
             );
         }

@@ -87,7 +87,9 @@ pub struct FitArgs {
     /// Export the selected (or --export-model) fit: json=PATH (parameters),
     /// merl=PATH (MERL binary table), csv=PATH (in-plane grid), residuals=PATH (CSV
     /// theta_i,theta_r,measured,fitted,residual per reading, in the file's order, the
-    /// residual in --residual's kind). Repeatable.
+    /// residual in --residual's kind), mitsuba=DIR (a Mitsuba 3 BSDF plugin, the
+    /// model's parameters and a sphere scene: `python DIR/gonio_bsdf.py` renders it;
+    /// needs `pip install ./python`). Repeatable.
     #[arg(long, value_name = "FORMAT=PATH", value_parser = parse_export)]
     pub export: Vec<(ExportFormat, PathBuf)>,
     /// Overwrite existing --export and --plot files (never the sweep file itself, a
@@ -315,8 +317,10 @@ pub fn run(args: &FitArgs) -> CliResult {
     let inst = inst.as_ref().map(|(i, p)| (i, *p));
     // Every output is checked before the fit: nothing is computed for a refused one.
     let inputs = [sweep];
-    for (_, path) in &args.export {
-        outfile::check(Target::new(path, args.force).inputs(&inputs))?;
+    for (format, path) in &args.export {
+        for file in export::targets(*format, path) {
+            outfile::check(Target::new(&file, args.force).inputs(&inputs))?;
+        }
     }
     if let Some(dir) = &args.plot {
         plot::check_plots(dir, &data.incidences, args.force)?;

@@ -1,4 +1,5 @@
-//! Exporting a fitted model: its parameters as JSON, a MERL-format BRDF table, or an in-plane CSV grid.
+//! Exporting a fitted model: its parameters as JSON, a MERL-format BRDF table, an
+//! in-plane CSV grid, or a Mitsuba 3 plugin directory ([`mitsuba`]).
 //!
 //! Every file is written through [`crate::outfile`] (a private temporary file beside
 //! the target, synced, renamed once complete), so a failed or interrupted export never
@@ -36,6 +37,7 @@ use crate::outfile::{self, OutError, Target};
 mod csv;
 mod json;
 mod merl;
+pub mod mitsuba;
 mod residuals;
 
 pub use merl::{MERL_DIMS, MERL_INVALID, MERL_LEN, MERL_MAX_RATIO, MERL_SCALE, MerlTable};
@@ -86,6 +88,9 @@ pub enum ExportFormat {
     /// Per reading `theta_i,theta_r,measured,fitted,residual` (needs the data: written
     /// by [`write_residuals`]).
     Residuals,
+    /// A directory with a Mitsuba 3 BSDF plugin, the model's parameters and a sphere
+    /// scene (see [`mitsuba`]).
+    Mitsuba,
 }
 
 impl ExportFormat {
@@ -96,6 +101,7 @@ impl ExportFormat {
             ExportFormat::Merl => "merl",
             ExportFormat::Csv => "csv",
             ExportFormat::Residuals => "residuals",
+            ExportFormat::Mitsuba => "mitsuba",
         }
     }
 }
@@ -124,6 +130,9 @@ pub fn write_export(
         }
         ExportFormat::Merl => write_merl_export(target, fam, kind).map(drop),
         ExportFormat::Csv => write_atomic(target, |mut w| csv::write_csv(&mut w, fam, fit)),
+        ExportFormat::Mitsuba => {
+            mitsuba::write_mitsuba(target, &mitsuba::MemberTable::of_fit(fit, &fam.incidences))
+        }
         ExportFormat::Residuals => Err(ExportError::Write(format!(
             "{}: residuals need the fitted data (write_residuals)",
             path.display()
@@ -154,6 +163,15 @@ pub fn write_merl_export(
         "MERL table of the reciprocal mean (f(i->o) + f(o->i))/2 of the {} fit: its largest ratio f(i->o)/f(o->i) over the cells is {ratio:.4}",
         kind.name()
     ))
+}
+
+/// The files an export to `path` writes: `path` itself, or for a Mitsuba export the
+/// files inside the directory `path` (for checking every target before any work).
+pub fn targets(format: ExportFormat, path: &std::path::Path) -> Vec<std::path::PathBuf> {
+    match format {
+        ExportFormat::Mitsuba => mitsuba::files(path),
+        _ => vec![path.to_path_buf()],
+    }
 }
 
 /// The fit of `kind`, or [`ExportError::NotFitted`] naming the fitted models.

@@ -137,6 +137,7 @@ mod tests {
             plan: "paper".into(),
             settings: "samples=4".into(),
             points: vec![(0.0, 10.0), (0.0, 20.0)],
+            sample: None,
         };
         drop(SweepWriter::create(&path, &header, false).unwrap());
         assert_eq!(

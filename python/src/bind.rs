@@ -159,14 +159,16 @@ pub fn to_json(o: &FitOutcome) -> String {
     s
 }
 
-/// The names of the fitted models, simplest first (a haze member the data support
-/// last), and the selected one.
-pub fn model_names(o: &FitOutcome) -> (Vec<String>, &'static str) {
-    let mut names: Vec<String> = o.family.fits.iter().map(|f| f.kind.name().into()).collect();
-    if let Some(h) = &o.family.haze {
-        names.push(h.member().to_string());
-    }
-    (names, o.family.selected.name())
+/// The names of the fitted models (every member the family fitted, in the order
+/// fitted), and the selected member's name.
+pub fn model_names(o: &FitOutcome) -> (Vec<String>, String) {
+    let names = o
+        .family
+        .candidates
+        .iter()
+        .map(|c| c.member.to_string())
+        .collect();
+    (names, o.family.selected_member.to_string())
 }
 
 /// The fit of a model of the paper's family by name (the selected one for `None`).
@@ -187,10 +189,14 @@ pub fn get_fit<'a>(o: &'a FitOutcome, name: Option<&str>) -> Result<&'a Fit, Str
 /// parameters per incidence: the one path from a fit to a model, whatever member the
 /// family fitted.
 pub fn fitted_table(o: &FitOutcome, name: Option<&str>) -> Result<(MemberTable, String), String> {
-    if let (Some(n), Some(h)) = (name, &o.family.haze)
-        && n == h.member().to_string()
+    let wanted = name.map_or_else(|| o.family.selected_member.to_string(), str::to_string);
+    if let Some(m) = o
+        .family
+        .members
+        .iter()
+        .find(|m| m.member().to_string() == wanted)
     {
-        return Ok((MemberTable::of_member_fit(h), n.to_string()));
+        return Ok((MemberTable::of_member_fit(m), wanted));
     }
     let fit = get_fit(o, name)?;
     Ok((

@@ -526,7 +526,7 @@ pub struct PyFit {
 impl PyFit {
     /// The model the data support (lowest AICc).
     #[getter]
-    fn selected(&self) -> &'static str {
+    fn selected(&self) -> String {
         bind::model_names(&self.outcome).1
     }
 

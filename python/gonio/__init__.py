@@ -202,7 +202,7 @@ class ModelFit:
     k: int
     ssr: float
     converged: bool
-    correlations: dict
+    correlations: Optional[dict]  # None for members fitted on the width grid
 
 
 class FitResult:
@@ -212,7 +212,7 @@ class FitResult:
         self._r = raw
         self._json = json.loads(raw.to_json())
         self.models = {
-            m["name"]: ModelFit(**{k: m[k] for k in ModelFit.__dataclass_fields__})
+            m["name"]: ModelFit(**{k: m.get(k) for k in ModelFit.__dataclass_fields__})
             for m in self._json["models"]
         }
 

@@ -153,10 +153,7 @@ pub fn fit(path: Option<&Path>, rows: &[Row], req: &FitRequest) -> Result<FitOut
 
 /// `gonio fit --json`'s text for a fit (the CLI's writer).
 pub fn to_json(o: &FitOutcome) -> String {
-    let mut s = serde_json::to_string_pretty(&fit::report::family_json(&o.family))
-        .expect("JSON of numbers");
-    s.push('\n');
-    s
+    String::from_utf8(fit::report::family_json_text(&o.family, None)).expect("JSON is UTF-8")
 }
 
 /// The names of the fitted models (every member the family fitted, in the order

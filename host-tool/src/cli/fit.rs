@@ -305,13 +305,11 @@ pub fn run(args: &FitArgs) -> CliResult {
     for w in &warnings {
         eprintln!("gonio: warning: {w}");
     }
-    let mut units = super::fit_units::units_of(sweep)?;
     let inst = match &args.instrument {
-        Some(p) => {
-            let i = super::fit_units::apply_instrument(sweep, units, p, &mut data)?;
-            units = crate::sweep_file::BrdfUnits::PerSr;
-            Some((i, p.as_path()))
-        }
+        Some(p) => Some((
+            super::fit_units::apply_instrument(sweep, p, &mut data)?,
+            p.as_path(),
+        )),
         None => None,
     };
     let inst = inst.as_ref().map(|(i, p)| (i, *p));
@@ -357,10 +355,11 @@ pub fn run(args: &FitArgs) -> CliResult {
         }
     }
     let text = if args.json {
-        super::fit_units::report_json(&fit::report::family_json_text(&fam), &fam, units, inst)
+        let inst = inst.map(|(i, p)| super::fit_units::instrument_json(&fam, i, p));
+        fit::report::family_json_text(&fam, inst.as_ref())
     } else {
         let mut t = fit::report::family_table(&fam, residual);
-        t.push_str(&super::fit_units::report_text(&fam, units, inst));
+        t.push_str(&super::fit_units::report_text(&fam, inst));
         t.into_bytes()
     };
     write_stdout(&text)

@@ -38,13 +38,14 @@ pub fn check_campaign_units(files: &[PathBuf]) -> CliResult {
 }
 
 /// `fit --instrument FILE`: refuses a sweep already in 1/sr, then divides every
-/// reading by K (and cos(theta_r) for detector signals). Returns the instrument.
+/// reading by K (and cos(theta_r) for detector signals); the data are then in 1/sr.
+/// Returns the instrument.
 pub fn apply_instrument(
     sweep: &Path,
-    units: BrdfUnits,
     instrument: &Path,
     data: &mut Dataset,
 ) -> CliResult<Instrument> {
+    let units = data.units;
     if units != BrdfUnits::Relative {
         return Err(CliError::usage(format!(
             "fit --instrument: {} already holds brdf in {units} (its '# brdf:' line): the instrument converts relative readings only (fit it without --instrument)",
@@ -64,6 +65,7 @@ pub fn apply_instrument(
     if inst.quantity == Quantity::DetectorSignal {
         eprintln!("gonio: note: readings are detector signals: divided by K cos(theta_r)");
     }
+    data.units = BrdfUnits::PerSr;
     Ok(inst)
 }
 
@@ -172,38 +174,14 @@ pub fn instrument_json(fam: &FamilyFit, inst: &Instrument, path: &Path) -> Value
 
 /// The text appended to `fit`'s report: the instrument section (if any) and the
 /// physical checks.
-pub fn report_text(
-    fam: &FamilyFit,
-    units: BrdfUnits,
-    inst: Option<(&Instrument, &Path)>,
-) -> String {
+pub fn report_text(fam: &FamilyFit, inst: Option<(&Instrument, &Path)>) -> String {
     let mut s = String::new();
     if let Some((i, p)) = inst {
         s.push_str(&instrument_text(fam, i, p));
     }
-    s.push_str(&physical::checks_text(&physical::check_family(fam), units));
+    s.push_str(&physical::checks_text(
+        &physical::check_family(fam),
+        fam.units,
+    ));
     s
-}
-
-/// `fit --json` with `brdf_units`, `physical_checks` and (with --instrument) `instrument` added.
-pub fn report_json(
-    json_text: &[u8],
-    fam: &FamilyFit,
-    units: BrdfUnits,
-    inst: Option<(&Instrument, &Path)>,
-) -> Vec<u8> {
-    let mut v: Value = serde_json::from_slice(json_text).expect("our own JSON");
-    if let Value::Object(m) = &mut v {
-        m.insert("brdf_units".into(), json!(units.word()));
-        m.insert(
-            "physical_checks".into(),
-            physical::checks_json(&physical::check_family(fam), units),
-        );
-        if let Some((i, p)) = inst {
-            m.insert("instrument".into(), instrument_json(fam, i, p));
-        }
-    }
-    let mut out = serde_json::to_vec_pretty(&v).expect("JSON of numbers");
-    out.push(b'\n');
-    out
 }

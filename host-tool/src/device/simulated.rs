@@ -173,7 +173,13 @@ impl PtyDevice {
             let mut now_us = 0u64;
             while !flag.load(Ordering::Relaxed) {
                 if let Some(speed) = speed {
-                    now_us = now_us.max((started.elapsed().as_secs_f64() * speed * 1e6) as u64);
+                    // The device's clock follows the wall clock, but never leaps: a thread
+                    // descheduled on a loaded machine would otherwise see seconds pass at
+                    // once and time out a homing whose steps it never had the chance to
+                    // take. A real device is never paused; this one runs late instead.
+                    let wall_us = (started.elapsed().as_secs_f64() * speed * 1e6) as u64;
+                    let leap = (MAX_CLOCK_LEAP.as_secs_f64() * speed * 1e6) as u64;
+                    now_us = now_us.max(wall_us.min(now_us + leap));
                 }
                 match (service.poll(&mut port, now_us), speed) {
                     (Some(at), None) => now_us = now_us.max(at),
@@ -211,6 +217,10 @@ impl Drop for PtyDevice {
         }
     }
 }
+
+/// The most wall time the simulated device's clock advances between two polls (more
+/// than the longest wait between them, 20 ms, so an unloaded device keeps wall time).
+const MAX_CLOCK_LEAP: Duration = Duration::from_millis(50);
 
 struct PtyMaster(File);
 

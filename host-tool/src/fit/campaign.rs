@@ -69,6 +69,7 @@ pub fn read_data(path: &Path, opts: &FitOptions) -> Result<(Dataset, Vec<String>
         data.aperture = super::data::parse_aperture(a)
             .map_err(|e| FileError::Input(format!("{}: # aperture: {e}", path.display())))?;
     }
+    data.units = sweep.brdf_units();
     Ok((data, warnings))
 }
 
@@ -227,7 +228,7 @@ pub fn write_reports(
             continue;
         };
         let text = if json {
-            family_json_text(&fit.family)
+            family_json_text(&fit.family, None)
         } else {
             family_table(&fit.family, residual).into_bytes()
         };

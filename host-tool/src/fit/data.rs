@@ -4,7 +4,7 @@
 use brdf_core::sim::XorShift32;
 use brdf_core::{Geometry, Model};
 
-use crate::sweep_file::Row;
+use crate::sweep_file::{BrdfUnits, Row};
 
 /// A simulated paper sweep (theta_i 0..80 step 10, theta_r -80..80 step 10, degrees):
 /// `model_at(theta_i)` evaluated at each point times `1 + noise * n`, with `n`
@@ -86,6 +86,9 @@ pub struct Dataset {
     /// The detector's acceptance half-angle (degrees) the sweep declares in its
     /// `# aperture:` header line, if any.
     pub aperture: Option<f64>,
+    /// The units of the brdf values (the sweep's `# brdf:` line; 1/sr after
+    /// `--instrument`): relative unless said otherwise.
+    pub units: BrdfUnits,
 }
 
 /// Why data cannot be fitted.
@@ -210,6 +213,7 @@ impl Dataset {
             specular,
             nearest,
             aperture: None,
+            units: BrdfUnits::Relative,
         })
     }
 

@@ -31,6 +31,8 @@ use std::time::Instant;
 use brdf_core::member::Member;
 use rayon::prelude::*;
 
+use crate::sweep_file::BrdfUnits;
+
 pub use data::Dataset;
 pub use family::{Fixed, Kind, Names};
 pub use solve::{Fit, FitOptions, Loss, Residual, fit_kind};
@@ -69,6 +71,8 @@ pub struct FamilyFit {
     pub aperture: Option<f64>,
     /// The sweep carries std and n: goodness of fit against the noise is known.
     pub has_noise: bool,
+    /// The units of the data's brdf values, and so of every fitted amplitude.
+    pub units: BrdfUnits,
 }
 
 impl FamilyFit {
@@ -286,6 +290,7 @@ pub fn fit_family(data: &Dataset, opts: &FitOptions, kinds: &[Kind]) -> Result<F
             .collect(),
         aperture,
         has_noise: data.has_noise(),
+        units: data.units,
     })
 }
 

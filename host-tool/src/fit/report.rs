@@ -313,21 +313,22 @@ fn any_member_json(f: &FamilyFit, fit: &MemberFit) -> Value {
     }
 }
 
-/// The whole result as the `gonio fit --json` object.
+/// The whole result as the `gonio fit --json` object (without an instrument section).
 pub fn family_json(f: &FamilyFit) -> Value {
-    serde_json::to_value(FamilyJson(f)).expect("JSON of numbers")
+    serde_json::to_value(FamilyJson(f, None)).expect("JSON of numbers")
 }
 
 /// The `gonio fit --json` object as pretty text, built one model at a time (so only
-/// one model's JSON tree is in memory at once), with a final newline.
-pub fn family_json_text(f: &FamilyFit) -> Vec<u8> {
-    let mut out = serde_json::to_vec_pretty(&FamilyJson(f)).expect("JSON of numbers");
+/// one model's JSON tree is in memory at once), with a final newline. `instrument` is
+/// the `--instrument` section, when the data were converted to 1/sr by one.
+pub fn family_json_text(f: &FamilyFit, instrument: Option<&Value>) -> Vec<u8> {
+    let mut out = serde_json::to_vec_pretty(&FamilyJson(f, instrument)).expect("JSON of numbers");
     out.push(b'\n');
     out
 }
 
 /// Serialises as [`family_json`], each model's tree built only while it is written.
-struct FamilyJson<'a>(&'a FamilyFit);
+struct FamilyJson<'a>(&'a FamilyFit, Option<&'a Value>);
 
 struct ModelsJson<'a>(&'a FamilyFit);
 
@@ -359,7 +360,7 @@ impl serde::Serialize for FamilyJson<'_> {
     fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         use serde::ser::SerializeMap;
         let f = self.0;
-        let mut m = s.serialize_map(Some(8))?;
+        let mut m = s.serialize_map(Some(10 + usize::from(self.1.is_some())))?;
         m.serialize_entry("models", &ModelsJson(f))?;
         m.serialize_entry("selected", f.selected_member.name().as_str())?;
         m.serialize_entry("selected_bic", f.selected_bic.name().as_str())?;
@@ -368,6 +369,14 @@ impl serde::Serialize for FamilyJson<'_> {
         m.serialize_entry("aperture_deg", &opt(f.aperture))?;
         m.serialize_entry("notes", &f.notes)?;
         m.serialize_entry("fit_seconds", &num(f.fit_seconds))?;
+        m.serialize_entry("brdf_units", f.units.word())?;
+        m.serialize_entry(
+            "physical_checks",
+            &super::physical::checks_json(&super::physical::check_family(f), f.units),
+        )?;
+        if let Some(i) = self.1 {
+            m.serialize_entry("instrument", i)?;
+        }
         m.end()
     }
 }

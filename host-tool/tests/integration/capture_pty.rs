@@ -189,7 +189,9 @@ fn ctrl_c_leaves_a_valid_file_and_resume_completes_it() {
 fn sigterm_and_sighup_stop_a_capture_like_ctrl_c() {
     let _one = one_at_a_time();
     for signal in ["-TERM", "-HUP"] {
-        let dev = device(Some(40.0));
+        // Real time: the 34 points take about 10 s, so a device not sent Abort would
+        // still be sweeping when gonio has exited.
+        let dev = device(Some(1.0));
         let d = scratch("sigterm");
         let file = d.join("s.csv");
         let plan = small_plan(&d);
@@ -225,7 +227,30 @@ fn sigterm_and_sighup_stop_a_capture_like_ctrl_c() {
             data.meta["status"]
         );
         assert!((8..34).contains(&data.rows.len()));
+        // Abort was sent: the device is idle at once, its laser off.
+        assert_eq!(device_state(dev.path()), Ok(false), "{signal}: laser");
     }
+}
+
+/// Whether a device is idle (`Ok(laser on)`) or was still sweeping (`Err`), asked
+/// with `Abort`: an idle device answers with its Status (laser as it is), a sweeping
+/// one with the SweepDone of the sweep it was running.
+fn device_state(port: &Path) -> Result<bool, String> {
+    use brdf_core::protocol::{Command as Cmd, Event};
+    use gonio::device::Connector;
+    let mut link = gonio::device::SerialConnector::new(port.to_str().unwrap())
+        .connect()
+        .unwrap();
+    link.send(&Cmd::Abort).unwrap();
+    let deadline = Instant::now() + Duration::from_secs(3);
+    while Instant::now() < deadline {
+        match link.recv(Duration::from_millis(100)).unwrap() {
+            Some(Event::Status(s)) => return Ok(s.laser),
+            Some(Event::SweepDone(d)) => return Err(format!("still sweeping: {d:?}")),
+            _ => {}
+        }
+    }
+    Err("no answer".into())
 }
 
 #[test]
@@ -393,4 +418,30 @@ fn protocol_mismatch_says_which_side_to_update() {
         );
         drop(h);
     }
+}
+
+#[test]
+fn an_info_of_this_version_that_does_not_decode_gets_no_version_advice() {
+    let _one = one_at_a_time();
+    // The foreign device's Info body after the version is not this protocol's Info.
+    let (path, h) = foreign_device(1);
+    let t0 = Instant::now();
+    let out: Run = gonio_command()
+        .args(["info", "--port", path.to_str().unwrap(), "--timeout", "2"])
+        .output()
+        .unwrap()
+        .into();
+    assert!(
+        t0.elapsed() < Duration::from_secs(6),
+        "bounded by --timeout"
+    );
+    assert_eq!(out.code, 1);
+    let err = out.stderr.clone();
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("does not decode"), "{err}");
+    assert!(
+        !err.contains("update"),
+        "no version advice when versions agree: {err}"
+    );
+    drop(h);
 }

@@ -242,8 +242,11 @@ impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, 
         self.push(Event::Error(ErrorEvent::new(code, detail)));
     }
 
+    /// Both arms homed, and parked (a host told `homed` may start a sweep at once).
     fn homed(&self) -> bool {
-        self.source.is_homed() && self.detector.is_homed()
+        self.source.is_homed()
+            && self.detector.is_homed()
+            && !matches!(self.state, State::Parking(_))
     }
 
     fn status(&self) -> Event {

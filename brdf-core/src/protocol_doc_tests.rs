@@ -274,6 +274,20 @@ fn homing_position_jog_and_laser_are_as_documented() {
         (-1.0, -91.0)
     );
     rig.send(&Command::Home);
+    // Both switches found: the arms are parked next, and until they are, the device
+    // does not say it is homed (a host would start a sweep and be answered Busy).
+    while !(rig.c.source().is_homed() && rig.c.detector().is_homed()) {
+        match rig.c.tick(rig.now) {
+            Tick::Wait(us) => rig.now += us.max(1) as u64,
+            Tick::Idle => panic!("homing ended before both switches were found"),
+        }
+    }
+    rig.send(&Command::GetInfo);
+    let ev = rig.take();
+    assert!(
+        matches!(ev.as_slice(), [Event::Info(Info { homed: false, .. })]),
+        "{ev:?}"
+    );
     rig.run();
     let ev = rig.take();
     assert_eq!(ev.len(), 1, "one Status ends homing: {ev:?}");

@@ -351,6 +351,9 @@ mod tests {
         }
     }
 
+    /// One way an Info may lie.
+    type Lie = fn(&mut Info);
+
     #[test]
     fn an_info_that_does_not_hold_together_is_refused_with_what_it_said() {
         let good = brdf_core::sim::simulated_controller(
@@ -371,7 +374,7 @@ mod tests {
             }
         };
         assert_eq!(check_info(&info), Ok(()));
-        let lies: [(fn(&mut Info), &str); 6] = [
+        let lies: [(Lie, &str); 6] = [
             (
                 |i| i.detector.min_deg = f32::NAN,
                 "detector travel NaN .. 90",

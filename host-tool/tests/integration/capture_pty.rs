@@ -341,6 +341,17 @@ fn a_device_that_does_not_come_back_ends_with_a_clear_message() {
 /// A fake device that answers Ping and GetInfo like a device of protocol `version`
 /// whose Info has fields this gonio does not know.
 fn foreign_device(version: u16) -> (PathBuf, std::thread::JoinHandle<()>) {
+    let mut out = [0u8; 256];
+    let n = brdf_core::frame::encode(
+        &(0u8, version, [1u8, 2, 3], "v-next board", 42u64),
+        &mut out,
+    )
+    .unwrap();
+    device_answering_info_with(out[..n].to_vec())
+}
+
+/// A device on a pty that answers Ping and, to GetInfo, the frame `info`.
+fn device_answering_info_with(info: Vec<u8>) -> (PathBuf, std::thread::JoinHandle<()>) {
     use brdf_core::frame::{FrameDecoder, MAX_FRAME_LEN, encode};
     use brdf_core::protocol::{Command as Cmd, Event};
     use std::io::{Read, Write};
@@ -379,15 +390,16 @@ fn foreign_device(version: u16) -> (PathBuf, std::thread::JoinHandle<()>) {
             }
             let Ok(n) = master.read(&mut buf) else { return };
             for &b in &buf[..n] {
-                let reply = match dec.push::<Cmd>(b) {
-                    Some(Ok(Cmd::Ping(t))) => encode(&Event::Pong(t), &mut out),
-                    Some(Ok(Cmd::GetInfo)) => encode(
-                        &(0u8, version, [1u8, 2, 3], "v-next board", 42u64),
-                        &mut out,
-                    ),
-                    _ => continue,
-                };
-                let _ = master.write_all(&out[..reply.unwrap()]);
+                match dec.push::<Cmd>(b) {
+                    Some(Ok(Cmd::Ping(t))) => {
+                        let n = encode(&Event::Pong(t), &mut out).unwrap();
+                        let _ = master.write_all(&out[..n]);
+                    }
+                    Some(Ok(Cmd::GetInfo)) => {
+                        let _ = master.write_all(&info);
+                    }
+                    _ => {}
+                }
             }
         }
     });
@@ -443,5 +455,43 @@ fn an_info_of_this_version_that_does_not_decode_gets_no_version_advice() {
         !err.contains("update"),
         "no version advice when versions agree: {err}"
     );
+    drop(h);
+}
+
+#[test]
+fn info_prints_device_text_escaped() {
+    use brdf_core::protocol::{ArmLimits, Event, Info, MAX_SWEEP_POINTS, PROTOCOL_VERSION};
+    let _one = one_at_a_time();
+    let limits = ArmLimits {
+        min_deg: 0.0,
+        max_deg: 90.0,
+        steps_per_deg: 80.0,
+    };
+    let info = Event::Info(Info {
+        protocol: PROTOCOL_VERSION,
+        firmware: [0, 1, 0],
+        board: heapless::String::try_from("x\n0,0,1\u{1b}[2J").unwrap(),
+        source: limits,
+        detector: ArmLimits {
+            min_deg: -90.0,
+            ..limits
+        },
+        max_points: MAX_SWEEP_POINTS,
+        homed: true,
+    });
+    let mut buf = [0u8; 256];
+    let n = brdf_core::frame::encode(&info, &mut buf).unwrap();
+    let (path, h) = device_answering_info_with(buf[..n].to_vec());
+    let out: Run = gonio_command()
+        .args(["info", "--port", path.to_str().unwrap(), "--timeout", "5"])
+        .output()
+        .unwrap()
+        .into();
+    assert!(out.ok(), "{}", out.stderr);
+    let text = out.stdout.clone();
+    assert!(!text.contains('\u{1b}'), "{text:?}");
+    let device = text.lines().next().unwrap();
+    assert!(device.starts_with("device:    x\\n0,0,1"), "{device:?}");
+    assert_eq!(text.lines().count(), 7, "{text}");
     drop(h);
 }

@@ -76,6 +76,8 @@ fn firmware_in_qemu_serves_gonio_over_a_pty() {
         ),
         (-90.0, 90.0, 80.0)
     );
+    // The most points one plan may have, whatever its grid (docs/protocol.md).
+    assert_eq!(info.max_points, brdf_core::protocol::MAX_SWEEP_POINTS);
 
     // Line noise, a frame with a bad CRC, and an intact frame that is no command.
     link.send_raw(&[0x55, 0xAA, 0x13, 0x00, 0x42, 0x42, 0x42, 0x00])
@@ -211,6 +213,19 @@ fn firmware_in_qemu_serves_gonio_over_a_pty() {
     let ev = collect(&mut link, Duration::from_secs(300), sweep_done);
     let rest = readings(&ev);
     assert_eq!(rest.len(), 153 - 70);
+    // Progress.done counts the skipped points.
+    assert!(
+        matches!(
+            ev.iter().find(|e| matches!(e, Event::Progress(_))),
+            Some(Event::Progress(brdf_core::protocol::Progress {
+                done: 70,
+                total: 153,
+                ..
+            }))
+        ),
+        "{:?}",
+        &ev[..3]
+    );
     assert!(
         rest.iter()
             .enumerate()

@@ -194,12 +194,43 @@ fn firmware_answers_bad_commands_with_errors_and_keeps_serving() {
     assert_eq!(next_error(&mut link), ErrorCode::NotHomed);
     link.send(&Command::Home).unwrap();
     let deadline = Instant::now() + Duration::from_secs(60);
-    while !matches!(
-        link.recv(Duration::from_millis(200)).unwrap(),
-        Some(Event::Status(_))
-    ) {
+    let homed = loop {
+        if let Some(Event::Status(s)) = link.recv(Duration::from_millis(200)).unwrap() {
+            break s;
+        }
         assert!(Instant::now() < deadline, "homing");
-    }
+    };
+    // Parked at the low end of the travel, inside the limits Info states.
+    assert!(homed.homed);
+    assert_eq!((homed.source_deg, homed.detector_deg), (0.0, -90.0));
+    // Lists over their capacity are bad plans, not unknown commands (docs/protocol.md).
+    let points: Vec<(f32, f32)> = (0..241).map(|k| (20.0, k as f32 * 0.1 - 12.0)).collect();
+    let n = frame::encode(
+        &(2u8, 1u32, 2u8, points, 0.0f32, (20u16, 1u16, false), 0u16),
+        &mut buf,
+    )
+    .unwrap();
+    link.send_raw(&buf[..n]).unwrap();
+    assert_eq!(next_error(&mut link), ErrorCode::BadPlan);
+    let incidences: Vec<f32> = (0..17).map(|k| k as f32).collect();
+    let n = frame::encode(
+        &(
+            2u8,
+            1u32,
+            1u8,
+            incidences,
+            -80.0f32,
+            80.0f32,
+            5.0f32,
+            0.0f32,
+            (20u16, 1u16, false),
+            0u16,
+        ),
+        &mut buf,
+    )
+    .unwrap();
+    link.send_raw(&buf[..n]).unwrap();
+    assert_eq!(next_error(&mut link), ErrorCode::BadPlan);
     for degrees in [95.0, -1.0, f32::NAN, f32::INFINITY, 1e30] {
         link.send(&Command::Jog {
             arm: Arm::Source,

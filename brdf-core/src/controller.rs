@@ -11,8 +11,9 @@ use crate::axis::{Axis, AxisConfig, AxisError, AxisPins, Tick};
 use crate::frame::{self, FrameDecoder, FrameError, FrameStats, MAX_FRAME_LEN};
 use crate::plan::{PlanCursor, PlanError};
 use crate::protocol::{
-    Arm, Command, ErrorCode, ErrorEvent, Event, Info, MAX_PLAN_POINTS, PROTOCOL_VERSION, Point,
-    Progress, Reading, Status, SweepDone, SweepPlan,
+    Arm, Command, ErrorCode, ErrorEvent, Event, Info, MAX_INCIDENCES, MAX_PLAN_POINTS,
+    MAX_SWEEP_POINTS, PROTOCOL_VERSION, Point, Progress, Reading, Status, SweepDone, SweepPlan,
+    Undecoded,
 };
 
 /// Events the controller can hold before the board takes them. A sweep pauses while
@@ -96,6 +97,9 @@ struct Sweep {
 enum State {
     Idle,
     Homing(Arm),
+    /// After homing: moving an arm off its switch to its lowest soft limit, so every
+    /// angle the device reports lies within the travel its Info states.
+    Parking(Arm),
     Jogging(Arm),
     Sweep(Sweep),
 }
@@ -176,7 +180,32 @@ impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, 
                 None => {}
                 Some(Ok(cmd)) => self.handle(cmd),
                 Some(Err(FrameError::Decode)) => {
-                    self.error(ErrorCode::UnknownCommand, "intact frame, unknown command")
+                    let mut text: heapless::String<48> = heapless::String::new();
+                    let code = match Undecoded::of(self.decoder.undecoded_payload()) {
+                        Undecoded::TooManyIncidences => {
+                            let _ = core::fmt::write(
+                                &mut text,
+                                format_args!("plan has more than {MAX_INCIDENCES} incidences"),
+                            );
+                            ErrorCode::BadPlan
+                        }
+                        Undecoded::TooManyPoints => {
+                            let _ = core::fmt::write(
+                                &mut text,
+                                format_args!("plan has more than {MAX_PLAN_POINTS} points"),
+                            );
+                            ErrorCode::BadPlan
+                        }
+                        Undecoded::BadPlan => {
+                            let _ = text.push_str("plan does not decode");
+                            ErrorCode::BadPlan
+                        }
+                        Undecoded::Unknown => {
+                            let _ = text.push_str("intact frame, unknown command");
+                            ErrorCode::UnknownCommand
+                        }
+                    };
+                    self.error(code, &text)
                 }
                 Some(Err(_)) => {
                     self.error(ErrorCode::CorruptFrame, "frame dropped: CRC/COBS/length")
@@ -213,8 +242,11 @@ impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, 
         self.push(Event::Error(ErrorEvent::new(code, detail)));
     }
 
+    /// Both arms homed, and parked (a host told `homed` may start a sweep at once).
     fn homed(&self) -> bool {
-        self.source.is_homed() && self.detector.is_homed()
+        self.source.is_homed()
+            && self.detector.is_homed()
+            && !matches!(self.state, State::Parking(_))
     }
 
     fn status(&self) -> Event {
@@ -239,7 +271,7 @@ impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, 
             board,
             source: self.cfg.source.limits(),
             detector: self.cfg.detector.limits(),
-            max_points: MAX_PLAN_POINTS as u16,
+            max_points: MAX_SWEEP_POINTS,
             homed: self.homed(),
         })
     }
@@ -389,11 +421,16 @@ impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, 
                             Err(e) => self.fail(e),
                         }
                     }
-                    Ok(Tick::Idle) => {
-                        self.state = State::Idle;
-                        self.push(self.status());
-                        Tick::Idle
-                    }
+                    Ok(Tick::Idle) => self.park(Arm::Detector),
+                    Err(e) => self.fail(e),
+                }
+            }
+            State::Parking(arm) => {
+                let arm = *arm;
+                match self.tick_arm(arm, now_ms) {
+                    Ok(Tick::Wait(us)) => Tick::Wait(us),
+                    Ok(Tick::Idle) if arm == Arm::Detector => self.park(Arm::Source),
+                    Ok(Tick::Idle) => self.park_done(),
                     Err(e) => self.fail(e),
                 }
             }
@@ -412,6 +449,40 @@ impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, 
             }
             State::Sweep(_) => self.sweep_tick(now_us),
         }
+    }
+
+    /// Moves `arm` (then the source, if `arm` is the detector) from its home switch to
+    /// its lowest soft limit; the switch sits below it.
+    fn park(&mut self, arm: Arm) -> Tick {
+        let (axis_deg, min) = match arm {
+            Arm::Source => (self.source.degrees(), self.cfg.source.min_deg),
+            Arm::Detector => (self.detector.degrees(), self.cfg.detector.min_deg),
+        };
+        let next = |c: &mut Self| match arm {
+            Arm::Detector => c.park(Arm::Source),
+            Arm::Source => c.park_done(),
+        };
+        if axis_deg >= min {
+            return next(self);
+        }
+        let r = match arm {
+            Arm::Source => self.source.move_to(min),
+            Arm::Detector => self.detector.move_to(min),
+        };
+        match r {
+            Ok(()) => {
+                self.state = State::Parking(arm);
+                Tick::Wait(0)
+            }
+            Err(e) => self.fail(e),
+        }
+    }
+
+    /// Homing is over: both arms rest at their lowest soft limits.
+    fn park_done(&mut self) -> Tick {
+        self.state = State::Idle;
+        self.push(self.status());
+        Tick::Idle
     }
 
     /// One tick of one arm.

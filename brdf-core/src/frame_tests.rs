@@ -84,7 +84,7 @@ pub fn every_message() -> (StdVec<Command>, StdVec<Event>) {
                 steps_per_deg: 80.0,
             },
             detector: limits,
-            max_points: MAX_PLAN_POINTS as u16,
+            max_points: MAX_SWEEP_POINTS,
             homed: true,
         }),
         Event::Pong(0xDEADBEEF),

@@ -6,10 +6,19 @@ use core::fmt;
 use crate::float::Real;
 use crate::identity::{PAPER_DETECTOR, PAPER_INCIDENCES};
 use crate::model::Model;
-use crate::protocol::{ArmLimits, Grid, MAX_PLAN_POINTS, Point, PointSettings, SweepPlan};
+use crate::protocol::{
+    ArmLimits, Grid, MAX_PLAN_POINTS, MAX_SWEEP_POINTS, Point, PointSettings, SweepPlan,
+};
 
 /// Most detector positions one incidence of a `Custom` grid may expand to.
 pub const MAX_LEG_POINTS: u32 = 10_000;
+
+/// The stop rule of a `Custom` grid, in steps: `stop` is a detector position when it
+/// lies within this fraction of a step of the grid `start + step * k` (and is then
+/// reported as `stop` itself). One rule for the count and the last angle, used by the
+/// firmware and by gonio alike; 1e-3 absorbs the f32 rounding of
+/// `(stop - start) / step` over the longest leg (10,000 steps: about 5e-4 steps).
+pub const STOP_TOLERANCE_STEPS: f32 = 1e-3;
 
 /// Why a plan is not acceptable.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -20,7 +29,8 @@ pub enum PlanError {
     BadStep,
     /// The plan expands to no point at all (everything excluded, or skip too large).
     Empty,
-    /// Too many points.
+    /// Too many points: a `Custom` leg of [`MAX_LEG_POINTS`] or more, or a plan of
+    /// more than [`MAX_SWEEP_POINTS`] after exclusion.
     TooManyPoints,
     /// `samples` is 0.
     NoSamples,
@@ -106,8 +116,8 @@ impl SweepPlan {
     }
 
     /// Checks the plan against the arms' limits and the model's domain; returns the
-    /// number of points (after exclusion). Cost is bounded: at most
-    /// `MAX_INCIDENCES * MAX_LEG_POINTS` points are visited.
+    /// number of points (after exclusion), at most [`MAX_SWEEP_POINTS`]. Cost is
+    /// bounded: at most `MAX_SWEEP_POINTS + 1` points are counted.
     pub fn validate(&self, source: &ArmLimits, detector: &ArmLimits) -> Result<u32, PlanError> {
         if self.settings.samples == 0 {
             return Err(PlanError::NoSamples);
@@ -152,6 +162,9 @@ impl SweepPlan {
                 });
             }
             n += 1;
+            if n > u32::from(MAX_SWEEP_POINTS) {
+                return Err(PlanError::TooManyPoints);
+            }
         }
         if n == 0 || u32::from(self.skip) >= n {
             return Err(PlanError::Empty);
@@ -164,19 +177,32 @@ impl SweepPlan {
     }
 }
 
-/// Number of detector positions from `start` to `stop` (included when on the grid).
-fn leg_len(start: f32, stop: f32, step: f32) -> Result<u32, PlanError> {
+/// Number of detector positions from `start` to `stop` (included when on the grid,
+/// see [`STOP_TOLERANCE_STEPS`]).
+pub fn leg_len(start: f32, stop: f32, step: f32) -> Result<u32, PlanError> {
     if !(start.is_finite() && stop.is_finite() && step.is_finite()) {
         return Err(PlanError::NotFinite);
     }
     if step <= 0.0 || stop < start {
         return Err(PlanError::BadStep);
     }
-    let n = (stop - start) / step + 1e-4;
+    let n = (stop - start) / step + STOP_TOLERANCE_STEPS;
     if n >= MAX_LEG_POINTS as f32 {
         return Err(PlanError::TooManyPoints);
     }
     Ok(n as u32 + 1)
+}
+
+/// Detector position `k` of a leg of `n` positions (`n` from [`leg_len`]):
+/// `start + step * k`, except that the last is `stop` itself when it lies within
+/// [`STOP_TOLERANCE_STEPS`] of a step of it.
+pub fn leg_position(start: f32, stop: f32, step: f32, k: u32, n: u32) -> f32 {
+    let theta_r = start + step * k as f32;
+    if k + 1 == n && (theta_r - stop).abs() <= STOP_TOLERANCE_STEPS * step {
+        stop
+    } else {
+        theta_r
+    }
 }
 
 /// Iterator over a plan's points (see [`SweepPlan::points`]).
@@ -228,10 +254,7 @@ impl PlanCursor {
                 } => {
                     let n = leg_len(*start, *stop, *step).ok()?;
                     let &theta_i = incidences.get(self.leg)?;
-                    let mut theta_r = *start + *step * self.k as f32;
-                    if self.k + 1 == n && (theta_r - *stop).abs() <= 1e-3 * *step {
-                        theta_r = *stop;
-                    }
+                    let theta_r = leg_position(*start, *stop, *step, self.k, n);
                     self.k += 1;
                     if self.k == n {
                         self.k = 0;

@@ -15,6 +15,10 @@ pub const PROTOCOL_VERSION: u16 = 1;
 pub const MAX_PLAN_POINTS: usize = 240;
 /// Most incidence angles a [`Grid::Custom`] plan may carry.
 pub const MAX_INCIDENCES: usize = 16;
+/// Most points a sweep plan may expand to (after exclusion), whatever its grid: the
+/// firmware's [`Info::max_points`]. `u16::MAX`, so that `SweepPlan::skip` can resume
+/// any plan at any point.
+pub const MAX_SWEEP_POINTS: u16 = u16::MAX;
 /// Longest message body in bytes (postcard encoding plus the 4-byte CRC).
 pub const MAX_MESSAGE_LEN: usize = 2048;
 /// Longest error detail text in bytes.
@@ -99,7 +103,9 @@ pub struct Info {
     pub source: ArmLimits,
     /// Detector arm travel.
     pub detector: ArmLimits,
-    /// Most points a plan may hold ([`MAX_PLAN_POINTS`] for explicit points).
+    /// Most points one `StartSweep` plan may expand to after exclusion, whatever its
+    /// grid ([`MAX_SWEEP_POINTS`] for our firmware); a longer plan is `BadPlan`. A
+    /// `Points` list is also bounded by its capacity, [`MAX_PLAN_POINTS`].
     pub max_points: u16,
     /// Whether both arms are homed (sweeps and jogs need it).
     pub homed: bool,
@@ -262,6 +268,45 @@ impl ErrorEvent {
             }
         }
         ErrorEvent { code, detail: s }
+    }
+}
+
+/// Why an intact command frame did not decode, as far as its first bytes tell: a
+/// `StartSweep` (a plan that is over-full or malformed, answered `BadPlan`) or
+/// anything else (answered `UnknownCommand`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Undecoded {
+    /// A `StartSweep` whose incidence list is longer than [`MAX_INCIDENCES`].
+    TooManyIncidences,
+    /// A `StartSweep` whose point list is longer than [`MAX_PLAN_POINTS`].
+    TooManyPoints,
+    /// Another malformed `StartSweep`.
+    BadPlan,
+    /// Not a command of this protocol.
+    Unknown,
+}
+
+impl Undecoded {
+    /// Classifies the body of an intact frame that did not decode as a [`Command`]:
+    /// postcard writes the variant index, `sweep_id`, the grid's variant index and a
+    /// list's length as varints, so an over-full list is seen before its elements.
+    pub fn of(body: &[u8]) -> Self {
+        // Variant index of StartSweep and of the Custom and Points grids.
+        const START_SWEEP: u32 = 2;
+        const CUSTOM: u32 = 1;
+        const POINTS: u32 = 2;
+        match postcard::take_from_bytes::<(u32, u32, u32, u32)>(body) {
+            Ok(((START_SWEEP, _, CUSTOM, n), _)) if n as usize > MAX_INCIDENCES => {
+                Undecoded::TooManyIncidences
+            }
+            Ok(((START_SWEEP, _, POINTS, n), _)) if n as usize > MAX_PLAN_POINTS => {
+                Undecoded::TooManyPoints
+            }
+            _ => match postcard::take_from_bytes::<u32>(body) {
+                Ok((START_SWEEP, _)) => Undecoded::BadPlan,
+                _ => Undecoded::Unknown,
+            },
+        }
     }
 }
 

@@ -46,23 +46,45 @@ fn custom(incidences: &[f32], start: f32, stop: f32, step: f32, exclude: f32) ->
 
 #[test]
 fn the_custom_stop_rule_is_the_documented_one() {
-    assert!(doc().contains("n = floor((stop - start) / step + 1e-4) + 1"));
-    // 79.9975 is 5e-4 steps short of the grid point 80: not on the grid by the rule.
+    let d = doc();
+    assert!(d.contains("n = floor((stop - start) / step + 1e-3) + 1"));
+    assert!(d.contains("within `1e-3 * step` of `stop`"));
+    assert!(d.contains("`STOP_TOLERANCE_STEPS` = 1e-3"));
+    assert_eq!(crate::plan::STOP_TOLERANCE_STEPS, 1e-3);
+    // 79.9975 is 5e-4 steps short of the grid point 80: on the grid by the rule,
+    // reported as stop itself; the plan has 2 x 33 - 2 points.
     let p = custom(&[20.0, 40.0], -80.0, 79.9975, 5.0, 3.0);
-    assert_eq!(p.total(), 2 * 32 - 2);
-    // 79.99999 is within 1e-4 steps: included, and reported as stop itself.
-    let p = custom(&[20.0], -80.0, 79.99999, 5.0, 0.0);
+    assert_eq!(p.total(), 2 * 33 - 2);
+    let p = custom(&[20.0], -80.0, 79.9975, 5.0, 0.0);
     let pts: Vec<Point> = p.points().collect();
     assert_eq!(pts.len(), 33);
-    assert_eq!(pts[32].theta_r, 79.99999);
-    // The device counts the same plan as the host: Progress.total is SweepPlan::total.
+    assert_eq!(pts[32].theta_r, 79.9975);
+    // 79.99 is 2e-3 steps short: not on the grid.
+    assert_eq!(custom(&[20.0], -80.0, 79.99, 5.0, 0.0).total(), 32);
+    // The long leg of f32 rounding: -50..49.99 step 0.01 has 10,000 positions, its
+    // stop included although (stop - start) / step is not exactly 9999 in f32.
+    let pts: Vec<Point> = custom(&[20.0], -50.0, 49.99, 0.01, 0.0).points().collect();
+    assert_eq!(pts.len(), 10_000);
+    assert_eq!(pts[9_999].theta_r, 49.99);
+    // The device counts the same plan as the host and measures the same angles: its
+    // Progress.total is SweepPlan::total, its readings the plan's points.
     let mut rig = rig();
     rig.home();
     let p = custom(&[20.0, 40.0], -80.0, 79.9975, 5.0, 3.0);
+    let want: Vec<Point> = p.points().collect();
     rig.send(&Command::StartSweep(p));
-    match rig.take().first() {
-        Some(Event::Progress(pr)) => assert_eq!(pr.total, 62),
+    rig.run();
+    let ev = rig.take();
+    match ev.first() {
+        Some(Event::Progress(pr)) => assert_eq!(pr.total, 64),
         other => panic!("{other:?}"),
+    }
+    let got = readings(&ev);
+    assert_eq!(got.len(), 64);
+    for (r, p) in got.iter().zip(&want) {
+        // Reached angles: the planned ones to the nearest microstep (1/80 degree).
+        assert!((r.theta_i - p.theta_i).abs() <= 0.5 / 80.0, "{r:?} {p:?}");
+        assert!((r.theta_r - p.theta_r).abs() <= 0.5 / 80.0, "{r:?} {p:?}");
     }
 }
 
@@ -99,21 +121,36 @@ fn every_dropped_frame_is_answered_with_an_error() {
 }
 
 #[test]
-fn max_points_bounds_point_lists_only() {
+fn max_points_bounds_every_plan() {
     let mut rig = rig();
     rig.send(&Command::GetInfo);
     let Some(Event::Info(info)) = rig.take().pop() else {
         panic!()
     };
-    assert_eq!(usize::from(info.max_points), MAX_PLAN_POINTS);
+    assert_eq!(info.max_points, MAX_SWEEP_POINTS);
+    assert_eq!(MAX_SWEEP_POINTS, 65535);
     rig.home();
-    // 16 incidences of 161 detector angles: 2576 points, far above max_points.
+    // 16 incidences of 161 detector angles: 2576 points, within max_points.
     let inc: Vec<f32> = (0..16).map(|k| k as f32 * 5.0).collect();
     let p = custom(&inc, -80.0, 80.0, 1.0, 0.0);
     rig.send(&Command::StartSweep(p));
     assert!(matches!(
         rig.take()[0],
         Event::Progress(Progress { total: 2576, .. })
+    ));
+    rig.send(&Command::Abort);
+    rig.take();
+    // 16 incidences of 4097 positions: 65,552 points, 17 more than max_points.
+    let p = custom(&inc, -80.0, 80.0, 160.0 / 4096.0, 0.0);
+    assert_eq!(p.points().count(), 16 * 4097);
+    rig.send(&Command::StartSweep(p));
+    assert_eq!(errors(&rig.take()), [ErrorCode::BadPlan]);
+    // One incidence fewer: 61,455 points, accepted.
+    let p = custom(&inc[..15], -80.0, 80.0, 160.0 / 4096.0, 0.0);
+    rig.send(&Command::StartSweep(p));
+    assert!(matches!(
+        rig.take()[0],
+        Event::Progress(Progress { total: 61_455, .. })
     ));
     rig.send(&Command::Abort);
     rig.take();
@@ -126,23 +163,78 @@ fn max_points_bounds_point_lists_only() {
         0.0,
     )));
     assert_eq!(errors(&rig.take()), [ErrorCode::BadPlan]);
-    assert!(doc().contains("`max_points` is the capacity of a `Points` list"));
+    let d = doc();
+    assert!(d.contains("`Info.max_points` is the most points one plan may expand to"));
+    assert!(d.contains("our firmware says 65535"));
+}
+
+/// The errors and details a raw command body draws from a homed device.
+fn answer_to(rig: &mut Rig, body: &impl serde::Serialize) -> Vec<(ErrorCode, std::string::String)> {
+    let mut buf = [0u8; 4096];
+    let n = encode(body, &mut buf).unwrap();
+    rig.c.receive(&buf[..n], 0);
+    rig.drain();
+    rig.take()
+        .into_iter()
+        .filter_map(|e| match e {
+            Event::Error(e) => Some((e.code, e.detail.as_str().into())),
+            _ => None,
+        })
+        .collect()
 }
 
 #[test]
-fn over_full_lists_do_not_decode() {
-    // A StartSweep whose Points list holds 241 points (postcard writes a list as its
-    // length and elements, whatever the container).
-    let points: Vec<(f32, f32)> = (0..241).map(|k| (20.0, k as f32 * 0.1 - 12.0)).collect();
-    let cmd = (2u8, 1u32, 2u8, points, 0.0f32, (20u16, 1u16, false), 0u16);
-    let mut buf = [0u8; 4096];
-    let n = encode(&cmd, &mut buf).unwrap();
+fn over_full_lists_are_bad_plans() {
     let mut rig = rig();
     rig.home();
-    rig.c.receive(&buf[..n], 0);
-    rig.drain();
-    assert_eq!(errors(&rig.take()), [ErrorCode::UnknownCommand]);
-    assert!(doc().contains("answered `UnknownCommand`, not `BadPlan`"));
+    // Postcard writes a list as its length and elements, whatever the container, so a
+    // std Vec builds StartSweeps with longer lists than a device's heapless ones.
+    // 241 points:
+    let points: Vec<(f32, f32)> = (0..241).map(|k| (20.0, k as f32 * 0.1 - 12.0)).collect();
+    let cmd = (2u8, 1u32, 2u8, points, 0.0f32, (20u16, 1u16, false), 0u16);
+    let got = answer_to(&mut rig, &cmd);
+    assert_eq!(
+        got,
+        [(ErrorCode::BadPlan, "plan has more than 240 points".into())]
+    );
+    // 17 incidences:
+    let inc: Vec<f32> = (0..17).map(|k| k as f32).collect();
+    let cmd = (
+        2u8,
+        1u32,
+        1u8,
+        inc,
+        -80.0f32,
+        80.0f32,
+        5.0f32,
+        0.0f32,
+        (20u16, 1u16, false),
+        0u16,
+    );
+    let got = answer_to(&mut rig, &cmd);
+    assert_eq!(
+        got,
+        [(
+            ErrorCode::BadPlan,
+            "plan has more than 16 incidences".into()
+        )]
+    );
+    // A StartSweep cut short, and a grid variant that does not exist:
+    assert_eq!(answer_to(&mut rig, &(2u8, 1u32))[0].0, ErrorCode::BadPlan);
+    assert_eq!(
+        answer_to(&mut rig, &(2u8, 1u32, 9u8))[0].0,
+        ErrorCode::BadPlan
+    );
+    // What is not a command at all stays UnknownCommand.
+    assert_eq!(answer_to(&mut rig, &(7u8,))[0].0, ErrorCode::UnknownCommand);
+    assert_eq!(answer_to(&mut rig, &(1u8,))[0].0, ErrorCode::UnknownCommand);
+    // The device keeps serving.
+    rig.send(&Command::Ping(5));
+    assert_eq!(rig.take(), [Event::Pong(5)]);
+    let d = doc();
+    assert!(d.contains(
+        "answers `BadPlan` (as for any `StartSweep` that does not decode), never `UnknownCommand`"
+    ));
 }
 
 #[test]
@@ -160,15 +252,52 @@ fn homing_position_jog_and_laser_are_as_documented() {
     );
     rig.send(&Command::SetLaser(false));
     assert!(!status(&rig.take()).homed);
-    // After Home the arms rest on their switches, outside the travel.
+    rig.send(&Command::Ping(9));
+    rig.send(&Command::GetInfo);
+    rig.send(&Command::Abort);
+    let ev = rig.take();
+    assert!(
+        matches!(
+            ev.as_slice(),
+            [
+                Event::Pong(9),
+                Event::Info(Info { homed: false, .. }),
+                Event::Status(_)
+            ]
+        ),
+        "{ev:?}"
+    );
+    // The switches sit below the travel; after Home the arms are parked at its low
+    // end, inside the limits Info states.
+    assert_eq!(
+        (mechanics::SOURCE.home_deg, mechanics::DETECTOR.home_deg),
+        (-1.0, -91.0)
+    );
     rig.send(&Command::Home);
+    // Both switches found: the arms are parked next, and until they are, the device
+    // does not say it is homed (a host would start a sweep and be answered Busy).
+    while !(rig.c.source().is_homed() && rig.c.detector().is_homed()) {
+        match rig.c.tick(rig.now) {
+            Tick::Wait(us) => rig.now += us.max(1) as u64,
+            Tick::Idle => panic!("homing ended before both switches were found"),
+        }
+    }
+    rig.send(&Command::GetInfo);
+    let ev = rig.take();
+    assert!(
+        matches!(ev.as_slice(), [Event::Info(Info { homed: false, .. })]),
+        "{ev:?}"
+    );
     rig.run();
-    let s = status(&rig.take());
+    let ev = rig.take();
+    assert_eq!(ev.len(), 1, "one Status ends homing: {ev:?}");
+    let s = status(&ev);
+    assert!(s.homed);
     assert_eq!(
         (s.source_deg, s.detector_deg),
-        (mechanics::SOURCE.home_deg, mechanics::DETECTOR.home_deg)
+        (mechanics::SOURCE.min_deg, mechanics::DETECTOR.min_deg)
     );
-    assert_eq!((s.source_deg, s.detector_deg), (-1.0, -91.0));
+    assert_eq!((s.source_deg, s.detector_deg), (0.0, -90.0));
     // Jog targets are absolute.
     for _ in 0..2 {
         rig.send(&Command::Jog {
@@ -202,8 +331,34 @@ fn homing_position_jog_and_laser_are_as_documented() {
     assert_eq!(readings(&ev)[0].theta_r, 10.0);
     rig.send(&Command::Abort);
     assert!(!status(&rig.take()).laser);
+    // Aborted mid-sweep: off as well.
+    rig.send(&Command::SetLaser(true));
+    rig.take();
+    rig.send(&Command::StartSweep(SweepPlan::paper(4, SETTINGS)));
+    rig.run_until(|ev| readings(ev).len() >= 3);
+    rig.send(&Command::Abort);
+    let ev = rig.take();
+    assert!(
+        ev.iter()
+            .any(|e| matches!(e, Event::SweepDone(SweepDone { aborted: true, .. })))
+    );
+    rig.send(&Command::SetLaser(false));
+    rig.take();
+    rig.send(&Command::Jog {
+        arm: Arm::Source,
+        degrees: 30.0,
+    });
+    rig.run();
+    assert!(
+        !status(&rig.take()).laser,
+        "Jog leaves the laser off after the sweep"
+    );
     let d = doc();
-    assert!(d.contains("source at -1, detector at -91 degrees"));
+    assert!(d.contains("`StartSweep` and `Jog` need both arms homed (else `Error(NotHomed)`)"));
+    assert!(d.contains("`GetInfo`, `Ping`, `Abort`, `Home` and `SetLaser` are served at any time"));
+    assert!(d.contains(
+        "source at `Info.source.min_deg`, detector at `Info.detector.min_deg` (0 and -90)"
+    ));
     assert!(d.contains("the laser is off after every `SweepDone`"));
     assert!(d.contains("nearest microstep"));
 }

@@ -16,8 +16,15 @@ fuzz_target!(|data: &[u8]| {
             assert!((0.0..=90.0).contains(&p.theta_i), "{p:?}");
             assert!((-90.0..=90.0).contains(&p.theta_r), "{p:?}");
         }
-        let sweeps = plan.sweeps_for(&BTreeSet::new(), 1);
-        let n: usize = sweeps.iter().map(|s| s.map.len()).sum();
-        assert_eq!(n, plan.points.len());
+        // Whatever the device's max_points, every point is sent once and no sweep is
+        // longer than the device takes.
+        for max in [brdf_core::protocol::MAX_SWEEP_POINTS, 100, 1] {
+            let sweeps = plan.sweeps_for(&BTreeSet::new(), 1, max);
+            let n: usize = sweeps.iter().map(|s| s.map.len()).sum();
+            assert_eq!(n, plan.points.len());
+            for s in &sweeps {
+                assert!(s.plan.total() <= u32::from(max), "{max}");
+            }
+        }
     }
 });

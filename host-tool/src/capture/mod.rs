@@ -144,6 +144,8 @@ struct Run<'a, C: Connector> {
     reconnects: u32,
     dropped_before: u64,
     tol: Tolerance,
+    /// The device's `Info.max_points`: no plan sent is longer.
+    max_points: u16,
 }
 
 /// How long the Abort sent to a stalled device may go unanswered.
@@ -362,7 +364,16 @@ pub fn capture<C: Connector>(
         reconnects: 0,
         dropped_before: 0,
         tol: Tolerance::for_device(&info),
+        max_points: info.max_points,
     };
+    if run.plan.points.len() > usize::from(info.max_points) {
+        run.progress.note(&format!(
+            "capture: the plan's {} points are more than the device takes in one sweep ({}, its Info.max_points): sent as point lists of at most {}",
+            run.plan.points.len(),
+            info.max_points,
+            usize::from(info.max_points).min(brdf_core::protocol::MAX_PLAN_POINTS)
+        ));
+    }
     run.progress
         .start(run.plan.points.len() as u64, run.present.len() as u64);
     let status = run.all_rounds(&mut link);
@@ -390,7 +401,9 @@ impl<C: Connector> Run<'_, C> {
         let mut fruitless = 0;
         let mut mark = self.present.len();
         loop {
-            let sweeps = self.plan.sweeps_for(&self.present, self.next_id);
+            let sweeps = self
+                .plan
+                .sweeps_for(&self.present, self.next_id, self.max_points);
             if sweeps.is_empty() {
                 return Ok(SweepStatus::Complete);
             }

@@ -349,9 +349,16 @@ impl HostPlan {
     }
 
     /// The device sweeps that measure every point not in `present`, in plan order:
-    /// the compact grid when nothing or only a prefix is done, otherwise point lists of
-    /// at most `MAX_PLAN_POINTS`. `first_id` numbers them.
-    pub fn sweeps_for(&self, present: &BTreeSet<u32>, first_id: u32) -> Vec<DeviceSweep> {
+    /// the compact grid when nothing or only a prefix is done and the whole plan is
+    /// within the device's `max_points` (its `Info`), otherwise point lists of at most
+    /// `max_points` and `MAX_PLAN_POINTS`. No sweep sent is longer than `max_points`.
+    /// `first_id` numbers them.
+    pub fn sweeps_for(
+        &self,
+        present: &BTreeSet<u32>,
+        first_id: u32,
+        max_points: u16,
+    ) -> Vec<DeviceSweep> {
         let n = self.points.len() as u32;
         let missing: Vec<u32> = (0..n).filter(|k| !present.contains(k)).collect();
         if missing.is_empty() {
@@ -359,7 +366,8 @@ impl HostPlan {
         }
         let prefix = missing[0];
         let is_suffix = missing.len() as u32 == n - prefix;
-        if let (Some(grid), true) = (&self.compact, is_suffix) {
+        let fits = n <= u32::from(max_points);
+        if let (Some(grid), true, true) = (&self.compact, is_suffix, fits) {
             if let Ok(skip) = u16::try_from(prefix) {
                 let plan = SweepPlan {
                     sweep_id: first_id,
@@ -372,7 +380,7 @@ impl HostPlan {
             }
         }
         missing
-            .chunks(MAX_PLAN_POINTS)
+            .chunks(usize::from(max_points).clamp(1, MAX_PLAN_POINTS))
             .enumerate()
             .map(|(k, chunk)| {
                 let pts: heapless::Vec<Point, MAX_PLAN_POINTS> =

@@ -1,6 +1,7 @@
 //! Tests of host plans: expansion, plan files, and splitting into device sweeps.
 
 use super::*;
+use brdf_core::protocol::MAX_SWEEP_POINTS;
 
 fn o() -> SettingsOverride {
     SettingsOverride::default()
@@ -26,7 +27,7 @@ fn paper_plan_resumes_with_skip_or_point_lists() {
             dark: false
         }
     );
-    let all = p.sweeps_for(&BTreeSet::new(), 7);
+    let all = p.sweeps_for(&BTreeSet::new(), 7, MAX_SWEEP_POINTS);
     assert_eq!(all.len(), 1);
     assert_eq!(
         (
@@ -39,7 +40,7 @@ fn paper_plan_resumes_with_skip_or_point_lists() {
     assert_eq!(all[0].host_seq(152), Some(152));
     // A prefix done: the compact grid with skip.
     let done: BTreeSet<u32> = (0..40).collect();
-    let s = p.sweeps_for(&done, 1);
+    let s = p.sweeps_for(&done, 1, MAX_SWEEP_POINTS);
     assert_eq!((s.len(), s[0].plan.skip), (1, 40));
     assert_eq!(
         (s[0].host_seq(40), s[0].host_seq(39), s[0].host_seq(152)),
@@ -47,7 +48,7 @@ fn paper_plan_resumes_with_skip_or_point_lists() {
     );
     // Holes: explicit points, mapped back to plan indices.
     let done: BTreeSet<u32> = (0..153).filter(|k| k % 50 != 7).collect();
-    let s = p.sweeps_for(&done, 1);
+    let s = p.sweeps_for(&done, 1, MAX_SWEEP_POINTS);
     assert_eq!(s.len(), 1);
     let Grid::Points(pts) = &s[0].plan.grid else {
         panic!()
@@ -55,7 +56,44 @@ fn paper_plan_resumes_with_skip_or_point_lists() {
     assert_eq!(s[0].map, vec![7, 57, 107]);
     assert_eq!(pts[1], p.points[57]);
     assert_eq!(s[0].host_seq(1), Some(57));
-    assert!(p.sweeps_for(&(0..153).collect(), 1).is_empty());
+    assert!(
+        p.sweeps_for(&(0..153).collect(), 1, MAX_SWEEP_POINTS)
+            .is_empty()
+    );
+}
+
+#[test]
+fn no_sweep_sent_is_longer_than_the_devices_max_points() {
+    // gonio's own 963-point custom plan (the issue's example): one grid for a device
+    // that takes it, point lists for one whose Info says it takes fewer.
+    let text = "incidences = [0, 10, 20, 30, 40, 50, 60, 70, 80]\n\
+                detector = { start = -80, stop = 80, step = 1.5 }\n";
+    let p = HostPlan::from_toml_str(text, "long.toml", &o()).unwrap();
+    assert_eq!(p.points.len(), 963);
+    let s = p.sweeps_for(&BTreeSet::new(), 1, MAX_SWEEP_POINTS);
+    assert_eq!(s.len(), 1);
+    assert!(matches!(s[0].plan.grid, Grid::Custom { .. }));
+    for max in [963u16, 962, 500, 100, 1] {
+        let s = p.sweeps_for(&BTreeSet::new(), 1, max);
+        let info_src = ArmLimits {
+            min_deg: 0.0,
+            max_deg: 90.0,
+            steps_per_deg: 80.0,
+        };
+        let info_det = ArmLimits {
+            min_deg: -90.0,
+            ..info_src
+        };
+        let mut seen = 0;
+        for d in &s {
+            // What the device counts (SweepPlan::validate) is within its max_points.
+            let total = d.plan.validate(&info_src, &info_det).unwrap();
+            assert!(total <= u32::from(max), "{max}: a sweep of {total}");
+            seen += d.map.len();
+        }
+        assert_eq!(seen, 963, "{max}");
+        assert_eq!(s.len() == 1, max == 963, "{max}: {} sweeps", s.len());
+    }
 }
 
 #[test]
@@ -97,7 +135,7 @@ fn plan_files_give_grids_or_points() {
         .collect();
     let f = write("many.toml", &format!("points = [{}]\n", many.join(", ")));
     let p = HostPlan::from_file(&f, &o()).unwrap();
-    let s = p.sweeps_for(&BTreeSet::new(), 1);
+    let s = p.sweeps_for(&BTreeSet::new(), 1, MAX_SWEEP_POINTS);
     assert_eq!(
         s.iter().map(|d| d.map.len()).collect::<Vec<_>>(),
         vec![240, 240, 20]

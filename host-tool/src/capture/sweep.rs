@@ -210,6 +210,17 @@ impl SweepState {
                         p.total, self.end_seq
                     ));
                 }
+                // `done` counts the skipped points: a sweep starts at `skip` (a device
+                // that counts from 0 ignores the resume) and never runs past the plan.
+                // (Not `done == skip` on the first one seen: the start's Progress may
+                // be lost on a noisy link and the next incidence's arrive first.)
+                let skip = u32::from(self.plan.skip);
+                if p.done < skip || p.done > p.total {
+                    return Step::OtherPlan(format!(
+                        "the device's Progress says {} of {} readings done, gonio's plan for this sweep starts at {} (skip)",
+                        p.done, p.total, skip
+                    ));
+                }
                 Step::Wait
             }
             Event::Status(_) if self.stop_sent || self.probe_sent => {

@@ -308,3 +308,30 @@ fn a_probe_tells_a_finished_sweep_from_a_running_one() {
     let (steps, _) = feed(&mut s, vec![done(7, 1, true)]);
     assert_eq!(steps, [Step::Stalled]);
 }
+
+#[test]
+fn progress_done_counts_the_skipped_points_on_resume() {
+    let progress = |done, total| {
+        Event::Progress(Progress {
+            sweep_id: 7,
+            done,
+            total,
+            theta_i: 0.0,
+        })
+    };
+    // A resume with skip = 150 of 153: done starts at 150 and stays within the plan.
+    let mut s = SweepState::new(&sweep(150, 3));
+    let (steps, _) = feed(&mut s, vec![progress(150, 153), progress(152, 153)]);
+    assert_eq!(steps, [Step::Wait, Step::Wait]);
+    // A device counting from 0 ignored the skip: another plan.
+    let mut s = SweepState::new(&sweep(150, 3));
+    let (steps, _) = feed(&mut s, vec![progress(0, 153)]);
+    assert!(
+        matches!(&steps[0], Step::OtherPlan(why) if why.contains("0 of 153") && why.contains("starts at 150")),
+        "{steps:?}"
+    );
+    // done past the plan's end is a lie too.
+    let mut s = SweepState::new(&sweep(0, 3));
+    let (steps, _) = feed(&mut s, vec![progress(4, 3)]);
+    assert!(matches!(&steps[0], Step::OtherPlan(_)), "{steps:?}");
+}

@@ -143,3 +143,152 @@ fn resume_of_a_complete_file_measures_nothing() {
     assert_eq!(report.status, SweepStatus::Complete);
     assert_eq!(std::fs::read(&path).unwrap(), before);
 }
+
+/// What crossed the link, both ways, decoded by a bystander.
+#[derive(Default)]
+struct Seen {
+    commands: Vec<Command>,
+    readings: Vec<Reading>,
+}
+
+/// The in-process device, watched: every command sent and reading received is noted.
+struct Spy {
+    dev: InProcessDevice,
+    seen: std::sync::Arc<std::sync::Mutex<Seen>>,
+    to_dev: brdf_core::frame::FrameDecoder<{ brdf_core::frame::MAX_FRAME_LEN }>,
+    from_dev: brdf_core::frame::FrameDecoder<{ brdf_core::frame::MAX_FRAME_LEN }>,
+}
+
+impl Transport for Spy {
+    fn send(&mut self, bytes: &[u8]) -> std::io::Result<()> {
+        let mut seen = self.seen.lock().unwrap();
+        for &b in bytes {
+            if let Some(Ok(c)) = self.to_dev.push::<Command>(b) {
+                seen.commands.push(c);
+            }
+        }
+        self.dev.send(bytes)
+    }
+    fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> std::io::Result<usize> {
+        let n = self.dev.recv(buf, timeout)?;
+        let mut seen = self.seen.lock().unwrap();
+        for &b in &buf[..n] {
+            if let Some(Ok(Event::Reading(r))) = self.from_dev.push::<Event>(b) {
+                seen.readings.push(r);
+            }
+        }
+        Ok(n)
+    }
+}
+
+/// A raw log on a disk that fills up after `room` bytes.
+struct FillsUp(usize);
+
+impl std::io::Write for FillsUp {
+    fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
+        if self.0 < b.len() {
+            return Err(std::io::Error::from_raw_os_error(28)); // ENOSPC
+        }
+        self.0 -= b.len();
+        Ok(b.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+/// Connects once to a watched device whose raw log fills up after `room` bytes.
+struct SpyConnector(Option<Spy>, usize);
+
+impl Connector for SpyConnector {
+    type T = Spy;
+    fn connect(&mut self) -> Result<FramedLink<Spy>, LinkError> {
+        let mut link = FramedLink::new(self.0.take().ok_or(LinkError::Timeout("gone"))?);
+        link.set_raw_log(Box::new(FillsUp(self.1)));
+        Ok(link)
+    }
+    fn can_reconnect(&self) -> bool {
+        false
+    }
+}
+
+fn spy(room: usize) -> (SpyConnector, std::sync::Arc<std::sync::Mutex<Seen>>) {
+    let seen = std::sync::Arc::new(std::sync::Mutex::new(Seen::default()));
+    let dev = InProcessDevice::new(&SimConfig::new(
+        Preset::by_name("fe-0.115").unwrap(),
+        0.0,
+        3,
+    ));
+    let spy = Spy {
+        dev,
+        seen: seen.clone(),
+        to_dev: Default::default(),
+        from_dev: Default::default(),
+    };
+    (SpyConnector(Some(spy), room), seen)
+}
+
+#[test]
+fn a_full_disk_under_the_raw_log_is_ours_stops_the_device_and_loses_no_reading() {
+    let path = out("full-disk.csv");
+    // Room for the handshake, homing and about 40 readings' frames.
+    let (mut conn, seen) = spy(1500);
+    let setup = CaptureSetup::new(Some(paper()), path.clone());
+    let err = capture(&mut conn, &setup, &mut Quiet, &AtomicBool::new(false)).unwrap_err();
+    let msg = err.to_string();
+    assert!(
+        msg.contains("on this computer") && msg.contains("not on the device"),
+        "{msg}"
+    );
+    assert!(
+        msg.contains("Abort sent") && msg.contains("--resume"),
+        "{msg}"
+    );
+    let seen = seen.lock().unwrap();
+    // Abort was the last command: the arms and the laser stop.
+    assert_eq!(
+        seen.commands.last(),
+        Some(&Command::Abort),
+        "{:?}",
+        seen.commands
+    );
+    assert!(
+        seen.commands
+            .iter()
+            .any(|c| matches!(c, Command::StartSweep(_))),
+        "the sweep had started"
+    );
+    // Every reading that arrived, including those of the chunk that failed to log, is
+    // in the file; the file is valid and says the capture failed.
+    let data = read_sweep(&path).unwrap();
+    let arrived: Vec<u32> = seen.readings.iter().map(|r| r.seq).collect();
+    let written: Vec<u32> = data.rows.iter().map(|r| r.seq.unwrap()).collect();
+    assert!(!arrived.is_empty() && arrived.len() < 153, "{arrived:?}");
+    assert_eq!(written, arrived);
+    assert!(
+        data.meta["status"].starts_with("failed"),
+        "{:?}",
+        data.meta["status"]
+    );
+}
+
+#[test]
+fn readings_keep_the_reached_angles_under_the_planned_points() {
+    // Planned 10.003 degrees: the arm reaches the nearest microstep (1/80 degree), 10.
+    let plan = HostPlan::from_toml_str(
+        "points = [[20, 10.003], [20.004, -30]]\nsettle_ms = 0\n",
+        "reached.toml",
+        &Default::default(),
+    )
+    .unwrap();
+    let path = out("reached.csv");
+    let setup = CaptureSetup::new(Some(plan), path.clone());
+    let report = capture(&mut sim(0.0), &setup, &mut Quiet, &AtomicBool::new(false)).unwrap();
+    assert_eq!(report.status, SweepStatus::Complete);
+    let data = read_sweep(&path).unwrap();
+    // The header keeps the plan; the rows what the device reached.
+    assert_eq!(data.points, vec![(20.0, 10.003), (20.004, -30.0)]);
+    let rows: Vec<(f64, f64)> = data.rows.iter().map(|r| (r.theta_i, r.theta_r)).collect();
+    assert_eq!(rows, vec![(20.0, 10.0), (20.0, -30.0)]);
+    assert_eq!(data.counters.rejected, 0);
+}

@@ -98,10 +98,15 @@ pub(super) fn setup_from(plan: &PlanArgs, out: &OutArgs) -> CliResult<CaptureSet
 fn finish(report: &CaptureReport, out: &std::path::Path, resume: &str) -> CliResult {
     let c = &report.counters;
     let links = format!(
-        "{} gaps, {} dropped frames, {} timeouts{}",
+        "{} gaps, {} dropped frames, {} timeouts{}{}",
         c.gaps,
         c.dropped,
         c.timeouts,
+        if c.rejected > 0 {
+            format!(", {} rejected readings (measured again)", c.rejected)
+        } else {
+            String::new()
+        },
         if report.reconnects > 0 {
             format!(", {} reconnects", report.reconnects)
         } else {

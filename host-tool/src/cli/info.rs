@@ -2,7 +2,7 @@
 
 use std::time::Duration;
 
-use brdf_core::protocol::PROTOCOL_VERSION;
+use brdf_core::protocol::{MAX_PLAN_POINTS, PROTOCOL_VERSION};
 use clap::Args;
 
 use super::error::CliResult;
@@ -15,8 +15,11 @@ use crate::text::escape_line;
 #[command(
     about = "Handshake with a goniometer and print what it is",
     long_about = "Handshake with a goniometer \
-and print its firmware and protocol versions, board, arm travel and whether it is homed. A protocol version that \
-differs from this gonio's is an error that says which side to update."
+and print its firmware and protocol versions, board, arm travel, the most points one plan may have and whether \
+it is homed. Device text is printed with control characters escaped. A protocol version that differs from this \
+gonio's is an error that says which side to update; an Info that does not decode or does not hold together \
+(travel not finite or outside the protocol's ranges, no resolution, plans of 0 points) is an error quoting it. \
+Waits at most --timeout seconds."
 )]
 pub struct InfoArgs {
     /// Serial port of the device (e.g. /dev/ttyACM0; see `gonio ports`).
@@ -41,7 +44,7 @@ pub fn run(args: &InfoArgs) -> CliResult {
     };
     let text = format!(
         "device:    {}\nfirmware:  {a}.{b}.{c}\nprotocol:  {} (this gonio: {PROTOCOL_VERSION})\nhomed:     {}\n\
-         source:    {}\ndetector:  {}\nplan size: {} points per sweep\n",
+         source:    {}\ndetector:  {}\nplan size: at most {} points per sweep (any grid; point lists of at most {MAX_PLAN_POINTS})\n",
         escape_line(&info.board, crate::capture::DEVICE_TEXT_MAX),
         info.protocol,
         if info.homed {

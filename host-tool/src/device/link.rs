@@ -45,6 +45,8 @@ pub enum LinkError {
     },
     /// The device's Info names this gonio's protocol version but does not decode.
     BadInfo,
+    /// The device's Info decodes but does not hold together (why, one line).
+    Implausible(String),
 }
 
 impl fmt::Display for LinkError {
@@ -64,6 +66,10 @@ impl fmt::Display for LinkError {
             LinkError::Version { device } => write!(
                 f,
                 "device speaks protocol v{device}, this gonio speaks v{PROTOCOL_VERSION}: update the firmware (gonio flash)"
+            ),
+            LinkError::Implausible(why) => write!(
+                f,
+                "the device's Info does not hold together ({why}): a broken or foreign firmware build; reflash it (gonio flash)"
             ),
             LinkError::BadInfo => write!(
                 f,
@@ -227,6 +233,7 @@ impl<T: Transport> FramedLink<T> {
                         device: info.protocol,
                     });
                 }
+                check_info(&info).map_err(LinkError::Implausible)?;
                 return Ok(info);
             }
             if let Some(device) = self.foreign_version {
@@ -238,6 +245,44 @@ impl<T: Transport> FramedLink<T> {
         }
         Err(LinkError::Timeout("no Info to GetInfo"))
     }
+}
+
+/// Most microsteps per degree a device may claim (a 0.000001-degree resolution).
+const MAX_STEPS_PER_DEG: f32 = 1e6;
+
+/// Checks what an `Info` states before anything relies on it: each arm's travel finite,
+/// ordered and within the protocol's ranges (source in [0, 90], detector in
+/// [-90, 90] degrees), a resolution finite and above 0, plans of at least one point.
+pub fn check_info(info: &Info) -> Result<(), String> {
+    let arm = |name: &str, l: &brdf_core::protocol::ArmLimits, lo: f32, hi: f32| {
+        if !(l.min_deg.is_finite() && l.max_deg.is_finite() && l.min_deg < l.max_deg) {
+            return Err(format!(
+                "{name} travel {} .. {} degrees",
+                l.min_deg, l.max_deg
+            ));
+        }
+        if l.min_deg < lo || l.max_deg > hi {
+            return Err(format!(
+                "{name} travel {} .. {} degrees is outside [{lo}, {hi}]",
+                l.min_deg, l.max_deg
+            ));
+        }
+        if !(l.steps_per_deg.is_finite() && l.steps_per_deg > 0.0)
+            || l.steps_per_deg > MAX_STEPS_PER_DEG
+        {
+            return Err(format!(
+                "{name} arm {} microsteps per degree",
+                l.steps_per_deg
+            ));
+        }
+        Ok(())
+    };
+    arm("source", &info.source, 0.0, 90.0)?;
+    arm("detector", &info.detector, -90.0, 90.0)?;
+    if info.max_points == 0 {
+        return Err("plans of 0 points at most".into());
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -272,15 +317,101 @@ mod tests {
             Ok(())
         }
         fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<usize> {
-            let n = self.0.len().min(buf.len());
+            Self::recv_from(&mut self.0, buf, timeout)
+        }
+    }
+
+    impl BrokenInfo {
+        fn recv_from(q: &mut VecDeque<u8>, buf: &mut [u8], timeout: Duration) -> io::Result<usize> {
+            let n = q.len().min(buf.len());
             if n == 0 {
                 std::thread::sleep(timeout.min(Duration::from_millis(5)));
             }
-            for (b, x) in buf.iter_mut().zip(self.0.drain(..n)) {
+            for (b, x) in buf.iter_mut().zip(q.drain(..n)) {
                 *b = x;
             }
             Ok(n)
         }
+    }
+
+    /// Answers the handshake with the given Info.
+    struct Lying(VecDeque<u8>, Info);
+
+    impl Transport for Lying {
+        fn send(&mut self, _: &[u8]) -> io::Result<()> {
+            let mut buf = [0u8; 128];
+            let n = frame::encode(&Event::Pong(0x676F_6E69), &mut buf).unwrap();
+            self.0.extend(&buf[..n]);
+            let n = frame::encode(&Event::Info(self.1.clone()), &mut buf).unwrap();
+            self.0.extend(&buf[..n]);
+            Ok(())
+        }
+        fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<usize> {
+            BrokenInfo::recv_from(&mut self.0, buf, timeout)
+        }
+    }
+
+    /// One way an Info may lie.
+    type Lie = fn(&mut Info);
+
+    #[test]
+    fn an_info_that_does_not_hold_together_is_refused_with_what_it_said() {
+        let good = brdf_core::sim::simulated_controller(
+            "sim",
+            [0, 1, 0],
+            brdf_core::sim::VirtualSample::new(
+                brdf_core::Preset::by_name("fe-0.115").unwrap(),
+                0.0,
+                1,
+            ),
+        );
+        let info = {
+            let mut c = good;
+            c.receive(&frame_of(&Command::GetInfo), 0);
+            match c.next_event() {
+                Some(Event::Info(i)) => i,
+                other => panic!("{other:?}"),
+            }
+        };
+        assert_eq!(check_info(&info), Ok(()));
+        let lies: [(Lie, &str); 6] = [
+            (
+                |i| i.detector.min_deg = f32::NAN,
+                "detector travel NaN .. 90",
+            ),
+            (|i| i.source.max_deg = -5.0, "source travel 0 .. -5"),
+            (|i| i.source.max_deg = 1e30, "outside [0, 90]"),
+            (
+                |i| i.detector.steps_per_deg = 0.0,
+                "detector arm 0 microsteps",
+            ),
+            (
+                |i| i.source.steps_per_deg = f32::INFINITY,
+                "source arm inf microsteps",
+            ),
+            (|i| i.max_points = 0, "plans of 0 points"),
+        ];
+        for (lie, says) in lies {
+            let mut bad = info.clone();
+            lie(&mut bad);
+            let mut link = FramedLink::new(Lying(VecDeque::new(), bad));
+            let t0 = Instant::now();
+            let err = link.handshake(Duration::from_secs(5)).unwrap_err();
+            assert!(t0.elapsed() < Duration::from_secs(2), "answered at once");
+            let msg = err.to_string();
+            assert!(matches!(err, LinkError::Implausible(_)), "{msg}");
+            assert!(
+                msg.contains(says) && msg.contains("does not hold together"),
+                "{msg}"
+            );
+            assert!(!msg.contains('\n'));
+        }
+    }
+
+    fn frame_of(cmd: &Command) -> Vec<u8> {
+        let mut buf = [0u8; 64];
+        let n = frame::encode(cmd, &mut buf).unwrap();
+        buf[..n].to_vec()
     }
 
     #[test]

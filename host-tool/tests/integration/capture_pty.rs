@@ -189,7 +189,9 @@ fn ctrl_c_leaves_a_valid_file_and_resume_completes_it() {
 fn sigterm_and_sighup_stop_a_capture_like_ctrl_c() {
     let _one = one_at_a_time();
     for signal in ["-TERM", "-HUP"] {
-        let dev = device(Some(40.0));
+        // Real time: the 34 points take about 10 s, so a device not sent Abort would
+        // still be sweeping when gonio has exited.
+        let dev = device(Some(1.0));
         let d = scratch("sigterm");
         let file = d.join("s.csv");
         let plan = small_plan(&d);
@@ -225,7 +227,30 @@ fn sigterm_and_sighup_stop_a_capture_like_ctrl_c() {
             data.meta["status"]
         );
         assert!((8..34).contains(&data.rows.len()));
+        // Abort was sent: the device is idle at once, its laser off.
+        assert_eq!(device_state(dev.path()), Ok(false), "{signal}: laser");
     }
+}
+
+/// Whether a device is idle (`Ok(laser on)`) or was still sweeping (`Err`), asked
+/// with `Abort`: an idle device answers with its Status (laser as it is), a sweeping
+/// one with the SweepDone of the sweep it was running.
+fn device_state(port: &Path) -> Result<bool, String> {
+    use brdf_core::protocol::{Command as Cmd, Event};
+    use gonio::device::Connector;
+    let mut link = gonio::device::SerialConnector::new(port.to_str().unwrap())
+        .connect()
+        .unwrap();
+    link.send(&Cmd::Abort).unwrap();
+    let deadline = Instant::now() + Duration::from_secs(3);
+    while Instant::now() < deadline {
+        match link.recv(Duration::from_millis(100)).unwrap() {
+            Some(Event::Status(s)) => return Ok(s.laser),
+            Some(Event::SweepDone(d)) => return Err(format!("still sweeping: {d:?}")),
+            _ => {}
+        }
+    }
+    Err("no answer".into())
 }
 
 #[test]
@@ -316,6 +341,17 @@ fn a_device_that_does_not_come_back_ends_with_a_clear_message() {
 /// A fake device that answers Ping and GetInfo like a device of protocol `version`
 /// whose Info has fields this gonio does not know.
 fn foreign_device(version: u16) -> (PathBuf, std::thread::JoinHandle<()>) {
+    let mut out = [0u8; 256];
+    let n = brdf_core::frame::encode(
+        &(0u8, version, [1u8, 2, 3], "v-next board", 42u64),
+        &mut out,
+    )
+    .unwrap();
+    device_answering_info_with(out[..n].to_vec())
+}
+
+/// A device on a pty that answers Ping and, to GetInfo, the frame `info`.
+fn device_answering_info_with(info: Vec<u8>) -> (PathBuf, std::thread::JoinHandle<()>) {
     use brdf_core::frame::{FrameDecoder, MAX_FRAME_LEN, encode};
     use brdf_core::protocol::{Command as Cmd, Event};
     use std::io::{Read, Write};
@@ -354,15 +390,16 @@ fn foreign_device(version: u16) -> (PathBuf, std::thread::JoinHandle<()>) {
             }
             let Ok(n) = master.read(&mut buf) else { return };
             for &b in &buf[..n] {
-                let reply = match dec.push::<Cmd>(b) {
-                    Some(Ok(Cmd::Ping(t))) => encode(&Event::Pong(t), &mut out),
-                    Some(Ok(Cmd::GetInfo)) => encode(
-                        &(0u8, version, [1u8, 2, 3], "v-next board", 42u64),
-                        &mut out,
-                    ),
-                    _ => continue,
-                };
-                let _ = master.write_all(&out[..reply.unwrap()]);
+                match dec.push::<Cmd>(b) {
+                    Some(Ok(Cmd::Ping(t))) => {
+                        let n = encode(&Event::Pong(t), &mut out).unwrap();
+                        let _ = master.write_all(&out[..n]);
+                    }
+                    Some(Ok(Cmd::GetInfo)) => {
+                        let _ = master.write_all(&info);
+                    }
+                    _ => {}
+                }
             }
         }
     });
@@ -393,4 +430,68 @@ fn protocol_mismatch_says_which_side_to_update() {
         );
         drop(h);
     }
+}
+
+#[test]
+fn an_info_of_this_version_that_does_not_decode_gets_no_version_advice() {
+    let _one = one_at_a_time();
+    // The foreign device's Info body after the version is not this protocol's Info.
+    let (path, h) = foreign_device(1);
+    let t0 = Instant::now();
+    let out: Run = gonio_command()
+        .args(["info", "--port", path.to_str().unwrap(), "--timeout", "2"])
+        .output()
+        .unwrap()
+        .into();
+    assert!(
+        t0.elapsed() < Duration::from_secs(6),
+        "bounded by --timeout"
+    );
+    assert_eq!(out.code, 1);
+    let err = out.stderr.clone();
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("does not decode"), "{err}");
+    assert!(
+        !err.contains("update"),
+        "no version advice when versions agree: {err}"
+    );
+    drop(h);
+}
+
+#[test]
+fn info_prints_device_text_escaped() {
+    use brdf_core::protocol::{ArmLimits, Event, Info, MAX_SWEEP_POINTS, PROTOCOL_VERSION};
+    let _one = one_at_a_time();
+    let limits = ArmLimits {
+        min_deg: 0.0,
+        max_deg: 90.0,
+        steps_per_deg: 80.0,
+    };
+    let info = Event::Info(Info {
+        protocol: PROTOCOL_VERSION,
+        firmware: [0, 1, 0],
+        board: heapless::String::try_from("x\n0,0,1\u{1b}[2J").unwrap(),
+        source: limits,
+        detector: ArmLimits {
+            min_deg: -90.0,
+            ..limits
+        },
+        max_points: MAX_SWEEP_POINTS,
+        homed: true,
+    });
+    let mut buf = [0u8; 256];
+    let n = brdf_core::frame::encode(&info, &mut buf).unwrap();
+    let (path, h) = device_answering_info_with(buf[..n].to_vec());
+    let out: Run = gonio_command()
+        .args(["info", "--port", path.to_str().unwrap(), "--timeout", "5"])
+        .output()
+        .unwrap()
+        .into();
+    assert!(out.ok(), "{}", out.stderr);
+    let text = out.stdout.clone();
+    assert!(!text.contains('\u{1b}'), "{text:?}");
+    let device = text.lines().next().unwrap();
+    assert!(device.starts_with("device:    x\\n0,0,1"), "{device:?}");
+    assert_eq!(text.lines().count(), 7, "{text}");
+    drop(h);
 }

@@ -12,7 +12,7 @@ use crate::frame::{self, FrameDecoder, FrameError, FrameStats, MAX_FRAME_LEN};
 use crate::plan::{PlanCursor, PlanError};
 use crate::protocol::{
     Arm, Command, ErrorCode, ErrorEvent, Event, Info, MAX_PLAN_POINTS, PROTOCOL_VERSION, Point,
-    Progress, Reading, Status, SweepDone, SweepPlan,
+    Progress, Reading, Specimen, Status, SweepDone, SweepPlan,
 };
 
 /// Events the controller can hold before the board takes them. A sweep pauses while
@@ -28,6 +28,15 @@ pub struct DetectorError;
 pub trait Detector {
     /// One sample in instrument units.
     fn sample(&mut self, theta_i: f32, theta_r: f32, laser_on: bool) -> Result<f32, DetectorError>;
+
+    /// Puts `specimen` in the beam ([`Command::Mount`]). A detector without a sample
+    /// changer has only the sample: mounting it changes nothing, anything else is refused.
+    fn mount(&mut self, specimen: Specimen) -> Result<(), DetectorError> {
+        match specimen {
+            Specimen::Sample => Ok(()),
+            Specimen::Reference => Err(DetectorError),
+        }
+    }
 }
 
 /// Who the controller is and how its arms are built.
@@ -278,6 +287,10 @@ impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, 
                 self.push(self.status());
             }
             Command::StartSweep(plan) => self.start_sweep(plan),
+            Command::Mount(specimen) => match self.det.mount(specimen) {
+                Ok(()) => self.push(self.status()),
+                Err(_) => self.error(ErrorCode::Unsupported, "no such specimen on this device"),
+            },
         }
     }
 

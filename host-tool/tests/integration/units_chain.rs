@@ -179,3 +179,105 @@ fn a_device_without_a_standard_refuses_the_reference_session() {
     // Nothing of the sample was measured.
     assert!(!sample.exists());
 }
+
+#[test]
+fn a_campaign_fits_in_one_over_sr_with_one_instrument() {
+    let dir = scratch("chain-campaign");
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    // An in-process session: the standard, then fe-0.115, on one simulated device.
+    let fe = dir.join("fe.csv");
+    let out = gonio(&[
+        "simulate",
+        "--material",
+        "fe-0.115",
+        "--reference",
+        "lambertian:0.99",
+        "--out",
+        &s(&fe),
+        "-q",
+    ]);
+    assert!(out.ok(), "{}", out.stderr);
+    let cu = crate::util::simulated(&dir, "cu-0.070");
+    let inst = dir.join("inst.toml");
+    let cal = gonio(&[
+        "calibrate",
+        &s(&dir.join("fe.reference.csv")),
+        "--out",
+        &s(&inst),
+    ]);
+    assert!(cal.ok(), "{}", cal.stderr);
+    let reports = dir.join("reports");
+    let fit = gonio(&[
+        "fit",
+        &s(&fe),
+        &s(&cu),
+        "--instrument",
+        &s(&inst),
+        "--out",
+        &s(&reports),
+        "--json",
+    ]);
+    assert!(fit.ok(), "{}", fit.stderr);
+    let v: Value = serde_json::from_str(&fit.stdout).unwrap();
+    assert_eq!(v["instrument"]["brdf_units"], "1/sr");
+    assert!(v["instrument"]["relative_uncertainty"].as_f64().unwrap() < 5e-4);
+    // Both samples have the paper's k_dd = 900 relative: 0.45 in 1/sr.
+    let files = v["files"].as_array().unwrap();
+    assert_eq!(files.len(), 2);
+    for f in files {
+        let kdd = f["params"]["k_dd"]["value"].as_f64().unwrap();
+        assert!((kdd / 0.45 - 1.0).abs() < 0.01, "{}: k_dd {kdd}", f["file"]);
+    }
+    let text = gonio(&[
+        "fit",
+        &s(&fe),
+        &s(&cu),
+        "--instrument",
+        &s(&inst),
+        "--out",
+        &s(&reports),
+        "--force",
+    ]);
+    assert!(text.ok(), "{}", text.stderr);
+    assert!(
+        text.stdout.contains("in 1/sr with instrument"),
+        "{}",
+        text.stdout
+    );
+    // A file already in 1/sr is refused with one line, naming it.
+    let abs = dir.join("fe-abs.csv");
+    let conv = gonio(&[
+        "convert",
+        &s(&fe),
+        "--instrument",
+        &s(&inst),
+        "--out",
+        &s(&abs),
+    ]);
+    assert!(conv.ok(), "{}", conv.stderr);
+    let cu_abs = dir.join("cu-abs.csv");
+    let conv = gonio(&[
+        "convert",
+        &s(&cu),
+        "--instrument",
+        &s(&inst),
+        "--out",
+        &s(&cu_abs),
+    ]);
+    assert!(conv.ok(), "{}", conv.stderr);
+    let bad = gonio(&[
+        "fit",
+        &s(&abs),
+        &s(&cu_abs),
+        "--instrument",
+        &s(&inst),
+        "--out",
+        &s(&dir.join("r2")),
+    ]);
+    assert_eq!(bad.code, 2);
+    let line = crate::util::one_line(&bad.stderr);
+    assert!(
+        line.contains("fe-abs.csv already holds brdf in 1/sr"),
+        "{line}"
+    );
+}

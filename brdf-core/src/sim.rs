@@ -326,7 +326,7 @@ mod tests {
         use crate::controller::OUTBOX_LEN;
         use crate::protocol::{Command, ErrorCode, Event};
         let fe = Preset::by_name("fe-0.115").unwrap();
-        let mut answer = |sample: VirtualSample, cmd: Command| {
+        let answer = |sample: VirtualSample, cmd: Command| {
             let mut c = simulated_controller("sim", [0, 1, 0], sample);
             let mut buf = [0u8; crate::frame::MAX_FRAME_LEN];
             let n = crate::frame::encode(&cmd, &mut buf).unwrap();

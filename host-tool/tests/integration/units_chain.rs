@@ -131,6 +131,10 @@ fn capture_reference_calibrate_convert_and_fit_recover_the_absolute_brdf() {
     let fitted = fitted_models(&fit.stdout);
     assert_eq!(fitted.len(), 9);
     let worst = worst_error(&fitted, preset);
+    eprintln!(
+        "pty: K = {k} ± {u_k} (true {k_true}), worst |f_fit/f_true - 1| = {:.3} %",
+        100.0 * worst
+    );
     assert!(worst < 0.01, "absolute BRDF off by {:.3} %", 100.0 * worst);
     // The amplitudes in 1/sr: k_s(theta_i) within 1 % of the preset's over K.
     for (ti, m) in &fitted {

@@ -12,8 +12,8 @@ use crate::frame::{self, FrameDecoder, FrameError, FrameStats, MAX_FRAME_LEN};
 use crate::plan::{PlanCursor, PlanError};
 use crate::protocol::{
     Arm, Command, ErrorCode, ErrorEvent, Event, Info, MAX_INCIDENCES, MAX_PLAN_POINTS,
-    MAX_SWEEP_POINTS, PROTOCOL_VERSION, Point, Progress, Reading, Status, SweepDone, SweepPlan,
-    Undecoded,
+    MAX_SWEEP_POINTS, PROTOCOL_VERSION, Point, Progress, Reading, Specimen, Status, SweepDone,
+    SweepPlan, Undecoded,
 };
 
 /// Events the controller can hold before the board takes them. A sweep pauses while
@@ -29,6 +29,15 @@ pub struct DetectorError;
 pub trait Detector {
     /// One sample in instrument units.
     fn sample(&mut self, theta_i: f32, theta_r: f32, laser_on: bool) -> Result<f32, DetectorError>;
+
+    /// Puts `specimen` in the beam ([`Command::Mount`]). A detector without a sample
+    /// changer has only the sample: mounting it changes nothing, anything else is refused.
+    fn mount(&mut self, specimen: Specimen) -> Result<(), DetectorError> {
+        match specimen {
+            Specimen::Sample => Ok(()),
+            Specimen::Reference => Err(DetectorError),
+        }
+    }
 }
 
 /// Who the controller is and how its arms are built.
@@ -310,6 +319,10 @@ impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, 
                 self.push(self.status());
             }
             Command::StartSweep(plan) => self.start_sweep(plan),
+            Command::Mount(specimen) => match self.det.mount(specimen) {
+                Ok(()) => self.push(self.status()),
+                Err(_) => self.error(ErrorCode::Unsupported, "no such specimen on this device"),
+            },
         }
     }
 

@@ -72,6 +72,7 @@ pub fn every_message() -> (StdVec<Command>, StdVec<Event>) {
             degrees: -12.5,
         },
         Command::SetLaser(true),
+        Command::Mount(Specimen::Reference),
     ];
     let events = vec![
         Event::Info(Info {

@@ -49,6 +49,21 @@ pub enum Command {
     },
     /// Switches the laser; answered with [`Event::Status`].
     SetLaser(bool),
+    /// Puts a specimen on the stage (a sample changer, or the simulated device's
+    /// reference standard); answered with [`Event::Status`], or
+    /// `Error(Unsupported)` for a specimen the device does not have. Stays until the
+    /// next `Mount` or a reset (which mounts the sample).
+    Mount(Specimen),
+}
+
+/// What is on the stage.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub enum Specimen {
+    /// The sample under test (every device has one; the state after a reset).
+    #[default]
+    Sample,
+    /// The reference standard used to calibrate the instrument constant K.
+    Reference,
 }
 
 /// Events, device to host.
@@ -247,6 +262,8 @@ pub enum ErrorCode {
     HomingFailed,
     /// The detector failed to deliver a sample.
     DetectorFault,
+    /// The device cannot do this (e.g. `Mount(Reference)` without a reference standard).
+    Unsupported,
 }
 
 /// An error report.

@@ -355,7 +355,9 @@ fn homing_position_jog_and_laser_are_as_documented() {
     );
     let d = doc();
     assert!(d.contains("`StartSweep` and `Jog` need both arms homed (else `Error(NotHomed)`)"));
-    assert!(d.contains("`GetInfo`, `Ping`, `Abort`, `Home` and `SetLaser` are served at any time"));
+    assert!(d.contains(
+        "`GetInfo`, `Ping`, `Abort`, `Home`, `SetLaser` and `Mount` are served at any time"
+    ));
     assert!(d.contains(
         "source at `Info.source.min_deg`, detector at `Info.detector.min_deg` (0 and -90)"
     ));

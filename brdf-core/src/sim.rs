@@ -1,11 +1,21 @@
 //! Simulated hardware: an arm whose pins move a virtual shaft with a home switch, and a
-//! virtual sample that answers with the model plus deterministic noise. Used by the
-//! QEMU board, by `gonio simulate`/`gonio demo` and by tests.
+//! virtual sample that answers with the model plus deterministic noise (and, beside it,
+//! an optional Lambertian reference standard). Used by the QEMU board, by
+//! `gonio simulate`/`gonio demo` and by tests.
 
 use crate::axis::{AxisPins, PinError};
 use crate::controller::{Controller, ControllerConfig, Detector, DetectorError};
 use crate::mechanics::{DETECTOR, SOURCE};
 use crate::presets::Preset;
+use crate::protocol::Specimen;
+
+/// The virtual instrument's constant K of V = K f cos(theta_r) (issue 17), in reading
+/// units per 1/sr. The virtual detector reports V / cos(theta_r) = K f, the relative
+/// BRDF a capture writes (`gonio calibrate --quantity brdf`): a preset's readings, in
+/// the paper's relative units, are K times its BRDF in 1/sr (f = f_paper / K, a
+/// physical albedo for every preset), and a Lambertian standard of reflectance factor
+/// R reads K R / pi.
+pub const SIM_K: f32 = 2000.0;
 
 /// The simulated reference goniometer (arms as in [`crate::mechanics`]): shafts at 45
 /// (source) and 10 (detector) degrees, unknown to the controller until it homes, home
@@ -155,7 +165,8 @@ impl XorShift32 {
 /// A virtual sample: the preset's three-component model evaluated in f32 at the arms'
 /// angles, times `(1 + noise * n)` with `n` deterministic pseudo-random standard-normal
 /// noise. With the laser off it reads a dark level `dark` (plus the same relative
-/// noise on it).
+/// noise on it). With a reference standard ([`VirtualSample::with_reference`]) and
+/// `Mount(Reference)` it reads the standard instead, in the same units ([`SIM_K`]).
 #[derive(Debug, Clone, Copy)]
 pub struct VirtualSample {
     /// The material.
@@ -166,6 +177,14 @@ pub struct VirtualSample {
     pub dark: f32,
     /// Noise source.
     pub rng: XorShift32,
+    /// The reference standard beside the sample: a Lambertian diffuser of this
+    /// reflectance factor (f = R / pi in 1/sr); `None`: no standard fitted.
+    pub reference: Option<f32>,
+    /// What is on the stage.
+    pub mounted: Specimen,
+    /// The standard's own noise source, so that the sample reads the same numbers
+    /// whether or not the standard was measured first.
+    pub reference_rng: XorShift32,
 }
 
 impl VirtualSample {
@@ -176,12 +195,35 @@ impl VirtualSample {
             noise,
             dark: 0.0,
             rng: XorShift32::new(seed),
+            reference: None,
+            mounted: Specimen::Sample,
+            reference_rng: XorShift32::new(seed ^ 0x5EED_0F5D),
         }
+    }
+
+    /// The same sample with a Lambertian reference standard of reflectance factor `r`
+    /// in (0, 1] beside it (another `r` fits no standard).
+    pub fn with_reference(mut self, r: f32) -> Self {
+        self.reference = (r > 0.0 && r <= 1.0).then_some(r);
+        self
+    }
+
+    /// The standard's noiseless reading, K R / pi ([`SIM_K`]), if one is fitted.
+    pub fn reference_reading(&self) -> Option<f32> {
+        self.reference.map(|r| SIM_K * r / core::f32::consts::PI)
     }
 }
 
 impl Detector for VirtualSample {
     fn sample(&mut self, theta_i: f32, theta_r: f32, laser_on: bool) -> Result<f32, DetectorError> {
+        if self.mounted == Specimen::Reference {
+            let clean = if laser_on {
+                self.reference_reading().ok_or(DetectorError)? + self.dark
+            } else {
+                self.dark
+            };
+            return Ok(clean * (1.0 + self.noise * self.reference_rng.normal()));
+        }
         let clean = if laser_on {
             let model = self.preset.model(theta_i).map_err(|_| DetectorError)?;
             model
@@ -193,6 +235,14 @@ impl Detector for VirtualSample {
             self.dark
         };
         Ok(clean * (1.0 + self.noise * self.rng.normal()))
+    }
+
+    fn mount(&mut self, specimen: Specimen) -> Result<(), DetectorError> {
+        if specimen == Specimen::Reference && self.reference.is_none() {
+            return Err(DetectorError);
+        }
+        self.mounted = specimen;
+        Ok(())
     }
 }
 
@@ -231,5 +281,75 @@ mod tests {
             assert!((v - 972.0).abs() / 972.0 < 0.005 * 3.5);
         }
         assert!(s.sample(20.0, 95.0, true).is_err());
+    }
+
+    #[test]
+    fn the_reference_standard_reads_k_r_over_pi_once_mounted() {
+        let fe = Preset::by_name("fe-0.115").unwrap();
+        let mut bare = VirtualSample::new(fe, 0.0, 1);
+        assert_eq!(bare.mount(Specimen::Reference), Err(DetectorError));
+        assert_eq!(bare.mount(Specimen::Sample), Ok(()));
+        assert!(
+            VirtualSample::new(fe, 0.0, 1)
+                .with_reference(1.5)
+                .reference
+                .is_none()
+        );
+        let mut s = VirtualSample::new(fe, 0.0, 1).with_reference(0.99);
+        let sample = s.sample(20.0, 20.0, true).unwrap();
+        s.mount(Specimen::Reference).unwrap();
+        let want = SIM_K * 0.99 / core::f32::consts::PI;
+        // Lambertian: the same reading at every geometry, dark with the laser off.
+        for (ti, tr) in [(0.0, 10.0), (40.0, -70.0), (80.0, 80.0)] {
+            assert_eq!(s.sample(ti, tr, true).unwrap(), want);
+        }
+        assert_eq!(s.sample(0.0, 10.0, false).unwrap(), 0.0);
+        s.mount(Specimen::Sample).unwrap();
+        assert_eq!(s.sample(20.0, 20.0, true).unwrap(), sample);
+        // With noise, the standard draws its own numbers: the sample's are unchanged.
+        let mut a = VirtualSample::new(fe, 0.01, 7).with_reference(0.99);
+        let mut b = a;
+        b.mount(Specimen::Reference).unwrap();
+        let r: std::vec::Vec<f32> = (0..50)
+            .map(|_| b.sample(0.0, 10.0, true).unwrap())
+            .collect();
+        let mean = r.iter().sum::<f32>() / 50.0;
+        assert!((mean / want - 1.0).abs() < 0.01 && r.iter().any(|&x| x != want));
+        b.mount(Specimen::Sample).unwrap();
+        for _ in 0..20 {
+            assert_eq!(a.sample(30.0, 25.0, true), b.sample(30.0, 25.0, true));
+        }
+    }
+
+    #[test]
+    fn the_controller_mounts_what_the_device_has() {
+        use crate::controller::OUTBOX_LEN;
+        use crate::protocol::{Command, ErrorCode, Event};
+        let fe = Preset::by_name("fe-0.115").unwrap();
+        let answer = |sample: VirtualSample, cmd: Command| {
+            let mut c = simulated_controller("sim", [0, 1, 0], sample);
+            let mut buf = [0u8; crate::frame::MAX_FRAME_LEN];
+            let n = crate::frame::encode(&cmd, &mut buf).unwrap();
+            c.receive(&buf[..n], 0);
+            let ev: std::vec::Vec<Event> = core::iter::from_fn(|| c.next_event())
+                .take(OUTBOX_LEN)
+                .collect();
+            (ev, c.detector_device().mounted)
+        };
+        let bare = VirtualSample::new(fe, 0.0, 1);
+        let (ev, mounted) = answer(bare, Command::Mount(Specimen::Reference));
+        assert!(
+            matches!(&ev[..], [Event::Error(e)] if e.code == ErrorCode::Unsupported),
+            "{ev:?}"
+        );
+        assert_eq!(mounted, Specimen::Sample);
+        let (ev, _) = answer(bare, Command::Mount(Specimen::Sample));
+        assert!(matches!(&ev[..], [Event::Status(_)]), "{ev:?}");
+        let (ev, mounted) = answer(
+            bare.with_reference(0.99),
+            Command::Mount(Specimen::Reference),
+        );
+        assert!(matches!(&ev[..], [Event::Status(_)]), "{ev:?}");
+        assert_eq!(mounted, Specimen::Reference);
     }
 }

@@ -11,6 +11,9 @@
 //! - Detector: a virtual sample, the `fe-0.115` preset evaluated with brdf-core in
 //!   f32, times `1 + 0.005 * n` with `n` deterministic pseudo-random standard-normal
 //!   noise (xorshift32, fixed seed), so every run of the image gives the same numbers.
+//!   Beside it a Lambertian reference standard of reflectance factor
+//!   [`REFERENCE_R`], read after `Mount(Reference)` as K R / pi (K =
+//!   `brdf_core::sim::SIM_K`), so a capture can calibrate against it.
 //! - Time: simulated. When the controller asks to be called again in N microseconds
 //!   the clock jumps there, so motion and settle times cost no wall time; readings'
 //!   `t_ms` are simulated milliseconds.
@@ -26,6 +29,9 @@ use brdf_core::sim::{VirtualSample, simulated_controller};
 use cortex_m_rt::{ExceptionFrame, entry, exception};
 use cortex_m_semihosting::{debug, hprintln};
 use firmware::FIRMWARE_VERSION;
+
+/// The reflectance factor of the board's simulated reference standard.
+const REFERENCE_R: f32 = 0.99;
 
 /// USART1 of the STM32F4 family, by its registers (RM0383 section 19.6).
 struct Usart1;
@@ -86,7 +92,7 @@ fn main() -> ! {
     let ctrl = simulated_controller(
         "qemu",
         FIRMWARE_VERSION,
-        VirtualSample::new(sample, 0.005, 0x6F6E_6F67),
+        VirtualSample::new(sample, 0.005, 0x6F6E_6F67).with_reference(REFERENCE_R),
     );
     let mut service = Service::new(ctrl);
     let mut now_us: u64 = 0;

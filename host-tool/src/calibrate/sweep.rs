@@ -21,17 +21,39 @@ pub fn require_relative(name: &str, data: &SweepData, what: &str) -> Result<(), 
 /// The rows of a sweep as readings. A reading's std is the std of its mean, the
 /// file's per-sample std divided by sqrt(n) when `n` is given; stds are used only
 /// when every row has one > 0 (else every reading weighs the same, `weighted` false).
+///
+/// The std of a few samples is itself uncertain (by about 1/sqrt(2(n-1)) of itself):
+/// weighting by it would let readings whose samples happened to agree dominate, and
+/// the chi-square of 1/s^2 weights averages (n-1)/(n-3) per degree of freedom (3 with
+/// 4 samples), not 1. So when every reading is non-zero the per-sample relative
+/// variance is pooled over the sweep (noise taken as proportional to the reading, as
+/// for a reference standard of nearly constant reading) and each reading keeps its
+/// own n.
 pub fn readings(rows: &[Row]) -> (Vec<Reading>, bool) {
     let weighted = !rows.is_empty() && rows.iter().all(|r| r.std.is_some_and(|s| s > 0.0));
+    let pooled =
+        (weighted && rows.iter().all(|r| r.brdf.is_finite() && r.brdf != 0.0)).then(|| {
+            let sum: f64 = rows
+                .iter()
+                .map(|r| (r.std.unwrap_or(0.0) / r.brdf).powi(2))
+                .sum();
+            (sum / rows.len() as f64).sqrt()
+        });
     let out = rows
         .iter()
-        .map(|r| Reading {
-            theta_i: r.theta_i,
-            theta_r: r.theta_r,
-            value: r.brdf,
-            std: weighted
-                .then(|| r.std.map(|s| s / f64::from(r.n.unwrap_or(1).max(1)).sqrt()))
-                .flatten(),
+        .map(|r| {
+            let per_sample = match pooled {
+                Some(rel) => Some(rel * r.brdf.abs()),
+                None => r.std,
+            };
+            Reading {
+                theta_i: r.theta_i,
+                theta_r: r.theta_r,
+                value: r.brdf,
+                std: weighted
+                    .then(|| per_sample.map(|s| s / f64::from(r.n.unwrap_or(1).max(1)).sqrt()))
+                    .flatten(),
+            }
         })
         .collect();
     (out, weighted)
@@ -221,6 +243,13 @@ mod tests {
         rows[1].std = Some(1.0);
         let (r, weighted) = readings(&rows);
         assert!(weighted);
+        // Pooled: 1 % per sample on both rows (4/400 and 1/100), over sqrt(4).
         assert_eq!((r[0].std, r[1].std), (Some(2.0), Some(0.5)));
+        // Unequal relative stds are pooled to their rms.
+        rows[1].std = Some(7.0);
+        let (r, _) = readings(&rows);
+        let rel = ((0.01f64.powi(2) + 0.07f64.powi(2)) / 2.0).sqrt();
+        assert!((r[0].std.unwrap() - rel * 200.0).abs() < 1e-12);
+        assert!((r[1].std.unwrap() - rel * 50.0).abs() < 1e-12);
     }
 }

@@ -9,7 +9,7 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use brdf_core::protocol::{Command, ErrorCode, Event, Info, Reading};
+use brdf_core::protocol::{Command, ErrorCode, Event, Info, Reading, Specimen};
 
 use crate::device::{Connector, FramedLink, LinkError, Transport};
 use crate::sweep_file::{Counters, Header, Row, SweepFileError, SweepStatus, SweepWriter};
@@ -94,6 +94,9 @@ pub struct CaptureSetup {
     pub home_timeout: Duration,
     /// What is measured, if known (the `# sample:` line of the sweep file).
     pub sample: Option<String>,
+    /// Put this specimen on the stage before measuring (`Mount`, sent again after every
+    /// reconnect); `None` sends nothing (the device measures what it holds).
+    pub specimen: Option<Specimen>,
 }
 
 impl CaptureSetup {
@@ -111,6 +114,7 @@ impl CaptureSetup {
             handshake_timeout: Duration::from_secs(10),
             home_timeout: Duration::from_secs(180),
             sample: None,
+            specimen: None,
         }
     }
 }
@@ -245,7 +249,46 @@ fn prepare<C: Connector>(conn: &mut C, setup: &CaptureSetup) -> Result<(FramedLi
         }
         info.homed = true;
     }
+    if let Some(specimen) = setup.specimen {
+        mount(&mut link, specimen)?;
+    }
     Ok((link, info))
+}
+
+/// Puts `specimen` on the stage. A device that does not know `Mount` (older firmware)
+/// has only its sample: fine for the sample, an error for the reference standard.
+fn mount<T: Transport>(link: &mut FramedLink<T>, specimen: Specimen) -> Result {
+    let mut unknown = 0;
+    // Lost frames are asked again, like Abort; the answer is Status or an Error.
+    for _ in 0..5 {
+        link.send(&Command::Mount(specimen))?;
+        match recv_until(link, Duration::from_secs(1), |e| {
+            matches!(e, Event::Status(_) | Event::Error(_))
+        })? {
+            Some(Event::Status(_)) => return Ok(()),
+            Some(Event::Error(e)) if e.code == ErrorCode::Unsupported => {
+                return Err(CaptureError::Device(format!(
+                    "the device has no {} to put on the stage (Mount refused: {})",
+                    match specimen {
+                        Specimen::Reference => "reference standard",
+                        Specimen::Sample => "sample",
+                    },
+                    crate::text::escape_line(&e.detail, DEVICE_TEXT_MAX)
+                )));
+            }
+            Some(Event::Error(e)) if e.code == ErrorCode::UnknownCommand => unknown += 1,
+            _ => {}
+        }
+    }
+    match specimen {
+        Specimen::Sample if unknown > 0 => Ok(()),
+        Specimen::Reference if unknown > 0 => Err(CaptureError::Device(
+            "the device's firmware does not know Mount: it cannot put a reference standard on the stage".into(),
+        )),
+        _ => Err(CaptureError::Device(
+            "device did not answer Mount within 5 s".into(),
+        )),
+    }
 }
 
 /// The raw log is appended to: it must be a regular file (or new), and not the sweep

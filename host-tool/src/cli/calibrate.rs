@@ -50,6 +50,7 @@ not Lambertian toward grazing angles, and the table shows where. A sweep that ca
 readings, all zero, grazing, outside the table, a file already in 1/sr) is refused with one line.\n\n\
 Angles in degrees; the reference sweep in the instrument's relative units.",
     after_help = "Examples:\n  gonio calibrate ref.csv --standard lambertian:0.99 --out instrument.toml\n  \
+gonio calibrate fe.reference.csv --out instrument.toml   (the standard its capture recorded)\n  \
 gonio calibrate ref.csv --standard table:ptfe-cert.csv --standard-uncertainty 0.005 --out instrument.toml --plot ref-departure.png"
 )]
 pub struct CalibrateArgs {
@@ -58,9 +59,11 @@ pub struct CalibrateArgs {
     pub reference: PathBuf,
     /// The standard: `lambertian:R` (a diffuser of reflectance factor R in (0, 1],
     /// f = R/pi) or `table:FILE` (CSV theta_i,theta_r,reflectance_factor from its
-    /// certificate, interpolated linearly, never extrapolated).
+    /// certificate, interpolated linearly, never extrapolated). Default: the standard
+    /// the sweep names (a `gonio capture --reference` file's `# sample: reference
+    /// standard ...` line).
     #[arg(long, value_name = "lambertian:R|table:FILE")]
-    pub standard: String,
+    pub standard: Option<String>,
     /// Relative standard uncertainty of the certified reflectance factor (0.005 = 0.5 %).
     #[arg(long, value_name = "REL", default_value_t = 0.0)]
     pub standard_uncertainty: f64,
@@ -115,7 +118,9 @@ pub fn standard(spec: &str, uncertainty: f64) -> CliResult<Standard> {
 
 /// Runs `gonio calibrate`.
 pub fn run(args: &CalibrateArgs) -> CliResult {
-    let std = standard(&args.standard, args.standard_uncertainty)?;
+    if let Some(spec) = &args.standard {
+        standard(spec, args.standard_uncertainty)?;
+    }
     let inputs = [args.reference.as_path()];
     outfile::check(Target::new(&args.out, args.force).inputs(&inputs))?;
     if let Some(p) = &args.plot {
@@ -126,6 +131,24 @@ pub fn run(args: &CalibrateArgs) -> CliResult {
     for w in data.warnings() {
         eprintln!("gonio: warning: {name}: {w}");
     }
+    let recorded = super::reference::recorded_standard(&data);
+    let spec = match (&args.standard, recorded) {
+        (Some(given), Some(r)) if given != r => {
+            eprintln!(
+                "gonio: warning: {name} was captured as reference standard {}; calibrating against --standard {given}",
+                crate::text::escape_line(r, 80)
+            );
+            given.as_str()
+        }
+        (Some(given), _) => given.as_str(),
+        (None, Some(r)) => r,
+        (None, None) => {
+            return Err(CliError::usage(format!(
+                "{name} does not name its standard (no '# sample: reference standard ...' line): give --standard lambertian:R or table:FILE"
+            )));
+        }
+    };
+    let std = standard(spec, args.standard_uncertainty)?;
     calibrate::sweep::require_relative(&name, &data, "calibrate")
         .map_err(|e| CliError::usage(e.to_string()))?;
     let (readings, _) = calibrate::sweep::readings(&data.rows);

@@ -31,7 +31,8 @@ SIGTERM and SIGHUP act like Ctrl-C.",
     after_help = "Examples:\n  gonio capture --port /dev/ttyACM0 --out fe.csv\n  \
 gonio capture --port /dev/ttyACM0 --plan adaptive --prior fe-0.115 --out fe-adaptive.csv\n  \
 gonio capture --port /dev/ttyACM0 --plan plan.toml --exclude-retro 3 --samples 16 --out fe.csv\n  \
-gonio capture --port /dev/ttyACM0 --resume --out fe.csv"
+gonio capture --port /dev/ttyACM0 --resume --out fe.csv\n  \
+gonio capture --port /dev/pts/3 --reference lambertian:0.99 --out fe.csv   (also writes fe.reference.csv)"
 )]
 pub struct CaptureArgs {
     /// Serial port of the device (e.g. /dev/ttyACM0; see `gonio ports`).
@@ -54,6 +55,17 @@ pub struct CaptureArgs {
     #[arg(long, default_value_t = 60, value_name = "S",
           value_parser = clap::value_parser!(u64).range(0..=super::args::MAX_RECONNECT_S))]
     pub reconnect: u64,
+    /// Measure the device's reference standard first, in the same session, into
+    /// OUT.reference.csv beside --out (its `# sample:` line names the standard, so
+    /// `gonio calibrate OUT.reference.csv` needs no --standard), then the sample. The
+    /// device is told which is on the stage (Mount); one without a reference standard is
+    /// refused (measure the standard as a sweep of its own and calibrate with --standard).
+    #[arg(
+        long,
+        value_name = "lambertian:R|table:FILE",
+        conflicts_with = "resume"
+    )]
+    pub reference: Option<String>,
 }
 
 /// The flag Ctrl-C sets.
@@ -95,7 +107,7 @@ pub(super) fn setup_from(plan: &PlanArgs, out: &OutArgs) -> CliResult<CaptureSet
     Ok(setup)
 }
 
-fn finish(report: &CaptureReport, out: &std::path::Path, resume: &str) -> CliResult {
+pub(super) fn finish(report: &CaptureReport, out: &std::path::Path, resume: &str) -> CliResult {
     let c = &report.counters;
     let links = format!(
         "{} gaps, {} dropped frames, {} timeouts{}{}",
@@ -142,6 +154,26 @@ pub fn run(args: &CaptureArgs) -> CliResult {
     let mut setup = setup_from(&args.plan, &args.out)?;
     setup.event_timeout = Duration::from_secs(args.event_timeout.max(1));
     setup.reconnect_for = Duration::from_secs(args.reconnect);
+    setup.specimen = Some(super::reference::resumed_specimen(&setup)?);
+    if let Some(spec) = &args.reference {
+        // The standard as calibrate will read it (a table file must exist).
+        super::calibrate::standard(spec, 0.0)
+            .map_err(|e| CliError::usage(e.message.replacen("--standard", "--reference", 1)))?;
+        let resume = |out: &std::path::Path| {
+            format!(
+                "gonio capture --port {} --resume --out {}",
+                args.port,
+                out.display()
+            )
+        };
+        return super::reference::run_session(
+            &mut SerialConnector::new(&args.port),
+            &setup,
+            spec,
+            args.out.quiet,
+            &resume,
+        );
+    }
     let resume = format!(
         "gonio capture --port {} --resume --out {}",
         args.port,

@@ -1,10 +1,10 @@
 //! `gonio demo`: the whole measurement chain on a simulated goniometer, no hardware
 //! needed: capture a paper sweep of a virtual sample through the same code as a real
 //! device, fit the model family, print the parameters next to the true ones, write
-//! plots and the fitted parameters.
+//! plots and the fitted parameters; then, with the reference standard measured in the
+//! same session, the same sample calibrated to 1/sr (cli/demo_units.rs).
 
 use std::path::PathBuf;
-use std::sync::atomic::AtomicBool;
 
 use brdf_core::Preset;
 use brdf_core::model::{KDD_PAPER, KID_PAPER, SIGMA_M_PAPER};
@@ -14,8 +14,8 @@ use super::args::sim_config;
 use super::error::{CliError, CliResult};
 use super::fit::fit_file;
 use super::output::write_stdout;
-use crate::capture::{CaptureSetup, HostPlan, SettingsOverride, capture, progress};
-use crate::device::{InProcessConnector, InProcessDevice};
+use crate::capture::{CaptureSetup, HostPlan, SettingsOverride, progress};
+use crate::device::{InProcessDevice, SharedInProcessConnector};
 use crate::fit::{Dataset, FamilyFit, FitOptions, Kind, report};
 use crate::outfile::Target;
 use crate::{export, plot};
@@ -27,7 +27,11 @@ use crate::{export, plot};
     long_about = "Run the whole measurement chain on a simulated goniometer, with no hardware: capture the \
 paper's 9 x 17 sweep of a virtual sample (the preset's three-component model with Gaussian detector noise) \
 through the same capture code as a real device, fit the model family, print the fitted parameters next to the \
-true ones, and write the sweep file, plots and fitted parameters into --dir."
+true ones, and write the sweep file, plots and fitted parameters into --dir.\n\n\
+The simulated device also carries a Lambertian reference standard (reflectance factor 0.99), measured in the \
+same session (the sweep's .reference.csv): the demo calibrates the instrument constant K from it \
+(instrument.toml), converts the sample's sweep to 1/sr (.abs.csv), fits that, and sets the fit against the \
+sample's true BRDF in 1/sr, as `gonio calibrate`, `gonio convert` and `gonio fit` would."
 )]
 pub struct DemoArgs {
     /// The virtual sample: al-0.087, al-0.142, al-0.782, cu-0.070 or fe-0.115.
@@ -53,7 +57,8 @@ pub struct DemoArgs {
 
 /// Runs `gonio demo`.
 pub fn run(args: &DemoArgs) -> CliResult {
-    let cfg = sim_config(&args.material, args.noise, args.seed)?;
+    let mut cfg = sim_config(&args.material, args.noise, args.seed)?;
+    cfg.reference = Some(super::demo_units::DEMO_REFERENCE as f32);
     if args.samples == 0 {
         return Err(CliError::usage("--samples must be >= 1"));
     }
@@ -66,9 +71,12 @@ pub fn run(args: &DemoArgs) -> CliResult {
     })?;
     let mut setup = CaptureSetup::new(Some(plan), sweep.clone());
     setup.force = true;
-    let mut conn = InProcessConnector::new(InProcessDevice::new(&cfg));
+    let mut conn = SharedInProcessConnector::new(InProcessDevice::new(&cfg));
     let mut prog = progress::for_stderr(args.quiet);
-    let report = capture(&mut conn, &setup, prog.as_mut(), &AtomicBool::new(false))?;
+    // The standard first, then the sample (its readings do not depend on it).
+    let standard = format!("lambertian:{}", super::demo_units::DEMO_REFERENCE);
+    let [_, report] = super::reference::capture_pair(&mut conn, &setup, &standard, prog.as_mut())?;
+    drop(prog);
     let (data, fam) = fit_file(&sweep, &FitOptions::default(), &Kind::ALL)?;
     let mut out = format!(
         "gonio demo: {} readings of a simulated {} sample ({}% noise per sample, {} samples per reading)\n\
@@ -81,7 +89,17 @@ pub fn run(args: &DemoArgs) -> CliResult {
     );
     out.push_str(&report::family_table(&fam, "log"));
     out.push_str(&truth_table(cfg.preset, &fam));
-    let written = write_files(&args.dir, &data, &fam)?;
+    let mut written = write_files(&args.dir, &data, &fam)?;
+    let chain = super::demo_units::absolute_chain(
+        &args.dir,
+        &sweep,
+        &super::reference::reference_path(&sweep),
+        super::demo_units::DEMO_REFERENCE,
+        cfg.preset,
+    )?;
+    out.push_str(&chain.text);
+    written.push(super::reference::reference_path(&sweep));
+    written.extend(chain.written);
     if !written.is_empty() {
         out.push_str("\nwritten:\n");
         for p in written {

@@ -128,7 +128,9 @@ pub struct FitArgs {
     pub aperture: Option<Aperture>,
     /// Fit in 1/sr: divide the (relative) readings by K from this instrument file
     /// (`gonio calibrate`); the report shows each amplitude's u(K) beside its fit
-    /// uncertainty. Refused for a sweep already in 1/sr.
+    /// uncertainty. Refused for a sweep already in 1/sr. With several sweeps (a
+    /// campaign) every file is fitted in 1/sr, and the summary states u(K)/K, which
+    /// every amplitude carries besides its fit uncertainty.
     #[arg(long, value_name = "instrument.toml")]
     pub instrument: Option<PathBuf>,
 }
@@ -233,21 +235,29 @@ fn run_campaign(args: &FitArgs, opts: &FitOptions, kinds: &[Kind]) -> CliResult 
             "--plot and --export take one sweep file; a campaign writes its reports to --out",
         ));
     }
-    if args.instrument.is_some() {
-        return Err(CliError::usage(
-            "--instrument takes one sweep file (convert the campaign's files with gonio convert)",
-        ));
-    }
     let files = campaign::expand_inputs(&args.sweeps).map_err(CliError::usage)?;
     campaign::check_outputs(&args.out, &files, args.force).map_err(CliError::usage)?;
     super::fit_units::check_campaign_units(&files)?;
+    let inst = match &args.instrument {
+        Some(p) => Some((super::fit_units::campaign_instrument(p, &files)?, p)),
+        None => None,
+    };
     let bar = indicatif::ProgressBar::new(files.len() as u64).with_style(
         indicatif::ProgressStyle::with_template(
             "{bar:30} {pos}/{len} sweeps  {per_sec}  eta {eta}",
         )
         .expect("valid template"),
     );
-    let results = campaign::fit_files(&files, opts, kinds, &|_, _| bar.inc(1));
+    let results = match &inst {
+        Some((i, _)) => campaign::fit_files_with(
+            &files,
+            opts,
+            kinds,
+            &super::fit_units::campaign_prepare(i),
+            &|_, _| bar.inc(1),
+        ),
+        None => campaign::fit_files(&files, opts, kinds, &|_, _| bar.inc(1)),
+    };
     bar.finish_and_clear();
     let (csv, _) = campaign::write_reports(
         &args.out,
@@ -270,12 +280,22 @@ fn run_campaign(args: &FitArgs, opts: &FitOptions, kinds: &[Kind]) -> CliResult 
     }
     let text = if args.json {
         let names = campaign::report_names(&results, "json");
-        let mut s = serde_json::to_string_pretty(&campaign::summary_json(&results, &names))
-            .expect("JSON of numbers");
+        let mut summary = campaign::summary_json(&results, &names);
+        if let (Some((i, p)), serde_json::Value::Object(m)) = (&inst, &mut summary) {
+            m.insert(
+                "instrument".into(),
+                super::fit_units::campaign_instrument_json(i, p),
+            );
+        }
+        let mut s = serde_json::to_string_pretty(&summary).expect("JSON of numbers");
         s.push('\n');
         s
     } else {
-        campaign::summary_table(&results)
+        let mut t = campaign::summary_table(&results);
+        if let Some((i, p)) = &inst {
+            t.push_str(&super::fit_units::campaign_instrument_text(i, p));
+        }
+        t
     };
     write_stdout(text.as_bytes())?;
     if failed.is_empty() {

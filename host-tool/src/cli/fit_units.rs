@@ -53,20 +53,74 @@ pub fn apply_instrument(
         )));
     }
     let inst = read_instrument(instrument)?;
-    for o in &mut data.obs {
-        o.y /= inst.k * inst.quantity.factor(o.theta_r);
-        if !o.y.is_finite() {
-            return Err(CliError::usage(format!(
-                "fit --instrument: the reading at theta_i {}, theta_r {} cannot be converted (grazing detector)",
-                o.theta_i, o.theta_r
-            )));
-        }
-    }
+    convert_dataset(&inst, data).map_err(CliError::usage)?;
     if inst.quantity == Quantity::DetectorSignal {
         eprintln!("gonio: note: readings are detector signals: divided by K cos(theta_r)");
     }
     data.units = BrdfUnits::PerSr;
     Ok(inst)
+}
+
+/// Divides every reading by K (and cos(theta_r) for detector signals): the data in 1/sr.
+pub fn convert_dataset(inst: &Instrument, data: &mut Dataset) -> Result<(), String> {
+    for o in &mut data.obs {
+        o.y /= inst.k * inst.quantity.factor(o.theta_r);
+        if !o.y.is_finite() {
+            return Err(format!(
+                "fit --instrument: the reading at theta_i {}, theta_r {} cannot be converted (grazing detector)",
+                o.theta_i, o.theta_r
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// `fit A.csv B.csv --instrument I.toml`: the instrument, once every readable file of
+/// the campaign is known to be in relative units (a file in 1/sr is refused, naming it).
+pub fn campaign_instrument(instrument: &Path, files: &[PathBuf]) -> CliResult<Instrument> {
+    for f in files {
+        if let Ok(u) = units_of(f)
+            && u != BrdfUnits::Relative
+        {
+            return Err(CliError::usage(format!(
+                "fit --instrument: {} already holds brdf in {u} (its '# brdf:' line): the instrument converts relative readings only",
+                f.display()
+            )));
+        }
+    }
+    read_instrument(instrument)
+}
+
+/// The campaign's data converted to 1/sr with `inst` (for [`crate::fit::campaign::fit_files_with`]).
+pub fn campaign_prepare(
+    inst: &Instrument,
+) -> impl Fn(&Path, &mut Dataset) -> Result<(), crate::fit::campaign::FileError> + Sync + use<> {
+    let inst = inst.clone();
+    move |path, data| {
+        convert_dataset(&inst, data)
+            .map_err(|e| crate::fit::campaign::FileError::Input(format!("{}: {e}", path.display())))
+    }
+}
+
+/// The line a campaign's summary ends with under `--instrument`: the fit is in 1/sr and
+/// every amplitude carries u(K)/K besides its fit uncertainty.
+pub fn campaign_instrument_text(inst: &Instrument, path: &Path) -> String {
+    format!(
+        "\nin 1/sr with instrument {} (K = {:.6e} ± {:.3} %, {}, {}): amplitudes (k_dd, k_id, k_s) carry u(K)/K = {:.3} % beside their fit uncertainty; widths do not\n",
+        path.display(),
+        inst.k,
+        100.0 * inst.relative_uncertainty(),
+        inst.standard,
+        inst.date,
+        100.0 * inst.relative_uncertainty()
+    )
+}
+
+/// The `instrument` entry of a campaign's `--json` summary.
+pub fn campaign_instrument_json(inst: &Instrument, path: &Path) -> Value {
+    json!({"file": path.display().to_string(), "k": inst.k, "u_k": inst.u_k,
+           "relative_uncertainty": inst.relative_uncertainty(), "standard": inst.standard,
+           "reference_file": inst.reference_file, "date": inst.date, "brdf_units": "1/sr"})
 }
 
 /// A model's name and its parameters: name, [value, u(fit), u(K), u(total)].

@@ -8,6 +8,7 @@ pub mod calibrate;
 pub mod capture;
 pub mod convert;
 pub mod demo;
+pub mod demo_units;
 pub mod error;
 pub mod eval;
 pub mod fit;
@@ -17,6 +18,7 @@ pub mod import;
 pub mod info;
 pub mod output;
 pub mod ports;
+pub mod reference;
 pub mod simulate;
 
 pub use error::{CliError, CliResult, EXIT_FAILED, EXIT_USAGE};

@@ -10,7 +10,7 @@ use super::args::{OutArgs, PlanArgs, sim_config};
 use super::capture::{interrupt_flag, run_with, setup_from};
 use super::error::{CliError, CliResult};
 use super::output::write_stdout;
-use crate::device::{InProcessConnector, InProcessDevice, PtyDevice};
+use crate::device::{InProcessConnector, InProcessDevice, PtyDevice, SharedInProcessConnector};
 
 /// `gonio simulate`.
 #[derive(Debug, Args)]
@@ -24,7 +24,8 @@ With --pty the simulated device serves a pseudo-terminal instead, until Ctrl-C, 
 can be tried against it; its path is printed on stdout.",
     after_help = "Examples:\n  gonio simulate --material fe-0.115 --out fe-sim.csv\n  \
 gonio simulate --material cu-0.070 --noise 0.01 --seed 7 --plan adaptive --prior cu-0.070 --out cu.csv\n  \
-gonio simulate --material al-0.782 --pty"
+gonio simulate --material al-0.782 --pty\n  \
+gonio simulate --material fe-0.115 --reference lambertian:0.99 --out fe.csv   (also writes fe.reference.csv)"
 )]
 pub struct SimulateArgs {
     /// The virtual sample: al-0.087, al-0.142, al-0.782, cu-0.070 or fe-0.115.
@@ -43,6 +44,13 @@ pub struct SimulateArgs {
     /// pace; default: as fast as possible); 0.001 to 1000000.
     #[arg(long, requires = "pty", value_name = "X", value_parser = super::args::parse_speed)]
     pub speed: Option<f64>,
+    /// Give the simulated device a Lambertian reference standard of reflectance factor
+    /// R beside the sample (it reads K R / pi with K = 2000 reading units per 1/sr, the
+    /// constant that makes the sample's readings K times its BRDF in 1/sr). With --out:
+    /// measure it first, in the same session, into OUT.reference.csv, then the sample
+    /// (as `gonio capture --reference`); with --pty: the device serves it on `Mount`.
+    #[arg(long, value_name = "lambertian:R", conflicts_with = "resume")]
+    pub reference: Option<String>,
     /// Which plan to run.
     #[command(flatten)]
     pub plan: PlanArgs,
@@ -62,6 +70,9 @@ pub fn run(args: &SimulateArgs) -> CliResult {
         }
         cfg.speed = Some(speed);
     }
+    if let Some(spec) = &args.reference {
+        cfg.reference = Some(super::reference::simulated_reflectance(spec)?);
+    }
     if args.pty {
         let dev = PtyDevice::start(&cfg)
             .map_err(|e| CliError::failed(format!("cannot open a pseudo-terminal: {e}")))?;
@@ -78,11 +89,29 @@ pub fn run(args: &SimulateArgs) -> CliResult {
         return Ok(());
     }
     let mut setup = setup_from(&args.plan, &args.out)?;
-    let sample = format!("simulated {} noise={}", args.material, args.noise);
-    if setup.resume {
+    let mut sample = format!("simulated {} noise={}", args.material, args.noise);
+    setup.specimen = Some(super::reference::resumed_specimen(&setup)?);
+    if setup.specimen == Some(brdf_core::protocol::Specimen::Reference) {
+        // Resuming a reference sweep: the device carries the standard the file names.
+        let data = crate::sweep_file::read_sweep(&setup.out)?;
+        let spec = super::reference::recorded_standard(&data).unwrap_or_default();
+        cfg.reference = Some(super::reference::simulated_reflectance(spec)?);
+        sample = data.meta["sample"].clone();
+    } else if setup.resume {
         check_sample(&setup.out, &sample)?;
     }
     setup.sample = Some(sample);
+    if let Some(spec) = &args.reference {
+        let conn = &mut SharedInProcessConnector::new(InProcessDevice::new(&cfg));
+        let resume = |out: &std::path::Path| {
+            format!(
+                "gonio simulate --material {} --resume --out {}",
+                args.material,
+                out.display()
+            )
+        };
+        return super::reference::run_session(conn, &setup, spec, args.out.quiet, &resume);
+    }
     let resume = format!(
         "gonio simulate --material {} --resume --out {}",
         args.material,

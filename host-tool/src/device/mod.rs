@@ -9,7 +9,9 @@ pub mod simulated;
 
 pub use link::{FramedLink, LinkError, Transport};
 pub use serial::{SerialConnector, SerialTransport};
-pub use simulated::{InProcessConnector, InProcessDevice, PtyDevice, SimConfig};
+pub use simulated::{
+    InProcessConnector, InProcessDevice, PtyDevice, SharedInProcessConnector, SimConfig,
+};
 
 /// Opens (and re-opens) the link to a device.
 pub trait Connector {

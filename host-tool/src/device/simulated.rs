@@ -39,6 +39,9 @@ pub struct SimConfig {
     /// On a pty: run this many times faster than real time (`None`: as fast as
     /// possible, waits cost nothing). In-process devices always run as fast as possible.
     pub speed: Option<f64>,
+    /// A Lambertian reference standard of this reflectance factor beside the sample
+    /// (`Mount(Reference)` puts it in the beam; see `brdf_core::sim::SIM_K`).
+    pub reference: Option<f32>,
 }
 
 impl SimConfig {
@@ -50,11 +53,15 @@ impl SimConfig {
             seed,
             firmware: FIRMWARE_VERSION,
             speed: None,
+            reference: None,
         }
     }
 
     fn service(&self) -> SimService {
-        let sample = VirtualSample::new(self.preset, self.noise, self.seed);
+        let mut sample = VirtualSample::new(self.preset, self.noise, self.seed);
+        if let Some(r) = self.reference {
+            sample = sample.with_reference(r);
+        }
         Service::new(simulated_controller("sim", self.firmware, sample))
     }
 }
@@ -264,5 +271,45 @@ impl InProcessConnector {
     /// Wraps a simulated device.
     pub fn new(device: InProcessDevice) -> Self {
         InProcessConnector(Some(device))
+    }
+}
+
+/// An in-process simulated device that several captures connect to in turn (a session:
+/// the reference standard, then the sample, on the same device). Each `connect` is a
+/// new link to the same device; it cannot get lost, so never reconnects.
+pub struct SharedInProcessConnector(Arc<std::sync::Mutex<InProcessDevice>>);
+
+/// A link's handle on a [`SharedInProcessConnector`]'s device.
+pub struct SharedInProcessDevice(Arc<std::sync::Mutex<InProcessDevice>>);
+
+impl SharedInProcessConnector {
+    /// Wraps a simulated device.
+    pub fn new(device: InProcessDevice) -> Self {
+        SharedInProcessConnector(Arc::new(std::sync::Mutex::new(device)))
+    }
+}
+
+impl Transport for SharedInProcessDevice {
+    fn send(&mut self, bytes: &[u8]) -> io::Result<()> {
+        self.0.lock().map_err(|_| io::ErrorKind::Other)?.send(bytes)
+    }
+
+    fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<usize> {
+        self.0
+            .lock()
+            .map_err(|_| io::ErrorKind::Other)?
+            .recv(buf, timeout)
+    }
+}
+
+impl Connector for SharedInProcessConnector {
+    type T = SharedInProcessDevice;
+
+    fn connect(&mut self) -> Result<FramedLink<SharedInProcessDevice>, LinkError> {
+        Ok(FramedLink::new(SharedInProcessDevice(self.0.clone())))
+    }
+
+    fn can_reconnect(&self) -> bool {
+        false
     }
 }

@@ -143,16 +143,40 @@ pub fn fit_files(
     kinds: &[Kind],
     done: &(dyn Fn(&Path, bool) + Sync),
 ) -> Vec<CampaignFile> {
+    fit_files_with(files, opts, kinds, &|_, _| Ok(()), done)
+}
+
+/// What [`fit_files_with`] does to each file's data before fitting it (e.g. converting
+/// it to 1/sr with an instrument); an error is that file's failure.
+pub type Prepare = dyn Fn(&Path, &mut Dataset) -> Result<(), FileError> + Sync;
+
+/// [`fit_files`], with `prepare` applied to each file's data between reading and fitting.
+pub fn fit_files_with(
+    files: &[PathBuf],
+    opts: &FitOptions,
+    kinds: &[Kind],
+    prepare: &Prepare,
+    done: &(dyn Fn(&Path, bool) + Sync),
+) -> Vec<CampaignFile> {
+    let one = |path: &Path| -> Result<SweepFit, FileError> {
+        let (mut data, warnings) = read_data(path, opts)?;
+        prepare(path, &mut data)?;
+        let family = fit_data(path, &data, opts, kinds)?;
+        Ok(SweepFit {
+            data,
+            family,
+            warnings,
+        })
+    };
     files
         .par_iter()
         .map(|path| {
-            let outcome = catch_unwind(AssertUnwindSafe(|| fit_sweep_file(path, opts, kinds)))
-                .unwrap_or_else(|_| {
-                    Err(FileError::Fit(format!(
-                        "{}: internal error while fitting (please report it)",
-                        path.display()
-                    )))
-                });
+            let outcome = catch_unwind(AssertUnwindSafe(|| one(path))).unwrap_or_else(|_| {
+                Err(FileError::Fit(format!(
+                    "{}: internal error while fitting (please report it)",
+                    path.display()
+                )))
+            });
             done(path, outcome.is_ok());
             CampaignFile {
                 path: path.clone(),

@@ -11,4 +11,5 @@ mod fault_injection;
 mod fit_cli;
 mod hostile;
 mod ports_flash;
+mod units_chain;
 mod units_cli;

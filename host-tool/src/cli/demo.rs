@@ -128,7 +128,8 @@ fn write_files(dir: &std::path::Path, data: &Dataset, fam: &FamilyFit) -> CliRes
         export::ExportFormat::Json,
         Target::new(&params, true),
         fam,
-        fam.selected,
+        fam.selected_member,
+        None,
     )?;
     written.push(params);
     Ok(written)

@@ -97,8 +97,8 @@ pub struct FitArgs {
     #[arg(long)]
     pub force: bool,
     /// Which fitted model to export [default: the selected one]: a name as --models
-    /// takes. json, merl and csv exports take the paper's four models; residuals any
-    /// fitted member.
+    /// takes; any fitted member, whatever its components (a member the family did not
+    /// fit can be fitted with --models).
     #[arg(long = "export-model", value_name = "MODEL", value_parser = parse_member)]
     pub export_model: Option<Member>,
     /// Residuals to minimise.
@@ -334,26 +334,19 @@ pub fn run(args: &FitArgs) -> CliResult {
         plot::write_plots(dir, &data, &fam, args.force)?;
     }
     let member = args.export_model.unwrap_or(fam.selected_member);
+    // The fit's values are in 1/sr when the sweep says so or --instrument converted it.
+    let to_per_sr = (units == crate::sweep_file::BrdfUnits::PerSr).then_some(1.0);
     for (format, path) in &args.export {
         let target = Target::new(path, args.force).inputs(&inputs);
         match format {
             ExportFormat::Residuals => {
                 export::write_residuals(target, &data, &fam, member, opts.residual)?;
             }
-            _ => {
-                let kind = fit::paper::kind_of(member).ok_or_else(|| {
-                    CliError::usage(format!(
-                        "--export {}: exports only the paper's four models so far, and {member} is not one; choose one with --export-model (e.g. three-component)",
-                        format.name()
-                    ))
-                })?;
-                if *format == ExportFormat::Merl {
-                    let note = export::write_merl_export(target, &fam, kind)?;
-                    eprintln!("gonio: note: {}: {note}", path.display());
-                } else {
-                    export::write_export(*format, target, &fam, kind)?
-                }
+            ExportFormat::Merl => {
+                let note = export::write_merl_export(target, &fam, member)?;
+                eprintln!("gonio: note: {}: {note}", path.display());
             }
+            _ => export::write_export(*format, target, &fam, member, to_per_sr)?,
         }
     }
     let text = if args.json {

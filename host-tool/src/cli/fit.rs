@@ -41,8 +41,8 @@ their components, e.g. specular:ggx+specular-haze+ideal-diffuse.\n\n\
 The default does not fit every combination. It fits what is needed to decide: first every component set with \
 the ideal diffuse and the paper's lobe (ideal-diffuse, directional-diffuse+ideal-diffuse, torrance-sparrow, \
 three-component, and both with a haze lobe) plus three-component-smooth-ks; then, for the component set \
-selected, the variants of its core lobe (Beckmann or GGX, k_s per incidence or smooth; a haze lobe stays Beckmann \
-with one k_s per incidence). --models fits exactly the members named.\n\n\
+selected, the variants of its core lobe (Beckmann or GGX, k_s per incidence or smooth); then, if the member \
+selected has a haze, that member with the haze's other distribution. --models fits exactly the members named.\n\n\
 Selection: a component is supported only when the comparison that adds that component alone favours it by AICc \
 (by more than 2) AND its amplitude is determined (not at its bound, standard error under a third of the value; \
 one k_s per incidence counts as one amplitude). The selected model is the lowest-AICc member whose every \

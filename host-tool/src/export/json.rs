@@ -49,7 +49,7 @@ pub(super) fn export_json(fam: &FamilyFit, table: &MemberTable) -> Value {
 /// The BRDF unit of the exported values, in words.
 pub(super) fn brdf_units(table: &MemberTable) -> String {
     match table.to_per_sr {
-        Some(s) if s == 1.0 => "in 1/sr".into(),
+        Some(1.0) => "in 1/sr".into(),
         Some(s) => format!("in the fit's units (times {s} gives 1/sr)"),
         None => "in the sweep's relative units (the instrument's scale; not 1/sr)".into(),
     }

@@ -540,8 +540,13 @@ fn two_lobe_sweeps_across_the_issues_ranges_select_a_haze_and_recover_both_width
             "{case}: sigma_haze {h} ± {h_se:?}"
         );
         if noise <= 0.005 {
-            // Clean enough to tell the core's distribution.
+            // Clean enough to tell the core's distribution, and the haze's.
             assert_eq!(sel.core.unwrap().dist, dist, "{case}: {sel}");
+            assert_eq!(
+                sel.haze.unwrap().dist,
+                Distribution::Beckmann,
+                "{case}: {sel}"
+            );
         }
         let g = f.candidate(sel).and_then(|c| c.goodness).unwrap();
         assert!(

@@ -297,6 +297,22 @@ pub fn member_fit_json(fit: &MemberFit, cand: Option<&Candidate>) -> Value {
     })
 }
 
+/// The object `gonio fit --json` lists for member `m` ([`any_member_json`]; on the
+/// paper-form path its paper fit's [`model_json`] with `reduced_chi2`), if it was
+/// fitted: what exports of one member report.
+pub fn member_json(f: &FamilyFit, m: Member) -> Option<Value> {
+    if let Some(fit) = f.member(m) {
+        return Some(any_member_json(f, fit));
+    }
+    let fit = super::paper::kind_of(m).and_then(|k| f.get(k))?;
+    let mut v = model_json(fit, &f.incidences);
+    if let Value::Object(map) = &mut v {
+        let g = f.candidate(m).and_then(|c| c.goodness);
+        map.insert("reduced_chi2".into(), opt(g.map(|g| g.reduced())));
+    }
+    Some(v)
+}
+
 /// One fitted member as JSON: a paper member in [`model_json`]'s form (with
 /// correlations), any other in [`member_fit_json`]'s; both carry `components`,
 /// `lobes` and `reduced_chi2`.
@@ -316,22 +332,6 @@ fn any_member_json(f: &FamilyFit, fit: &MemberFit) -> Value {
         }
         None => member_fit_json(fit, cand),
     }
-}
-
-/// The object `gonio fit --json` lists for member `m` ([`any_member_json`]; on the
-/// paper-form path its paper fit's [`model_json`] with `reduced_chi2`), if it was
-/// fitted: what exports of one member report.
-pub fn member_json(f: &FamilyFit, m: Member) -> Option<Value> {
-    if let Some(fit) = f.member(m) {
-        return Some(any_member_json(f, fit));
-    }
-    let fit = super::paper::kind_of(m).and_then(|k| f.get(k))?;
-    let mut v = model_json(fit, &f.incidences);
-    if let Value::Object(map) = &mut v {
-        let g = f.candidate(m).and_then(|c| c.goodness);
-        map.insert("reduced_chi2".into(), opt(g.map(|g| g.reduced())));
-    }
-    Some(v)
 }
 
 /// The whole result as the `gonio fit --json` object.

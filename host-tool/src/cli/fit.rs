@@ -338,7 +338,9 @@ pub fn run(args: &FitArgs) -> CliResult {
     }
     let member = args.export_model.unwrap_or(fam.selected_member);
     // The fit's values are in 1/sr when the sweep says so or --instrument converted it.
-    let to_per_sr = (units == crate::sweep_file::BrdfUnits::PerSr).then_some(1.0);
+    let per_sr =
+        inst.is_some() || super::fit_units::units_of(sweep)? == crate::sweep_file::BrdfUnits::PerSr;
+    let to_per_sr = per_sr.then_some(1.0);
     for (format, path) in &args.export {
         let target = Target::new(path, args.force).inputs(&inputs);
         match format {

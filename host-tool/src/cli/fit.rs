@@ -41,12 +41,13 @@ their components, e.g. specular:ggx+specular-haze+ideal-diffuse.\n\n\
 The default does not fit every combination. It fits what is needed to decide: first every component set with \
 the ideal diffuse and the paper's lobe (ideal-diffuse, directional-diffuse+ideal-diffuse, torrance-sparrow, \
 three-component, and both with a haze lobe) plus three-component-smooth-ks; then, for the component set \
-selected, the lobe variants (Beckmann or GGX, k_s per incidence or smooth). --models fits exactly the members \
-named.\n\n\
+selected, the variants of its core lobe (Beckmann or GGX, k_s per incidence or smooth); then, if the member \
+selected has a haze, that member with the haze's other distribution. --models fits exactly the members named.\n\n\
 Selection: a component is supported only when the comparison that adds that component alone favours it by AICc \
 (by more than 2) AND its amplitude is determined (not at its bound, standard error under a third of the value; \
 one k_s per incidence counts as one amplitude). The selected model is the lowest-AICc member whose every \
-component is supported; BIC's choice by the same rule is reported when it differs. When the sweep has std and n \
+component is supported (a core-lobe variant, GGX or smooth k_s, takes the verdicts of its component set's \
+Beckmann member); BIC's choice by the same rule is reported when it differs. When the sweep has std and n \
 columns (gonio's captures do), the reduced chi-square against the readings' noise says whether a member fits \
 within it, and the report says so plainly when none does.\n\n\
 Each member is fitted on a log-spaced grid of lobe widths with its amplitudes solved linearly (non-negative) at \
@@ -84,8 +85,10 @@ pub struct FitArgs {
     /// Write PNG and SVG plots of measured and fitted curves into DIR.
     #[arg(long, value_name = "DIR")]
     pub plot: Option<PathBuf>,
-    /// Export the selected (or --export-model) fit: json=PATH (parameters),
-    /// merl=PATH (MERL binary table), csv=PATH (in-plane grid), residuals=PATH (CSV
+    /// Export the selected (or --export-model) member, whatever its components, as
+    /// brdf-core evaluates it: json=PATH (its --json entry, units, and its parameters
+    /// as `member_table`), merl=PATH (MERL binary table of the reciprocal mean),
+    /// csv=PATH (in-plane grid, 1-degree steps), residuals=PATH (CSV
     /// theta_i,theta_r,measured,fitted,residual per reading, in the file's order, the
     /// residual in --residual's kind), mitsuba=DIR (a Mitsuba 3 BSDF plugin, the
     /// model's parameters and a sphere scene: `python DIR/gonio_bsdf.py` renders it;
@@ -97,8 +100,8 @@ pub struct FitArgs {
     #[arg(long)]
     pub force: bool,
     /// Which fitted model to export [default: the selected one]: a name as --models
-    /// takes. json, merl and csv exports take the paper's four models; residuals any
-    /// fitted member.
+    /// takes; any fitted member, whatever its components (a member the family did not
+    /// fit can be fitted with --models).
     #[arg(long = "export-model", value_name = "MODEL", value_parser = parse_member)]
     pub export_model: Option<Member>,
     /// Residuals to minimise.
@@ -352,26 +355,21 @@ pub fn run(args: &FitArgs) -> CliResult {
         plot::write_plots(dir, &data, &fam, args.force)?;
     }
     let member = args.export_model.unwrap_or(fam.selected_member);
+    // The fit's values are in 1/sr when the sweep says so or --instrument converted it.
+    let per_sr =
+        inst.is_some() || super::fit_units::units_of(sweep)? == crate::sweep_file::BrdfUnits::PerSr;
+    let to_per_sr = per_sr.then_some(1.0);
     for (format, path) in &args.export {
         let target = Target::new(path, args.force).inputs(&inputs);
         match format {
             ExportFormat::Residuals => {
                 export::write_residuals(target, &data, &fam, member, opts.residual)?;
             }
-            _ => {
-                let kind = fit::paper::kind_of(member).ok_or_else(|| {
-                    CliError::usage(format!(
-                        "--export {}: exports only the paper's four models so far, and {member} is not one; choose one with --export-model (e.g. three-component)",
-                        format.name()
-                    ))
-                })?;
-                if *format == ExportFormat::Merl {
-                    let note = export::write_merl_export(target, &fam, kind)?;
-                    eprintln!("gonio: note: {}: {note}", path.display());
-                } else {
-                    export::write_export(*format, target, &fam, kind)?
-                }
+            ExportFormat::Merl => {
+                let note = export::write_merl_export(target, &fam, member)?;
+                eprintln!("gonio: note: {}: {note}", path.display());
             }
+            _ => export::write_export(*format, target, &fam, member, to_per_sr)?,
         }
     }
     let text = if args.json {

@@ -2,24 +2,27 @@
 
 use std::io::{self, Write};
 
-use crate::fit::{FamilyFit, Fit};
+use super::MemberTable;
 
 /// The in-plane grid: `theta_i` 0..90 and `theta_r` -90..90 in 1-degree steps, without
-/// the singular point theta_i = theta_r = 90 (no half vector). k_s at each theta_i from
-/// [`Fit::model_at`]. A few `#` metadata lines precede the header, as in a sweep file.
-pub(super) fn write_csv(w: &mut impl Write, fam: &FamilyFit, fit: &Fit) -> io::Result<()> {
+/// the singular point theta_i = theta_r = 90 (no half vector), evaluated by brdf-core's
+/// model of the member at each theta_i ([`MemberTable::model_at`]: per-incidence k_s
+/// linear between the fitted incidences, clamped outside them). A few `#` metadata
+/// lines precede the header, as in a sweep file.
+pub(super) fn write_csv(w: &mut impl Write, table: &MemberTable) -> io::Result<()> {
     writeln!(w, "# gonio model export v1")?;
-    writeln!(w, "# model: {}", fit.kind.name())?;
+    writeln!(w, "# model: {}", table.member)?;
     writeln!(
         w,
-        "# units: angles in degrees (theta_r signed, positive on the specular side), brdf in the paper's relative units"
+        "# units: angles in degrees (theta_r signed, positive on the specular side), brdf {}",
+        super::json::brdf_units(table)
     )?;
     writeln!(w, "theta_i,theta_r,brdf")?;
     for ti in 0..=90 {
         let ti = f64::from(ti);
-        let model = fit
-            .model_at(&fam.incidences, ti)
-            .ok_or_else(|| io::Error::other(format!("no valid model at theta_i = {ti}")))?;
+        let model = table
+            .model_at(ti)
+            .map_err(|e| io::Error::other(format!("no valid model at theta_i = {ti}: {e}")))?;
         for tr in -90..=90 {
             let tr = f64::from(tr);
             if ti == 90.0 && tr == 90.0 {

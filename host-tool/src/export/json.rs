@@ -1,32 +1,56 @@
-//! The JSON export: the fitted parameters with their units and incidences.
+//! The JSON export: the fitted member's report (parameters, standard errors, RMSE,
+//! AICc, ...) with its units and incidences, and its parameters in the form brdf-core
+//! evaluates (`member_table`, read back by [`MemberTable::from_json`]).
 
+use brdf_core::member::KsForm;
 use serde_json::{Value, json};
 
-use crate::fit::{FamilyFit, Fit, report};
+use super::MemberTable;
+use crate::fit::{FamilyFit, report};
 
-/// The JSON export: `report::model_json` (parameters, standard errors, RMSE, AICc, ...)
-/// plus `model`, `selected`, `units` and `incidences`.
-pub(super) fn export_json(fam: &FamilyFit, fit: &Fit) -> Value {
-    let mut v = report::model_json(fit, &fam.incidences);
-    let ks_between = if fit.values.poly.is_some() {
-        "ln k_s = c0 + c1 t + c2 t^2 with t = theta_i / 90 (ln_ks_poly)"
-    } else {
-        "linear between the fitted incidences, clamped to the end values outside them"
-    };
+/// The JSON export of the member of `table`: `report::member_json` (the object `gonio
+/// fit --json` lists for it) plus `model`, `selected`, `units`, `incidences` and
+/// `member_table` (the gonio-member/1 object of `--export mitsuba`'s `model.json`).
+pub(super) fn export_json(fam: &FamilyFit, table: &MemberTable) -> Value {
+    let member = table.member;
+    let mut v = report::member_json(fam, member).unwrap_or_else(|| json!({}));
+    let lobes = [member.core, member.haze];
+    let ks_form = |form: KsForm| lobes.iter().flatten().any(|l| l.ks == form);
+    let mut ks_between = Vec::new();
+    if ks_form(KsForm::PerIncidence) {
+        ks_between.push(
+            "a per-incidence k_s as [theta_i, k_s] pairs, linear between the fitted incidences and clamped to the end values outside them",
+        );
+    }
+    if ks_form(KsForm::Smooth) {
+        ks_between.push(
+            "a smooth k_s as ln k_s = c0 + c1 t + c2 t^2 with t = theta_i / 90 (ln_ks_c0..2, ln_ks_haze_c0..2)",
+        );
+    }
     if let Value::Object(map) = &mut v {
-        map.insert("model".into(), json!(fit.kind.name()));
-        map.insert("selected".into(), json!(fit.kind == fam.selected));
+        map.insert("model".into(), json!(member.to_string()));
+        map.insert("selected".into(), json!(member == fam.selected_member));
         map.insert(
             "units".into(),
             json!({
                 "angles": "degrees (theta_i; theta_r signed, positive on the specular side)",
-                "sigma": "dimensionless microfacet slope parameter",
+                "sigma": "dimensionless microfacet slope parameter (sigma, sigma_haze)",
                 "sigma_m": "radians",
-                "brdf": "the paper's relative units (sr^-1 up to the instrument's scale), not absolute sr^-1",
-                "k_s": "k_s per incidence as [theta_i, k_s]; between incidences: ".to_string() + ks_between,
+                "brdf": brdf_units(table),
+                "k_s": ks_between.join("; "),
             }),
         );
         map.insert("incidences".into(), json!(fam.incidences));
+        map.insert("member_table".into(), table.to_json());
     }
     v
+}
+
+/// The BRDF unit of the exported values, in words.
+pub(super) fn brdf_units(table: &MemberTable) -> String {
+    match table.to_per_sr {
+        Some(1.0) => "in 1/sr".into(),
+        Some(s) => format!("in the fit's units (times {s} gives 1/sr)"),
+        None => "in the sweep's relative units (the instrument's scale; not 1/sr)".into(),
+    }
 }

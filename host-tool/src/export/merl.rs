@@ -5,7 +5,9 @@ use std::fs::File;
 use std::io::{self, Read, Write};
 use std::path::Path;
 
-use crate::fit::{FamilyFit, Fit};
+use brdf_core::Geometry;
+
+use super::MemberTable;
 
 /// Table dimensions as the file header gives them: theta_half, theta_diff, phi_diff.
 pub const MERL_DIMS: [usize; 3] = [90, 90, 180];
@@ -141,17 +143,23 @@ pub(super) fn merl_index(theta_half: f64, theta_diff: f64, phi_diff: f64) -> usi
     ip + id * MERL_DIMS[2] + ih * MERL_DIMS[2] * MERL_DIMS[1]
 }
 
-/// The model at one MERL sample: `w_in` is our w_i (toward the source; k_s at its polar
-/// angle through [`Fit::model_at`]), `w_out` our w_r (toward the detector).
-/// [`MERL_INVALID`] below the horizon (z < -1e-9; tiny negatives from rounding count as
-/// grazing) or where the model cannot be evaluated.
-pub(super) fn merl_sample(fam: &FamilyFit, fit: &Fit, w_in: [f64; 3], w_out: [f64; 3]) -> f64 {
+/// The model at one MERL sample: `w_in` is our w_i (toward the source; a k_s at its
+/// polar angle through [`MemberTable::model_at`]), `w_out` our w_r (toward the
+/// detector), evaluated by brdf-core's model of the member. [`MERL_INVALID`] below the
+/// horizon (z < -1e-9; tiny negatives from rounding count as grazing) or where the
+/// model cannot be evaluated.
+pub(super) fn merl_sample(table: &MemberTable, w_in: [f64; 3], w_out: [f64; 3]) -> f64 {
     if w_in[2] < -1e-9 || w_out[2] < -1e-9 {
         return MERL_INVALID;
     }
     let theta_in = w_in[2].clamp(0.0, 1.0).acos().to_degrees();
-    fit.model_at(&fam.incidences, theta_in)
-        .and_then(|m| m.eval_vectors(w_in, w_out).ok())
+    let Ok(g) = Geometry::from_vectors(w_in, w_out) else {
+        return MERL_INVALID;
+    };
+    table
+        .model_at(theta_in)
+        .ok()
+        .and_then(|m| m.eval(theta_in, &g).ok())
         .map(|e| e.f)
         .filter(|f| f.is_finite())
         .unwrap_or(MERL_INVALID)
@@ -169,7 +177,7 @@ pub const MERL_MAX_RATIO: f64 = 20.0;
 /// reciprocity, so a lookup with the directions swapped lands on the same cell, and
 /// the value must not depend on which of the two a rounding picked. Also returns the
 /// largest ratio of the two over the cells (1 for a reciprocal model).
-pub(super) fn merl_values(fam: &FamilyFit, fit: &Fit) -> (Vec<f64>, f64) {
+pub(super) fn merl_values(table: &MemberTable) -> (Vec<f64>, f64) {
     let mut out = Vec::with_capacity(MERL_LEN);
     let mut worst: f64 = 1.0;
     for i in 0..MERL_DIMS[0] {
@@ -178,8 +186,8 @@ pub(super) fn merl_values(fam: &FamilyFit, fit: &Fit) -> (Vec<f64>, f64) {
             let td = merl_theta_diff(j);
             for k in 0..MERL_DIMS[2] {
                 let (w_in, w_out) = half_diff_to_vectors(th, 0.0, td, merl_phi_diff(k));
-                let ab = merl_sample(fam, fit, w_in, w_out);
-                let ba = merl_sample(fam, fit, w_out, w_in);
+                let ab = merl_sample(table, w_in, w_out);
+                let ba = merl_sample(table, w_out, w_in);
                 // A direction without a value (below the horizon, no half vector) has
                 // none either way; a single failed evaluation leaves the other.
                 let v = match (ab > 0.0, ba > 0.0) {

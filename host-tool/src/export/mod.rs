@@ -1,6 +1,12 @@
 //! Exporting a fitted model: its parameters as JSON, a MERL-format BRDF table, an
 //! in-plane CSV grid, or a Mitsuba 3 plugin directory ([`mitsuba`]).
 //!
+//! Any fitted member of the lattice can be exported, whatever its components: every
+//! export goes through [`fitted_table`] (the member's brdf-core parameters at each
+//! fitted incidence, [`MemberTable`]) and evaluates brdf-core's
+//! [`brdf_core::member_model::MemberModel`], so the exports and the fit share one
+//! model.
+//!
 //! Every file is written through [`crate::outfile`] (a private temporary file beside
 //! the target, synced, renamed once complete), so a failed or interrupted export never
 //! leaves a partial file under the name asked for, and never replaces a device, a
@@ -31,7 +37,9 @@
 use std::fmt;
 use std::io::{self, Write};
 
-use crate::fit::{FamilyFit, Kind};
+use brdf_core::member::Member;
+
+use crate::fit::FamilyFit;
 use crate::outfile::{self, OutError, Target};
 
 mod csv;
@@ -41,6 +49,7 @@ pub mod mitsuba;
 mod residuals;
 
 pub use merl::{MERL_DIMS, MERL_INVALID, MERL_LEN, MERL_MAX_RATIO, MERL_SCALE, MerlTable};
+pub use mitsuba::MemberTable;
 pub use residuals::{residual_value, write_residuals};
 
 /// Why an export failed.
@@ -106,8 +115,10 @@ impl ExportFormat {
     }
 }
 
-/// Writes the fitted model `kind` of `fam` to `target` in `format` (see the module and
-/// format docs). `kind` must be one of the fitted models, else
+/// Writes the fitted member `member` of `fam` to `target` in `format` (see the module
+/// and format docs). `to_per_sr` is the factor from the fit's BRDF unit to 1/sr (1 for
+/// a fit in 1/sr; `None`: relative units), said in the files. `member` must be one of
+/// the fitted members, else
 /// [`ExportError::NotFitted`] naming those; a target [`outfile::check`] refuses is
 /// [`ExportError::Refused`]; a file that cannot be written is [`ExportError::Write`]
 /// naming it.
@@ -115,24 +126,24 @@ pub fn write_export(
     format: ExportFormat,
     target: Target<'_>,
     fam: &FamilyFit,
-    kind: Kind,
+    member: Member,
+    to_per_sr: Option<f64>,
 ) -> Result<(), ExportError> {
-    let fit = fitted(fam, kind)?;
+    let mut table = fitted_table(fam, member)?;
+    table.to_per_sr = to_per_sr;
     let path = target.path;
     match format {
         ExportFormat::Json => {
             let mut text =
-                serde_json::to_string_pretty(&json::export_json(fam, fit)).map_err(|e| {
+                serde_json::to_string_pretty(&json::export_json(fam, &table)).map_err(|e| {
                     ExportError::Write(format!("cannot encode {}: {e}", path.display()))
                 })?;
             text.push('\n');
             write_atomic(target, |w| w.write_all(text.as_bytes()))
         }
-        ExportFormat::Merl => write_merl_export(target, fam, kind).map(drop),
-        ExportFormat::Csv => write_atomic(target, |mut w| csv::write_csv(&mut w, fam, fit)),
-        ExportFormat::Mitsuba => {
-            mitsuba::write_mitsuba(target, &mitsuba::MemberTable::of_fit(fit, &fam.incidences))
-        }
+        ExportFormat::Merl => write_merl_export(target, fam, member).map(drop),
+        ExportFormat::Csv => write_atomic(target, |mut w| csv::write_csv(&mut w, &table)),
+        ExportFormat::Mitsuba => mitsuba::write_mitsuba(target, &table),
         ExportFormat::Residuals => Err(ExportError::Write(format!(
             "{}: residuals need the fitted data (write_residuals)",
             path.display()
@@ -140,28 +151,57 @@ pub fn write_export(
     }
 }
 
-/// Writes the MERL table of `kind` (reciprocal mean per cell, see the module docs) and
-/// returns the sentence saying so with the largest ratio f(i->o)/f(o->i) over the
+/// Writes the MERL table of `member` (reciprocal mean per cell, see the module docs)
+/// and returns the sentence saying so with the largest ratio f(i->o)/f(o->i) over the
 /// cells. Refused ([`ExportError::Refused`], nothing written) above [`MERL_MAX_RATIO`].
 pub fn write_merl_export(
     target: Target<'_>,
     fam: &FamilyFit,
-    kind: Kind,
+    member: Member,
 ) -> Result<String, ExportError> {
-    let fit = fitted(fam, kind)?;
+    let table = fitted_table(fam, member)?;
     outfile::check(target)?;
-    let (table, ratio) = merl::merl_values(fam, fit);
+    let (values, ratio) = merl::merl_values(&table);
     if ratio.is_nan() || ratio > MERL_MAX_RATIO {
         return Err(ExportError::Refused(format!(
-            "{}: the {} fit is far from reciprocal (f(i->o)/f(o->i) up to {ratio:.3} over the MERL cells, above {MERL_MAX_RATIO}): a MERL table looked up both ways cannot represent it",
+            "{}: the {member} fit is far from reciprocal (f(i->o)/f(o->i) up to {ratio:.3} over the MERL cells, above {MERL_MAX_RATIO}): a MERL table looked up both ways cannot represent it",
             target.path.display(),
-            kind.name()
         )));
     }
-    write_atomic(target, |mut w| merl::write_merl(&mut w, &table))?;
+    write_atomic(target, |mut w| merl::write_merl(&mut w, &values))?;
     Ok(format!(
-        "MERL table of the reciprocal mean (f(i->o) + f(o->i))/2 of the {} fit: its largest ratio f(i->o)/f(o->i) over the cells is {ratio:.4}",
-        kind.name()
+        "MERL table of the reciprocal mean (f(i->o) + f(o->i))/2 of the {member} fit: its largest ratio f(i->o)/f(o->i) over the cells is {ratio:.4}"
+    ))
+}
+
+/// The fitted member `member` as brdf-core's parameters at each fitted incidence: from
+/// its fit on the width grid, or (on the paper-form path of `--fix` and robust losses)
+/// from its paper fit. The one path from a fit to a model every export takes;
+/// [`ExportError::NotFitted`] naming the fitted members when `member` is not one.
+pub fn fitted_table(fam: &FamilyFit, member: Member) -> Result<MemberTable, ExportError> {
+    if let Some(f) = fam.member(member) {
+        return Ok(MemberTable::of_member_fit(f));
+    }
+    if let Some(f) = crate::fit::paper::kind_of(member).and_then(|k| fam.get(k)) {
+        return Ok(MemberTable::of_fit(f, &fam.incidences));
+    }
+    Err(not_fitted(fam, member))
+}
+
+/// [`ExportError::NotFitted`] for `member`, naming the fitted members.
+pub(crate) fn not_fitted(fam: &FamilyFit, member: Member) -> ExportError {
+    let fitted: Vec<String> = fam
+        .candidates
+        .iter()
+        .map(|c| c.member.to_string())
+        .collect();
+    ExportError::NotFitted(format!(
+        "model {member} was not fitted; fitted models: {}",
+        if fitted.is_empty() {
+            "none".to_string()
+        } else {
+            fitted.join(", ")
+        }
     ))
 }
 
@@ -172,25 +212,6 @@ pub fn targets(format: ExportFormat, path: &std::path::Path) -> Vec<std::path::P
         ExportFormat::Mitsuba => mitsuba::files(path),
         _ => vec![path.to_path_buf()],
     }
-}
-
-/// The fit of `kind`, or [`ExportError::NotFitted`] naming the fitted models.
-fn fitted(fam: &FamilyFit, kind: Kind) -> Result<&crate::fit::Fit, ExportError> {
-    let Some(fit) = fam.get(kind) else {
-        // Canonical names, each with the name the user types.
-        let both = |k: Kind| format!("{} ({})", k.name(), k.names().cli);
-        let fitted: Vec<String> = fam.fits.iter().map(|f| both(f.kind)).collect();
-        return Err(ExportError::NotFitted(format!(
-            "model {} was not fitted; fitted models: {}",
-            both(kind),
-            if fitted.is_empty() {
-                "none".to_string()
-            } else {
-                fitted.join(", ")
-            }
-        )));
-    };
-    Ok(fit)
 }
 
 /// Writes through [`outfile::write`]: checked target, temporary file, sync, rename.

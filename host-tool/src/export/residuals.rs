@@ -40,20 +40,11 @@ pub fn write_residuals(
     member: Member,
     residual: Residual,
 ) -> Result<(), ExportError> {
-    let fitted = match (fam.member(member), crate::fit::paper::kind_of(member)) {
+    let paper = crate::fit::paper::kind_of(member).and_then(|k| fam.get(k));
+    let fitted = match (fam.member(member), paper) {
         (Some(m), _) => goodness::member_fitted(m, data),
-        (None, Some(k)) => goodness::kind_fitted(super::fitted(fam, k)?, data),
-        (None, None) => {
-            let names: Vec<String> = fam
-                .candidates
-                .iter()
-                .map(|c| c.member.to_string())
-                .collect();
-            return Err(ExportError::NotFitted(format!(
-                "model {member} was not fitted; fitted models: {}",
-                names.join(", ")
-            )));
-        }
+        (None, Some(f)) => goodness::kind_fitted(f, data),
+        (None, None) => return Err(super::not_fitted(fam, member)),
     };
     write_atomic(target, |mut w| {
         write_rows(&mut w, data, member, &fitted, residual)

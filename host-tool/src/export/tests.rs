@@ -8,9 +8,10 @@ use serde_json::Value;
 
 use super::merl::*;
 use super::*;
-use crate::fit::{Dataset, FitOptions, fit_family};
+use crate::fit::{Dataset, FitOptions, Kind, fit_family};
 use crate::sweep_file::{Row, read_sweep};
 use brdf_core::Preset;
+use brdf_core::member::Member;
 
 fn rows() -> Vec<Row> {
     let p = Preset::by_name("fe-0.115").unwrap();
@@ -43,7 +44,8 @@ fn an_unfitted_model_is_a_usage_error_naming_the_fitted_ones() {
         ExportFormat::Json,
         Target::new(&path, false),
         &fam,
-        Kind::ThreeComponent,
+        Member::THREE_COMPONENT,
+        None,
     )
     .unwrap_err();
     assert!(matches!(e, ExportError::NotFitted(_)), "bad input: {e}");
@@ -65,7 +67,8 @@ fn json_has_parameters_units_and_incidences() {
         ExportFormat::Json,
         Target::new(&path, false),
         fam,
-        Kind::ThreeComponent,
+        Member::THREE_COMPONENT,
+        None,
     )
     .unwrap();
     let v: Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
@@ -80,7 +83,14 @@ fn json_has_parameters_units_and_incidences() {
     assert!(v["units"]["sigma_m"].as_str().unwrap().contains("radians"));
     assert!(v["units"]["angles"].as_str().unwrap().contains("degrees"));
     assert!(v["units"]["brdf"].as_str().unwrap().contains("relative"));
-    assert_eq!(v["selected"], fam.selected == Kind::ThreeComponent);
+    assert_eq!(
+        v["selected"],
+        fam.selected_member == Member::THREE_COMPONENT
+    );
+    // The same numbers `gonio fit --json` lists for the member, and its evaluable form.
+    assert_eq!(v["components"].as_array().unwrap().len(), 3);
+    assert_eq!(v["member_table"]["format"], "gonio-member/1");
+    assert_eq!(v["member_table"]["member"], "three-component");
     assert!(!dir.join("m.json.tmp").exists());
     std::fs::remove_dir_all(&dir).unwrap();
 }
@@ -95,7 +105,8 @@ fn csv_grid_reads_back_as_a_sweep_file() {
         ExportFormat::Csv,
         Target::new(&path, false),
         fam,
-        Kind::ThreeComponent,
+        Member::THREE_COMPONENT,
+        None,
     )
     .unwrap();
     let data = read_sweep(&path).unwrap();
@@ -121,7 +132,12 @@ fn csv_grid_reads_back_as_a_sweep_file() {
             .eval_in_plane(r.theta_i, r.theta_r)
             .unwrap()
             .f;
-        assert_eq!(r.brdf, f, "theta_i {} theta_r {}", r.theta_i, r.theta_r);
+        assert!(
+            rel(r.brdf, f) < 1e-12,
+            "theta_i {} theta_r {}",
+            r.theta_i,
+            r.theta_r
+        );
     }
     // At a fitted incidence the grid is the fitted model itself.
     let m20 = fit.values.model(Kind::ThreeComponent, 2).unwrap();
@@ -154,7 +170,8 @@ fn merl_file_layout_scales_and_read_back() {
         ExportFormat::Merl,
         Target::new(&path, false),
         fam,
-        Kind::ThreeComponent,
+        Member::THREE_COMPONENT,
+        None,
     )
     .unwrap();
     let bytes = std::fs::read(&path).unwrap();
@@ -294,7 +311,8 @@ fn an_unwritable_path_fails_naming_it_and_leaves_no_file() {
         ExportFormat::Csv,
         Target::new(&missing, false),
         fam,
-        Kind::ThreeComponent,
+        Member::THREE_COMPONENT,
+        None,
     )
     .unwrap_err();
     assert!(matches!(e, ExportError::Write(_)), "failed: {e}");
@@ -310,12 +328,208 @@ fn an_unwritable_path_fails_naming_it_and_leaves_no_file() {
         ExportFormat::Json,
         Target::new(&target, false),
         fam,
-        Kind::ThreeComponent,
+        Member::THREE_COMPONENT,
+        None,
     )
     .unwrap_err();
     assert!(matches!(e, ExportError::Refused(_)), "refused: {e}");
     assert!(e.to_string().contains("taken"), "{e}");
     assert!(!dir.join("taken.tmp").exists());
     assert!(target.is_dir());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The member of the Scatterworks selection: a GGX core with a smooth k_s on a
+/// Beckmann haze (one k_s per incidence) over an ideal diffuse.
+const HAZE_MEMBER: &str = "specular:ggx:smooth-ks+specular-haze:beckmann+ideal-diffuse";
+
+/// That member fitted (alone, `--models`) to two-lobe data made from it.
+fn haze_fixture() -> &'static FamilyFit {
+    use brdf_core::lobe::{Distribution, SmoothKs};
+    use brdf_core::member_model::{Ks, LobeParams, MemberModel, MemberParams};
+    static F: OnceLock<FamilyFit> = OnceLock::new();
+    F.get_or_init(|| {
+        let member = Member::parse(HAZE_MEMBER).unwrap();
+        let mut rows = Vec::new();
+        for (j, ti) in [10.0, 30.0, 50.0].into_iter().enumerate() {
+            let p = MemberParams {
+                core: Some(LobeParams {
+                    dist: Distribution::Ggx,
+                    ks: Ks::Smooth(SmoothKs {
+                        c: [-1.0, 0.5, 0.0],
+                    }),
+                    sigma: 0.01,
+                }),
+                haze: Some(LobeParams {
+                    dist: Distribution::Beckmann,
+                    ks: Ks::PerIncidence(0.2 + 0.05 * j as f64),
+                    sigma: 0.2,
+                }),
+                directional: None,
+                ideal: Some(0.01),
+            };
+            let m = MemberModel::new(&p).unwrap();
+            for k in 0..=178 {
+                let tr = -89.0 + k as f64;
+                let f = m.eval_in_plane(ti, tr).unwrap().f;
+                rows.push(Row {
+                    theta_i: ti,
+                    theta_r: tr,
+                    brdf: f * (1.0 + 0.002 * ((k * 7 + j) % 5) as f64),
+                    std: None,
+                    n: None,
+                    seq: None,
+                    t_ms: None,
+                });
+            }
+        }
+        let data = Dataset::from_rows(&rows, true).unwrap();
+        let opts = FitOptions {
+            members: Some(vec![member]),
+            ..FitOptions::default()
+        };
+        let fam = fit_family(&data, &opts, &Kind::ALL).unwrap();
+        assert_eq!(fam.selected_member, member);
+        fam
+    })
+}
+
+/// The core's evaluation of the fitted member (its own prediction) at an in-plane point.
+fn core_value(fam: &FamilyFit, ti: f64, tr: f64) -> f64 {
+    let m = Member::parse(HAZE_MEMBER).unwrap();
+    fam.member(m).unwrap().predict(ti, tr).unwrap()
+}
+
+#[test]
+fn a_ggx_haze_members_json_export_reads_back_as_the_cores_model() {
+    let fam = haze_fixture();
+    let member = Member::parse(HAZE_MEMBER).unwrap();
+    let dir = tempdir("haze-json");
+    let path = dir.join("m.json");
+    write_export(
+        ExportFormat::Json,
+        Target::new(&path, false),
+        fam,
+        member,
+        Some(1.0),
+    )
+    .unwrap();
+    let v: Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    assert_eq!(v["model"], HAZE_MEMBER);
+    assert_eq!(v["name"], HAZE_MEMBER);
+    assert_eq!(v["selected"], true);
+    assert_eq!(
+        v["components"],
+        serde_json::json!(["specular", "specular-haze", "ideal-diffuse"])
+    );
+    assert_eq!(v["lobes"]["specular"]["distribution"], "ggx");
+    assert_eq!(v["lobes"]["specular-haze"]["ks"], "per-incidence");
+    let fit = fam.member(member).unwrap();
+    let (s, _) = fit.sigma().unwrap();
+    let (h, _) = fit.sigma_haze().unwrap();
+    assert!(rel(v["params"]["sigma"].as_f64().unwrap(), s) < 1e-12);
+    assert!(rel(v["params"]["sigma_haze"].as_f64().unwrap(), h) < 1e-12);
+    assert!(v["std_errors"]["sigma_haze"].as_f64().unwrap() > 0.0);
+    assert_eq!(v["params"]["k_s_haze"].as_array().unwrap().len(), 3);
+    assert!(v["units"]["brdf"].as_str().unwrap().contains("1/sr"));
+    assert!(v["units"]["k_s"].as_str().unwrap().contains("smooth"));
+    // The evaluable part reads back into brdf-core's model, equal to the fit's own.
+    let table = MemberTable::from_json(&v["member_table"].to_string()).unwrap();
+    assert_eq!(table.member, member);
+    assert_eq!(table.to_per_sr, Some(1.0));
+    for ti in [10.0, 20.0, 30.0, 41.4, 50.0, 70.0] {
+        for tr in [-60.0, 0.0, 9.5, ti - 1.0, ti, ti + 0.3, 85.0] {
+            let got = table.model_at(ti).unwrap().eval_in_plane(ti, tr).unwrap().f;
+            let want = core_value(fam, ti, tr);
+            assert!(rel(got, want) < 1e-12, "({ti}, {tr}): {got} vs {want}");
+        }
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_ggx_haze_members_csv_and_merl_exports_equal_the_cores_evaluation() {
+    let fam = haze_fixture();
+    let member = Member::parse(HAZE_MEMBER).unwrap();
+    let dir = tempdir("haze-grid");
+    let csv_path = dir.join("grid.csv");
+    write_export(
+        ExportFormat::Csv,
+        Target::new(&csv_path, false),
+        fam,
+        member,
+        None,
+    )
+    .unwrap();
+    let grid = read_sweep(&csv_path).unwrap();
+    assert_eq!(
+        grid.meta.get("model").map(String::as_str),
+        Some(HAZE_MEMBER)
+    );
+    assert_eq!(grid.rows.len(), 91 * 181 - 1);
+    for r in grid.rows.iter().step_by(13) {
+        let want = core_value(fam, r.theta_i, r.theta_r);
+        assert!(
+            rel(r.brdf, want) < 1e-12,
+            "({}, {}): {} vs {want}",
+            r.theta_i,
+            r.theta_r,
+            r.brdf
+        );
+    }
+    // The peak of the narrow core is in the grid: at 30 degrees, 30 is far above 25.
+    let at = |ti: f64, tr: f64| {
+        grid.rows
+            .iter()
+            .find(|r| r.theta_i == ti && r.theta_r == tr)
+            .unwrap()
+            .brdf
+    };
+    assert!(at(30.0, 30.0) > 10.0 * at(30.0, 25.0));
+
+    // MERL: the in-plane cells (phi_d = 0) hold the reciprocal mean of the core's
+    // evaluation both ways round, and the note says how far from reciprocal it is.
+    let merl_path = dir.join("m.binary");
+    let note = write_merl_export(Target::new(&merl_path, false), fam, member).unwrap();
+    assert!(
+        note.contains(HAZE_MEMBER) && note.contains("reciprocal mean"),
+        "{note}"
+    );
+    let table = MerlTable::read(&merl_path).unwrap();
+    for (i, j) in [(0usize, 30usize), (10, 30), (30, 25), (45, 10), (20, 50)] {
+        let th = 90.0 * (i as f64 / 90.0).powi(2);
+        let td = j as f64;
+        let (ti, tr) = (td + th, td - th);
+        let side = if tr >= 0.0 { 1.0 } else { -1.0 };
+        let want = 0.5 * (core_value(fam, ti, tr) + core_value(fam, tr.abs(), side * ti));
+        let got = table.channels[0][cell(i, j, 0)];
+        assert!(
+            rel(got, want) < 1e-9,
+            "({i},{j},0): {got} vs {want} (theta_i {ti}, theta_r {tr})"
+        );
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn an_unfitted_member_names_the_fitted_ones() {
+    let fam = haze_fixture();
+    let dir = tempdir("haze-unfitted");
+    let path = dir.join("m.csv");
+    let e = write_export(
+        ExportFormat::Csv,
+        Target::new(&path, false),
+        fam,
+        Member::THREE_COMPONENT,
+        None,
+    )
+    .unwrap_err();
+    assert!(matches!(e, ExportError::NotFitted(_)), "{e}");
+    assert!(
+        e.to_string()
+            .contains(&format!("fitted models: {HAZE_MEMBER}")),
+        "{e}"
+    );
+    assert!(!path.exists());
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -266,12 +266,20 @@ pub fn write_reports(
     Ok((csv, js))
 }
 
-/// The parameters the summary reports, by name.
-const KEY_PARAMS: [&str; 5] = ["sigma", "sigma_m", "k_dd", "k_id", "k_d"];
+/// The parameters the summary reports, by name (those the selected member has).
+const KEY_PARAMS: [&str; 6] = ["sigma", "sigma_haze", "sigma_m", "k_dd", "k_id", "k_d"];
 
-/// Name, value and standard error of the selected model's scalar parameters.
+/// Name, value and standard error of the selected member's scalar parameters (widths
+/// and scalar weights; not the per-incidence or smooth k_s).
 fn key_params(fam: &FamilyFit) -> Vec<(&'static str, f64, Option<f64>)> {
-    let Some(fit) = fam.get(fam.selected) else {
+    if let Some(f) = fam.selected_fit() {
+        return super::report::member_params(f)
+            .into_iter()
+            .filter_map(|(n, v, se)| KEY_PARAMS.iter().find(|&&k| k == n).map(|&k| (k, v, se)))
+            .collect();
+    }
+    // The paper-form path (--fix, robust losses): the selected member is a paper one.
+    let Some(fit) = super::paper::kind_of(fam.selected_member).and_then(|k| fam.get(k)) else {
         return Vec::new();
     };
     scalar_coords(fit.kind)
@@ -290,6 +298,11 @@ fn key_params(fam: &FamilyFit) -> Vec<(&'static str, f64, Option<f64>)> {
         .collect()
 }
 
+/// The selected member's paper RMSE (Table 3) over all readings.
+fn selected_rmse(fam: &FamilyFit) -> Option<f64> {
+    fam.candidate(fam.selected_member).and_then(|c| c.rmse)
+}
+
 fn csv_field(s: &str) -> String {
     if s.contains([',', '"', '\n', '\r']) {
         format!("\"{}\"", s.replace('"', "\"\""))
@@ -299,11 +312,12 @@ fn csv_field(s: &str) -> String {
 }
 
 /// The summary as CSV: one row per file, in input order. Columns: file, status (ok or
-/// error), selected model, readings, incidences, each key parameter and its standard
-/// error (empty when the model has none), the paper's RMSE, fit seconds, the report's
-/// file name, the error message.
+/// error), the selected member's name (`selected_member`, as `gonio fit` names it),
+/// readings, incidences, each key parameter and its standard error (empty when the
+/// member has none), the paper's RMSE, fit seconds, the report's file name, the error
+/// message.
 pub fn summary_csv(files: &[CampaignFile], names: &[Option<String>]) -> String {
-    let mut out = String::from("file,status,selected,readings,incidences");
+    let mut out = String::from("file,status,selected_member,readings,incidences");
     for p in KEY_PARAMS {
         out.push_str(&format!(",{p},{p}_se"));
     }
@@ -318,7 +332,7 @@ pub fn summary_csv(files: &[CampaignFile], names: &[Option<String>]) -> String {
             Ok(fit) => {
                 let fam = &fit.family;
                 row.push("ok".into());
-                row.push(fam.selected.name().into());
+                row.push(csv_field(&fam.selected_member.to_string()));
                 row.push(fit.data.obs.len().to_string());
                 row.push(fit.data.incidences.len().to_string());
                 let kp = key_params(fam);
@@ -327,7 +341,7 @@ pub fn summary_csv(files: &[CampaignFile], names: &[Option<String>]) -> String {
                     row.push(num(hit.map(|h| h.1)));
                     row.push(num(hit.and_then(|h| h.2)));
                 }
-                row.push(num(fam.get(fam.selected).and_then(|x| x.rmse)));
+                row.push(num(selected_rmse(fam)));
                 row.push(num(Some(fam.fit_seconds)));
                 row.push(csv_field(name.as_deref().unwrap_or("")));
                 row.push(String::new());
@@ -348,8 +362,10 @@ pub fn summary_csv(files: &[CampaignFile], names: &[Option<String>]) -> String {
 }
 
 /// The summary as JSON: `{"files": [...], "fitted": n, "failed": m}`, each file with
-/// `file`, `status`, and either `selected`, `readings`, `incidences`, `params`
-/// (`{name: {"value", "se"}}`), `rmse`, `fit_seconds`, `report`, or `error`.
+/// `file`, `status`, and either `selected_member` (the member's name),
+/// `selected_components` (its components in the README's vocabulary), `readings`,
+/// `incidences`, `params` (`{name: {"value", "se"}}`), `rmse`, `fit_seconds`, `report`,
+/// or `error`.
 pub fn summary_json(files: &[CampaignFile], names: &[Option<String>]) -> Value {
     let num = |x: f64| if x.is_finite() { json!(x) } else { Value::Null };
     let rows: Vec<Value> = files
@@ -368,11 +384,12 @@ pub fn summary_json(files: &[CampaignFile], names: &[Option<String>]) -> Value {
                 json!({
                     "file": f.path.display().to_string(),
                     "status": "ok",
-                    "selected": fam.selected.name(),
+                    "selected_member": fam.selected_member.to_string(),
+                    "selected_components": super::report::member_components(fam.selected_member),
                     "readings": fit.data.obs.len(),
                     "incidences": fit.data.incidences.len(),
                     "params": params,
-                    "rmse": fam.get(fam.selected).and_then(|x| x.rmse).map_or(Value::Null, num),
+                    "rmse": selected_rmse(fam).map_or(Value::Null, num),
                     "fit_seconds": num(fam.fit_seconds),
                     "report": name,
                     "warnings": fit.warnings,
@@ -403,9 +420,18 @@ pub fn summary_table(files: &[CampaignFile]) -> String {
         .max()
         .unwrap_or(4)
         .clamp(4, 60);
+    // The selected members' names can be long (e.g.
+    // specular:ggx:smooth-ks+specular-haze:beckmann+ideal-diffuse).
+    let sel = files
+        .iter()
+        .filter_map(|f| f.outcome.as_ref().ok())
+        .map(|f| f.family.selected_member.to_string().len())
+        .max()
+        .unwrap_or(0)
+        .max(26);
     let _ = writeln!(
         out,
-        "{:<width$}  {:<26}  {:>22}  {:>8}",
+        "{:<width$}  {:<sel$}  {:>22}  {:>8}",
         "file", "selected", "sigma", "RMSE"
     );
     for f in files {
@@ -419,14 +445,11 @@ pub fn summary_table(files: &[CampaignFile]) -> String {
                     .map_or("-".into(), |(_, v, se)| {
                         super::report::fmt_se(v, se).trim().to_string()
                     });
-                let rmse = fam
-                    .get(fam.selected)
-                    .and_then(|x| x.rmse)
-                    .map_or("n/d".into(), |r| format!("{r:.4}"));
+                let rmse = selected_rmse(fam).map_or("n/d".into(), |r| format!("{r:.4}"));
                 let _ = writeln!(
                     out,
-                    "{name:<width$}  {:<26}  {sigma:>22}  {rmse:>8}",
-                    fam.selected.name()
+                    "{name:<width$}  {:<sel$}  {sigma:>22}  {rmse:>8}",
+                    fam.selected_member.to_string()
                 );
             }
             Err(e) => {
@@ -469,7 +492,7 @@ mod tests {
         assert_eq!(status, [true, true, false, true, false]);
         let sigma = |i: usize| {
             let fam = &files[i].outcome.as_ref().unwrap().family;
-            fam.get(fam.selected).unwrap().values.sigma
+            fam.selected_fit().unwrap().sigma().unwrap().0
         };
         assert!((sigma(0) / 0.115 - 1.0).abs() < 0.02);
         assert!((sigma(1) / 0.070 - 1.0).abs() < 0.02);

@@ -326,3 +326,18 @@ pub fn variants_of(selected: brdf_core::member::Member) -> Vec<brdf_core::member
         })
         .collect()
 }
+
+/// The third stage: the selected member with its haze lobe's distribution switched
+/// (Beckmann to GGX or back), `None` without a haze. A haze's tail decides how a sharp
+/// core's wings fall (a Beckmann haze is Gaussian in slope, a GGX one falls as a power
+/// law), and the core's shape was decided on the reference haze.
+pub fn haze_variant_of(selected: brdf_core::member::Member) -> Option<brdf_core::member::Member> {
+    use brdf_core::lobe::Distribution;
+    let mut m = selected;
+    let h = m.haze.as_mut()?;
+    h.dist = match h.dist {
+        Distribution::Beckmann => Distribution::Ggx,
+        Distribution::Ggx => Distribution::Beckmann,
+    };
+    Some(m)
+}

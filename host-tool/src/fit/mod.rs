@@ -158,6 +158,14 @@ pub fn fit_family(data: &Dataset, opts: &FitOptions, kinds: &[Kind]) -> Result<F
                     &mut notes,
                 ));
             }
+            // Stage three: the selected member's haze with the other distribution.
+            let cands = candidates_of_members(data, &members, opts.residual);
+            if let Some(best) = Selection::new(&cands, Criterion::Aicc).best()
+                && let Some(m) = family::haze_variant_of(best.member)
+                && !members.iter().any(|f| f.member() == m)
+            {
+                members.extend(fit_members(data, &[m], opts.residual, aperture, &mut notes));
+            }
         }
         fits = Kind::ALL
             .iter()
@@ -316,7 +324,7 @@ fn variant_notes(cands: &[Candidate], sel: Member) -> Vec<String> {
     };
     let same = |m: Member| {
         m.core.is_some()
-            && m.haze == sel.haze
+            && m.haze.is_some() == sel.haze.is_some()
             && m.directional == sel.directional
             && m.ideal == sel.ideal
     };
@@ -331,8 +339,11 @@ fn variant_notes(cands: &[Candidate], sel: Member) -> Vec<String> {
     if others.is_empty() {
         return Vec::new();
     }
+    let haze = sel
+        .haze
+        .map_or(String::new(), |h| format!(" on a {} haze", h.dist.name()));
     vec![format!(
-        "specular lobe shape: {} with k_s {} has the lowest AICc of these components (AICc of the others: {})",
+        "specular lobe shape: {} with k_s {}{haze} has the lowest AICc of these components (AICc of the others: {})",
         core.dist.name(),
         core.ks.name(),
         others.join(", ")

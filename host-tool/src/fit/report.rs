@@ -211,7 +211,12 @@ pub fn member_params(fit: &MemberFit) -> Vec<(String, f64, Option<f64>)> {
         (l.kid, kid_name),
     ] {
         if let Some(i) = slot {
-            let (v, se) = fit.natural(i);
+            // With a core lobe the haze's coordinate is its width's ratio to the core's.
+            let (v, se) = if slot == l.sigma_haze {
+                fit.sigma_haze().unwrap_or((f64::NAN, None))
+            } else {
+                fit.natural(i)
+            };
             out.push((name.to_string(), v, se));
         }
     }
@@ -290,6 +295,22 @@ pub fn member_fit_json(fit: &MemberFit, cand: Option<&Candidate>) -> Value {
         "aperture_deg": opt(fit.aperture),
         "reduced_chi2": opt(cand.and_then(|c| c.goodness).map(|g| g.reduced())),
     })
+}
+
+/// The object `gonio fit --json` lists for member `m` ([`any_member_json`]; on the
+/// paper-form path its paper fit's [`model_json`] with `reduced_chi2`), if it was
+/// fitted: what exports of one member report.
+pub fn member_json(f: &FamilyFit, m: Member) -> Option<Value> {
+    if let Some(fit) = f.member(m) {
+        return Some(any_member_json(f, fit));
+    }
+    let fit = super::paper::kind_of(m).and_then(|k| f.get(k))?;
+    let mut v = model_json(fit, &f.incidences);
+    if let Value::Object(map) = &mut v {
+        let g = f.candidate(m).and_then(|c| c.goodness);
+        map.insert("reduced_chi2".into(), opt(g.map(|g| g.reduced())));
+    }
+    Some(v)
 }
 
 /// One fitted member as JSON: a paper member in [`model_json`]'s form (with

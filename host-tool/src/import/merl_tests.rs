@@ -179,7 +179,8 @@ fn the_merl_export_reads_back_at_bin_edges() {
         ExportFormat::Merl,
         crate::outfile::Target::new(&path, false),
         &fam,
-        Kind::ThreeComponent,
+        brdf_core::member::Member::THREE_COMPONENT,
+        None,
     )
     .unwrap();
     let m = MerlFile::read(&path).unwrap();

@@ -323,10 +323,7 @@ pub(super) fn incidence_figure(data: &Dataset, fam: &FamilyFit, j: usize) -> Fig
     let hidden = measured.iter().filter(|p| !plottable(p)).count();
     let measured: Vec<(f64, f64)> = measured.into_iter().filter(plottable).collect();
     // The paper's two models, and the selected member if it is neither.
-    let mut wanted = vec![
-        Kind::TorranceSparrow.member(),
-        Kind::ThreeComponent.member(),
-    ];
+    let mut wanted = vec![Member::TORRANCE_SPARROW, Member::THREE_COMPONENT];
     if !wanted.contains(&fam.selected_member) {
         wanted.push(fam.selected_member);
     }

@@ -166,7 +166,13 @@ fn a_campaign_fits_every_sweep_and_skips_the_bad_one() {
     let summary = std::fs::read_to_string(out.join("summary.csv")).unwrap();
     let rows: Vec<&str> = summary.lines().collect();
     assert_eq!(rows.len(), 4, "{summary}");
-    assert!(rows[0].starts_with("file,status,selected,readings,incidences,sigma,sigma_se"));
+    assert!(
+        rows[0].starts_with(
+            "file,status,selected_member,readings,incidences,sigma,sigma_se,sigma_haze,sigma_haze_se"
+        ),
+        "{}",
+        rows[0]
+    );
     assert!(rows[1].contains(",ok,three-component"), "{}", rows[1]);
     assert!(rows[2].contains(",error,"), "{}", rows[2]);
     assert!(rows[3].contains(",ok,three-component"), "{}", rows[3]);
@@ -174,6 +180,11 @@ fn a_campaign_fits_every_sweep_and_skips_the_bad_one() {
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     let sigma = v["files"][0]["params"]["sigma"]["value"].as_f64().unwrap();
     assert!((sigma / 0.115 - 1.0).abs() < 0.02, "{sigma}");
+    assert_eq!(v["files"][0]["selected_member"], "three-component");
+    assert_eq!(
+        v["files"][0]["selected_components"],
+        serde_json::json!(["specular", "directional-diffuse", "ideal-diffuse"])
+    );
     assert!(out.join("fe-0.115.txt").is_file() && out.join("cu.txt").is_file());
     // --plot needs one sweep.
     let o = gonio(&[

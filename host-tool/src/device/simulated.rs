@@ -36,8 +36,9 @@ pub struct SimConfig {
     pub seed: u32,
     /// Firmware version the simulated device reports.
     pub firmware: [u8; 3],
-    /// On a pty: run this many times faster than real time (`None`: as fast as
-    /// possible, waits cost nothing). In-process devices always run as fast as possible.
+    /// On a pty: run this many times faster than real time, or slower when the machine
+    /// cannot keep up (device time never skips ahead of the controller) (`None`: as
+    /// fast as possible, waits cost nothing). In-process devices always run as fast as possible.
     pub speed: Option<f64>,
     /// A Lambertian reference standard of this reflectance factor beside the sample
     /// (`Mount(Reference)` puts it in the beam; see `brdf_core::sim::SIM_K`).
@@ -178,17 +179,20 @@ impl PtyDevice {
             let mut port = PtyMaster(master);
             let started = std::time::Instant::now();
             let mut now_us = 0u64;
+            // When the controller asked to be called again (None: idle).
+            let mut next_at: Option<u64> = None;
             while !flag.load(Ordering::Relaxed) {
                 if let Some(speed) = speed {
-                    // The device's clock follows the wall clock, but never leaps: a thread
-                    // descheduled on a loaded machine would otherwise see seconds pass at
-                    // once and time out a homing whose steps it never had the chance to
-                    // take. A real device is never paused; this one runs late instead.
-                    let wall_us = (started.elapsed().as_secs_f64() * speed * 1e6) as u64;
-                    let leap = (MAX_CLOCK_LEAP.as_secs_f64() * speed * 1e6) as u64;
-                    now_us = now_us.max(wall_us.min(now_us + leap));
+                    let wall = (started.elapsed().as_secs_f64() * speed * 1e6) as u64;
+                    // A thread starved of CPU (a loaded machine) does not skip device
+                    // time: the clock goes no further than the controller's next
+                    // wake-up, so the device runs slower instead of timing out its
+                    // homing with the arms still on their way.
+                    now_us = now_us.max(next_at.map_or(wall, |at| wall.min(at)));
                 }
-                match (service.poll(&mut port, now_us), speed) {
+                let poll = service.poll(&mut port, now_us);
+                next_at = poll;
+                match (poll, speed) {
                     (Some(at), None) => now_us = now_us.max(at),
                     (Some(at), Some(speed)) if at > now_us => {
                         let wall = Duration::from_secs_f64((at - now_us) as f64 / speed / 1e6);
@@ -224,10 +228,6 @@ impl Drop for PtyDevice {
         }
     }
 }
-
-/// The most wall time the simulated device's clock advances between two polls (more
-/// than the longest wait between them, 20 ms, so an unloaded device keeps wall time).
-const MAX_CLOCK_LEAP: Duration = Duration::from_millis(50);
 
 struct PtyMaster(File);
 

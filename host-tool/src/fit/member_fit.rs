@@ -1058,6 +1058,8 @@ fn point_cost(
 /// (relative, a one-dimensional Gauss–Newton estimate) is released, started at that
 /// estimate, and LM run again: the result satisfies the bound's optimality condition
 /// to that tolerance. Returns the cost, the optimum and whether LM converged.
+// x, the pins and the bounds are parallel arrays indexed together.
+#[allow(clippy::needless_range_loop)]
 fn refine(p: &mut Problem<'_>, x0: Vec<f64>, lm: &LmOptions) -> Option<(f64, Vec<f64>, bool)> {
     let mut x = x0;
     let mut probe = true;

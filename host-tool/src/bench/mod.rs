@@ -9,5 +9,8 @@ pub mod table;
 pub mod variants;
 
 pub use chart::speed_vs_error;
-pub use study::{FitResultRow, PlanResult, StudyError, fit_study, plan_study};
+pub use study::{
+    FitResultRow, MemberRow, PlanResult, ScaleRow, StudyError, fit_study, member_study, plan_study,
+    scale_study,
+};
 pub use variants::{VariantResult, bench_params, dense_grid, eval_grid, naive, run};

@@ -227,3 +227,159 @@ pub fn fit_study() -> Result<Vec<FitResultRow>> {
     }
     Ok(table)
 }
+
+/// One sweep size: the whole default family's fit time and the three-component
+/// member's, one core (the fit's own threads are not used: `RAYON_NUM_THREADS=1`
+/// gives the per-core figure; the study times in the calling thread's pool).
+#[derive(Debug, Clone, Serialize)]
+pub struct ScaleRow {
+    /// Readings.
+    pub readings: usize,
+    /// Distinct incidences.
+    pub incidences: usize,
+    /// Milliseconds for the whole default family (best of the repeats).
+    pub family_ms: f64,
+    /// Microseconds per reading for the family.
+    pub family_us_per_reading: f64,
+    /// Milliseconds for the three-component member alone.
+    pub three_ms: f64,
+}
+
+/// One member of the default family on the Scatterworks test data: fit time and the
+/// paper's Table-3 RMSE (speed against error per member).
+#[derive(Debug, Clone, Serialize)]
+pub struct MemberRow {
+    /// The member.
+    pub member: String,
+    /// Milliseconds to fit it alone (best of the repeats; bases not shared).
+    pub ms: f64,
+    /// Table-3 RMSE.
+    pub rmse: f64,
+    /// Selected by the family.
+    pub selected: bool,
+}
+
+fn best_ms(reps: usize, mut f: impl FnMut()) -> f64 {
+    let mut best = f64::INFINITY;
+    for _ in 0..reps {
+        let t = Instant::now();
+        f();
+        best = best.min(t.elapsed().as_secs_f64() * 1e3);
+    }
+    best
+}
+
+/// A simulated fe-0.115 sweep, 0.5 % noise: `n_inc` incidences in [0, 80] degrees,
+/// `n_det` detector angles in [-85, 85].
+fn scale_sweep(n_inc: usize, n_det: usize) -> Dataset {
+    let preset = Preset::by_name("fe-0.115").expect("preset");
+    let inc: Vec<f64> = (0..n_inc)
+        .map(|k| 80.0 * k as f64 / (n_inc.max(2) - 1) as f64)
+        .collect();
+    let det: Vec<f64> = (0..n_det)
+        .map(|k| -85.0 + 170.0 * k as f64 / (n_det.max(2) - 1) as f64)
+        .collect();
+    let rows = crate::fit::data::synthetic_sweep(
+        &inc,
+        |_| det.clone(),
+        |ti| preset.model(ti).expect("preset model"),
+        0.005,
+        7,
+    );
+    Dataset::from_rows(&rows, true).expect("simulated sweep")
+}
+
+/// Fit time against readings (9 incidences, 17 to 11,111 detector angles: 153 to
+/// 10^5 readings) and against incidences (17 detector angles, 9 to 900 incidences),
+/// the whole default family and the three-component member, on the caller's thread
+/// pool (run it with one thread for per-core figures).
+pub fn scale_study() -> Result<Vec<ScaleRow>> {
+    use crate::fit::member_fit::fit_member;
+    use brdf_core::member::Member;
+    let sizes = [
+        (9, 17),
+        (9, 35),
+        (9, 161),
+        (9, 1111),
+        (9, 11111),
+        (90, 179),
+        (45, 17),
+        (90, 17),
+        (450, 17),
+        (900, 17),
+    ];
+    let mut out = Vec::new();
+    for (n_inc, n_det) in sizes {
+        let data = scale_sweep(n_inc, n_det);
+        let n = data.obs.len();
+        let reps = if n > 20_000 {
+            1
+        } else if n > 2_000 {
+            3
+        } else {
+            10
+        };
+        let opts = FitOptions::default();
+        let mut err = None;
+        let family_ms = best_ms(reps, || {
+            if let Err(e) = crate::fit::fit_family(&data, &opts, &Kind::ALL) {
+                err = Some(e);
+            }
+        });
+        if let Some(e) = err {
+            return Err(StudyError::Failed(e));
+        }
+        let three_ms = best_ms(reps, || {
+            let _ = fit_member(
+                &data,
+                Member::THREE_COMPONENT,
+                crate::fit::Residual::Log,
+                None,
+            );
+        });
+        out.push(ScaleRow {
+            readings: n,
+            incidences: data.incidences.len(),
+            family_ms,
+            family_us_per_reading: family_ms * 1e3 / n as f64,
+            three_ms,
+        });
+    }
+    Ok(out)
+}
+
+/// The Scatterworks 532 nm sweep of the repository's test data (MIT licence,
+/// provenance in host-tool/tests/data/README.md), built into the binary.
+const SCATTERWORKS: &[u8] =
+    include_bytes!("../../tests/data/scatterworks-solar-array-532nm.sweep.csv");
+
+/// Speed against error per member: every member the default family fits on the
+/// Scatterworks test data, each fitted alone, its time and Table-3 RMSE; and the whole
+/// family's time (milliseconds).
+pub fn member_study() -> Result<(Vec<MemberRow>, f64)> {
+    use crate::fit::member_fit::fit_member;
+    let rows = crate::sweep_file::parse_sweep(SCATTERWORKS)
+        .map_err(|(line, e)| StudyError::Failed(format!("test data line {line}: {e}")))?
+        .rows;
+    let data = Dataset::from_rows(&rows, true).map_err(|e| StudyError::Failed(e.0))?;
+    let opts = FitOptions::default();
+    let mut fam = None;
+    let family_ms = best_ms(5, || {
+        fam = crate::fit::fit_family(&data, &opts, &Kind::ALL).ok();
+    });
+    let fam = fam.ok_or_else(|| StudyError::Failed("family fit failed".into()))?;
+    let mut out = Vec::new();
+    for f in &fam.members {
+        let m = f.member();
+        let ms = best_ms(3, || {
+            let _ = fit_member(&data, m, crate::fit::Residual::Log, None);
+        });
+        out.push(MemberRow {
+            member: m.to_string(),
+            ms,
+            rmse: f.rmse.unwrap_or(f64::NAN),
+            selected: m == fam.selected_member,
+        });
+    }
+    Ok((out, family_ms))
+}

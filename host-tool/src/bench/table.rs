@@ -50,3 +50,40 @@ pub fn fits_table(fits: &[FitResultRow]) -> String {
     }
     t
 }
+
+/// The scale study's table (fit time against readings and incidences).
+pub fn scale_table(rows: &[super::ScaleRow]) -> String {
+    let mut t = format!(
+        "\n{:>9} {:>10} {:>12} {:>14} {:>12}\n",
+        "readings", "incidences", "family ms", "us/reading", "three ms"
+    );
+    for r in rows {
+        t.push_str(&format!(
+            "{:>9} {:>10} {:>12.2} {:>14.2} {:>12.3}\n",
+            r.readings, r.incidences, r.family_ms, r.family_us_per_reading, r.three_ms
+        ));
+    }
+    t.push_str("fe-0.115 simulated, 0.5 % noise; whole default family and the three-component member; best of repeats\n");
+    t
+}
+
+/// Speed against error per member on the Scatterworks test data.
+pub fn members_table(rows: &[super::MemberRow], family_ms: f64) -> String {
+    let mut t = format!(
+        "\n{:<86} {:>9} {:>10}\n",
+        "member (Scatterworks 532 nm, 716 readings)", "ms", "RMSE"
+    );
+    for r in rows {
+        let mark = if r.selected { " (selected)" } else { "" };
+        t.push_str(&format!(
+            "{:<86} {:>9.2} {:>10.5}\n",
+            format!("{}{mark}", r.member),
+            r.ms,
+            r.rmse
+        ));
+    }
+    t.push_str(&format!(
+        "whole family (bases shared, members on the pool's threads): {family_ms:.2} ms\n"
+    ));
+    t
+}

@@ -23,8 +23,10 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = 0.3, value_name = "S")]
     pub seconds: f64,
     /// Also run the slower studies: readings against fit error for uniform and
-    /// adaptive plans, and fit time against error across tolerances and start counts
-    /// (about half a minute).
+    /// adaptive plans, fit time against error across tolerances and start counts, fit
+    /// time against readings (153 to 10^5) and incidences, and speed against error per
+    /// member on the Scatterworks test data (a minute or two; run with
+    /// RAYON_NUM_THREADS=1 for per-core figures).
     #[arg(long)]
     pub study: bool,
     /// Write the speed-against-error chart of the variants as a PNG.
@@ -52,8 +54,15 @@ pub fn run(args: &BenchArgs) -> CliResult {
     } else {
         (None, None)
     };
+    let (scale, members) = if args.study {
+        (Some(bench::scale_study()?), Some(bench::member_study()?))
+    } else {
+        (None, None)
+    };
     let text = if args.json {
-        let v = serde_json::json!({"variants": rows, "plans": plans, "fits": fits});
+        let v = serde_json::json!({"variants": rows, "plans": plans, "fits": fits,
+            "scale": scale, "members": members.as_ref().map(|m| &m.0),
+            "family_ms_scatterworks": members.as_ref().map(|m| m.1)});
         serde_json::to_string_pretty(&v).expect("JSON of numbers") + "\n"
     } else {
         let mut t = table::variants_table(&rows);
@@ -62,6 +71,12 @@ pub fn run(args: &BenchArgs) -> CliResult {
         }
         if let Some(fits) = &fits {
             t.push_str(&table::fits_table(fits));
+        }
+        if let Some(scale) = &scale {
+            t.push_str(&table::scale_table(scale));
+        }
+        if let Some((m, ms)) = &members {
+            t.push_str(&table::members_table(m, *ms));
         }
         t
     };

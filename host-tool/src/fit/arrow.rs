@@ -231,6 +231,45 @@ impl Normal {
         }
     }
 
+    /// Adds one group's contribution given as its blocks instead of its rows: `u` to
+    /// the global block (row-major `n_global^2`), `w` to the group's coupling
+    /// (`n_global x n_local`), `v` to its local block, `g` to the gradient (globals then
+    /// the group's locals) and `cost` to `r^T r`. The same as streaming rows whose sums
+    /// these are (a linear problem whose moments are known).
+    pub fn add_group(
+        &mut self,
+        group: usize,
+        u: &[f64],
+        w: &[f64],
+        v: &[f64],
+        g: &[f64],
+        cost: f64,
+    ) {
+        let s = &self.shape;
+        let ng = s.n_global;
+        let Block { nl, lo, vb, wb, .. } = s.block(group);
+        debug_assert_eq!(u.len(), ng * ng);
+        debug_assert_eq!(w.len(), ng * nl);
+        debug_assert_eq!(v.len(), nl * nl);
+        debug_assert_eq!(g.len(), ng + nl);
+        self.cost += cost;
+        for (a, b) in self.u.iter_mut().zip(u) {
+            *a += b;
+        }
+        for (a, b) in self.w[wb..wb + ng * nl].iter_mut().zip(w) {
+            *a += b;
+        }
+        for (a, b) in self.v[vb..vb + nl * nl].iter_mut().zip(v) {
+            *a += b;
+        }
+        for (a, b) in self.g[..ng].iter_mut().zip(&g[..ng]) {
+            *a += b;
+        }
+        for (a, b) in self.g[lo..lo + nl].iter_mut().zip(&g[ng..]) {
+            *a += b;
+        }
+    }
+
     /// `x^T (J^T J) x`, in O(parameters x globals).
     pub fn quad(&self, x: &[f64]) -> f64 {
         let s = &self.shape;

@@ -20,10 +20,12 @@ use brdf_core::member_model::{
 };
 use nalgebra::{DMatrix, DVector};
 
-use super::arrow::{ArrowInverse, Normal, RowSink, Shape};
+use std::sync::OnceLock;
+
+use super::arrow::{ArrowInverse, Normal, RowSink, Shape, Workspace};
 use super::data::{Dataset, Observation};
-use super::lm::{ArrowProblem, LmOptions, minimize};
-use super::solve::{Residual, paper_rmse_with, residual_of, solve_linear};
+use super::lm::{ArrowProblem, LmOptions, Termination, minimize};
+use super::solve::{Residual, paper_rmse_with, residual_of, solve_linear_into};
 
 /// Core-lobe widths of the grid: log-spaced, sigma 0.002..1.
 pub fn core_grid() -> Vec<f64> {
@@ -144,6 +146,12 @@ impl Layout {
         self.n_global + j * self.n_local() + usize::from(haze && self.core_local)
     }
 
+    /// Parameter `i` is a linear amplitude (k_dd, k_id or a per-incidence k_s) in its
+    /// log coordinate.
+    pub fn is_amplitude(&self, i: usize) -> bool {
+        Some(i) == self.kdd || Some(i) == self.kid || i >= self.n_global
+    }
+
     /// The haze width is a ratio to the core's (see [`Layout::sigma_haze`]).
     pub fn haze_ratio(&self) -> bool {
         self.sigma.is_some() && self.sigma_haze.is_some()
@@ -251,6 +259,8 @@ struct Problem<'a> {
     residual: Residual,
     resid: &'a Residuals,
     aperture: Option<f64>,
+    /// Parameters held where they are (their Jacobian columns zeroed).
+    pinned: Vec<bool>,
 }
 
 /// The model at a reading: the point value, or its average over the detector's
@@ -354,6 +364,16 @@ impl ArrowProblem for Problem<'_> {
                 if l.haze_local {
                     jl[n] = scale * g.haze.ln_ks;
                     n += 1;
+                }
+                for (i, v) in jg.iter_mut().enumerate() {
+                    if self.pinned[i] {
+                        *v = 0.0;
+                    }
+                }
+                for (s, v) in jl[..n].iter_mut().enumerate() {
+                    if self.pinned[l.n_global + j * n + s] {
+                        *v = 0.0;
+                    }
                 }
                 let r = self.resid.of(e.f, k, o.y);
                 sink.row(j, r, &jg, &jl[..n]);
@@ -506,58 +526,255 @@ fn unit_lobe(dist: Distribution, sigma: f64) -> MemberParams<f64> {
     }
 }
 
-/// Non-negative amplitudes for fixed widths: weighted (1/y) linear least squares with
-/// k_dd, k_id global and each lobe's k_s local to its incidence, columns that come out
-/// negative removed and the rest solved again (a few passes of an active set). Returns
-/// `[k_s core, k_s haze]` per incidence, k_dd, k_id, and the cost of the result.
-#[allow(clippy::type_complexity)]
-fn amplitudes(
-    data: &Dataset,
-    residual: &Residuals,
-    lobes: [Option<&[f64]>; 2],
-    dd: Option<&[f64]>,
-    ideal: bool,
-) -> Option<(Vec<[f64; 2]>, f64, f64, f64)> {
-    let n_inc = data.incidences.len();
-    let nl = lobes.iter().filter(|l| l.is_some()).count();
-    let ng = usize::from(dd.is_some()) + usize::from(ideal);
-    let shape = Shape::new(ng, (0..n_inc).map(|_| nl));
-    // The normal equations once; each pass of the active set holds the columns it
-    // removed at zero (the same as zeroing them in J) on a copy.
-    let mut normal = Normal::new(shape.clone());
-    for j in 0..n_inc {
-        let base = shape.local_offset(j);
-        debug_assert_eq!(base, ng + j * nl);
-        for &k in data.rows_of(j) {
-            let o = &data.obs[k];
-            let w = if o.y > 0.0 { 1.0 / o.y } else { 1.0 };
-            let mut jg = [0.0; 2];
-            let mut c = 0;
-            if let Some(b) = dd {
-                jg[c] = b[k] * w;
-                c += 1;
-            }
-            if ideal {
-                jg[c] = w;
-            }
-            let mut jl = [0.0; 2];
-            for (s, b) in lobes.iter().flatten().enumerate() {
-                jl[s] = b[k] * w;
-            }
-            normal.row(j, -o.y * w, &jg[..ng], &jl[..nl]);
+/// One unit basis of the grid at every reading, with its per-incidence moments under
+/// the grid's weights w = 1/y: sum w^2 b^2, sum w^2 b, sum w^2 b y.
+#[derive(Debug)]
+struct Basis {
+    b: Vec<f64>,
+    bb: Vec<f64>,
+    b1: Vec<f64>,
+    by: Vec<f64>,
+}
+
+/// The grid's unit bases of one dataset (every lobe width of [`core_grid`] and
+/// [`haze_grid`] per distribution, every sigma_m of [`SIGMA_M_GRID`]), each evaluated
+/// once, on first use, and shared by every member fitted to the data: the family's
+/// members share their lobes, so the transcendental functions of a basis are computed
+/// once per reading and width, not once per member. With the moments of each basis the
+/// normal equations of any grid point are assembled per incidence in O(incidences),
+/// without a pass over the readings.
+#[derive(Debug)]
+pub struct GridBases<'a> {
+    data: &'a Dataset,
+    aperture: Option<f64>,
+    /// w^2 per reading.
+    w2: Vec<f64>,
+    /// Per incidence: sum w^2, sum w^2 y, sum w^2 y^2.
+    m11: Vec<f64>,
+    m1y: Vec<f64>,
+    myy: Vec<f64>,
+    /// [role (core, haze)][distribution]: one basis per width of the role's grid.
+    lobes: [[OnceLock<Vec<Option<Basis>>>; 2]; 2],
+    dd: OnceLock<Vec<Option<Basis>>>,
+}
+
+impl<'a> GridBases<'a> {
+    /// The bases of `data` (the model averaged over the detector's `aperture`, degrees).
+    pub fn new(data: &'a Dataset, aperture: Option<f64>) -> Self {
+        let n_inc = data.incidences.len();
+        let w2: Vec<f64> = data
+            .obs
+            .iter()
+            .map(|o| if o.y > 0.0 { 1.0 / (o.y * o.y) } else { 1.0 })
+            .collect();
+        let (mut m11, mut m1y, mut myy) = (vec![0.0; n_inc], vec![0.0; n_inc], vec![0.0; n_inc]);
+        for (o, &w) in data.obs.iter().zip(&w2) {
+            m11[o.inc] += w;
+            m1y[o.inc] += w * o.y;
+            myy[o.inc] += w * o.y * o.y;
+        }
+        GridBases {
+            data,
+            aperture,
+            w2,
+            m11,
+            m1y,
+            myy,
+            lobes: Default::default(),
+            dd: OnceLock::new(),
         }
     }
-    let mut off = vec![false; shape.n_params()];
-    let mut sol = vec![0.0; shape.n_params()];
-    let mut held = normal.clone();
-    for _ in 0..4 {
-        held.clone_from(&normal);
-        for (i, _) in off.iter().enumerate().filter(|(_, o)| **o) {
-            held.hold(i);
+
+    /// The data.
+    pub fn data(&self) -> &'a Dataset {
+        self.data
+    }
+
+    fn basis(&self, b: Vec<f64>) -> Basis {
+        let n_inc = self.data.incidences.len();
+        let (mut bb, mut b1, mut by) = (vec![0.0; n_inc], vec![0.0; n_inc], vec![0.0; n_inc]);
+        for ((o, &w), &v) in self.data.obs.iter().zip(&self.w2).zip(&b) {
+            let wv = w * v;
+            bb[o.inc] += wv * v;
+            b1[o.inc] += wv;
+            by[o.inc] += wv * o.y;
         }
-        sol = solve_linear(&held)?;
+        Basis { b, bb, b1, by }
+    }
+
+    /// The lobe bases of `role` (0 core, 1 haze) for `dist`, one per grid width.
+    fn lobes(&self, role: usize, dist: Distribution) -> &[Option<Basis>] {
+        let d = usize::from(dist == Distribution::Ggx);
+        self.lobes[role][d].get_or_init(|| {
+            let widths = if role == 0 { core_grid() } else { haze_grid() };
+            widths
+                .into_iter()
+                .map(|w| {
+                    basis_of(self.data, unit_lobe(dist, w), self.aperture, |b| b.core)
+                        .map(|b| self.basis(b))
+                })
+                .collect()
+        })
+    }
+
+    fn dd(&self) -> &[Option<Basis>] {
+        self.dd.get_or_init(|| {
+            SIGMA_M_GRID
+                .iter()
+                .map(|&sm| {
+                    let p = MemberParams {
+                        core: None,
+                        haze: None,
+                        directional: Some(DirectionalParams {
+                            kdd: 1.0,
+                            sigma_m: sm,
+                        }),
+                        ideal: None,
+                    };
+                    basis_of(self.data, p, self.aperture, |b| b.directional).map(|b| self.basis(b))
+                })
+                .collect()
+        })
+    }
+
+    /// Per incidence: sum w^2 a b.
+    fn cross(&self, a: &Basis, b: &Basis) -> Vec<f64> {
+        let mut m = vec![0.0; self.data.incidences.len()];
+        for (k, o) in self.data.obs.iter().enumerate() {
+            m[o.inc] += self.w2[k] * a.b[k] * b.b[k];
+        }
+        m
+    }
+}
+
+/// The non-negative amplitudes of one grid point: per incidence `[k_s core, k_s haze]`,
+/// k_dd, k_id (0 where the active set removed the column).
+#[derive(Debug, Clone)]
+struct Amplitudes {
+    ks: Vec<[f64; 2]>,
+    kdd: f64,
+    kid: f64,
+}
+
+/// The functions of one grid point, by their moments.
+struct Point<'b> {
+    /// Core, haze lobe bases (when on).
+    lobes: [Option<&'b Basis>; 2],
+    /// Cross moment core-haze per incidence.
+    ch: Option<&'b [f64]>,
+    dd: Option<&'b Basis>,
+    /// Cross moments core-dd, haze-dd.
+    ld: [Option<&'b [f64]>; 2],
+    ideal: bool,
+}
+
+/// Reused storage of the grid's solves (a grid point allocates nothing).
+struct GridScratch {
+    normal: Normal,
+    held: Normal,
+    ws: Workspace,
+    d: Vec<f64>,
+    sol: Vec<f64>,
+    off: Vec<bool>,
+}
+
+impl GridScratch {
+    fn new(shape: Shape) -> Self {
+        let np = shape.n_params();
+        let normal = Normal::new(shape);
+        GridScratch {
+            held: normal.clone(),
+            normal,
+            ws: Workspace::default(),
+            d: Vec::new(),
+            sol: vec![0.0; np],
+            off: vec![false; np],
+        }
+    }
+}
+
+/// Non-negative amplitudes for fixed widths: weighted (w = 1/y) linear least squares
+/// with k_dd, k_id global and each lobe's k_s local to its incidence, the normal
+/// equations assembled from the bases' moments per incidence; columns that come out
+/// negative are removed and the rest solved again (a few passes of an active set).
+/// Leaves the solution in `s.sol` (0 for removed columns) and returns its weighted
+/// cost `sum w^2 (f - y)^2`.
+fn solve_point(g: &GridBases<'_>, p: &Point<'_>, s: &mut GridScratch) -> Option<f64> {
+    let n_inc = g.data.incidences.len();
+    s.normal.clear();
+    let ng = usize::from(p.dd.is_some()) + usize::from(p.ideal);
+    let on: Vec<usize> = (0..2).filter(|&r| p.lobes[r].is_some()).collect();
+    let nl = on.len();
+    let (mut u, mut w, mut v, mut gr) = ([0.0; 4], [0.0; 4], [0.0; 4], [0.0; 4]);
+    for j in 0..n_inc {
+        // Globals: dd (if on), then ideal (if on).
+        let mut a = 0;
+        let mut gm: [(f64, f64, [f64; 2]); 2] = [(0.0, 0.0, [0.0; 2]); 2];
+        // (self moment, y moment, moments with each local lobe) of each global.
+        if let Some(d) = p.dd {
+            let mut with = [0.0; 2];
+            for (l, &r) in on.iter().enumerate() {
+                with[l] = p.ld[r].map_or(0.0, |m| m[j]);
+            }
+            gm[a] = (d.bb[j], d.by[j], with);
+            a += 1;
+        }
+        if p.ideal {
+            let mut with = [0.0; 2];
+            for (l, &r) in on.iter().enumerate() {
+                with[l] = p.lobes[r].map_or(0.0, |b| b.b1[j]);
+            }
+            gm[a] = (g.m11[j], g.m1y[j], with);
+        }
+        if ng == 2 {
+            // dd x ideal.
+            let c = p.dd.map_or(0.0, |d| d.b1[j]);
+            u = [gm[0].0, c, c, gm[1].0];
+        } else if ng == 1 {
+            u[0] = gm[0].0;
+        }
+        for a in 0..ng {
+            gr[a] = -gm[a].1;
+            for l in 0..nl {
+                w[a * nl + l] = gm[a].2[l];
+            }
+        }
+        for (l, &r) in on.iter().enumerate() {
+            let b = p.lobes[r]?;
+            v[l * nl + l] = b.bb[j];
+            gr[ng + l] = -b.by[j];
+        }
+        if nl == 2 {
+            let c = p.ch.map_or(0.0, |m| m[j]);
+            v[1] = c;
+            v[2] = c;
+        }
+        s.normal.add_group(
+            j,
+            &u[..ng * ng],
+            &w[..ng * nl],
+            &v[..nl * nl],
+            &gr[..ng + nl],
+            g.myy[j],
+        );
+    }
+    s.off.fill(false);
+    for pass in 0..4 {
+        // The first pass holds nothing: solve the assembled equations themselves.
+        let eqs = if pass == 0 {
+            &s.normal
+        } else {
+            s.held.clone_from(&s.normal);
+            for (i, _) in s.off.iter().enumerate().filter(|(_, o)| **o) {
+                s.held.hold(i);
+            }
+            &s.held
+        };
+        if !solve_linear_into(eqs, &mut s.ws, &mut s.d, &mut s.sol) {
+            return None;
+        }
         let mut changed = false;
-        for (v, o) in sol.iter_mut().zip(off.iter_mut()) {
+        for (v, o) in s.sol.iter_mut().zip(s.off.iter_mut()) {
             if *o || *v < 0.0 {
                 changed |= !*o;
                 *o = true;
@@ -568,58 +785,73 @@ fn amplitudes(
             break;
         }
     }
-    let floor = 1e-9
-        * data
-            .obs
-            .iter()
-            .map(|o| o.y.abs())
-            .fold(0.0, f64::max)
-            .max(1e-300);
-    let mut c = 0;
-    let kdd = dd.map_or(0.0, |_| {
-        c += 1;
-        sol[c - 1].max(floor)
-    });
-    let kid = if ideal { sol[c].max(floor) } else { 0.0 };
-    let ks: Vec<[f64; 2]> = (0..n_inc)
-        .map(|j| {
-            let base = shape.local_offset(j);
-            let mut k = [0.0; 2];
-            let mut s = 0;
-            for (slot, l) in lobes.iter().enumerate() {
-                if l.is_some() {
-                    k[slot] = sol[base + s].max(floor);
-                    s += 1;
-                }
-            }
-            k
-        })
-        .collect();
-    let mut cost = 0.0;
-    for (k, o) in data.obs.iter().enumerate() {
-        let mut f = kid + dd.map_or(0.0, |b| kdd * b[k]);
-        for (slot, l) in lobes.iter().enumerate() {
-            if let Some(b) = l {
-                f += ks[o.inc][slot] * b[k];
-            }
-        }
-        let r = residual.of(f, k, o.y);
-        cost += r * r;
-    }
-    Some((ks, kdd, kid, cost))
+    let gx: f64 = s
+        .sol
+        .iter()
+        .zip(s.normal.gradient())
+        .map(|(x, g)| x * g)
+        .sum();
+    let cost = (s.normal.cost() + 2.0 * gx + s.normal.quad(&s.sol)).max(0.0);
+    cost.is_finite().then_some(cost)
 }
 
+impl Amplitudes {
+    fn of(s: &GridScratch, p: &Point<'_>, n_inc: usize) -> Self {
+        let mut c = 0;
+        let kdd = p.dd.map_or(0.0, |_| {
+            c += 1;
+            s.sol[c - 1]
+        });
+        let kid = if p.ideal { s.sol[c] } else { 0.0 };
+        let ng = usize::from(p.dd.is_some()) + usize::from(p.ideal);
+        let nl = p.lobes.iter().filter(|l| l.is_some()).count();
+        let ks = (0..n_inc)
+            .map(|j| {
+                let mut k = [0.0; 2];
+                let mut n = 0;
+                for (slot, l) in p.lobes.iter().enumerate() {
+                    if l.is_some() {
+                        k[slot] = s.sol[ng + j * nl + n];
+                        n += 1;
+                    }
+                }
+                k
+            })
+            .collect();
+        Amplitudes { ks, kdd, kid }
+    }
+}
+
+/// An amplitude the grid's active set puts at zero starts LM at its lower bound and
+/// is held there (its column of J zeroed) unless, at LM's optimum, releasing it would
+/// lower the cost by more than this fraction (a one-dimensional Gauss–Newton estimate):
+/// in log coordinates a vanishing amplitude otherwise crawls towards its bound for
+/// tens of iterations without changing the fit.
+pub const RELEASE_GAIN: f64 = 1e-9;
+
 /// Fits `member` to `data`: the width grid with linear amplitudes, then LM from the
-/// [`REFINED`] best grid points. `None` when the data cannot determine it (fewer
-/// readings than parameters, a smooth k_s over fewer than 3 incidences) or every start
-/// failed. `aperture`: the detector's acceptance half-angle (degrees), over which the
-/// model is averaged before it is compared with the readings.
+/// [`REFINED`] best grid points. `None` when the data cannot determine it (fewer readings than parameters, a
+/// smooth k_s over fewer than 3 incidences) or every start failed. `aperture`: the
+/// detector's acceptance half-angle (degrees), over which the model is averaged before
+/// it is compared with the readings.
 pub fn fit_member(
     data: &Dataset,
     member: Member,
     residual: Residual,
     aperture: Option<f64>,
 ) -> Option<MemberFit> {
+    fit_member_with(&GridBases::new(data, aperture), member, residual)
+}
+
+/// [`fit_member`] with the grid's bases shared with other members fitted to the same
+/// data (see [`GridBases`]).
+pub fn fit_member_with(
+    bases: &GridBases<'_>,
+    member: Member,
+    residual: Residual,
+) -> Option<MemberFit> {
+    let data = bases.data;
+    let aperture = bases.aperture;
     let n_inc = data.incidences.len();
     let layout = Layout::new(member, n_inc);
     if layout.is_empty() || data.obs.len() <= layout.len() + 1 {
@@ -628,73 +860,93 @@ pub fn fit_member(
     if (layout.core_poly.is_some() || layout.haze_poly.is_some()) && n_inc < 3 {
         return None;
     }
-    let grid = |spec: Option<LobeSpec>, widths: Vec<f64>| -> Vec<(f64, Vec<f64>)> {
-        match spec {
-            None => vec![(1.0, Vec::new())],
-            Some(s) => widths
-                .into_iter()
-                .filter_map(|w| {
-                    Some((
-                        w,
-                        basis_of(data, unit_lobe(s.dist, w), aperture, |b| b.core)?,
-                    ))
-                })
-                .collect(),
-        }
+    let core_w = core_grid();
+    let haze_w = haze_grid();
+    let cores: Vec<Option<&Basis>> = match member.core {
+        Some(s) => bases.lobes(0, s.dist).iter().map(Option::as_ref).collect(),
+        None => vec![None],
     };
-    let cores = grid(member.core, core_grid());
-    let hazes = grid(member.haze, haze_grid());
-    let dds: Vec<(f64, Vec<f64>)> = if member.directional {
-        SIGMA_M_GRID
-            .iter()
-            .filter_map(|&sm| {
-                let p = MemberParams {
-                    core: None,
-                    haze: None,
-                    directional: Some(DirectionalParams {
-                        kdd: 1.0,
-                        sigma_m: sm,
-                    }),
-                    ideal: None,
-                };
-                Some((sm, basis_of(data, p, aperture, |b| b.directional)?))
-            })
-            .collect()
+    let hazes: Vec<Option<&Basis>> = match member.haze {
+        Some(s) => bases.lobes(1, s.dist).iter().map(Option::as_ref).collect(),
+        None => vec![None],
+    };
+    let dds: Vec<Option<&Basis>> = if member.directional {
+        bases.dd().iter().map(Option::as_ref).collect()
     } else {
-        vec![(1.0, Vec::new())]
+        vec![None]
     };
-    let resid = Residuals::new(data, residual);
-    // Every grid point's cost and amplitudes; start vectors only for the best.
-    type Start = (f64, [f64; 2], f64, Vec<[f64; 2]>, f64, f64);
-    let mut starts: Vec<Start> = Vec::new();
-    for (sc, bc) in &cores {
-        for (sh, bh) in &hazes {
-            if member.haze.is_some() && *sh < HAZE_OVER_CORE * sc {
-                continue;
+    let cross =
+        |a: Option<&Basis>, b: Option<&Basis>| -> Option<Vec<f64>> { Some(bases.cross(a?, b?)) };
+    let (nc, nh, nd) = (cores.len(), hazes.len(), dds.len());
+    let usable =
+        |ci: usize, hi: usize| member.haze.is_none() || haze_w[hi] >= HAZE_OVER_CORE * core_w[ci];
+    // Cross moments of the pairs a grid point can combine.
+    let ch: Vec<Option<Vec<f64>>> = (0..nc * nh)
+        .map(|k| {
+            let (ci, hi) = (k / nh, k % nh);
+            if usable(ci, hi) {
+                cross(cores[ci], hazes[hi])
+            } else {
+                None
             }
-            for (sm, bd) in &dds {
-                let lobes = [
-                    member.core.map(|_| bc.as_slice()),
-                    member.haze.map(|_| bh.as_slice()),
-                ];
-                let dd = member.directional.then_some(bd.as_slice());
-                let Some((ks, kdd, kid, cost)) = amplitudes(data, &resid, lobes, dd, member.ideal)
-                else {
+        })
+        .collect();
+    let cd: Vec<Option<Vec<f64>>> = (0..nc * nd)
+        .map(|k| cross(cores[k / nd], dds[k % nd]))
+        .collect();
+    let hd: Vec<Option<Vec<f64>>> = (0..nh * nd)
+        .map(|k| cross(hazes[k / nd], dds[k % nd]))
+        .collect();
+    let point = |ci: usize, hi: usize, si: usize| -> Option<Point<'_>> {
+        fn lobe(on: bool, b: Option<&Basis>) -> Option<Option<&Basis>> {
+            if on { b.map(Some) } else { Some(None) }
+        }
+        Some(Point {
+            lobes: [
+                lobe(member.core.is_some(), cores[ci])?,
+                lobe(member.haze.is_some(), hazes[hi])?,
+            ],
+            ch: ch[ci * nh + hi].as_deref(),
+            dd: if member.directional {
+                Some(dds[si]?)
+            } else {
+                None
+            },
+            ld: [cd[ci * nd + si].as_deref(), hd[hi * nd + si].as_deref()],
+            ideal: member.ideal,
+        })
+    };
+    let nl = usize::from(member.core.is_some()) + usize::from(member.haze.is_some());
+    let ng = usize::from(member.directional) + usize::from(member.ideal);
+    let mut scratch = GridScratch::new(Shape::new(ng, (0..n_inc).map(|_| nl)));
+    // The weighted cost of every grid point (infinite where skipped or failed).
+    let idx = |ci: usize, hi: usize, si: usize| (ci * nh + hi) * nd + si;
+    let resid = Residuals::new(data, residual);
+    let floor = 1e-9
+        * data
+            .obs
+            .iter()
+            .map(|o| o.y.abs())
+            .fold(0.0, f64::max)
+            .max(1e-300);
+    // Every grid point ranked by the fit's own cost at its (floored) amplitudes.
+    let mut cost = vec![f64::INFINITY; nc * nh * nd];
+    for ci in 0..nc {
+        for hi in (0..nh).filter(|&hi| usable(ci, hi)) {
+            for si in 0..nd {
+                let Some(pt) = point(ci, hi, si) else {
                     continue;
                 };
-                starts.push((cost, [*sc, *sh], *sm, ks, kdd, kid));
-                // Only the best few are ever refined: memory O(incidences), not
-                // O(grid points x incidences) (a spare in case a start vector fails).
-                if starts.len() > 2 * REFINED {
-                    starts.sort_by(|a, b| a.0.total_cmp(&b.0));
-                    starts.truncate(REFINED + 1);
+                if solve_point(bases, &pt, &mut scratch).is_some() {
+                    cost[idx(ci, hi, si)] = point_cost(bases, &pt, &scratch, &resid, floor);
                 }
             }
         }
     }
-    starts.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut starts: Vec<usize> = (0..cost.len()).filter(|&k| cost[k].is_finite()).collect();
+    starts.sort_by(|&a, &b| cost[a].total_cmp(&cost[b]));
+    let width = |spec: Option<LobeSpec>, w: &[f64], i: usize| spec.map_or(1.0, |_| w[i]);
     let lm = LmOptions::default();
-    let mut best: Option<(f64, Vec<f64>, Normal, bool)> = None;
     let mut p = Problem {
         data,
         shape: layout.shape(),
@@ -702,21 +954,47 @@ pub fn fit_member(
         residual,
         resid: &resid,
         aperture,
+        pinned: vec![false; layout.len()],
     };
-    let x0s = starts
-        .iter()
-        .filter_map(|(_, sig, sm, ks, kdd, kid)| {
-            start_vector(data, &layout, *sig, *sm, ks, *kdd, *kid)
-        })
-        .take(REFINED);
-    for x0 in x0s {
-        let rep = minimize(&mut p, &x0, &lm);
-        if rep.cost.is_finite() && best.as_ref().is_none_or(|b| rep.cost < b.0) {
-            best = Some((rep.cost, rep.x, rep.normal, rep.termination.converged()));
+    let mut best: Option<(f64, Vec<f64>, bool)> = None;
+    let mut refined = 0;
+    for k in starts {
+        if refined == REFINED {
+            break;
+        }
+        let (ci, hi, si) = (k / (nh * nd), (k / nd) % nh, k % nd);
+        let Some(pt) = point(ci, hi, si) else {
+            continue;
+        };
+        if solve_point(bases, &pt, &mut scratch).is_none() {
+            continue;
+        }
+        let amp = Amplitudes::of(&scratch, &pt, n_inc);
+        let sigmas = [
+            width(member.core, &core_w, ci),
+            width(member.haze, &haze_w, hi),
+        ];
+        let sm = if member.directional {
+            SIGMA_M_GRID[si]
+        } else {
+            1.0
+        };
+        let Some((x0, pinned)) = start_vector(data, &layout, sigmas, sm, &amp) else {
+            continue;
+        };
+        p.pinned = pinned;
+        refined += 1;
+        let Some((c, x, converged)) = refine(&mut p, x0, &lm) else {
+            continue;
+        };
+        if best.as_ref().is_none_or(|b| c < b.0) {
+            best = Some((c, x, converged));
         }
     }
-    let (ssr, x, mut normal, converged) = best?;
-    normal.clear();
+    let (ssr, x, converged) = best?;
+    // The covariance from the full Jacobian (held amplitudes included).
+    p.pinned.fill(false);
+    let mut normal = Normal::new(layout.shape());
     if !p.rows(&x, &mut normal) {
         return None;
     }
@@ -743,24 +1021,145 @@ pub fn fit_member(
     })
 }
 
+/// The cost of a grid point's solution in the fit's own residuals, every amplitude
+/// floored at `floor` as the start vector has it: what the starts are ranked by (the
+/// weighted linear cost the solve minimises misranks narrow lobes that fall between
+/// readings).
+fn point_cost(
+    g: &GridBases<'_>,
+    p: &Point<'_>,
+    s: &GridScratch,
+    resid: &Residuals,
+    floor: f64,
+) -> f64 {
+    let amp = Amplitudes::of(s, p, g.data.incidences.len());
+    let mut cost = 0.0;
+    for (k, o) in g.data.obs.iter().enumerate() {
+        let mut f = if p.ideal { amp.kid.max(floor) } else { 0.0 };
+        if let Some(d) = p.dd {
+            f += amp.kdd.max(floor) * d.b[k];
+        }
+        for (slot, l) in p.lobes.iter().enumerate() {
+            if let Some(b) = l {
+                f += amp.ks[o.inc][slot].max(floor) * b.b[k];
+            }
+        }
+        let r = resid.of(f, k, o.y);
+        cost += r * r;
+    }
+    cost
+}
+
+/// LM from `x0` with the pinned amplitudes held. LM is first given [`PROBE_ITERATIONS`]
+/// steps; an amplitude that fell by more than [`VANISHING`] in its log coordinate
+/// meanwhile is on its way to zero (in log coordinates it would crawl for tens of
+/// steps without changing the fit) and is pinned at its bound too. At the optimum each
+/// pinned amplitude whose release would lower the cost by more than [`RELEASE_GAIN`]
+/// (relative, a one-dimensional Gauss–Newton estimate) is released, started at that
+/// estimate, and LM run again: the result satisfies the bound's optimality condition
+/// to that tolerance. Returns the cost, the optimum and whether LM converged.
+// x, the pins and the bounds are parallel arrays indexed together.
+#[allow(clippy::needless_range_loop)]
+fn refine(p: &mut Problem<'_>, x0: Vec<f64>, lm: &LmOptions) -> Option<(f64, Vec<f64>, bool)> {
+    let mut x = x0;
+    let mut probe = true;
+    for _ in 0..6 {
+        let opts = LmOptions {
+            max_iterations: if probe {
+                PROBE_ITERATIONS
+            } else {
+                lm.max_iterations
+            },
+            ..*lm
+        };
+        let rep = minimize(p, &x, &opts);
+        if !rep.cost.is_finite() {
+            return None;
+        }
+        if probe && rep.termination == Termination::MaxIterations {
+            probe = false;
+            let l = &p.layout;
+            for i in 0..x.len() {
+                if !p.pinned[i] && l.is_amplitude(i) && rep.x[i] < x[i] - VANISHING {
+                    p.pinned[i] = true;
+                }
+            }
+            x = rep.x;
+            for i in 0..x.len() {
+                if p.pinned[i] {
+                    x[i] = p.layout.bounds(i).0;
+                }
+            }
+            continue;
+        }
+        x = rep.x;
+        if !p.pinned.iter().any(|&b| b) {
+            return Some((rep.cost, x, rep.termination.converged()));
+        }
+        let pinned = std::mem::replace(&mut p.pinned, vec![false; x.len()]);
+        let mut full = Normal::new(p.shape.clone());
+        let ok = p.rows(&x, &mut full);
+        p.pinned = pinned;
+        let mut released = false;
+        if ok {
+            for i in 0..x.len() {
+                let (g, d) = (full.gradient()[i], full.diag(i));
+                if p.pinned[i] && g < 0.0 && d > 0.0 && g * g / d > RELEASE_GAIN * rep.cost {
+                    p.pinned[i] = false;
+                    let (lo, hi) = p.layout.bounds(i);
+                    x[i] = (x[i] + (1.0 - g / d).ln()).clamp(lo, hi);
+                    released = true;
+                }
+            }
+        }
+        if !released {
+            return Some((rep.cost, x, rep.termination.converged()));
+        }
+        probe = false;
+    }
+    let rep = minimize(p, &x, lm);
+    rep.cost
+        .is_finite()
+        .then(|| (rep.cost, rep.x, rep.termination.converged()))
+}
+
+/// LM steps before vanishing amplitudes are looked for (see [`refine`]).
+pub const PROBE_ITERATIONS: usize = 15;
+
+/// A fall of an amplitude's log coordinate (a factor e^8, about 3000) that marks it
+/// as vanishing (see [`refine`]).
+pub const VANISHING: f64 = 8.0;
+
 /// The LM vector of a grid point: widths, the linear amplitudes, and for a smooth k_s
-/// the quadratic through the per-incidence ln k_s.
+/// the quadratic through the per-incidence ln k_s; and which amplitudes are held at
+/// their lower bound (those the grid's active set put at zero).
 fn start_vector(
     data: &Dataset,
     l: &Layout,
     sigmas: [f64; 2],
     sigma_m: f64,
-    ks: &[[f64; 2]],
-    kdd: f64,
-    kid: f64,
-) -> Option<Vec<f64>> {
+    amp: &Amplitudes,
+) -> Option<(Vec<f64>, Vec<bool>)> {
+    let floor = 1e-9
+        * data
+            .obs
+            .iter()
+            .map(|o| o.y.abs())
+            .fold(0.0, f64::max)
+            .max(1e-300);
     let mut x = vec![0.0; l.len()];
-    let mut put = |slot: Option<usize>, v: f64| {
+    let mut pinned = vec![false; l.len()];
+    let mut put = |slot: Option<usize>, v: f64, amplitude: bool| {
         if let Some(i) = slot {
-            x[i] = v.ln();
+            if amplitude && v <= 0.0 {
+                x[i] = l.bounds(i).0;
+                pinned[i] = true;
+            } else {
+                x[i] = v.max(floor).ln();
+            }
         }
     };
-    put(l.sigma, sigmas[0]);
+    put(l.sigma, sigmas[0], false);
     put(
         l.sigma_haze,
         if l.haze_ratio() {
@@ -768,23 +1167,25 @@ fn start_vector(
         } else {
             sigmas[1]
         },
+        false,
     );
-    put(l.sigma_m, sigma_m);
-    put(l.kdd, kdd);
-    put(l.kid, kid);
-    for (slot, (poly, local)) in [(l.core_poly, l.core_local), (l.haze_poly, l.haze_local)]
-        .into_iter()
-        .enumerate()
-    {
+    put(l.sigma_m, sigma_m, false);
+    put(l.kdd, amp.kdd, true);
+    put(l.kid, amp.kid, true);
+    let lobes = [(l.core_poly, l.core_local), (l.haze_poly, l.haze_local)];
+    for (slot, (_, local)) in lobes.into_iter().enumerate() {
         if local {
-            for (j, k) in ks.iter().enumerate() {
-                x[l.local(j, slot == 1)] = k[slot].ln();
+            for (j, k) in amp.ks.iter().enumerate() {
+                put(Some(l.local(j, slot == 1)), k[slot], true);
             }
         }
+    }
+    for (slot, (poly, _)) in lobes.into_iter().enumerate() {
         if let Some(p) = poly {
             let t: Vec<f64> = data.incidences.iter().map(|ti| ti / 90.0).collect();
             let design = DMatrix::from_fn(t.len(), 3, |r, c| t[r].powi(c as i32));
-            let lnks = DVector::from_iterator(t.len(), ks.iter().map(|k| k[slot].ln()));
+            let lnks =
+                DVector::from_iterator(t.len(), amp.ks.iter().map(|k| k[slot].max(floor).ln()));
             let c = design.svd(true, true).solve(&lnks, 1e-12).ok()?;
             x[p..p + 3].copy_from_slice(c.as_slice());
         }
@@ -793,7 +1194,7 @@ fn start_vector(
         let (lo, hi) = l.bounds(i);
         *u = u.clamp(lo, hi);
     }
-    Some(x)
+    Some((x, pinned))
 }
 
 #[cfg(test)]

@@ -38,7 +38,7 @@ pub use family::{Fixed, Kind, Names};
 pub use solve::{Fit, FitOptions, Loss, Residual, fit_kind};
 
 use goodness::Goodness;
-use member_fit::MemberFit;
+use member_fit::{GridBases, MemberFit};
 use select::{Candidate, Criterion, Selection};
 
 /// Every model of the family fitted to one dataset.
@@ -101,16 +101,17 @@ impl FamilyFit {
 pub const AICC_MARGIN: f64 = select::MARGIN;
 
 /// Fits every member in `members` (in parallel), noting those that cannot be fitted.
+/// The grid's unit bases are evaluated once and shared by the members ([`GridBases`]).
 fn fit_members(
-    data: &Dataset,
+    bases: &GridBases<'_>,
     members: &[Member],
     residual: Residual,
-    aperture: Option<f64>,
     notes: &mut Vec<String>,
 ) -> Vec<MemberFit> {
+    let data = bases.data();
     let fitted: Vec<Option<MemberFit>> = members
         .par_iter()
-        .map(|&m| member_fit::fit_member(data, m, residual, aperture))
+        .map(|&m| member_fit::fit_member_with(bases, m, residual))
         .collect();
     let mut out = Vec::new();
     for (m, f) in members.iter().zip(fitted) {
@@ -141,7 +142,8 @@ pub fn fit_family(data: &Dataset, opts: &FitOptions, kinds: &[Kind]) -> Result<F
     let mut fits = Vec::new();
     if grid {
         let stage_a = requested.clone().unwrap_or_else(family::default_members);
-        members = fit_members(data, &stage_a, opts.residual, aperture, &mut notes);
+        let bases = GridBases::new(data, aperture);
+        members = fit_members(&bases, &stage_a, opts.residual, &mut notes);
         if requested.is_none() {
             // Stage two: the selected component set's lobe variants (GGX, smooth k_s).
             let cands = candidates_of_members(data, &members, opts.residual);
@@ -150,13 +152,7 @@ pub fn fit_family(data: &Dataset, opts: &FitOptions, kinds: &[Kind]) -> Result<F
                     .into_iter()
                     .filter(|m| !stage_a.contains(m))
                     .collect();
-                members.extend(fit_members(
-                    data,
-                    &more,
-                    opts.residual,
-                    aperture,
-                    &mut notes,
-                ));
+                members.extend(fit_members(&bases, &more, opts.residual, &mut notes));
             }
             // Stage three: the selected member's haze with the other distribution.
             let cands = candidates_of_members(data, &members, opts.residual);

@@ -451,20 +451,33 @@ fn linear_start(
 /// ridge (relative to each diagonal element) when they are singular (a weight no point
 /// constrains).
 pub(super) fn solve_linear(normal: &Normal) -> Option<Vec<f64>> {
-    let d = normal.diagonal();
-    let mean = d.iter().sum::<f64>() / d.len().max(1) as f64;
-    let d: Vec<f64> = d
-        .iter()
-        .map(|&v| if v > 0.0 { v } else { mean.max(1e-300) })
-        .collect();
-    let mut ws = Workspace::default();
-    let mut x = vec![0.0; d.len()];
-    for ridge in [0.0, 1e-12, 1e-8] {
-        if solve_damped(normal, &d, ridge, &mut ws, &mut x) {
-            return Some(x);
+    let mut x = vec![0.0; normal.shape().n_params()];
+    solve_linear_into(normal, &mut Workspace::default(), &mut Vec::new(), &mut x).then_some(x)
+}
+
+/// [`solve_linear`] into `x` with caller-owned storage (`d`: the scaling), so that
+/// repeated solves allocate nothing.
+pub(super) fn solve_linear_into(
+    normal: &Normal,
+    ws: &mut Workspace,
+    d: &mut Vec<f64>,
+    x: &mut [f64],
+) -> bool {
+    let np = normal.shape().n_params();
+    d.clear();
+    d.extend((0..np).map(|i| normal.diag(i)));
+    let mean = d.iter().sum::<f64>() / np.max(1) as f64;
+    for v in d.iter_mut() {
+        if *v <= 0.0 {
+            *v = mean.max(1e-300);
         }
     }
-    None
+    for ridge in [0.0, 1e-12, 1e-8] {
+        if solve_damped(normal, d, ridge, ws, x) {
+            return true;
+        }
+    }
+    false
 }
 
 /// Fits one model. `None` when the data cannot support it (fewer points than

@@ -338,6 +338,11 @@ pub fn run(args: &FitArgs) -> CliResult {
             ExportFormat::Residuals => {
                 export::write_residuals(target, &data, &fam, member, opts.residual)?;
             }
+            ExportFormat::Mitsuba => {
+                // Any fitted member: the plugin reads brdf-core's member parameters.
+                let table = export::mitsuba::MemberTable::of_family(&fam, member)?;
+                export::mitsuba::write_mitsuba(target, &table)?;
+            }
             _ => {
                 let kind = fit::paper::kind_of(member).ok_or_else(|| {
                     CliError::usage(format!(

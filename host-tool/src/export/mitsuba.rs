@@ -26,9 +26,10 @@ use brdf_core::member_model::{DirectionalParams, Ks, LobeParams, MemberModel, Me
 use serde_json::{Map, Value, json};
 
 use super::{ExportError, write_atomic};
-use crate::fit::Fit;
 use crate::fit::member_fit::MemberFit;
+use crate::fit::{FamilyFit, Fit};
 use crate::outfile::Target;
+use crate::sweep_file::BrdfUnits;
 
 /// The plugin's source (the Python package's `gonio/mitsuba.py`).
 pub const PLUGIN: &str = include_str!("../../../python/gonio/mitsuba.py");
@@ -93,6 +94,34 @@ impl MemberTable {
                 .collect(),
             to_per_sr: None,
         }
+    }
+
+    /// The fitted `member` of `fam`, whatever member of the lattice it is: its grid fit
+    /// when the family fitted one, else its paper-form fit (`--fix`, robust losses).
+    /// In the fit's units: `to_per_sr` is 1 for data in 1/sr, `None` for relative.
+    /// [`ExportError::NotFitted`] names the fitted members when `member` is not one.
+    pub fn of_family(fam: &FamilyFit, member: Member) -> Result<Self, ExportError> {
+        let mut table = if let Some(f) = fam.member(member) {
+            Self::of_member_fit(f)
+        } else if let Some(f) = crate::fit::paper::kind_of(member).and_then(|k| fam.get(k)) {
+            Self::of_fit(f, &fam.incidences)
+        } else {
+            let mut fitted: Vec<String> =
+                fam.members.iter().map(|f| f.member().to_string()).collect();
+            if fitted.is_empty() {
+                fitted = fam.fits.iter().map(|f| f.kind.name().to_string()).collect();
+            }
+            return Err(ExportError::NotFitted(format!(
+                "model {member} was not fitted; fitted models: {}",
+                if fitted.is_empty() {
+                    "none".to_string()
+                } else {
+                    fitted.join(", ")
+                }
+            )));
+        };
+        table.to_per_sr = (fam.units == BrdfUnits::PerSr).then_some(1.0);
+        Ok(table)
     }
 
     /// The parameters at any incidence (degrees): per-incidence k_s linear in theta_i
@@ -474,6 +503,47 @@ mod tests {
         );
         let e = MemberTable::from_json("{").unwrap_err();
         assert!(e.starts_with("not JSON") && !e.contains('\n'), "{e}");
+    }
+
+    #[test]
+    fn any_fitted_member_of_a_family_is_exported_in_its_units() {
+        use crate::fit::{Dataset, FitOptions, Kind, fit_family};
+        let p = brdf_core::Preset::by_name("fe-0.115").unwrap();
+        let rows = crate::fit::data::synthetic_paper_sweep(|ti| p.model(ti).unwrap(), 0.0, 1);
+        let mut data = Dataset::from_rows(&rows, true).unwrap();
+        let haze =
+            Member::parse("specular:ggx:smooth-ks+specular-haze:beckmann+ideal-diffuse").unwrap();
+        let opts = FitOptions {
+            members: Some(vec![Kind::ThreeComponent.member(), haze]),
+            ..FitOptions::default()
+        };
+        let fam = fit_family(&data, &opts, &[Kind::ThreeComponent]).unwrap();
+        let t = MemberTable::of_family(&fam, haze).unwrap();
+        assert_eq!(t.member, haze);
+        assert_eq!(t.params[0].member(), haze);
+        assert_eq!(t.to_per_sr, None);
+        let g = Geometry::in_plane(40.0, 35.0).unwrap();
+        let fitted = fam.member(haze).unwrap();
+        let core = MemberModel::new(&fitted.layout.params(&fitted.x, 2)).unwrap();
+        let (a, b) = (
+            t.model_at(fam.incidences[2])
+                .unwrap()
+                .eval(40.0, &g)
+                .unwrap()
+                .f,
+            core.eval(40.0, &g).unwrap().f,
+        );
+        assert!((a / b - 1.0).abs() < 1e-12, "{a} {b}");
+        let other = Member::parse("specular:ggx+ideal-diffuse").unwrap();
+        let e = MemberTable::of_family(&fam, other).unwrap_err();
+        assert!(matches!(e, ExportError::NotFitted(_)), "{e}");
+        assert!(e.to_string().contains(&haze.to_string()), "{e}");
+        data.units = BrdfUnits::PerSr;
+        let fam = fit_family(&data, &opts, &[Kind::ThreeComponent]).unwrap();
+        assert_eq!(
+            MemberTable::of_family(&fam, haze).unwrap().to_per_sr,
+            Some(1.0)
+        );
     }
 
     #[test]

@@ -130,9 +130,10 @@ pub fn write_export(
         }
         ExportFormat::Merl => write_merl_export(target, fam, kind).map(drop),
         ExportFormat::Csv => write_atomic(target, |mut w| csv::write_csv(&mut w, fam, fit)),
-        ExportFormat::Mitsuba => {
-            mitsuba::write_mitsuba(target, &mitsuba::MemberTable::of_fit(fit, &fam.incidences))
-        }
+        ExportFormat::Mitsuba => mitsuba::write_mitsuba(
+            target,
+            &mitsuba::MemberTable::of_family(fam, kind.member())?,
+        ),
         ExportFormat::Residuals => Err(ExportError::Write(format!(
             "{}: residuals need the fitted data (write_residuals)",
             path.display()

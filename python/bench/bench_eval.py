@@ -31,7 +31,7 @@ def main(repeats=15):
         rust = m._m._time_grid_f32_rust(ti.tolist(), tr.tolist(), repeats)
         py_grid = best(lambda: m.eval_grid(ti, tr, precision="f32"), repeats)
         py_pairs = best(lambda: m.eval(gi, gr, precision="f32"), repeats)
-        py_f64 = best(lambda: m.eval_grid(ti.astype(np.float64), tr.astype(np.float64)), 3)
+        py_f64 = best(lambda: m.eval_grid(ti.astype(np.float64), tr.astype(np.float64)), min(3, repeats))
         print(f"{label}: 10^6 angles")
         print(f"  Rust batch path (eval_grid, in Rust): {rust * 1e3:8.2f} ms")
         print(f"  Python eval_grid f32 (numpy):          {py_grid * 1e3:8.2f} ms  ratio {py_grid / rust:5.2f}")

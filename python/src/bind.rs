@@ -3,6 +3,7 @@
 
 use std::path::Path;
 
+use brdf_core::member::Member;
 use clap::Parser;
 use gonio::cli::fit::{self as fit_cmd, FitArgs};
 use gonio::export::mitsuba::{self, MemberTable};
@@ -186,19 +187,17 @@ pub fn get_fit<'a>(o: &'a FitOutcome, name: Option<&str>) -> Result<&'a Fit, Str
 /// parameters per incidence: the one path from a fit to a model, whatever member the
 /// family fitted.
 pub fn fitted_table(o: &FitOutcome, name: Option<&str>) -> Result<(MemberTable, String), String> {
-    let wanted = name.map_or_else(|| o.family.selected_member.to_string(), str::to_string);
-    if let Some(m) = o
-        .family
-        .members
-        .iter()
-        .find(|m| m.member().to_string() == wanted)
-    {
-        return Ok((MemberTable::of_member_fit(m), wanted));
-    }
-    let fit = get_fit(o, name)?;
+    let member = match name {
+        None => o.family.selected_member,
+        Some(n) => match Kind::ALL.iter().find(|k| k.name() == n) {
+            Some(k) => k.member(),
+            None => Member::parse(n).map_err(|e| format!("unknown model '{n}': {e}"))?,
+        },
+    };
+    let table = gonio::export::fitted_table(&o.family, member).map_err(|e| e.to_string())?;
     Ok((
-        MemberTable::of_fit(fit, &o.data.incidences),
-        fit.kind.name().to_string(),
+        table,
+        name.map_or_else(|| member.to_string(), str::to_string),
     ))
 }
 
@@ -217,7 +216,7 @@ pub fn export_mitsuba(
         return Err(format!("to_per_sr = {s}: must be a positive number"));
     }
     let (mut table, _) = fitted_table(o, name)?;
-    table.to_per_sr = to_per_sr;
+    table.to_per_sr = to_per_sr.or(table.to_per_sr);
     mitsuba::write_mitsuba(Target::new(dir, force), &table).map_err(|e| e.to_string())
 }
 

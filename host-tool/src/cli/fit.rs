@@ -355,10 +355,6 @@ pub fn run(args: &FitArgs) -> CliResult {
         plot::write_plots(dir, &data, &fam, args.force)?;
     }
     let member = args.export_model.unwrap_or(fam.selected_member);
-    // The fit's values are in 1/sr when the sweep says so or --instrument converted it.
-    let per_sr =
-        inst.is_some() || super::fit_units::units_of(sweep)? == crate::sweep_file::BrdfUnits::PerSr;
-    let to_per_sr = per_sr.then_some(1.0);
     for (format, path) in &args.export {
         let target = Target::new(path, args.force).inputs(&inputs);
         match format {
@@ -369,7 +365,7 @@ pub fn run(args: &FitArgs) -> CliResult {
                 let note = export::write_merl_export(target, &fam, member)?;
                 eprintln!("gonio: note: {}: {note}", path.display());
             }
-            _ => export::write_export(*format, target, &fam, member, to_per_sr)?,
+            _ => export::write_export(*format, target, &fam, member)?,
         }
     }
     let text = if args.json {

@@ -477,6 +477,47 @@ mod tests {
     }
 
     #[test]
+    fn any_fitted_member_of_a_family_is_exported_in_its_units() {
+        use crate::fit::{Dataset, FitOptions, Kind, fit_family};
+        let p = brdf_core::Preset::by_name("fe-0.115").unwrap();
+        let rows = crate::fit::data::synthetic_paper_sweep(|ti| p.model(ti).unwrap(), 0.0, 1);
+        let mut data = Dataset::from_rows(&rows, true).unwrap();
+        let haze =
+            Member::parse("specular:ggx:smooth-ks+specular-haze:beckmann+ideal-diffuse").unwrap();
+        let opts = FitOptions {
+            members: Some(vec![Kind::ThreeComponent.member(), haze]),
+            ..FitOptions::default()
+        };
+        let fam = fit_family(&data, &opts, &[Kind::ThreeComponent]).unwrap();
+        let t = crate::export::fitted_table(&fam, haze).unwrap();
+        assert_eq!(t.member, haze);
+        assert_eq!(t.params[0].member(), haze);
+        assert_eq!(t.to_per_sr, None);
+        let g = Geometry::in_plane(40.0, 35.0).unwrap();
+        let fitted = fam.member(haze).unwrap();
+        let core = MemberModel::new(&fitted.layout.params(&fitted.x, 2)).unwrap();
+        let (a, b) = (
+            t.model_at(fam.incidences[2])
+                .unwrap()
+                .eval(40.0, &g)
+                .unwrap()
+                .f,
+            core.eval(40.0, &g).unwrap().f,
+        );
+        assert!((a / b - 1.0).abs() < 1e-12, "{a} {b}");
+        let other = Member::parse("specular:ggx+ideal-diffuse").unwrap();
+        let e = crate::export::fitted_table(&fam, other).unwrap_err();
+        assert!(matches!(e, ExportError::NotFitted(_)), "{e}");
+        assert!(e.to_string().contains(&haze.to_string()), "{e}");
+        data.units = crate::sweep_file::BrdfUnits::PerSr;
+        let fam = fit_family(&data, &opts, &[Kind::ThreeComponent]).unwrap();
+        assert_eq!(
+            crate::export::fitted_table(&fam, haze).unwrap().to_per_sr,
+            Some(1.0)
+        );
+    }
+
+    #[test]
     fn writes_the_three_files_and_refuses_to_overwrite() {
         let dir = tempfile::tempdir().unwrap();
         let out = dir.path().join("fe");

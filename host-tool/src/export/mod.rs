@@ -116,8 +116,7 @@ impl ExportFormat {
 }
 
 /// Writes the fitted member `member` of `fam` to `target` in `format` (see the module
-/// and format docs). `to_per_sr` is the factor from the fit's BRDF unit to 1/sr (1 for
-/// a fit in 1/sr; `None`: relative units), said in the files. `member` must be one of
+/// and format docs), in the fit's units (said in the files). `member` must be one of
 /// the fitted members, else
 /// [`ExportError::NotFitted`] naming those; a target [`outfile::check`] refuses is
 /// [`ExportError::Refused`]; a file that cannot be written is [`ExportError::Write`]
@@ -127,10 +126,8 @@ pub fn write_export(
     target: Target<'_>,
     fam: &FamilyFit,
     member: Member,
-    to_per_sr: Option<f64>,
 ) -> Result<(), ExportError> {
-    let mut table = fitted_table(fam, member)?;
-    table.to_per_sr = to_per_sr;
+    let table = fitted_table(fam, member)?;
     let path = target.path;
     match format {
         ExportFormat::Json => {
@@ -178,14 +175,18 @@ pub fn write_merl_export(
 /// its fit on the width grid, or (on the paper-form path of `--fix` and robust losses)
 /// from its paper fit. The one path from a fit to a model every export takes;
 /// [`ExportError::NotFitted`] naming the fitted members when `member` is not one.
+/// The table is in the fit's units: `to_per_sr` is 1 for data in 1/sr (the sweep's
+/// `# brdf:` line or `--instrument`), `None` for relative units.
 pub fn fitted_table(fam: &FamilyFit, member: Member) -> Result<MemberTable, ExportError> {
-    if let Some(f) = fam.member(member) {
-        return Ok(MemberTable::of_member_fit(f));
-    }
-    if let Some(f) = crate::fit::paper::kind_of(member).and_then(|k| fam.get(k)) {
-        return Ok(MemberTable::of_fit(f, &fam.incidences));
-    }
-    Err(not_fitted(fam, member))
+    let mut table = if let Some(f) = fam.member(member) {
+        MemberTable::of_member_fit(f)
+    } else if let Some(f) = crate::fit::paper::kind_of(member).and_then(|k| fam.get(k)) {
+        MemberTable::of_fit(f, &fam.incidences)
+    } else {
+        return Err(not_fitted(fam, member));
+    };
+    table.to_per_sr = (fam.units == crate::sweep_file::BrdfUnits::PerSr).then_some(1.0);
+    Ok(table)
 }
 
 /// [`ExportError::NotFitted`] for `member`, naming the fitted members.

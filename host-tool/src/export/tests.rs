@@ -45,7 +45,6 @@ fn an_unfitted_model_is_a_usage_error_naming_the_fitted_ones() {
         Target::new(&path, false),
         &fam,
         Member::THREE_COMPONENT,
-        None,
     )
     .unwrap_err();
     assert!(matches!(e, ExportError::NotFitted(_)), "bad input: {e}");
@@ -68,7 +67,6 @@ fn json_has_parameters_units_and_incidences() {
         Target::new(&path, false),
         fam,
         Member::THREE_COMPONENT,
-        None,
     )
     .unwrap();
     let v: Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
@@ -106,7 +104,6 @@ fn csv_grid_reads_back_as_a_sweep_file() {
         Target::new(&path, false),
         fam,
         Member::THREE_COMPONENT,
-        None,
     )
     .unwrap();
     let data = read_sweep(&path).unwrap();
@@ -171,7 +168,6 @@ fn merl_file_layout_scales_and_read_back() {
         Target::new(&path, false),
         fam,
         Member::THREE_COMPONENT,
-        None,
     )
     .unwrap();
     let bytes = std::fs::read(&path).unwrap();
@@ -312,7 +308,6 @@ fn an_unwritable_path_fails_naming_it_and_leaves_no_file() {
         Target::new(&missing, false),
         fam,
         Member::THREE_COMPONENT,
-        None,
     )
     .unwrap_err();
     assert!(matches!(e, ExportError::Write(_)), "failed: {e}");
@@ -329,7 +324,6 @@ fn an_unwritable_path_fails_naming_it_and_leaves_no_file() {
         Target::new(&target, false),
         fam,
         Member::THREE_COMPONENT,
-        None,
     )
     .unwrap_err();
     assert!(matches!(e, ExportError::Refused(_)), "refused: {e}");
@@ -402,18 +396,14 @@ fn core_value(fam: &FamilyFit, ti: f64, tr: f64) -> f64 {
 
 #[test]
 fn a_ggx_haze_members_json_export_reads_back_as_the_cores_model() {
-    let fam = haze_fixture();
+    // Data in 1/sr: the export says so.
+    let mut per_sr = haze_fixture().clone();
+    per_sr.units = crate::sweep_file::BrdfUnits::PerSr;
+    let fam = &per_sr;
     let member = Member::parse(HAZE_MEMBER).unwrap();
     let dir = tempdir("haze-json");
     let path = dir.join("m.json");
-    write_export(
-        ExportFormat::Json,
-        Target::new(&path, false),
-        fam,
-        member,
-        Some(1.0),
-    )
-    .unwrap();
+    write_export(ExportFormat::Json, Target::new(&path, false), fam, member).unwrap();
     let v: Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
     assert_eq!(v["model"], HAZE_MEMBER);
     assert_eq!(v["name"], HAZE_MEMBER);
@@ -458,7 +448,6 @@ fn a_ggx_haze_members_csv_and_merl_exports_equal_the_cores_evaluation() {
         Target::new(&csv_path, false),
         fam,
         member,
-        None,
     )
     .unwrap();
     let grid = read_sweep(&csv_path).unwrap();
@@ -521,7 +510,6 @@ fn an_unfitted_member_names_the_fitted_ones() {
         Target::new(&path, false),
         fam,
         Member::THREE_COMPONENT,
-        None,
     )
     .unwrap_err();
     assert!(matches!(e, ExportError::NotFitted(_)), "{e}");

@@ -160,7 +160,7 @@ pub fn fit_family(data: &Dataset, opts: &FitOptions, kinds: &[Kind]) -> Result<F
                 && let Some(m) = family::haze_variant_of(best.member)
                 && !members.iter().any(|f| f.member() == m)
             {
-                members.extend(fit_members(data, &[m], opts.residual, aperture, &mut notes));
+                members.extend(fit_members(&bases, &[m], opts.residual, &mut notes));
             }
         }
         fits = Kind::ALL

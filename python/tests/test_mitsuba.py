@@ -251,7 +251,8 @@ def test_cli_export_is_the_packages_plugin_and_the_fitted_model(exported):
     assert loaded.member == fitted.member and loaded.to_per_sr is None
     ti = np.array([0.0, 5.0, 20.0, 37.0, 60.0, 80.0])[:, None]
     tr = np.linspace(-80, 85, 34)[None, :]
-    assert np.array_equal(loaded.eval(ti, tr), fitted.eval(ti, tr))
+    # The CLI under test is a debug build, the wheel a release build: last bits may differ.
+    np.testing.assert_allclose(loaded.eval(ti, tr), fitted.eval(ti, tr), rtol=1e-12)
     assert 'value="display"' in (out / "sphere.xml").read_text()
 
 

@@ -922,13 +922,7 @@ pub fn fit_member_with(
     // The weighted cost of every grid point (infinite where skipped or failed).
     let idx = |ci: usize, hi: usize, si: usize| (ci * nh + hi) * nd + si;
     let resid = Residuals::new(data, residual);
-    let floor = 1e-9
-        * data
-            .obs
-            .iter()
-            .map(|o| o.y.abs())
-            .fold(0.0, f64::max)
-            .max(1e-300);
+    let floor = amplitude_floor(data);
     // Every grid point ranked by the fit's own cost at its (floored) amplitudes.
     let mut cost = vec![f64::INFINITY; nc * nh * nd];
     for ci in 0..nc {
@@ -1140,13 +1134,7 @@ fn start_vector(
     sigma_m: f64,
     amp: &Amplitudes,
 ) -> Option<(Vec<f64>, Vec<bool>)> {
-    let floor = 1e-9
-        * data
-            .obs
-            .iter()
-            .map(|o| o.y.abs())
-            .fold(0.0, f64::max)
-            .max(1e-300);
+    let floor = amplitude_floor(data);
     let mut x = vec![0.0; l.len()];
     let mut pinned = vec![false; l.len()];
     let mut put = |slot: Option<usize>, v: f64, amplitude: bool| {
@@ -1195,6 +1183,17 @@ fn start_vector(
         *u = u.clamp(lo, hi);
     }
     Some((x, pinned))
+}
+
+/// The smallest amplitude a start or a grid point uses instead of zero: 1e-9 of the
+/// largest reading (log-amplitudes need a finite value).
+fn amplitude_floor(data: &Dataset) -> f64 {
+    1e-9 * data
+        .obs
+        .iter()
+        .map(|o| o.y.abs())
+        .fold(0.0, f64::max)
+        .max(1e-300)
 }
 
 #[cfg(test)]

@@ -57,12 +57,13 @@ pub fn apply_instrument(
     if inst.quantity == Quantity::DetectorSignal {
         eprintln!("gonio: note: readings are detector signals: divided by K cos(theta_r)");
     }
-    data.units = BrdfUnits::PerSr;
     Ok(inst)
 }
 
-/// Divides every reading by K (and cos(theta_r) for detector signals): the data in 1/sr.
+/// Divides every reading by K (and cos(theta_r) for detector signals): the data in 1/sr
+/// (and say so, for every report and export made of them).
 pub fn convert_dataset(inst: &Instrument, data: &mut Dataset) -> Result<(), String> {
+    data.units = BrdfUnits::PerSr;
     for o in &mut data.obs {
         o.y /= inst.k * inst.quantity.factor(o.theta_r);
         if !o.y.is_finite() {

@@ -232,6 +232,17 @@ fn a_campaign_fits_in_one_over_sr_with_one_instrument() {
         let kdd = f["params"]["k_dd"]["value"].as_f64().unwrap();
         assert!((kdd / 0.45 - 1.0).abs() < 0.01, "{}: k_dd {kdd}", f["file"]);
     }
+    // Each file's own report says its values are in 1/sr.
+    let mut per_file = 0;
+    for e in std::fs::read_dir(&reports).unwrap() {
+        let r: Value = serde_json::from_slice(&std::fs::read(e.unwrap().path()).unwrap())
+            .unwrap_or(Value::Null);
+        if r.get("models").is_some() {
+            assert_eq!(r["brdf_units"], "1/sr");
+            per_file += 1;
+        }
+    }
+    assert_eq!(per_file, 2);
     let text = gonio(&[
         "fit",
         &s(&fe),

@@ -415,4 +415,4 @@ pub fn adaptive<T: Real>(
 
 #[cfg(test)]
 #[path = "plan_tests.rs"]
-mod tests;
+pub(crate) mod tests;

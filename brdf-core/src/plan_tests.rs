@@ -20,7 +20,14 @@ const DETECTOR: ArmLimits = ArmLimits {
     steps_per_deg: 80.0,
 };
 
-fn custom(incidences: &[f32], start: f32, stop: f32, step: f32, exclude: f32) -> SweepPlan {
+/// A Custom plan over `incidences` with the detector from `start` to `stop` by `step`.
+pub(crate) fn custom(
+    incidences: &[f32],
+    start: f32,
+    stop: f32,
+    step: f32,
+    exclude: f32,
+) -> SweepPlan {
     SweepPlan {
         sweep_id: 1,
         grid: Grid::Custom {

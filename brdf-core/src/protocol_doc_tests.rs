@@ -29,18 +29,11 @@ fn doc() -> std::string::String {
     text.split_whitespace().collect::<Vec<_>>().join(" ")
 }
 
+/// The plan tests' Custom plan, with the controller tests' point settings.
 fn custom(incidences: &[f32], start: f32, stop: f32, step: f32, exclude: f32) -> SweepPlan {
     SweepPlan {
-        sweep_id: 1,
-        grid: Grid::Custom {
-            incidences: heapless::Vec::from_slice(incidences).unwrap(),
-            start,
-            stop,
-            step,
-        },
-        exclude_retro_deg: exclude,
         settings: SETTINGS,
-        skip: 0,
+        ..crate::plan::tests::custom(incidences, start, stop, step, exclude)
     }
 }
 

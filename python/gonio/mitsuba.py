@@ -78,7 +78,7 @@ _LLVM: list = []
 def llvm_status():
     """(available, reason): whether Mitsuba's llvm variants run on this machine. Probed
     once per process in a child process, since Dr.Jit aborts the whole process when the
-    libLLVM it finds cannot compile its kernels (LLVM 15 and older here)."""
+    libLLVM it finds cannot compile its kernels (LLVM 16 and older here)."""
     if not _LLVM:
         import subprocess
 

@@ -23,7 +23,7 @@ LLVM, WHY = gm.llvm_status()
 VARIANTS = [
     "scalar_rgb",
     pytest.param("llvm_ad_rgb", marks=pytest.mark.skipif(
-        not LLVM, reason=f"Mitsuba's llvm variants need a libLLVM Dr.Jit can use (15 is too old): {WHY}")),
+        not LLVM, reason=f"Mitsuba's llvm variants need a libLLVM Dr.Jit can use (19 works here; 15 and 16 do not): {WHY}")),
 ]
 
 

@@ -11,7 +11,7 @@ use std::process::{Command, ExitCode};
 
 use clap::{Parser, Subcommand, ValueEnum};
 
-use tools::{ensure_firmware_tools, ensure_lint_tools, ensure_qemu, llvm_tool};
+use tools::{ensure_firmware_tools, ensure_libllvm, ensure_lint_tools, ensure_qemu, llvm_tool};
 
 const THUMB: &str = "thumbv7em-none-eabihf";
 /// Size budget of the stm32f411 release image (issue: flash text+data, static RAM).
@@ -31,7 +31,9 @@ everything CI runs.\n\n\
 Each command installs what it needs when it is missing: the Rust target \
 thumbv7em-none-eabihf (rustup target add), the flip-link linker (cargo install flip-link \
 --locked), rustup's llvm-tools (for sizes and symbols) and, for the commands that run \
-QEMU, qemu-system-arm (apt-get, needs root). `setup` installs all of them at once.\n\n\
+QEMU, qemu-system-arm (apt-get, needs root); for the Python tests, a libLLVM that \
+Mitsuba's llvm variants can use (libllvm19, apt-get; without it those tests skip). \
+`setup` installs all of them at once.\n\n\
 Exit status: 0 success, 2 failure or bad usage (message on stderr)."
 )]
 struct Cli {
@@ -169,6 +171,7 @@ fn setup() -> Result {
     let root = root();
     ensure_firmware_tools(&root)?;
     llvm_tool(&root, "llvm-size")?;
+    ensure_libllvm(&root);
     ensure_qemu(&root)
 }
 
@@ -245,7 +248,8 @@ fn qemu_e2e() -> Result {
 }
 
 /// The Python package (python/): lints its crate, builds and installs it with maturin
-/// into the venv target/python-venv (with numpy, pytest, matplotlib, mitsuba) and runs
+/// into the venv target/python-venv (with numpy, pytest, matplotlib, mitsuba, and a
+/// libLLVM for Mitsuba's llvm variants) and runs
 /// its pytest suite, which also checks the README's Python example. The crate is its own
 /// workspace (pyo3 stays out of `cargo test --workspace`) built into the root target/.
 fn python() -> Result {
@@ -303,6 +307,7 @@ fn python() -> Result {
         "mitsuba",
     ];
     run(&root, py, &deps)?;
+    ensure_libllvm(&root);
     let install = [
         "-m",
         "pip",

@@ -132,6 +132,30 @@ pub fn ensure_qemu(root: &Path) -> Result {
     }
 }
 
+/// A libLLVM that Mitsuba's llvm variants can use (Dr.Jit loads it at run time; LLVM 16
+/// and older fail to compile its kernels on these machines, 19 works), through apt-get
+/// when none is there. Not fatal: without it the llvm tests skip and say why.
+pub fn ensure_libllvm(root: &Path) {
+    let lib = Path::new("/usr/lib/x86_64-linux-gnu");
+    let usable = (17..=30).any(|v| {
+        lib.join(format!("libLLVM-{v}.so")).exists()
+            || lib.join(format!("libLLVM.so.{v}.1")).exists()
+    });
+    if usable || !cfg!(target_os = "linux") {
+        return;
+    }
+    let install = || run(root, "apt-get", &["install", "-y", "-qq", "libllvm19"]);
+    if install()
+        .or_else(|_| run(root, "apt-get", &["update", "-qq"]).and_then(|_| install()))
+        .is_err()
+    {
+        eprintln!(
+            "xtask: no libLLVM 17 or newer, and apt-get could not install libllvm19: \
+             Mitsuba's llvm variants will be skipped"
+        );
+    }
+}
+
 /// rustfmt and clippy, which `test` runs (absent from rustup's minimal profile).
 pub fn ensure_lint_tools(root: &Path) -> Result {
     if works("cargo", &["fmt", "--version"]) && works("cargo", &["clippy", "--version"]) {

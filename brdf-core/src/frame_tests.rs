@@ -359,10 +359,11 @@ fn crc_is_the_standard_crc32() {
 
 #[test]
 fn a_newer_info_still_shows_its_version() {
-    // A hypothetical v2 Info: variant 0, protocol first, then fields v1 does not know.
+    // A hypothetical newer Info: variant 0, protocol first, then fields this one does
+    // not know.
     let v2 = (
         0u8,
-        2u16,
+        PROTOCOL_VERSION + 1,
         [9u8; 5],
         "board with a longer name than v1 allows!",
     );
@@ -372,8 +373,11 @@ fn a_newer_info_still_shows_its_version() {
         .filter_map(|&b| d.push::<Event>(b))
         .collect();
     assert_eq!(r, vec![Err(FrameError::Decode)]);
-    assert_eq!(peek_info_version(d.undecoded_payload()), Some(2));
-    // An ordinary v1 Info peeks the same way; another event does not.
+    assert_eq!(
+        peek_info_version(d.undecoded_payload()),
+        Some(PROTOCOL_VERSION + 1)
+    );
+    // An ordinary Info peeks the same way; another event does not.
     let (_, events) = every_message();
     assert_eq!(
         peek_info_version(&postcard::to_allocvec(&events[0]).unwrap()),

@@ -9,8 +9,9 @@
 use heapless::{String, Vec};
 use serde::{Deserialize, Serialize};
 
-/// Version of this protocol. Bump it on any change of a message's encoding.
-pub const PROTOCOL_VERSION: u16 = 1;
+/// Version of this protocol. Bump it on any change of a message's encoding or of what
+/// an existing field means (docs/protocol.md, "Version history").
+pub const PROTOCOL_VERSION: u16 = 2;
 /// Most explicit points a plan may carry ([`Grid::Points`]).
 pub const MAX_PLAN_POINTS: usize = 240;
 /// Most incidence angles a [`Grid::Custom`] plan may carry.

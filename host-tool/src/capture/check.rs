@@ -191,7 +191,7 @@ mod tests {
             steps_per_deg,
         };
         let info = Info {
-            protocol: 1,
+            protocol: brdf_core::protocol::PROTOCOL_VERSION,
             firmware: [0, 1, 0],
             board: heapless::String::new(),
             source: arm(1e-9),

@@ -605,9 +605,10 @@ impl PyFit {
 }
 
 /// Fits the model family with `gonio fit`'s options: a sweep file path, or rows
-/// (theta_i, theta_r, brdf arrays) when path is None.
+/// (theta_i, theta_r, brdf arrays) when path is None; aperture in degrees (None: the
+/// file's line), instrument an instrument file (None: relative units).
 #[pyfunction]
-#[pyo3(signature = (path, theta_i, theta_r, brdf, residual, loss, fix, models))]
+#[pyo3(signature = (path, theta_i, theta_r, brdf, residual, loss, fix, models, aperture=None, instrument=None))]
 #[allow(clippy::too_many_arguments)]
 fn _fit(
     py: Python<'_>,
@@ -619,6 +620,8 @@ fn _fit(
     loss: String,
     fix: Vec<String>,
     models: Vec<String>,
+    aperture: Option<f64>,
+    instrument: Option<PathBuf>,
 ) -> PyResult<PyFit> {
     if theta_i.len() != theta_r.len() || theta_i.len() != brdf.len() {
         return Err(err("theta_i, theta_r and brdf must have the same length"));
@@ -631,6 +634,8 @@ fn _fit(
         loss: &loss,
         fix,
         models,
+        aperture,
+        instrument: instrument.as_deref(),
     };
     let outcome = py
         .detach(|| bind::fit(path.as_deref(), &rows, &req))

@@ -1,6 +1,7 @@
 //! Fast f32 evaluation: polynomial e^-x, sin and cos with tested error bounds, a scalar
-//! path with culling of negligible lobes, and a batch API over grids of angles that
-//! hoists per-angle work and is branch-free in its inner loop (so it vectorises).
+//! path with culling of negligible lobes, and a batch API over grids of angles (hoisting
+//! per-angle work) and over paired angles, branch-free in its inner loops (so they
+//! vectorise).
 //!
 //! Error bounds (asserted by the tests beside this code, over dense samplings of the
 //! whole input range; `gonio bench` reports them against the f64 reference):
@@ -229,6 +230,59 @@ impl FastModel {
             }
         }
         Ok(())
+    }
+
+    /// Evaluates paired angles: `out[k] = f(theta_i[k], theta_r[k])` (degrees), the
+    /// batch path for scattered readings (a grid is cheaper through [`Self::eval_grid`],
+    /// which hoists the per-angle work). The angles are checked as by `eval_grid`, with
+    /// its errors; the loop is the scalar path's arithmetic without its culling
+    /// branches, so it vectorises.
+    // Always inlined, so a caller can compile it for a wider ISA (see gonio's bench).
+    #[inline(always)]
+    pub fn eval_pairs(
+        &self,
+        theta_i: &[f32],
+        theta_r: &[f32],
+        out: &mut [f32],
+    ) -> Result<(), ModelError> {
+        let n = theta_i.len();
+        if theta_r.len() != n || out.len() != n {
+            return Err(ModelError::OutOfRange {
+                what: "theta_r or output length",
+                value: theta_r.len().min(out.len()) as f64,
+                min: n as f64,
+                max: n as f64,
+            });
+        }
+        // The angles are checked inside the loop by a branch-free flag (a separate
+        // pass would read every angle from memory once more, costing about as much as
+        // the evaluation); only when it is down are they checked one by one, for the
+        // message (the output is then not defined).
+        let mut valid = true;
+        // `&` of comparisons, not `contains`' `&&`: no branch in the loop.
+        #[allow(clippy::manual_range_contains)]
+        for ((o, &ti), &tr) in out.iter_mut().zip(theta_i).zip(theta_r) {
+            valid &= (0.0 <= ti) & (ti <= 90.0) & (-90.0 <= tr) & (tr <= 90.0);
+            valid &= (ti != 90.0) | (tr != 90.0);
+            let ci = cos_sin_deg(ti).0;
+            let cr = cos_sin_deg(tr).0;
+            let (ca, sa) = cos_sin_deg(0.5 * (ti - tr));
+            let cb = cos_sin_deg(0.5 * (ti + tr)).0;
+            let trad = tr * DEG_TO_RAD;
+            let dd = self.kdd_norm * exp_neg(trad * trad * self.inv_2sm2);
+            *o = self.specular(ci, cr, ca, sa, cb) + dd + self.kid;
+        }
+        if valid {
+            return Ok(());
+        }
+        for &t in theta_i {
+            check_angle("theta_i", t, 0.0, 90.0)?;
+        }
+        for &t in theta_r {
+            check_angle("theta_r", t, -90.0, 90.0)?;
+        }
+        // Every angle is in range, so the flag fell for a pair grazing on both sides.
+        Err(ModelError::NoHalfVector)
     }
 }
 

@@ -93,27 +93,83 @@ fn models() -> Vec<Params<f32>> {
 }
 
 #[test]
-fn scalar_and_grid_paths_within_1e_5_of_the_f64_reference() {
+fn scalar_grid_and_pair_paths_within_1e_5_of_the_f64_reference() {
     let (ti, tr) = grid(0.25);
-    let mut out = vec![0.0f32; ti.len() * tr.len()];
+    let n = ti.len() * tr.len();
+    let mut out = vec![0.0f32; n];
     let mut scratch = vec![0.0f32; 4 * tr.len()];
+    // The grid's points as pairs, in an order that is not the grid's (detector angle
+    // outer), so the pair path cannot lean on runs of one incidence.
+    let (pi, pr): (Vec<f32>, Vec<f32>) = tr
+        .iter()
+        .flat_map(|&b| ti.iter().map(move |&a| (a, b)))
+        .unzip();
+    let mut pairs = vec![0.0f32; n];
     for p in models() {
         let fast = FastModel::new(&Model::three_component(p).unwrap(), 0.0);
         let exact = reference(p);
         fast.eval_grid(&ti, &tr, &mut out, &mut scratch).unwrap();
-        let (mut worst_scalar, mut worst_grid) = (0.0f64, 0.0f64);
+        fast.eval_pairs(&pi, &pr, &mut pairs).unwrap();
+        let (mut worst_scalar, mut worst_grid, mut worst_pairs) = (0.0f64, 0.0f64, 0.0f64);
         for (i, &a) in ti.iter().enumerate() {
             for (r, &b) in tr.iter().enumerate() {
                 let want = exact.eval_in_plane(a as f64, b as f64).unwrap().f;
                 let s = fast.eval_in_plane(a, b) as f64;
                 let g = out[i * tr.len() + r] as f64;
+                let q = pairs[r * ti.len() + i] as f64;
                 worst_scalar = worst_scalar.max((s - want).abs() / want);
                 worst_grid = worst_grid.max((g - want).abs() / want);
+                worst_pairs = worst_pairs.max((q - want).abs() / want);
             }
         }
         assert!(worst_scalar < 1e-5, "{p:?}: scalar {worst_scalar:e}");
         assert!(worst_grid < 1e-5, "{p:?}: grid {worst_grid:e}");
+        assert!(worst_pairs < 1e-5, "{p:?}: pairs {worst_pairs:e}");
     }
+}
+
+#[test]
+fn pairs_check_their_inputs_as_the_grid_does_and_stay_finite_at_the_edges() {
+    let m = FastModel::new(
+        &crate::Preset::by_name("fe-0.115")
+            .unwrap()
+            .model(30.0f32)
+            .unwrap(),
+        0.0,
+    );
+    let mut out = [0.0f32; 3];
+    assert!(m.eval_pairs(&[10.0, 20.0], &[0.0], &mut out[..2]).is_err());
+    assert!(m.eval_pairs(&[10.0, 20.0], &[0.0, 1.0], &mut out).is_err());
+    assert_eq!(
+        m.eval_pairs(&[10.0, 20.0], &[0.0, f32::NAN], &mut out[..2]),
+        Err(ModelError::NotFinite { what: "theta_r" })
+    );
+    assert_eq!(
+        m.eval_pairs(&[10.0, 91.0], &[0.0, 1.0], &mut out[..2]),
+        Err(ModelError::OutOfRange {
+            what: "theta_i",
+            value: 91.0,
+            min: 0.0,
+            max: 90.0
+        })
+    );
+    // 90 with 90 has no half vector; 90 paired with another angle has.
+    assert_eq!(
+        m.eval_pairs(&[90.0, 0.0], &[90.0, 90.0], &mut out[..2]),
+        Err(ModelError::NoHalfVector)
+    );
+    m.eval_pairs(&[90.0, 0.0, 90.0], &[-90.0, 90.0, 89.5], &mut out)
+        .unwrap();
+    assert!(out.iter().all(|v| v.is_finite() && *v > 0.0), "{out:?}");
+    let mut grid = [0.0f32; 1];
+    m.eval_grid(&[90.0], &[-90.0], &mut grid, &mut [0.0; 4])
+        .unwrap();
+    assert!(
+        (out[0] / grid[0] - 1.0).abs() < 1e-6,
+        "{} vs {}",
+        out[0],
+        grid[0]
+    );
 }
 
 #[test]

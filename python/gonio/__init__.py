@@ -274,13 +274,17 @@ class FitResult:
 
 def fit(source, theta_r=None, brdf=None, *, residual: str = "log", loss: str = "l2",
         fix: Union[None, Mapping[str, float], Iterable[str]] = None,
-        models: Union[None, str, Sequence[str]] = None) -> FitResult:
-    """Fits the model family like ``gonio fit``.
+        models: Union[None, str, Sequence[str]] = None, aperture: Optional[float] = None,
+        instrument: Union[None, str, os.PathLike] = None) -> FitResult:
+    """Fits the model family like ``gonio fit`` fits one sweep.
 
     ``source`` is a sweep file path, or the theta_i array with ``theta_r`` and ``brdf``.
     Options as on the command line: ``residual`` log | rel | abs; ``loss`` l2 |
-    huber:C | cauchy:C; ``fix`` {'sigma_m': 0.7} or ['sigma_m=0.7']; ``models`` a
-    subset of ideal, ts, three, three-smooth (list or comma-separated).
+    huber:C | cauchy:C; ``fix`` {'sigma_m': 0.7} or ['sigma_m=0.7']; ``models`` any
+    names ``--models`` takes (ideal, ts, three, three-smooth or systematic member names;
+    list or comma-separated); ``aperture`` the detector's acceptance half-angle in
+    degrees (0 turns off the sweep's ``# aperture:`` line); ``instrument`` an instrument
+    file of ``gonio calibrate`` (the readings are fitted in 1/sr).
     """
     if isinstance(fix, Mapping):
         fix = [f"{k}={v!r}" for k, v in fix.items()]
@@ -288,12 +292,14 @@ def fit(source, theta_r=None, brdf=None, *, residual: str = "log", loss: str = "
     if isinstance(models, str):
         models = [m for m in models.split(",") if m]
     models = list(models or [])
+    extra = {"aperture": None if aperture is None else float(aperture),
+             "instrument": None if instrument is None else os.fspath(instrument)}
     if theta_r is None and brdf is None:
-        raw = _gonio._fit(os.fspath(source), [], [], [], residual, loss, fix, models)
+        raw = _gonio._fit(os.fspath(source), [], [], [], residual, loss, fix, models, **extra)
     else:
         if theta_r is None or brdf is None:
             raise GonioError("fit(theta_i, theta_r, brdf): give all three arrays, or a sweep file path")
         ti, tr, y = np.broadcast_arrays(*(np.asarray(a, dtype=np.float64) for a in (source, theta_r, brdf)))
         raw = _gonio._fit(None, ti.ravel().tolist(), tr.ravel().tolist(), y.ravel().tolist(),
-                          residual, loss, fix, models)
+                          residual, loss, fix, models, **extra)
     return FitResult(raw)

@@ -1,13 +1,15 @@
 //! The only file that touches the `gonio` host library (sweep files and the fitter):
 //! when its module paths or the fit API change, this is the file to port.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use brdf_core::member::Member;
 use clap::Parser;
+use gonio::calibrate::Instrument;
 use gonio::cli::fit::{self as fit_cmd, FitArgs};
+use gonio::cli::fit_units;
 use gonio::export::mitsuba::{self, MemberTable};
-use gonio::fit::{self, Dataset, FamilyFit, Fit, Kind, Residual};
+use gonio::fit::{self, Dataset, FamilyFit, Fit, Kind, Residual, campaign};
 use gonio::outfile::Target;
 use gonio::sweep_file::{self, Header, Row, SweepData, SweepStatus as Status, SweepWriter};
 
@@ -88,6 +90,12 @@ pub struct FitRequest<'a> {
     pub fix: Vec<String>,
     /// `--models`: ideal, ts, three, three-smooth (empty: all).
     pub models: Vec<String>,
+    /// `--aperture`: the detector's acceptance half-angle in degrees (0: off; `None`:
+    /// the sweep's `# aperture:` line).
+    pub aperture: Option<f64>,
+    /// `--instrument`: an instrument file (`gonio calibrate`); the readings are fitted
+    /// in 1/sr.
+    pub instrument: Option<&'a Path>,
 }
 
 /// `gonio fit`'s own argument parser, so options, defaults and messages are the CLI's.
@@ -107,6 +115,12 @@ fn fit_args(path: Option<&Path>, req: &FitRequest) -> Result<FitArgs, String> {
     argv.extend(req.fix.iter().map(|f| format!("--fix={f}")));
     if !req.models.is_empty() {
         argv.push(format!("--models={}", req.models.join(",")));
+    }
+    if let Some(a) = req.aperture {
+        argv.push(format!("--aperture={a}"));
+    }
+    if let Some(p) = req.instrument {
+        argv.push(format!("--instrument={}", p.display()));
     }
     FitCommand::try_parse_from(argv)
         .map(|c| c.args)
@@ -129,32 +143,55 @@ pub struct FitOutcome {
     pub data: Dataset,
     /// The residual kind.
     pub residual: Residual,
+    /// `--instrument`'s instrument and file, when the data were fitted in 1/sr.
+    pub instrument: Option<(Instrument, PathBuf)>,
 }
 
-/// Fits a sweep file, or rows when `path` is `None`, with the CLI's option parsing
-/// (`gonio::fit_cmd::options`), reader and fitter.
+/// Fits a sweep file, or rows when `path` is `None`, as `gonio fit` fits one sweep:
+/// its option parsing (`gonio::fit_cmd::options`), reader, `--aperture` over the
+/// file's line, `--instrument`'s conversion to 1/sr, and fitter.
 pub fn fit(path: Option<&Path>, rows: &[Row], req: &FitRequest) -> Result<FitOutcome, String> {
     let args = fit_args(path, req)?;
     let (opts, kinds) = fit_cmd::options(&args).map_err(|e| e.to_string())?;
-    let (data, family) = match path {
-        Some(p) => fit_cmd::fit_file(p, &opts, &kinds).map_err(|e| e.to_string())?,
-        None => {
-            let data =
-                Dataset::from_rows(rows, opts.residual != Residual::Absolute).map_err(|e| e.0)?;
-            let family = fit::fit_family(&data, &opts, &kinds)?;
-            (data, family)
+    let source = path.unwrap_or(Path::new("the arrays"));
+    let mut data = match path {
+        Some(p) => {
+            let (data, warnings) = campaign::read_data(p, &opts).map_err(|e| e.to_string())?;
+            for w in &warnings {
+                eprintln!("gonio: warning: {w}");
+            }
+            data
         }
+        None => Dataset::from_rows(rows, opts.residual != Residual::Absolute).map_err(|e| e.0)?,
     };
+    if let Some(a) = args.aperture {
+        data.aperture = a.0;
+    }
+    let instrument = match &args.instrument {
+        Some(p) => Some((
+            fit_units::apply_instrument(source, p, &mut data).map_err(|e| e.to_string())?,
+            p.clone(),
+        )),
+        None => None,
+    };
+    let family = campaign::fit_data(source, &data, &opts, &kinds).map_err(|e| e.to_string())?;
     Ok(FitOutcome {
         family,
         data,
         residual: opts.residual,
+        instrument,
     })
 }
 
-/// `gonio fit --json`'s text for a fit (the CLI's writer).
+/// `gonio fit --json`'s text for a fit (the CLI's writer, with `--instrument`'s
+/// section when there is one).
 pub fn to_json(o: &FitOutcome) -> String {
-    String::from_utf8(fit::report::family_json_text(&o.family, None)).expect("JSON is UTF-8")
+    let inst = o
+        .instrument
+        .as_ref()
+        .map(|(i, p)| fit_units::instrument_json(&o.family, i, p));
+    String::from_utf8(fit::report::family_json_text(&o.family, inst.as_ref()))
+        .expect("JSON is UTF-8")
 }
 
 /// The names of the fitted models (every member the family fitted, in the order

@@ -197,44 +197,48 @@ impl ModelDef {
             .is_some_and(|l| !matches!(l.ks, KsSrc::Const(_)))
     }
 
-    /// f32 evaluation of paired angles (degrees) by the fast scalar path; every angle is
-    /// validated as the batch path validates its slices.
+    /// f32 evaluation of paired angles (degrees) by brdf-core's pair batch path
+    /// (`FastModel::eval_pairs`, through gonio's best-ISA build as `gonio bench` times
+    /// it): one call for the whole slice when k_s is one number, else one call per run
+    /// of equal theta_i (a sweep's readings come in such runs).
     pub fn eval_fast(&self, ti: &[f32], tr: &[f32], out: &mut [f32]) -> Result<(), String> {
-        let mut cache: Option<(u32, FastModel)> = None;
-        let varies = self.varies_fast();
-        for ((o, &a), &b) in out.iter_mut().zip(ti).zip(tr) {
+        if !self.varies_fast() {
+            let m = self.fast_at(0.0)?;
+            return gonio::bench::eval_pairs(&m, ti, tr, out).map_err(|e| e.to_string());
+        }
+        let mut start = 0;
+        while start < ti.len() {
+            let a = ti[start];
+            let len = ti[start..]
+                .iter()
+                .position(|t| t.to_bits() != a.to_bits())
+                .unwrap_or(ti.len() - start);
+            let run = start..start + len;
             check_angle("theta_i", a, 0.0, 90.0).map_err(|e| e.to_string())?;
-            check_angle("theta_r", b, -90.0, 90.0).map_err(|e| e.to_string())?;
-            if a == 90.0 && b == 90.0 {
-                return Err(ModelError::NoHalfVector.to_string());
-            }
-            let key = if varies { a.to_bits() } else { 0 };
-            if cache.as_ref().is_none_or(|(k, _)| *k != key) {
-                cache = Some((key, self.fast_at(a as f64)?));
-            }
-            *o = cache.as_ref().expect("set above").1.eval_in_plane(a, b);
+            let m = self.fast_at(a as f64)?;
+            gonio::bench::eval_pairs(&m, &ti[run.clone()], &tr[run.clone()], &mut out[run])
+                .map_err(|e| e.to_string())?;
+            start += len;
         }
         Ok(())
     }
 
     /// The f32 batch path over a grid: `out[i * tr.len() + r] = f(ti[i], tr[r])`, by
-    /// `FastModel::eval_grid` (one call per incidence when k_s depends on it).
+    /// `FastModel::eval_grid` in gonio's best-ISA build (one call per incidence when
+    /// k_s depends on it).
     pub fn grid_fast(&self, ti: &[f32], tr: &[f32], out: &mut [f32]) -> Result<(), String> {
         let nr = tr.len();
         let mut scratch = vec![0.0f32; 4 * nr];
-        if ti.is_empty() {
-            return Ok(());
-        }
         if !self.varies_fast() {
-            let m = self.fast_at(ti[0] as f64)?;
-            return m
-                .eval_grid(ti, tr, out, &mut scratch)
+            let m = self.fast_at(0.0)?;
+            return gonio::bench::eval_grid(&m, ti, tr, out, &mut scratch)
                 .map_err(|e| e.to_string());
         }
         for (i, &t) in ti.iter().enumerate() {
             check_angle("theta_i", t, 0.0, 90.0).map_err(|e| e.to_string())?;
             let m = self.fast_at(t as f64)?;
-            m.eval_grid(&ti[i..=i], tr, &mut out[i * nr..(i + 1) * nr], &mut scratch)
+            let row = &mut out[i * nr..(i + 1) * nr];
+            gonio::bench::eval_grid(&m, &ti[i..=i], tr, row, &mut scratch)
                 .map_err(|e| e.to_string())?;
         }
         Ok(())

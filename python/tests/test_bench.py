@@ -14,4 +14,4 @@ def test_the_eval_benchmark_runs_and_reports_ratios(capsys):
     bench.main(repeats=1)
     out = capsys.readouterr().out
     ratios = [float(r) for r in re.findall(r"ratio\s+([0-9.]+)", out)]
-    assert len(ratios) == 6 and all(r > 0 for r in ratios), out
+    assert len(ratios) == 8 and all(r > 0 for r in ratios), out

@@ -155,3 +155,18 @@ def test_batch_releases_the_gil():
     assert elapsed > 0.05, "the batch is too short to tell"
     # Held, the main thread would get one switch interval (5 ms) at most.
     assert n > 0.05 * rate * elapsed
+
+
+@pytest.mark.parametrize("ti,tr", [("95", "0"), ("nan", "0"), ("10", "-91"), ("90", "90")])
+def test_errors_equal_the_clis(gonio_bin, ti, tr):
+    """The same bad angle gives `gonio eval`'s message on both paths (after a good pair,
+    so a batch cannot stop at the first element)."""
+    cli = subprocess.run([gonio_bin, "eval", "--material", "fe-0.115", "--theta-i", ti, f"--theta-r={tr}"],
+                         capture_output=True, text=True)
+    assert cli.returncode == 2, cli
+    want = cli.stderr.strip().removeprefix("gonio: ")
+    m = gonio.Model.preset("fe-0.115")
+    for precision in ("f64", "f32"):
+        with pytest.raises(gonio.GonioError) as e:
+            m.eval([10.0, float(ti)], [0.0, float(tr)], precision=precision)
+        assert str(e.value) == want, precision

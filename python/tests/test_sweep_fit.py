@@ -102,6 +102,29 @@ def test_fit_options_as_on_the_command_line(gonio_bin):
     assert set(r.models) == {"torrance-sparrow", "three-component"}
 
 
+def test_fit_aperture_and_instrument_as_on_the_command_line(gonio_bin, tmp_path):
+    inst = tmp_path / "inst.toml"
+    inst.write_text('k = 2000.0\nu_k = 4.0\nstandard = "lambertian:0.99"\nreference_file = "ref.csv"\n'
+                    'date = "2026-12-02T00:00:00Z"\nreadings = 150\n')
+    for kw, argv in (({"aperture": 0.5}, ["--aperture", "0.5"]),
+                     ({"instrument": inst}, ["--instrument", str(inst)])):
+        r = gonio.fit(FE_SWEEP, models="three", **kw)
+        cli = json.loads(subprocess.run([gonio_bin, "fit", str(FE_SWEEP), "--json", "--models", "three", *argv],
+                                        check=True, capture_output=True, text=True).stdout)
+        ours = json.loads(r.to_json())
+        for d in (cli, ours):
+            d.pop("fit_seconds")
+        assert_same_json(ours, cli)
+    assert cli["brdf_units"] == "1/sr" and cli["instrument"]["k"] == 2000.0
+    assert r.model().to_per_sr == 1.0
+    aperture = json.loads(gonio.fit(FE_SWEEP, models="three", aperture=0.5).to_json())
+    assert aperture["models"][0]["aperture_deg"] == 0.5
+    with pytest.raises(gonio.GonioError, match="--aperture cannot be combined with --fix or a robust --loss"):
+        gonio.fit(FE_SWEEP, aperture=0.5, loss="cauchy:0.05")
+    with pytest.raises(gonio.GonioError, match="no-such.toml"):
+        gonio.fit(FE_SWEEP, instrument=tmp_path / "no-such.toml")
+
+
 def test_fit_arrays_and_errors():
     s = gonio.read_sweep(FE_SWEEP)
     r = gonio.fit(s.theta_i, s.theta_r, s.brdf, models=["three"])

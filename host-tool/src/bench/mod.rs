@@ -13,4 +13,4 @@ pub use study::{
     FitResultRow, MemberRow, PlanResult, ScaleRow, StudyError, fit_study, member_study, plan_study,
     scale_study,
 };
-pub use variants::{VariantResult, bench_params, dense_grid, eval_grid, naive, run};
+pub use variants::{VariantResult, bench_params, dense_grid, eval_grid, eval_pairs, naive, run};

@@ -30,34 +30,52 @@ pub fn naive(p: &Params<f64>, theta_i_deg: f64, theta_r_deg: f64) -> f64 {
     p.ks * f_s + p.kdd * f_dd + p.kid
 }
 
-/// [`FastModel::eval_grid`] compiled for AVX2 and FMA when the CPU has them (chosen
-/// at run time), else the baseline SSE2 build. Same results up to FMA rounding.
-pub fn eval_grid(
-    m: &FastModel,
-    theta_i: &[f32],
-    theta_r: &[f32],
-    out: &mut [f32],
-    scratch: &mut [f32],
-) -> Result<(), brdf_core::ModelError> {
-    #[cfg(target_arch = "x86_64")]
-    {
-        #[target_feature(enable = "avx2,fma")]
-        unsafe fn wide(
-            m: &FastModel,
-            ti: &[f32],
-            tr: &[f32],
-            out: &mut [f32],
-            scratch: &mut [f32],
-        ) -> Result<(), brdf_core::ModelError> {
-            m.eval_grid(ti, tr, out, scratch)
+/// Defines a function whose body is compiled twice: for AVX2 and FMA (the inner
+/// `wide`, chosen at run time when the CPU has them) and as the baseline SSE2 build;
+/// for brdf-core's always-inlined batch loops. Same results up to FMA rounding.
+macro_rules! best_isa {
+    ($(#[$doc:meta])* pub fn $name:ident($($arg:ident: $ty:ty),*) -> $ret:ty $body:block) => {
+        $(#[$doc])*
+        pub fn $name($($arg: $ty),*) -> $ret {
+            #[cfg(target_arch = "x86_64")]
+            {
+                #[target_feature(enable = "avx2,fma")]
+                fn wide($($arg: $ty),*) -> $ret $body
+                if std::arch::is_x86_feature_detected!("avx2")
+                    && std::arch::is_x86_feature_detected!("fma")
+                {
+                    // SAFETY: the CPU has AVX2 and FMA (checked just above).
+                    return unsafe { wide($($arg),*) };
+                }
+            }
+            $body
         }
-        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
-        {
-            // SAFETY: the CPU has AVX2 and FMA (checked just above).
-            return unsafe { wide(m, theta_i, theta_r, out, scratch) };
-        }
+    };
+}
+
+best_isa! {
+    /// [`FastModel::eval_grid`] in the best ISA the CPU has (AVX2+FMA, else SSE2).
+    pub fn eval_grid(
+        m: &FastModel,
+        theta_i: &[f32],
+        theta_r: &[f32],
+        out: &mut [f32],
+        scratch: &mut [f32]
+    ) -> Result<(), brdf_core::ModelError> {
+        m.eval_grid(theta_i, theta_r, out, scratch)
     }
-    m.eval_grid(theta_i, theta_r, out, scratch)
+}
+
+best_isa! {
+    /// [`FastModel::eval_pairs`] in the best ISA the CPU has (AVX2+FMA, else SSE2).
+    pub fn eval_pairs(
+        m: &FastModel,
+        theta_i: &[f32],
+        theta_r: &[f32],
+        out: &mut [f32]
+    ) -> Result<(), brdf_core::ModelError> {
+        m.eval_pairs(theta_i, theta_r, out)
+    }
 }
 
 /// The parameters every variant is measured with: the fe-0.115 sample at 40 degrees
@@ -197,6 +215,22 @@ pub fn run(budget: Duration) -> Vec<VariantResult> {
             err(&out.iter().map(|&v| v as f64).collect::<Vec<_>>()),
         ));
     }
+    // The same points as pairs (scattered readings): the pair batch path.
+    let (pi, pr): (Vec<f32>, Vec<f32>) = ti
+        .iter()
+        .flat_map(|&a| tr.iter().map(move |&b| (a, b)))
+        .unzip();
+    let ns = time(budget, n, || {
+        eval_pairs(&fast, &pi, &pr, black_box(&mut out)).expect("valid pairs");
+        black_box(&out);
+        0.0
+    });
+    eval_pairs(&fast, &pi, &pr, &mut out).expect("valid pairs");
+    rows.push((
+        "f32 fast batch pairs (best ISA)".into(),
+        ns,
+        err(&out.iter().map(|&v| v as f64).collect::<Vec<_>>()),
+    ));
 
     let naive_ns = rows[0].1;
     rows.into_iter()
@@ -247,7 +281,7 @@ mod tests {
             (1100, 640)
         );
         let _ = std::fs::remove_file(&png);
-        assert_eq!(rows.len(), 8);
+        assert_eq!(rows.len(), 9);
         for r in &rows {
             assert!(r.ns_per_eval > 0.0 && r.ns_per_eval.is_finite(), "{r:?}");
             let bound = match r.variant.as_str() {

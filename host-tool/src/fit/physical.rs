@@ -24,8 +24,9 @@ use super::member_fit::MemberFit;
 use super::{FamilyFit, Fit};
 use crate::sweep_file::BrdfUnits;
 
-/// The relative error the checks' albedo quadrature aims at (the estimate is reported).
-pub const CHECK_REL_ERROR: f64 = 1e-4;
+/// The relative error the checks' albedo quadrature aims at: the stated bound itself
+/// (each model's estimate is reported; a finer target costs evaluations nobody reads).
+pub const CHECK_REL_ERROR: f64 = brdf_core::albedo::DEFAULT_REL_ERROR;
 
 /// The checks of one fitted model.
 #[derive(Debug, Clone)]
@@ -73,13 +74,23 @@ pub fn fit_brdf<'a>(
 }
 
 /// A fitted member at any incidence as a 3-D BRDF closure (per-incidence k_s
-/// interpolated in theta_i as [`MemberFit::model_at`], smooth k_s at w_i's polar angle).
+/// interpolated in theta_i as [`MemberFit::model_at`], smooth k_s at w_i's polar angle);
+/// the model of each incidence angle met is built once (a grid has few polar angles).
 pub fn member_fit_brdf(
     fit: &MemberFit,
-) -> impl Fn(&[f64; 3], &[f64; 3]) -> Result<f64, brdf_core::ModelError> + '_ {
+) -> impl FnMut(&[f64; 3], &[f64; 3]) -> Result<f64, brdf_core::ModelError> + '_ {
+    let mut models: Vec<(f64, Option<brdf_core::member_model::MemberModel<f64>>)> = Vec::new();
     move |wi, wo| {
         let t = polar_deg(wi);
-        let m = fit.model_at(t).ok_or(brdf_core::ModelError::NotFinite {
+        let m = match models.iter().find(|m| m.0 == t) {
+            Some(m) => m.1,
+            None => {
+                let m = fit.model_at(t);
+                models.push((t, m));
+                m
+            }
+        };
+        let m = m.ok_or(brdf_core::ModelError::NotFinite {
             what: "fitted model",
         })?;
         m.eval(t, &Geometry::from_vectors(*wi, *wo)?).map(|e| e.f)

@@ -429,7 +429,12 @@ pub fn polar_deg<T: Real>(w: &[T; 3]) -> T {
 pub fn preset_brdf<T: Real>(
     preset: &Preset,
 ) -> impl Fn(&[T; 3], &[T; 3]) -> Result<T, ModelError> + '_ {
-    move |wi, wo| preset.model(polar_deg(wi))?.eval_vectors(*wi, *wo).map(|e| e.f)
+    move |wi, wo| {
+        preset
+            .model(polar_deg(wi))?
+            .eval_vectors(*wi, *wo)
+            .map(|e| e.f)
+    }
 }
 
 /// The direction grid of [`reciprocity`]: polar angles at the `polar` Gauss–Legendre

@@ -405,7 +405,9 @@ fn members_meet_the_stated_error_with_the_rule_for_their_width() {
             core: lobe(Distribution::Beckmann, 1.0, 0.02),
             haze: Some(LobeParams {
                 dist: Distribution::Ggx,
-                ks: Ks::Smooth(SmoothKs { c: [-3.0, 0.5, 0.2] }),
+                ks: Ks::Smooth(SmoothKs {
+                    c: [-3.0, 0.5, 0.2],
+                }),
                 sigma: 0.1,
             }),
             directional: None,
@@ -435,7 +437,11 @@ fn members_meet_the_stated_error_with_the_rule_for_their_width() {
                 "{} {ti}: {w:?} vs {exact}",
                 m.member()
             );
-            assert!(w.error < DEFAULT_REL_ERROR * w.rho, "{} {ti}: {w:?}", m.member());
+            assert!(
+                w.error < DEFAULT_REL_ERROR * w.rho,
+                "{} {ti}: {w:?}",
+                m.member()
+            );
             let a = albedo(ti, 0.0, &rule, member_brdf(&m)).unwrap();
             let what = format!(
                 "{} {rule:?} {ti}: rho {} error {} ref {exact}",

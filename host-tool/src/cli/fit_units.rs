@@ -167,7 +167,8 @@ fn selected_member_rows(fam: &FamilyFit, rel: f64) -> Option<ModelRows> {
 /// side, then the selected member's when it is not a paper model.
 fn rows(fam: &FamilyFit, inst: &Instrument) -> Vec<ModelRows> {
     let rel = inst.relative_uncertainty();
-    let mut out: Vec<ModelRows> = fam.fits
+    let mut out: Vec<ModelRows> = fam
+        .fits
         .iter()
         .map(|fit| {
             let mut named = Vec::new();
@@ -293,7 +294,8 @@ mod tests {
         let fe = brdf_core::Preset::by_name("fe-0.115").unwrap();
         let sweep = synthetic_paper_sweep(|ti| fe.model::<f64>(ti).unwrap(), 0.002, 3);
         let data = Dataset::from_rows(&sweep, true).unwrap();
-        let ggx = Member::parse("specular:ggx:smooth-ks+directional-diffuse+ideal-diffuse").unwrap();
+        let ggx =
+            Member::parse("specular:ggx:smooth-ks+directional-diffuse+ideal-diffuse").unwrap();
         let opts = FitOptions {
             members: Some(vec![ggx]),
             ..FitOptions::default()

@@ -13,7 +13,6 @@ use crate::capture::{CaptureSetup, capture, progress};
 use crate::device::Connector;
 use crate::sweep_file::{SweepData, SweepWriter};
 
-
 /// How a reference sweep's `# sample:` line starts; the standard follows.
 pub const SAMPLE_PREFIX: &str = "reference standard ";
 
@@ -112,7 +111,11 @@ pub fn plan_session_resume(sample: &Path, standard: &str) -> CliResult<SessionRe
         }
     };
     let (r, s) = (read(&ref_out)?, read(sample)?);
-    let refuse = |m: String| Err(CliError::usage(format!("--resume --reference {standard}: {m}")));
+    let refuse = |m: String| {
+        Err(CliError::usage(format!(
+            "--resume --reference {standard}: {m}"
+        )))
+    };
     if let Some(r) = &r {
         match recorded_standard(r) {
             Some(got) if got == standard => {}

@@ -14,11 +14,11 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
+use brdf_core::controller::{Detector, DetectorError};
 use brdf_core::identity::FIRMWARE_VERSION;
 use brdf_core::presets::Preset;
-use brdf_core::service::{Link, Service};
-use brdf_core::controller::{Detector, DetectorError};
 use brdf_core::protocol::Specimen;
+use brdf_core::service::{Link, Service};
 use brdf_core::sim::{SIM_K, SimArm, SimPin, VirtualSample, simulated_controller};
 
 use super::Connector;

@@ -64,11 +64,11 @@ pub fn fit_brdf<'a>(
     fit: &'a Fit,
 ) -> impl Fn(&[f64; 3], &[f64; 3]) -> Result<f64, brdf_core::ModelError> + 'a {
     move |wi, wo| {
-        let m = fit
-            .model_at(&fam.incidences, polar_deg(wi))
-            .ok_or(brdf_core::ModelError::NotFinite {
+        let m = fit.model_at(&fam.incidences, polar_deg(wi)).ok_or(
+            brdf_core::ModelError::NotFinite {
                 what: "fitted model",
-            })?;
+            },
+        )?;
         m.eval_vectors(*wi, *wo).map(|e| e.f)
     }
 }
@@ -325,7 +325,10 @@ mod tests {
         // The ideal diffuse's rho is pi k_id to the quadrature's error.
         let kid = fam.members[0].natural(fam.members[0].layout.kid.unwrap()).0;
         for (_, rho, err) in &checks[0].albedo {
-            assert!((rho - std::f64::consts::PI * kid).abs() <= err + 1e-15, "{rho}");
+            assert!(
+                (rho - std::f64::consts::PI * kid).abs() <= err + 1e-15,
+                "{rho}"
+            );
         }
         let selected = fam.selected_member.to_string();
         let text = checks_text(&checks, BrdfUnits::PerSr, &selected);
@@ -341,7 +344,10 @@ mod tests {
         big[3].albedo.iter_mut().for_each(|a| a.1 *= 100.0);
         let t = checks_text(&big, BrdfUnits::PerSr, &selected);
         assert!(
-            t.contains(&format!("NON-PHYSICAL (rho > 1, creates energy): {}", names[3])),
+            t.contains(&format!(
+                "NON-PHYSICAL (rho > 1, creates energy): {}",
+                names[3]
+            )),
             "{t}"
         );
         assert!(checks_text(&big, BrdfUnits::Relative, &selected).contains("not judged"));
@@ -369,7 +375,10 @@ mod tests {
         assert_eq!(checks.len(), fam.fits.len());
         for c in &checks {
             assert_eq!(c.albedo.len(), 9);
-            assert!(c.max_rho() < 1.0 && c.max_rel_error() < DEFAULT_REL_ERROR, "{c:?}");
+            assert!(
+                c.max_rho() < 1.0 && c.max_rel_error() < DEFAULT_REL_ERROR,
+                "{c:?}"
+            );
         }
         assert_eq!(checks[0].name, Kind::IdealDiffuse.name());
     }

@@ -12,5 +12,5 @@ mod fit_cli;
 mod hostile;
 mod ports_flash;
 mod units_chain;
-mod units_session;
 mod units_cli;
+mod units_session;

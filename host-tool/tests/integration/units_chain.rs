@@ -242,7 +242,10 @@ fn a_campaign_fits_in_one_over_sr_with_one_instrument() {
             // Its u(K) table, as a single-file fit's: K's uncertainty in each amplitude
             // beside the fit's, none in the widths.
             let models = r["instrument"]["models"].as_array().unwrap();
-            let three = models.iter().find(|m| m["name"] == "three-component").unwrap();
+            let three = models
+                .iter()
+                .find(|m| m["name"] == "three-component")
+                .unwrap();
             let kdd = &three["params"]["k_dd"];
             assert!(kdd["u_instrument"].as_f64().unwrap() > 0.0, "{kdd}");
             assert!(kdd["u_fit"].as_f64().unwrap() > 0.0, "{kdd}");

@@ -126,7 +126,10 @@ fn a_table_standard_in_the_simulator_calibrates_the_absolute_brdf() {
         let rel = r.brdf / (k_true * stated / std::f64::consts::PI) - 1.0;
         assert!(rel.abs() < 0.015, "{r:?}: {rel}");
     }
-    assert!(spread > 0.05, "the standard departs {spread} from Lambertian");
+    assert!(
+        spread > 0.05,
+        "the standard departs {spread} from Lambertian"
+    );
 
     // Calibrated against the table the file records: K within 4 u(K) of the truth.
     let inst = dir.join("inst.toml");

@@ -218,9 +218,18 @@ pub fn instrument_text(fam: &FamilyFit, inst: &Instrument, path: &Path) -> Strin
         inst.standard,
         inst.date
     );
+    let all = rows(fam, inst);
+    // Columns as wide as the longest model and parameter names (member names are long).
+    let mw = all.iter().map(|r| r.0.len()).max().unwrap_or(0).max(22);
+    let pw = all
+        .iter()
+        .flat_map(|r| r.1.iter().map(|p| p.0.len()))
+        .max()
+        .unwrap_or(0)
+        .max(10);
     let _ = writeln!(
         s,
-        "  {:<22} {:<10} {:>14} {:>11} {:>11} {:>11}",
+        "  {:<mw$} {:<pw$} {:>14} {:>11} {:>11} {:>11}",
         "model", "parameter", "value", "u(fit)", "u(K)", "u(total)"
     );
     let f = |x: f64| {
@@ -230,11 +239,11 @@ pub fn instrument_text(fam: &FamilyFit, inst: &Instrument, path: &Path) -> Strin
             "n/d".into()
         }
     };
-    for (model, params) in rows(fam, inst) {
+    for (model, params) in all {
         for (name, [v, uf, uk, ut]) in params {
             let _ = writeln!(
                 s,
-                "  {model:<22} {name:<10} {:>14} {:>11} {:>11} {:>11}",
+                "  {model:<mw$} {name:<pw$} {:>14} {:>11} {:>11} {:>11}",
                 f(v),
                 f(uf),
                 f(uk),

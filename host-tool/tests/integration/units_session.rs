@@ -1,8 +1,9 @@
 //! The reference session beyond the Lambertian case (issue 17): a simulated device
 //! carrying a PTFE-like standard given by its certified table (`--reference
 //! table:FILE`), calibrated with that table, recovers the sample's BRDF in 1/sr within
-//! 1 % (a Lambertian reading of the same sweep would not); and `--reference --resume`
-//! continues a session stopped in either sweep, losing nothing.
+//! 1 % (a Lambertian reading of the same sweep would not), in process and through
+//! `gonio capture` over a pty; and `--reference --resume` continues a session stopped
+//! in either sweep, losing nothing.
 
 use std::path::Path;
 
@@ -298,5 +299,41 @@ fn reference_resume_continues_the_session_in_either_sweep() {
         crate::util::one_line(&other.stderr).contains("is not this session's reference sweep"),
         "{}",
         other.stderr
+    );
+}
+
+#[test]
+fn capture_over_a_pty_measures_a_table_standard() {
+    // The same standard served by the simulated device on a pty, measured by
+    // `gonio capture --reference table:FILE` as a real device's would be.
+    let dir = scratch("table-pty");
+    let table = dir.join("ptfe.csv");
+    write_table(&table);
+    let spec = format!("table:{}", s(&table));
+    let mut cfg = gonio::device::SimConfig::new(Preset::by_name("cu-0.070").unwrap(), 0.005, 5);
+    let text = std::fs::read_to_string(&table).unwrap();
+    cfg.reference_table = Some(std::sync::Arc::new(
+        gonio::calibrate::Standard::table("ptfe.csv", &text).unwrap(),
+    ));
+    let dev = gonio::device::PtyDevice::start(&cfg).unwrap();
+    let sample = dir.join("cu.csv");
+    let out = gonio(&[
+        "capture",
+        "--port",
+        &s(dev.path()),
+        "--reference",
+        &spec,
+        "--out",
+        &s(&sample),
+        "-q",
+    ]);
+    assert!(out.ok(), "{}", out.stderr);
+    drop(dev);
+    let (k, u_k, v) = calibrate_json(&dir.join("cu.reference.csv"), &dir.join("i.toml"), &[]);
+    assert_eq!(v["instrument"]["standard"], spec.as_str());
+    let k_true = f64::from(SIM_K);
+    assert!(
+        (k - k_true).abs() < 4.0 * u_k,
+        "K = {k} ± {u_k}, true {k_true}"
     );
 }

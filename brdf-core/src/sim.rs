@@ -20,12 +20,14 @@ pub const SIM_K: f32 = 2000.0;
 /// The simulated reference goniometer (arms as in [`crate::mechanics`]): shafts at 45
 /// (source) and 10 (detector) degrees, unknown to the controller until it homes, home
 /// switches at the arms' home angles, a laser pin that only remembers its level, and
-/// `sample` as the detector. The QEMU board and gonio's simulated devices are this.
-pub fn simulated_controller(
+/// `sample` as the detector (a [`VirtualSample`], or any detector wrapping one, as the
+/// host's simulated device with a certified-table standard). The QEMU board and gonio's
+/// simulated devices are this.
+pub fn simulated_controller<D: Detector>(
     board: &'static str,
     firmware: [u8; 3],
-    sample: VirtualSample,
-) -> Controller<SimArm, SimArm, SimPin, VirtualSample> {
+    sample: D,
+) -> Controller<SimArm, SimArm, SimPin, D> {
     let cfg = ControllerConfig {
         board,
         firmware,

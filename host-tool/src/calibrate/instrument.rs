@@ -144,8 +144,12 @@ pub fn to_absolute(
 pub enum ParamKind {
     /// A weight (k_s, k_dd, k_id, ...): in relative units it is K times its value in 1/sr.
     Amplitude,
-    /// A width or shape parameter (sigma, sigma_m): independent of K.
+    /// A width or shape parameter (sigma, sigma_m, a smooth k_s's c1 and c2):
+    /// independent of K.
     Width,
+    /// The logarithm of an amplitude (a smooth k_s's c0 = ln k_s at theta_i = 0): in
+    /// relative units it is ln K plus its value in 1/sr; it carries u(K)/K itself.
+    LogAmplitude,
 }
 
 /// A parameter fitted in relative units.
@@ -183,6 +187,10 @@ pub fn absolute_parameters(params: &[FittedParam], inst: &Instrument) -> Vec<Abs
                 std_error: p.std_error / inst.k,
                 ..*p
             },
+            ParamKind::LogAmplitude => FittedParam {
+                value: p.value - inst.k.ln(),
+                ..*p
+            },
             ParamKind::Width => *p,
         })
         .collect();
@@ -190,13 +198,15 @@ pub fn absolute_parameters(params: &[FittedParam], inst: &Instrument) -> Vec<Abs
 }
 
 /// Parameters already in 1/sr (fitted to converted data) with K's relative uncertainty
-/// `rel` beside the fit's: |value| rel for amplitudes, 0 for widths.
+/// `rel` beside the fit's: |value| rel for amplitudes, rel for a log amplitude, 0 for
+/// widths.
 pub fn combine_uncertainty(params: &[FittedParam], rel: f64) -> Vec<AbsoluteParam> {
     params
         .iter()
         .map(|p| {
             let u_instrument = match p.kind {
                 ParamKind::Amplitude => p.value.abs() * rel,
+                ParamKind::LogAmplitude => rel,
                 ParamKind::Width => 0.0,
             };
             AbsoluteParam {
@@ -312,5 +322,14 @@ mod tests {
                 u_total: 0.002
             }
         );
+        // A smooth k_s's c0 = ln k_s(0): shifted by -ln K, carrying u(K)/K itself.
+        let c0 = [FittedParam {
+            value: 600f64.ln(),
+            std_error: 0.01,
+            kind: ParamKind::LogAmplitude,
+        }];
+        let a = absolute_parameters(&c0, &inst());
+        assert!((a[0].value - 0.24f64.ln()).abs() < 1e-12);
+        assert_eq!((a[0].u_fit, a[0].u_instrument), (0.01, 0.01));
     }
 }

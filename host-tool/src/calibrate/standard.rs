@@ -114,6 +114,15 @@ impl Standard {
         }
     }
 
+    /// The stated reflectance factor at a geometry (degrees, theta_r signed), angles up
+    /// to `tol` degrees outside a table taken at its edge; `None` outside.
+    pub fn factor_within(&self, theta_i: f64, theta_r: f64, tol: f64) -> Option<f64> {
+        match &self.kind {
+            Kind::Lambertian(r) => Some(*r),
+            Kind::Table(t) => t.at_within(theta_i, theta_r, tol),
+        }
+    }
+
     /// The stated BRDF in 1/sr at a geometry: reflectance factor / pi.
     pub fn brdf(
         &self,
@@ -216,9 +225,23 @@ impl ReflectanceTable {
 
     /// The interpolated factor, or `None` outside the table.
     pub fn at(&self, theta_i: f64, theta_r: f64) -> Option<f64> {
+        self.at_within(theta_i, theta_r, ANGLE_TOL_DEG)
+    }
+
+    /// [`ReflectanceTable::at`] with angles up to `tol` degrees outside the table taken
+    /// at its edge (a simulated arm that stops a step past the last tabulated angle).
+    pub fn at_within(&self, theta_i: f64, theta_r: f64, tol: f64) -> Option<f64> {
+        let g = &self.groups;
+        let theta_i = if theta_i < g[0].0 && theta_i >= g[0].0 - tol {
+            g[0].0
+        } else if theta_i > g[g.len() - 1].0 && theta_i <= g[g.len() - 1].0 + tol {
+            g[g.len() - 1].0
+        } else {
+            theta_i
+        };
         let in_row = |row: &[(f64, f64)]| -> Option<f64> {
             let (first, last) = (row[0], row[row.len() - 1]);
-            if theta_r < first.0 - ANGLE_TOL_DEG || theta_r > last.0 + ANGLE_TOL_DEG {
+            if theta_r < first.0 - tol || theta_r > last.0 + tol {
                 return None;
             }
             if row.len() == 1 {
@@ -231,7 +254,6 @@ impl ReflectanceTable {
             let t = ((theta_r - x0) / (x1 - x0)).clamp(0.0, 1.0);
             Some(y0 + (y1 - y0) * t)
         };
-        let g = &self.groups;
         if let Some((_, row)) = g.iter().find(|(t, _)| (t - theta_i).abs() <= ANGLE_TOL_DEG) {
             return in_row(row);
         }
@@ -292,6 +314,11 @@ mod tests {
             );
             assert!(e.to_string().contains("theta_i 0: theta_r -60..60"), "{e}");
         }
+        // A simulated arm a step past the edge reads the edge within the tolerance only.
+        assert_eq!(s.factor_within(0.0, 60.04, 0.05), Some(0.90));
+        assert_eq!(s.factor_within(40.03, -60.0, 0.05), Some(0.80));
+        assert_eq!(s.factor_within(0.0, 60.1, 0.05), None);
+        assert_eq!(s.factor_within(40.1, 0.0, 0.05), None);
     }
 
     #[test]

@@ -60,11 +60,9 @@ pub struct CaptureArgs {
     /// `gonio calibrate OUT.reference.csv` needs no --standard), then the sample. The
     /// device is told which is on the stage (Mount); one without a reference standard is
     /// refused (measure the standard as a sweep of its own and calibrate with --standard).
-    #[arg(
-        long,
-        value_name = "lambertian:R|table:FILE",
-        conflicts_with = "resume"
-    )]
+    /// With --resume: continues the session (each of the two files where it stopped; a
+    /// file not yet started gets the other's plan).
+    #[arg(long, value_name = "lambertian:R|table:FILE")]
     pub reference: Option<String>,
 }
 
@@ -83,22 +81,31 @@ pub(super) fn interrupt_flag() -> Arc<AtomicBool> {
     flag
 }
 
-/// The capture setup of `--plan ...` and `--out ...`.
-pub(super) fn setup_from(plan: &PlanArgs, out: &OutArgs) -> CliResult<CaptureSetup> {
+/// The capture setup of `--plan ...` and `--out ...`. With `session` (`--reference`)
+/// and `--resume` the sample's file need not exist yet (the session may have stopped
+/// in its reference sweep): the plan options are checked against whichever of the
+/// session's two files exist.
+pub(super) fn setup_from(plan: &PlanArgs, out: &OutArgs, session: bool) -> CliResult<CaptureSetup> {
     let path = out
         .out
         .clone()
         .ok_or_else(|| CliError::usage("--out SWEEP.csv is required"))?;
     let plan_args = plan;
     let plan = if out.resume { None } else { Some(plan.plan()?) };
-    if out.resume && !path.exists() {
+    if out.resume && !session && !path.exists() {
         return Err(CliError::usage(format!(
             "--resume: {} does not exist",
             path.display()
         )));
     }
     if out.resume {
-        plan_args.check_resume(&path, &crate::sweep_file::read_sweep(&path)?)?;
+        let mut files = vec![path.clone()];
+        if session {
+            files.push(super::reference::reference_path(&path));
+        }
+        for f in files.iter().filter(|f| f.exists()) {
+            plan_args.check_resume(f, &crate::sweep_file::read_sweep(f)?)?;
+        }
     }
     let mut setup = CaptureSetup::new(plan, path);
     setup.resume = out.resume;
@@ -151,21 +158,18 @@ pub(super) fn finish(report: &CaptureReport, out: &std::path::Path, resume: &str
 
 /// Runs `gonio capture`.
 pub fn run(args: &CaptureArgs) -> CliResult {
-    let mut setup = setup_from(&args.plan, &args.out)?;
+    let mut setup = setup_from(&args.plan, &args.out, args.reference.is_some())?;
     setup.event_timeout = Duration::from_secs(args.event_timeout.max(1));
     setup.reconnect_for = Duration::from_secs(args.reconnect);
-    setup.specimen = Some(super::reference::resumed_specimen(&setup)?);
     if let Some(spec) = &args.reference {
         // The standard as calibrate will read it (a table file must exist).
         super::calibrate::standard(spec, 0.0)
             .map_err(|e| CliError::usage(e.message.replacen("--standard", "--reference", 1)))?;
-        let resume = |out: &std::path::Path| {
-            format!(
-                "gonio capture --port {} --resume --out {}",
-                args.port,
-                out.display()
-            )
-        };
+        let resume = format!(
+            "gonio capture --port {} --reference {spec} --resume --out {}",
+            args.port,
+            setup.out.display()
+        );
         return super::reference::run_session(
             &mut SerialConnector::new(&args.port),
             &setup,
@@ -174,6 +178,7 @@ pub fn run(args: &CaptureArgs) -> CliResult {
             &resume,
         );
     }
+    setup.specimen = Some(super::reference::resumed_specimen(&setup)?);
     let resume = format!(
         "gonio capture --port {} --resume --out {}",
         args.port,

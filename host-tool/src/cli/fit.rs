@@ -10,6 +10,7 @@ use brdf_core::member::Member;
 use super::args::{parse_export, parse_loss};
 use super::error::{CliError, CliResult};
 use super::output::write_stdout;
+use crate::calibrate::Instrument;
 use crate::export::ExportFormat;
 use crate::fit::campaign::{self, FileError};
 use crate::fit::{self, Dataset, FamilyFit, FitOptions, Fixed, Kind, Loss, Residual};
@@ -262,11 +263,16 @@ fn run_campaign(args: &FitArgs, opts: &FitOptions, kinds: &[Kind]) -> CliResult 
         None => campaign::fit_files(&files, opts, kinds, &|_, _| bar.inc(1)),
     };
     bar.finish_and_clear();
+    // Each file's report as a single-file fit's (its u(K) table and physical checks).
+    let inst_ref = inst.as_ref().map(|(i, p)| (i, p.as_path()));
+    let residual = residual_name(opts.residual);
+    let json = args.json;
+    let report = |fam: &FamilyFit| report_bytes(fam, json, residual, inst_ref);
     let (csv, _) = campaign::write_reports(
         &args.out,
         &results,
-        args.json,
-        residual_name(opts.residual),
+        if args.json { "json" } else { "txt" },
+        &report,
         args.force,
     )
     .map_err(CliError::failed)?;
@@ -368,13 +374,24 @@ pub fn run(args: &FitArgs) -> CliResult {
             _ => export::write_export(*format, target, &fam, member)?,
         }
     }
-    let text = if args.json {
-        let inst = inst.map(|(i, p)| super::fit_units::instrument_json(&fam, i, p));
-        fit::report::family_json_text(&fam, inst.as_ref())
+    write_stdout(&report_bytes(&fam, args.json, residual, inst))
+}
+
+/// The report of one fit, the same for `gonio fit SWEEP` and each file of a campaign:
+/// the JSON (with the `--instrument` section) or the table, the u(K) table and the
+/// physical checks of every model.
+fn report_bytes(
+    fam: &FamilyFit,
+    json: bool,
+    residual: &str,
+    inst: Option<(&Instrument, &std::path::Path)>,
+) -> Vec<u8> {
+    if json {
+        let inst = inst.map(|(i, p)| super::fit_units::instrument_json(fam, i, p));
+        fit::report::family_json_text(fam, inst.as_ref())
     } else {
-        let mut t = fit::report::family_table(&fam, residual);
-        t.push_str(&super::fit_units::report_text(&fam, inst));
+        let mut t = fit::report::family_table(fam, residual);
+        t.push_str(&super::fit_units::report_text(fam, inst));
         t.into_bytes()
-    };
-    write_stdout(&text)
+    }
 }

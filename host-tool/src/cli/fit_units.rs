@@ -127,10 +127,48 @@ pub fn campaign_instrument_json(inst: &Instrument, path: &Path) -> Value {
 /// A model's name and its parameters: name, [value, u(fit), u(K), u(total)].
 type ModelRows = (String, Vec<(String, [f64; 4])>);
 
-/// Each fitted model's parameters in 1/sr with the fit's and K's uncertainty side by side.
+/// How a member's parameter (by its report name) scales with K.
+fn member_param_kind(name: &str) -> ParamKind {
+    if name.starts_with("sigma") || name.ends_with("_c1") || name.ends_with("_c2") {
+        ParamKind::Width
+    } else if name.ends_with("_c0") {
+        ParamKind::LogAmplitude
+    } else {
+        ParamKind::Amplitude
+    }
+}
+
+/// The selected member's rows when it is not one of the paper's models (a GGX core, a
+/// haze lobe, a smooth k_s): its parameters with u(fit) and u(K) as the paper fits'.
+fn selected_member_rows(fam: &FamilyFit, rel: f64) -> Option<ModelRows> {
+    let sel = fam.selected_member;
+    if fam.fits.iter().any(|f| f.kind.member() == sel) {
+        return None;
+    }
+    let fit = fam.selected_fit()?;
+    let named = crate::fit::report::member_params(fit);
+    let params: Vec<FittedParam> = named
+        .iter()
+        .map(|(n, v, se)| FittedParam {
+            value: *v,
+            std_error: se.unwrap_or(f64::NAN),
+            kind: member_param_kind(n),
+        })
+        .collect();
+    let out = named
+        .into_iter()
+        .zip(combine_uncertainty(&params, rel))
+        .map(|((n, ..), a)| (n, [a.value, a.u_fit, a.u_instrument, a.u_total]))
+        .collect();
+    Some((sel.to_string(), out))
+}
+
+/// Each paper model's parameters in 1/sr with the fit's and K's uncertainty side by
+/// side, then the selected member's when it is not a paper model.
 fn rows(fam: &FamilyFit, inst: &Instrument) -> Vec<ModelRows> {
     let rel = inst.relative_uncertainty();
-    fam.fits
+    let mut out: Vec<ModelRows> = fam
+        .fits
         .iter()
         .map(|fit| {
             let mut named = Vec::new();
@@ -163,7 +201,9 @@ fn rows(fam: &FamilyFit, inst: &Instrument) -> Vec<ModelRows> {
                 .collect();
             (fit.kind.name().to_string(), out)
         })
-        .collect()
+        .collect();
+    out.extend(selected_member_rows(fam, rel));
+    out
 }
 
 /// The `--instrument` section of the report.
@@ -178,9 +218,18 @@ pub fn instrument_text(fam: &FamilyFit, inst: &Instrument, path: &Path) -> Strin
         inst.standard,
         inst.date
     );
+    let all = rows(fam, inst);
+    // Columns as wide as the longest model and parameter names (member names are long).
+    let mw = all.iter().map(|r| r.0.len()).max().unwrap_or(0).max(22);
+    let pw = all
+        .iter()
+        .flat_map(|r| r.1.iter().map(|p| p.0.len()))
+        .max()
+        .unwrap_or(0)
+        .max(10);
     let _ = writeln!(
         s,
-        "  {:<22} {:<10} {:>14} {:>11} {:>11} {:>11}",
+        "  {:<mw$} {:<pw$} {:>14} {:>11} {:>11} {:>11}",
         "model", "parameter", "value", "u(fit)", "u(K)", "u(total)"
     );
     let f = |x: f64| {
@@ -190,11 +239,11 @@ pub fn instrument_text(fam: &FamilyFit, inst: &Instrument, path: &Path) -> Strin
             "n/d".into()
         }
     };
-    for (model, params) in rows(fam, inst) {
+    for (model, params) in all {
         for (name, [v, uf, uk, ut]) in params {
             let _ = writeln!(
                 s,
-                "  {model:<22} {name:<10} {:>14} {:>11} {:>11} {:>11}",
+                "  {model:<mw$} {name:<pw$} {:>14} {:>11} {:>11} {:>11}",
                 f(v),
                 f(uf),
                 f(uk),
@@ -237,6 +286,51 @@ pub fn report_text(fam: &FamilyFit, inst: Option<(&Instrument, &Path)>) -> Strin
     s.push_str(&physical::checks_text(
         &physical::check_family(fam),
         fam.units,
+        fam.selected_member.name().as_str(),
     ));
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fit::data::synthetic_paper_sweep;
+    use crate::fit::{FitOptions, Kind, fit_family};
+    use brdf_core::member::Member;
+
+    #[test]
+    fn a_selected_member_outside_the_paper_gets_its_u_k_rows() {
+        let fe = brdf_core::Preset::by_name("fe-0.115").unwrap();
+        let sweep = synthetic_paper_sweep(|ti| fe.model::<f64>(ti).unwrap(), 0.002, 3);
+        let data = Dataset::from_rows(&sweep, true).unwrap();
+        let ggx =
+            Member::parse("specular:ggx:smooth-ks+directional-diffuse+ideal-diffuse").unwrap();
+        let opts = FitOptions {
+            members: Some(vec![ggx]),
+            ..FitOptions::default()
+        };
+        let fam = fit_family(&data, &opts, &Kind::ALL).unwrap();
+        assert_eq!(fam.selected_member, ggx);
+        let inst = Instrument {
+            k: 2000.0,
+            u_k: 20.0,
+            standard: "lambertian:0.99".into(),
+            reference_file: "ref.csv".into(),
+            date: "2026-12-02T00:00:00Z".into(),
+            readings: 153,
+            quantity: Quantity::RelativeBrdf,
+        };
+        let all = rows(&fam, &inst);
+        let (name, params) = all.last().unwrap();
+        assert_eq!(name, &ggx.to_string());
+        let get = |n: &str| params.iter().find(|p| p.0 == n).unwrap().1;
+        // 1 % of K: 1 % of every amplitude, 0.01 in ln k_s(0), nothing in widths.
+        let kdd = get("k_dd");
+        assert!((kdd[2] / kdd[0] - 0.01).abs() < 1e-12, "{kdd:?}");
+        assert!((get("ln_ks_c0")[2] - 0.01).abs() < 1e-15);
+        assert_eq!(get("sigma")[2], 0.0);
+        assert_eq!(get("ln_ks_c1")[2], 0.0);
+        let text = instrument_text(&fam, &inst, Path::new("inst.toml"));
+        assert!(text.contains(&ggx.to_string()), "{text}");
+    }
 }

@@ -44,12 +44,15 @@ pub struct SimulateArgs {
     /// pace; default: as fast as possible); 0.001 to 1000000.
     #[arg(long, requires = "pty", value_name = "X", value_parser = super::args::parse_speed)]
     pub speed: Option<f64>,
-    /// Give the simulated device a Lambertian reference standard of reflectance factor
-    /// R beside the sample (it reads K R / pi with K = 2000 reading units per 1/sr, the
-    /// constant that makes the sample's readings K times its BRDF in 1/sr). With --out:
+    /// Give the simulated device a reference standard beside the sample: a Lambertian
+    /// diffuser of reflectance factor R (it reads K R / pi with K = 2000 reading units
+    /// per 1/sr, the constant that makes the sample's readings K times its BRDF in
+    /// 1/sr), or one whose certified table of reflectance factor is FILE (it reads K
+    /// R(theta_i, theta_r) / pi, e.g. a PTFE-like diffuser falling toward grazing). With --out:
     /// measure it first, in the same session, into OUT.reference.csv, then the sample
     /// (as `gonio capture --reference`); with --pty: the device serves it on `Mount`.
-    #[arg(long, value_name = "lambertian:R", conflicts_with = "resume")]
+    /// With --resume: continues the session, as `gonio capture --reference --resume`.
+    #[arg(long, value_name = "lambertian:R|table:FILE")]
     pub reference: Option<String>,
     /// Which plan to run.
     #[command(flatten)]
@@ -71,7 +74,7 @@ pub fn run(args: &SimulateArgs) -> CliResult {
         cfg.speed = Some(speed);
     }
     if let Some(spec) = &args.reference {
-        cfg.reference = Some(super::reference::simulated_reflectance(spec)?);
+        super::reference::simulated_standard(spec, &mut cfg)?;
     }
     if args.pty {
         let dev = PtyDevice::start(&cfg)
@@ -88,30 +91,33 @@ pub fn run(args: &SimulateArgs) -> CliResult {
         }
         return Ok(());
     }
-    let mut setup = setup_from(&args.plan, &args.out)?;
+    let mut setup = setup_from(&args.plan, &args.out, args.reference.is_some())?;
     let mut sample = format!("simulated {} noise={}", args.material, args.noise);
+    if let Some(spec) = &args.reference {
+        check_table_covers(&cfg, &setup, spec)?;
+        if setup.resume && setup.out.exists() {
+            check_sample(&setup.out, &sample)?;
+        }
+        setup.sample = Some(sample);
+        let conn = &mut SharedInProcessConnector::new(InProcessDevice::new(&cfg));
+        let resume = format!(
+            "gonio simulate --material {} --reference {spec} --resume --out {}",
+            args.material,
+            setup.out.display()
+        );
+        return super::reference::run_session(conn, &setup, spec, args.out.quiet, &resume);
+    }
     setup.specimen = Some(super::reference::resumed_specimen(&setup)?);
     if setup.specimen == Some(brdf_core::protocol::Specimen::Reference) {
         // Resuming a reference sweep: the device carries the standard the file names.
         let data = crate::sweep_file::read_sweep(&setup.out)?;
         let spec = super::reference::recorded_standard(&data).unwrap_or_default();
-        cfg.reference = Some(super::reference::simulated_reflectance(spec)?);
+        super::reference::simulated_standard(spec, &mut cfg)?;
         sample = data.meta["sample"].clone();
     } else if setup.resume {
         check_sample(&setup.out, &sample)?;
     }
     setup.sample = Some(sample);
-    if let Some(spec) = &args.reference {
-        let conn = &mut SharedInProcessConnector::new(InProcessDevice::new(&cfg));
-        let resume = |out: &std::path::Path| {
-            format!(
-                "gonio simulate --material {} --resume --out {}",
-                args.material,
-                out.display()
-            )
-        };
-        return super::reference::run_session(conn, &setup, spec, args.out.quiet, &resume);
-    }
     let resume = format!(
         "gonio simulate --material {} --resume --out {}",
         args.material,
@@ -119,6 +125,25 @@ pub fn run(args: &SimulateArgs) -> CliResult {
     );
     let conn = InProcessConnector::new(InProcessDevice::new(&cfg));
     run_with(conn, &setup, args.out.quiet, &resume)
+}
+
+/// A certified-table standard must cover every point of the plan (the simulated
+/// detector faults outside it, as `calibrate` would refuse the reading): refused before
+/// anything is measured, naming the first point outside.
+fn check_table_covers(
+    cfg: &crate::device::SimConfig,
+    setup: &crate::capture::CaptureSetup,
+    spec: &str,
+) -> CliResult {
+    let (Some(table), Some(plan)) = (&cfg.reference_table, &setup.plan) else {
+        return Ok(());
+    };
+    for (k, p) in plan.points.iter().enumerate() {
+        table
+            .reflectance_factor(k + 1, p.theta_i.into(), p.theta_r.into())
+            .map_err(|e| CliError::usage(format!("--reference {spec}: the plan's {e}")))?;
+    }
+    Ok(())
 }
 
 /// With `--resume`: the file's `# sample:` line (if it has one) must be this sample,

@@ -14,19 +14,63 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
+use brdf_core::controller::{Detector, DetectorError};
 use brdf_core::identity::FIRMWARE_VERSION;
 use brdf_core::presets::Preset;
+use brdf_core::protocol::Specimen;
 use brdf_core::service::{Link, Service};
-use brdf_core::sim::{SimArm, SimPin, VirtualSample, simulated_controller};
+use brdf_core::sim::{SIM_K, SimArm, SimPin, VirtualSample, simulated_controller};
 
 use super::Connector;
 use super::link::{FramedLink, LinkError, Transport};
 
 /// The simulated controller type.
-pub type SimService = Service<SimArm, SimArm, SimPin, VirtualSample>;
+pub type SimService = Service<SimArm, SimArm, SimPin, SimDetector>;
+
+/// How far (degrees) an arm may stop outside a certified table and still read its edge.
+const TABLE_EDGE_TOL_DEG: f64 = 0.05;
+
+/// The simulated device's detector: brdf-core's virtual sample (the sample, and a
+/// Lambertian standard as on the QEMU board), or, with a certified-table standard
+/// mounted, that standard's reflectance factor at the arms' angles: it reads
+/// K R(theta_i, theta_r) / pi (K = [`SIM_K`]) times the same noise as the Lambertian
+/// standard, so `gonio calibrate --standard table:FILE` on its sweep recovers K.
+#[derive(Debug, Clone)]
+pub struct SimDetector {
+    sample: VirtualSample,
+    table: Option<Arc<crate::calibrate::Standard>>,
+}
+
+impl Detector for SimDetector {
+    fn sample(&mut self, theta_i: f32, theta_r: f32, laser_on: bool) -> Result<f32, DetectorError> {
+        let s = &mut self.sample;
+        match &self.table {
+            Some(t) if s.mounted == Specimen::Reference => {
+                let clean = if laser_on {
+                    let r = t
+                        .factor_within(theta_i.into(), theta_r.into(), TABLE_EDGE_TOL_DEG)
+                        .ok_or(DetectorError)?;
+                    (f64::from(SIM_K) * r / std::f64::consts::PI) as f32 + s.dark
+                } else {
+                    s.dark
+                };
+                Ok(clean * (1.0 + s.noise * s.reference_rng.normal()))
+            }
+            _ => s.sample(theta_i, theta_r, laser_on),
+        }
+    }
+
+    fn mount(&mut self, specimen: Specimen) -> Result<(), DetectorError> {
+        if self.table.is_some() {
+            self.sample.mounted = specimen;
+            return Ok(());
+        }
+        self.sample.mount(specimen)
+    }
+}
 
 /// What the simulated device measures.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct SimConfig {
     /// The sample's material.
     pub preset: &'static Preset,
@@ -43,6 +87,10 @@ pub struct SimConfig {
     /// A Lambertian reference standard of this reflectance factor beside the sample
     /// (`Mount(Reference)` puts it in the beam; see `brdf_core::sim::SIM_K`).
     pub reference: Option<f32>,
+    /// A standard given by its certified table instead (any [`crate::calibrate::Standard`]:
+    /// the device reads K times its stated BRDF; wins over `reference`). Host-side only:
+    /// the QEMU board carries the Lambertian standard.
+    pub reference_table: Option<Arc<crate::calibrate::Standard>>,
 }
 
 impl SimConfig {
@@ -55,6 +103,7 @@ impl SimConfig {
             firmware: FIRMWARE_VERSION,
             speed: None,
             reference: None,
+            reference_table: None,
         }
     }
 
@@ -63,7 +112,11 @@ impl SimConfig {
         if let Some(r) = self.reference {
             sample = sample.with_reference(r);
         }
-        Service::new(simulated_controller("sim", self.firmware, sample))
+        let detector = SimDetector {
+            sample,
+            table: self.reference_table.clone(),
+        };
+        Service::new(simulated_controller("sim", self.firmware, detector))
     }
 }
 

@@ -227,15 +227,29 @@ pub fn check_outputs(dir: &Path, inputs: &[PathBuf], force: bool) -> Result<(), 
     Ok(())
 }
 
-/// Writes one report per fitted file into `dir` (the `gonio fit` table, or its JSON
-/// with `json`), plus `summary.csv` and `summary.json`, each through the one safe
-/// writer ([`outfile`]: existing files only with `force`, never over an input).
-/// Returns the summary paths.
+/// What a report holds: built from one file's fit (the bytes of its report file).
+pub type Report<'a> = dyn Fn(&FamilyFit) -> Vec<u8> + Sync + 'a;
+
+/// The plain report of one fit: the `gonio fit` table (with `residual` named), or its
+/// JSON with `json`; `gonio fit` adds its units sections to these ([`write_reports`]
+/// takes any builder).
+pub fn plain_report(fam: &FamilyFit, json: bool, residual: &str) -> Vec<u8> {
+    if json {
+        family_json_text(fam, None)
+    } else {
+        family_table(fam, residual).into_bytes()
+    }
+}
+
+/// Writes one report per fitted file into `dir` (`report` of its fit, named
+/// `STEM.ext`; built on all cores), plus `summary.csv` and `summary.json`, each through
+/// the one safe writer ([`outfile`]: existing files only with `force`, never over an
+/// input). Returns the summary paths.
 pub fn write_reports(
     dir: &Path,
     files: &[CampaignFile],
-    json: bool,
-    residual: &str,
+    ext: &str,
+    report: &Report<'_>,
     force: bool,
 ) -> Result<(PathBuf, PathBuf), String> {
     std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
@@ -246,17 +260,19 @@ pub fn write_reports(
         })
         .map_err(|e| e.to_string())
     };
-    let names = report_names(files, if json { "json" } else { "txt" });
-    for (f, name) in files.iter().zip(&names) {
-        let (Ok(fit), Some(name)) = (&f.outcome, name) else {
-            continue;
-        };
-        let text = if json {
-            family_json_text(&fit.family, None)
-        } else {
-            family_table(&fit.family, residual).into_bytes()
-        };
-        put(&dir.join(name), &text)?;
+    let names = report_names(files, ext);
+    let texts: Vec<Option<Vec<u8>>> = files
+        .par_iter()
+        .zip(&names)
+        .map(|(f, name)| match (&f.outcome, name) {
+            (Ok(fit), Some(_)) => Some(report(&fit.family)),
+            _ => None,
+        })
+        .collect();
+    for (text, name) in texts.iter().zip(&names) {
+        if let (Some(text), Some(name)) = (text, name) {
+            put(&dir.join(name), text)?;
+        }
     }
     let (csv, js) = summary_paths(dir);
     put(&csv, summary_csv(files, &names).as_bytes())?;
@@ -496,7 +512,8 @@ mod tests {
         };
         assert!((sigma(0) / 0.115 - 1.0).abs() < 0.02);
         assert!((sigma(1) / 0.070 - 1.0).abs() < 0.02);
-        let (csv, js) = write_reports(&dir.join("out"), &files, false, "log", false).unwrap();
+        let plain = |f: &FamilyFit| plain_report(f, false, "log");
+        let (csv, js) = write_reports(&dir.join("out"), &files, "txt", &plain, false).unwrap();
         let text = std::fs::read_to_string(csv).unwrap();
         let lines: Vec<&str> = text.lines().collect();
         assert_eq!(lines.len(), 6);
@@ -515,7 +532,7 @@ mod tests {
         );
         assert!(v["files"][0]["params"]["sigma"]["se"].as_f64().unwrap() > 0.0);
         // The safe writer's rules: existing reports only with force.
-        let again = write_reports(&dir.join("out"), &files, false, "log", false).unwrap_err();
+        let again = write_reports(&dir.join("out"), &files, "txt", &plain, false).unwrap_err();
         assert!(
             again.contains("exists") && again.contains("--force"),
             "{again}"
@@ -523,7 +540,7 @@ mod tests {
         let inputs: Vec<PathBuf> = files.iter().map(|f| f.path.clone()).collect();
         assert!(check_outputs(&dir.join("out"), &inputs, false).is_err());
         assert!(check_outputs(&dir.join("out"), &inputs, true).is_ok());
-        write_reports(&dir.join("out"), &files, false, "log", true).unwrap();
+        write_reports(&dir.join("out"), &files, "txt", &plain, true).unwrap();
         let _ = std::fs::remove_dir_all(&dir);
         assert!(expand_inputs(&[std::env::temp_dir().join("gonio-no-such-dir-x")]).is_ok());
     }

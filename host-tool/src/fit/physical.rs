@@ -1,26 +1,45 @@
 //! Physical checks of fitted models (issue 17): the directional albedo rho(theta_i) at
-//! every fitted incidence (rho > 1 in 1/sr means the model creates energy) and the
-//! largest reciprocity ratio f(i->o)/f(o->i), both from brdf-core's 3-D evaluation;
-//! reports check the selected model only ([`check_family`]), [`check_all`] every one.
+//! every fitted incidence with its quadrature error (rho > 1 in 1/sr means the model
+//! creates energy) and the largest reciprocity ratio f(i->o)/f(o->i), both from
+//! brdf-core's 3-D evaluation, for every fitted model: each member of the family (GGX
+//! cores and haze lobes included), or the paper fits on the `--fix`/robust path.
+//!
+//! Computed in the report stage, not by `fit_family` (its `fit_seconds` and the fit
+//! benches do not include them), members and incidences in parallel, each albedo with
+//! no finer a quadrature than needed: [`Rule::for_width`]'s panels for the member's
+//! narrowest component and the fewest nodes whose error estimate is below
+//! [`CHECK_REL_ERROR`] ([`albedo_within`]; the estimate is reported, and stays below
+//! [`brdf_core::albedo::DEFAULT_REL_ERROR`], tested in brdf-core and here).
 
 use std::fmt::Write;
 
-use brdf_core::albedo::{Grid, Reciprocity, Rule, albedo, model_brdf, reciprocity};
+use brdf_core::albedo::{
+    Grid, Reciprocity, Rule, albedo_within, member_brdf, model_brdf, polar_deg, reciprocity,
+};
+use brdf_core::geometry::Geometry;
 use rayon::prelude::*;
 use serde_json::{Value, json};
 
-use super::{FamilyFit, Fit, Kind};
+use super::member_fit::MemberFit;
+use super::{FamilyFit, Fit};
 use crate::sweep_file::BrdfUnits;
+
+/// The relative error the checks' albedo quadrature aims at: the stated bound itself
+/// (each model's estimate is reported; a finer target costs evaluations nobody reads).
+pub const CHECK_REL_ERROR: f64 = brdf_core::albedo::DEFAULT_REL_ERROR;
 
 /// The checks of one fitted model.
 #[derive(Debug, Clone)]
 pub struct ModelCheck {
-    /// The model.
-    pub kind: Kind,
-    /// Per fitted incidence (degrees): rho and its error estimate (the BRDF's units x sr).
+    /// The model's name (the member's, or the paper model's on the paper-form path).
+    pub name: String,
+    /// Per fitted incidence (degrees): rho and its quadrature error estimate (the
+    /// BRDF's units x sr).
     pub albedo: Vec<(f64, f64, f64)>,
+    /// BRDF evaluations the albedos took (the rules and their error estimates).
+    pub evaluations: usize,
     /// The reciprocity check on [`Grid::DEFAULT`], k_s taken at the polar angle of the
-    /// incident direction ([`Fit::model_at`]).
+    /// incident direction (interpolated between the fitted incidences).
     pub reciprocity: Option<Reciprocity>,
 }
 
@@ -29,70 +48,138 @@ impl ModelCheck {
     pub fn max_rho(&self) -> f64 {
         self.albedo.iter().map(|a| a.1).fold(0.0, f64::max)
     }
+
+    /// The largest quadrature error estimate relative to its rho.
+    pub fn max_rel_error(&self) -> f64 {
+        self.albedo
+            .iter()
+            .map(|a| if a.1 > 0.0 { a.2 / a.1 } else { 0.0 })
+            .fold(0.0, f64::max)
+    }
 }
 
-/// The fit at any incidence as a 3-D BRDF closure (k_s at w_i's polar angle).
+/// A paper fit at any incidence as a 3-D BRDF closure (k_s at w_i's polar angle).
 pub fn fit_brdf<'a>(
     fam: &'a FamilyFit,
     fit: &'a Fit,
 ) -> impl Fn(&[f64; 3], &[f64; 3]) -> Result<f64, brdf_core::ModelError> + 'a {
     move |wi, wo| {
-        let theta = (wi[0] * wi[0] + wi[1] * wi[1])
-            .sqrt()
-            .atan2(wi[2])
-            .to_degrees();
-        let m = fit
-            .model_at(&fam.incidences, theta)
-            .ok_or(brdf_core::ModelError::NotFinite {
+        let m = fit.model_at(&fam.incidences, polar_deg(wi)).ok_or(
+            brdf_core::ModelError::NotFinite {
                 what: "fitted model",
-            })?;
+            },
+        )?;
         m.eval_vectors(*wi, *wo).map(|e| e.f)
     }
 }
 
-/// Checks one fit: albedo per incidence with [`Rule::DEFAULT`] (stated relative error
-/// below 5e-4), reciprocity on [`Grid::DEFAULT`].
+/// A fitted member at any incidence as a 3-D BRDF closure (per-incidence k_s
+/// interpolated in theta_i as [`MemberFit::model_at`], smooth k_s at w_i's polar angle);
+/// the model of each incidence angle met is built once (a grid has few polar angles).
+pub fn member_fit_brdf(
+    fit: &MemberFit,
+) -> impl FnMut(&[f64; 3], &[f64; 3]) -> Result<f64, brdf_core::ModelError> + '_ {
+    let mut models: Vec<(f64, Option<brdf_core::member_model::MemberModel<f64>>)> = Vec::new();
+    move |wi, wo| {
+        let t = polar_deg(wi);
+        let m = match models.iter().find(|m| m.0 == t) {
+            Some(m) => m.1,
+            None => {
+                let m = fit.model_at(t);
+                models.push((t, m));
+                m
+            }
+        };
+        let m = m.ok_or(brdf_core::ModelError::NotFinite {
+            what: "fitted model",
+        })?;
+        m.eval(t, &Geometry::from_vectors(*wi, *wo)?).map(|e| e.f)
+    }
+}
+
+/// Checks one paper fit: albedo per incidence on [`Rule::DEFAULT`]'s panels with the
+/// fewest nodes that reach [`CHECK_REL_ERROR`], reciprocity on [`Grid::DEFAULT`].
 pub fn check_fit(fam: &FamilyFit, fit: &Fit) -> ModelCheck {
-    let albedo = fam
+    let albedo: Vec<_> = fam
         .incidences
         .par_iter()
         .enumerate()
         .filter_map(|(j, &ti)| {
             let m = fit.values.model(fit.kind, j)?;
-            let a = albedo(ti.clamp(0.0, 90.0), 0.0, &Rule::DEFAULT, model_brdf(&m)).ok()?;
-            Some((ti, a.rho, a.error))
+            let a = albedo_within(
+                ti.clamp(0.0, 90.0),
+                0.0,
+                CHECK_REL_ERROR,
+                Rule::DEFAULT.panels,
+                model_brdf(&m),
+            )
+            .ok()?;
+            Some((ti, a))
         })
         .collect();
     let reciprocity = reciprocity(&Grid::DEFAULT, fit_brdf(fam, fit)).ok();
+    finish(fit.kind.name().to_string(), albedo, reciprocity)
+}
+
+/// Checks one fitted member: albedo at each fitted incidence (the model with that
+/// incidence's own k_s) on [`Rule::for_width`]'s panels for its narrowest component
+/// with the fewest nodes that reach [`CHECK_REL_ERROR`], reciprocity on [`Grid::DEFAULT`].
+pub fn check_member(fit: &MemberFit) -> ModelCheck {
+    let models = fit.layout.models(&fit.x).unwrap_or_default();
+    let albedo: Vec<_> = fit
+        .incidences
+        .par_iter()
+        .zip(models.par_iter())
+        .filter_map(|(&ti, m)| {
+            let panels = Rule::for_width(m.narrowest_width()).panels;
+            let a = albedo_within(
+                ti.clamp(0.0, 90.0),
+                0.0,
+                CHECK_REL_ERROR,
+                panels,
+                member_brdf(m),
+            )
+            .ok()?;
+            Some((ti, a))
+        })
+        .collect();
+    let reciprocity = reciprocity(&Grid::DEFAULT, member_fit_brdf(fit)).ok();
+    finish(fit.member().to_string(), albedo, reciprocity)
+}
+
+fn finish(
+    name: String,
+    albedo: Vec<(f64, brdf_core::albedo::Albedo)>,
+    reciprocity: Option<Reciprocity>,
+) -> ModelCheck {
+    let evaluations = albedo.iter().map(|a| a.1.evaluations).sum();
     ModelCheck {
-        kind: fit.kind,
-        albedo,
+        name,
+        albedo: albedo.iter().map(|(t, a)| (*t, a.rho, a.error)).collect(),
+        evaluations,
         reciprocity,
     }
 }
 
-/// The checks a report shows: the selected paper model's only (the quadrature costs
-/// about 2.7e5 evaluations per incidence, far more than the fit; models nobody exports
-/// are not checked). [`check_all`] checks every fitted model on request.
+/// Every fitted model checked, in the order reported (members and incidences in
+/// parallel): the family's members, or the paper fits when no member was fitted on the
+/// grid (`--fix`, robust losses).
 pub fn check_family(fam: &FamilyFit) -> Vec<ModelCheck> {
-    fam.get(fam.selected)
-        .map(|f| vec![check_fit(fam, f)])
-        .unwrap_or_default()
+    if fam.members.is_empty() {
+        fam.fits.par_iter().map(|f| check_fit(fam, f)).collect()
+    } else {
+        fam.members.par_iter().map(check_member).collect()
+    }
 }
 
-/// Every fitted model checked (in parallel).
-pub fn check_all(fam: &FamilyFit) -> Vec<ModelCheck> {
-    fam.fits.par_iter().map(|f| check_fit(fam, f)).collect()
-}
-
-/// The report section: rho per incidence for every model, flagged when rho > 1 in
-/// 1/sr (in relative units rho is K times the albedo and is not judged), and the
-/// largest reciprocity ratio.
-pub fn checks_text(checks: &[ModelCheck], units: BrdfUnits) -> String {
+/// The report section: for every model (the selected one marked) rho per incidence,
+/// the largest quadrature error, flagged when rho > 1 in 1/sr (in relative units rho is
+/// K times the albedo and is not judged), and the largest reciprocity ratio.
+pub fn checks_text(checks: &[ModelCheck], units: BrdfUnits, selected: &str) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "\nphysical checks of the selected model (3-D model; BRDF in {units}){}",
+        "\nphysical checks of every fitted model (3-D model; BRDF in {units}; albedo by graded Gauss-Legendre, error estimate stated per model){}",
         match units {
             BrdfUnits::PerSr => "",
             BrdfUnits::Relative => {
@@ -100,6 +187,18 @@ pub fn checks_text(checks: &[ModelCheck], units: BrdfUnits) -> String {
             }
         }
     );
+    let flagged: Vec<&str> = checks
+        .iter()
+        .filter(|c| units == BrdfUnits::PerSr && c.max_rho() > 1.0)
+        .map(|c| c.name.as_str())
+        .collect();
+    if !flagged.is_empty() {
+        let _ = writeln!(
+            s,
+            "  NON-PHYSICAL (rho > 1, creates energy): {}",
+            flagged.join(", ")
+        );
+    }
     for c in checks {
         let rho: Vec<String> = c
             .albedo
@@ -111,8 +210,18 @@ pub fn checks_text(checks: &[ModelCheck], units: BrdfUnits) -> String {
             BrdfUnits::PerSr => "  physical (rho <= 1)",
             BrdfUnits::Relative => "",
         };
-        let _ = writeln!(s, "  {}:{verdict}", c.kind.name());
-        let _ = writeln!(s, "    rho(theta_i) {}", rho.join("  "));
+        let mark = if c.name == selected {
+            "  <- selected"
+        } else {
+            ""
+        };
+        let _ = writeln!(s, "  {}:{verdict}{mark}", c.name);
+        let _ = writeln!(
+            s,
+            "    rho(theta_i) {}  (quadrature error <= {:.1e} relative)",
+            rho.join("  "),
+            c.max_rel_error()
+        );
         match &c.reciprocity {
             Some(r) => {
                 let _ = writeln!(
@@ -137,8 +246,8 @@ fn short(x: f64) -> String {
     }
 }
 
-/// The checks as JSON: per model, `albedo` [[theta_i, rho, error]], `max_rho`,
-/// `physical` (null in relative units), `reciprocity_max_ratio`.
+/// The checks as JSON: per model, `name`, `albedo` [[theta_i, rho, error]], `max_rho`,
+/// `max_rel_error`, `physical` (null in relative units), `reciprocity_max_ratio`.
 pub fn checks_json(checks: &[ModelCheck], units: BrdfUnits) -> Value {
     let num = |x: f64| if x.is_finite() { json!(x) } else { Value::Null };
     Value::Array(
@@ -146,9 +255,10 @@ pub fn checks_json(checks: &[ModelCheck], units: BrdfUnits) -> Value {
             .iter()
             .map(|c| {
                 json!({
-                    "name": c.kind.name(),
+                    "name": c.name,
                     "albedo": c.albedo.iter().map(|(t, r, e)| json!([t, num(*r), num(*e)])).collect::<Vec<_>>(),
                     "max_rho": num(c.max_rho()),
+                    "max_rel_error": num(c.max_rel_error()),
                     "physical": match units { BrdfUnits::PerSr => json!(c.max_rho() <= 1.0), BrdfUnits::Relative => Value::Null },
                     "reciprocity_max_ratio": c.reciprocity.map_or(Value::Null, |r| num(r.max_ratio)),
                 })
@@ -161,48 +271,115 @@ pub fn checks_json(checks: &[ModelCheck], units: BrdfUnits) -> Value {
 mod tests {
     use super::*;
     use crate::fit::data::synthetic_paper_sweep;
-    use crate::fit::{Dataset, FitOptions, fit_family};
+    use crate::fit::{Dataset, FitOptions, Fixed, Kind, fit_family};
+    use brdf_core::albedo::DEFAULT_REL_ERROR;
+    use brdf_core::member::Member;
 
-    #[test]
-    fn albedo_and_reciprocity_of_fitted_models() {
+    /// The paper's fe-0.115 sweep in 1/sr (relative values / 2000: physical).
+    fn fe_per_sr() -> Dataset {
         let fe = brdf_core::Preset::by_name("fe-0.115").unwrap();
-        // The paper's relative values / 2000: a physical BRDF in 1/sr.
         let mut rows = synthetic_paper_sweep(|ti| fe.model::<f64>(ti).unwrap(), 0.002, 3);
         for r in &mut rows {
             r.brdf /= 2000.0;
         }
-        let data = Dataset::from_rows(&rows, true).unwrap();
-        let kinds = [
-            Kind::IdealDiffuse,
-            Kind::TorranceSparrow,
-            Kind::ThreeComponent,
+        let mut data = Dataset::from_rows(&rows, true).unwrap();
+        data.units = BrdfUnits::PerSr;
+        data
+    }
+
+    #[test]
+    fn every_member_is_checked_ggx_and_haze_included() {
+        let data = fe_per_sr();
+        let names = [
+            "ideal-diffuse",
+            "three-component",
+            "specular:ggx+ideal-diffuse",
+            "specular:ggx+specular-haze:beckmann+ideal-diffuse",
+            "specular+specular-haze:ggx:smooth-ks+ideal-diffuse",
         ];
-        let fam = fit_family(&data, &FitOptions::default(), &kinds).unwrap();
-        let checks = check_all(&fam);
-        assert_eq!(checks.len(), fam.fits.len());
-        let selected = check_family(&fam);
-        assert_eq!(selected.len(), 1);
-        assert_eq!(selected[0].kind, fam.selected);
-        for c in &checks {
-            assert_eq!(c.albedo.len(), 9);
-            assert!(c.max_rho() < 1.0 && c.max_rho() > 0.1, "{:?}", c);
+        let members: Vec<Member> = names.iter().map(|n| Member::parse(n).unwrap()).collect();
+        let names: Vec<String> = members.iter().map(|m| m.to_string()).collect();
+        let opts = FitOptions {
+            members: Some(members.clone()),
+            ..FitOptions::default()
+        };
+        let fam = fit_family(&data, &opts, &Kind::ALL).unwrap();
+        let checks = check_family(&fam);
+        assert_eq!(checks.len(), fam.members.len());
+        assert_eq!(fam.members.len(), members.len());
+        for (c, m) in checks.iter().zip(&fam.members) {
+            assert_eq!(c.name, m.member().to_string());
+            assert_eq!(c.albedo.len(), 9, "{c:?}");
+            assert!(c.max_rho() < 1.0 && c.max_rho() > 0.05, "{c:?}");
+            // The stated quadrature error holds for GGX cores and haze lobes too.
+            assert!(c.max_rel_error() < DEFAULT_REL_ERROR, "{c:?}");
+            assert!(c.evaluations > 0);
             let r = c.reciprocity.unwrap().max_ratio;
-            match c.kind {
-                // A constant is reciprocal; the three-component model is not (f_dd).
-                Kind::IdealDiffuse => assert!((r - 1.0).abs() < 1e-12, "{r}"),
-                Kind::ThreeComponent => assert!(r > 2.0, "{r}"),
-                _ => assert!(r >= 1.0),
+            match m.member() {
+                // A constant is reciprocal; f_dd (theta_r only) is not.
+                x if x == members[0] => assert!((r - 1.0).abs() < 1e-12, "{r}"),
+                x if x == members[1] => assert!(r > 2.0, "{r}"),
+                _ => assert!(r >= 1.0 && r.is_finite(), "{}: {r}", c.name),
             }
         }
-        let text = checks_text(&checks, BrdfUnits::PerSr);
+        // The ideal diffuse's rho is pi k_id to the quadrature's error.
+        let kid = fam.members[0].natural(fam.members[0].layout.kid.unwrap()).0;
+        for (_, rho, err) in &checks[0].albedo {
+            assert!(
+                (rho - std::f64::consts::PI * kid).abs() <= err + 1e-15,
+                "{rho}"
+            );
+        }
+        let selected = fam.selected_member.to_string();
+        let text = checks_text(&checks, BrdfUnits::PerSr, &selected);
+        for n in &names {
+            assert!(text.contains(&format!("  {n}:")), "{n}: {text}");
+        }
+        assert!(text.contains("<- selected"), "{text}");
         assert!(text.contains("physical (rho <= 1)"), "{text}");
         assert!(!text.contains("NON-PHYSICAL"), "{text}");
-        // The same fit read as if each value were 100 x larger creates energy.
+        // The same checks read as if each value were 100 x larger create energy: the
+        // flagged models are named at the top too.
         let mut big = checks.clone();
-        big[0].albedo.iter_mut().for_each(|a| a.1 *= 100.0);
-        assert!(checks_text(&big, BrdfUnits::PerSr).contains("NON-PHYSICAL"));
-        assert!(checks_text(&big, BrdfUnits::Relative).contains("not judged"));
+        big[3].albedo.iter_mut().for_each(|a| a.1 *= 100.0);
+        let t = checks_text(&big, BrdfUnits::PerSr, &selected);
+        assert!(
+            t.contains(&format!(
+                "NON-PHYSICAL (rho > 1, creates energy): {}",
+                names[3]
+            )),
+            "{t}"
+        );
+        assert!(checks_text(&big, BrdfUnits::Relative, &selected).contains("not judged"));
         let j = checks_json(&big, BrdfUnits::PerSr);
-        assert_eq!(j[0]["physical"], json!(false));
+        assert_eq!(j[3]["physical"], json!(false));
+        assert_eq!(j[0]["physical"], json!(true));
+        assert_eq!(j[3]["name"], json!(names[3]));
+        assert!(j[3]["max_rel_error"].as_f64().unwrap() < DEFAULT_REL_ERROR);
+    }
+
+    #[test]
+    fn the_paper_fits_are_checked_on_the_fixed_path() {
+        let data = fe_per_sr();
+        let opts = FitOptions {
+            fixed: Fixed {
+                sigma_m: Some(0.8),
+                ..Fixed::default()
+            },
+            ..FitOptions::default()
+        };
+        let kinds = [Kind::IdealDiffuse, Kind::ThreeComponent];
+        let fam = fit_family(&data, &opts, &kinds).unwrap();
+        assert!(fam.members.is_empty());
+        let checks = check_family(&fam);
+        assert_eq!(checks.len(), fam.fits.len());
+        for c in &checks {
+            assert_eq!(c.albedo.len(), 9);
+            assert!(
+                c.max_rho() < 1.0 && c.max_rel_error() < DEFAULT_REL_ERROR,
+                "{c:?}"
+            );
+        }
+        assert_eq!(checks[0].name, Kind::IdealDiffuse.name());
     }
 }

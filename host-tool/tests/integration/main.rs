@@ -13,3 +13,4 @@ mod hostile;
 mod ports_flash;
 mod units_chain;
 mod units_cli;
+mod units_session;

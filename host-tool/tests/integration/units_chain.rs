@@ -239,10 +239,43 @@ fn a_campaign_fits_in_one_over_sr_with_one_instrument() {
             .unwrap_or(Value::Null);
         if r.get("models").is_some() {
             assert_eq!(r["brdf_units"], "1/sr");
+            // Its u(K) table, as a single-file fit's: K's uncertainty in each amplitude
+            // beside the fit's, none in the widths.
+            let models = r["instrument"]["models"].as_array().unwrap();
+            let three = models
+                .iter()
+                .find(|m| m["name"] == "three-component")
+                .unwrap();
+            let kdd = &three["params"]["k_dd"];
+            assert!(kdd["u_instrument"].as_f64().unwrap() > 0.0, "{kdd}");
+            assert!(kdd["u_fit"].as_f64().unwrap() > 0.0, "{kdd}");
+            assert_eq!(three["params"]["sigma"]["u_instrument"], 0.0);
+            assert_eq!(r["instrument"]["standard"], "lambertian:0.99");
+            // Every fitted model's physical checks, not only the selected one's.
+            assert_eq!(
+                r["physical_checks"].as_array().unwrap().len(),
+                r["models"].as_array().unwrap().len()
+            );
             per_file += 1;
         }
     }
     assert_eq!(per_file, 2);
+    // The same u(K) figures as `gonio fit fe.csv --instrument` alone.
+    let single = gonio(&["fit", &s(&fe), "--instrument", &s(&inst), "--json"]);
+    assert!(single.ok(), "{}", single.stderr);
+    let one: Value = serde_json::from_str(&single.stdout).unwrap();
+    let from_campaign: Value =
+        serde_json::from_slice(&std::fs::read(reports.join("fe.json")).unwrap()).unwrap();
+    let kdd = |v: &Value| {
+        v["instrument"]["models"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|m| m["name"] == "three-component")
+            .unwrap()["params"]["k_dd"]
+            .clone()
+    };
+    assert_eq!(kdd(&one), kdd(&from_campaign));
     let text = gonio(&[
         "fit",
         &s(&fe),
@@ -259,6 +292,15 @@ fn a_campaign_fits_in_one_over_sr_with_one_instrument() {
         "{}",
         text.stdout
     );
+    // Each text report carries the u(K) table and the checks, as `gonio fit` prints them.
+    let fe_txt = std::fs::read_to_string(reports.join("fe.txt")).unwrap();
+    for want in [
+        "in 1/sr with instrument",
+        "u(K)",
+        "physical checks of every fitted model",
+    ] {
+        assert!(fe_txt.contains(want), "{want}: {fe_txt}");
+    }
     // A file already in 1/sr is refused with one line, naming it.
     let abs = dir.join("fe-abs.csv");
     let conv = gonio(&[

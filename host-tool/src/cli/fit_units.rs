@@ -287,6 +287,7 @@ pub fn report_text(fam: &FamilyFit, inst: Option<(&Instrument, &Path)>) -> Strin
         &physical::check_family(fam),
         fam.units,
         fam.selected_member.name().as_str(),
+        fam.checks,
     ));
     s
 }

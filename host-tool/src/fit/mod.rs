@@ -73,6 +73,8 @@ pub struct FamilyFit {
     pub has_noise: bool,
     /// The units of the data's brdf values, and so of every fitted amplitude.
     pub units: BrdfUnits,
+    /// Which fitted models the reports' physical checks cover ([`FitOptions::checks`]).
+    pub checks: physical::CheckScope,
 }
 
 impl FamilyFit {
@@ -295,6 +297,7 @@ pub fn fit_family(data: &Dataset, opts: &FitOptions, kinds: &[Kind]) -> Result<F
         aperture,
         has_noise: data.has_noise(),
         units: data.units,
+        checks: opts.checks,
     })
 }
 

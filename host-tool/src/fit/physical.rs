@@ -28,6 +28,27 @@ use crate::sweep_file::BrdfUnits;
 /// (each model's estimate is reported; a finer target costs evaluations nobody reads).
 pub const CHECK_REL_ERROR: f64 = brdf_core::albedo::DEFAULT_REL_ERROR;
 
+/// Which fitted models the physical checks cover (`gonio fit --checks`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum CheckScope {
+    /// Every fitted model (the default for one sweep file).
+    #[default]
+    All,
+    /// The selected model only (a campaign's default: the checks cost several times
+    /// the fit of a small sweep, and a campaign's summary names only the selected model).
+    Selected,
+}
+
+impl CheckScope {
+    /// The word in reports and JSON: `all` or `selected`.
+    pub fn word(self) -> &'static str {
+        match self {
+            CheckScope::All => "all",
+            CheckScope::Selected => "selected",
+        }
+    }
+}
+
 /// The checks of one fitted model.
 #[derive(Debug, Clone)]
 pub struct ModelCheck {
@@ -161,25 +182,44 @@ fn finish(
     }
 }
 
-/// Every fitted model checked, in the order reported (members and incidences in
-/// parallel): the family's members, or the paper fits when no member was fitted on the
-/// grid (`--fix`, robust losses).
+/// The fitted models [`FamilyFit::checks`] names checked, in the order reported
+/// (members and incidences in parallel): the family's members, or the paper fits when
+/// no member was fitted on the grid (`--fix`, robust losses); with
+/// [`CheckScope::Selected`] only the selected one.
 pub fn check_family(fam: &FamilyFit) -> Vec<ModelCheck> {
+    let all = fam.checks == CheckScope::All;
     if fam.members.is_empty() {
-        fam.fits.par_iter().map(|f| check_fit(fam, f)).collect()
+        fam.fits
+            .par_iter()
+            .filter(|f| all || f.kind == fam.selected)
+            .map(|f| check_fit(fam, f))
+            .collect()
     } else {
-        fam.members.par_iter().map(check_member).collect()
+        fam.members
+            .par_iter()
+            .filter(|f| all || f.member() == fam.selected_member)
+            .map(check_member)
+            .collect()
     }
 }
 
 /// The report section: for every model (the selected one marked) rho per incidence,
 /// the largest quadrature error, flagged when rho > 1 in 1/sr (in relative units rho is
 /// K times the albedo and is not judged), and the largest reciprocity ratio.
-pub fn checks_text(checks: &[ModelCheck], units: BrdfUnits, selected: &str) -> String {
+pub fn checks_text(
+    checks: &[ModelCheck],
+    units: BrdfUnits,
+    selected: &str,
+    scope: CheckScope,
+) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "\nphysical checks of every fitted model (3-D model; BRDF in {units}; albedo by graded Gauss-Legendre, error estimate stated per model){}",
+        "\nphysical checks of {} (3-D model; BRDF in {units}; albedo by graded Gauss-Legendre, error estimate stated per model){}",
+        match scope {
+            CheckScope::All => "every fitted model",
+            CheckScope::Selected => "the selected model (--checks all: every fitted model)",
+        },
         match units {
             BrdfUnits::PerSr => "",
             BrdfUnits::Relative => {
@@ -331,7 +371,7 @@ mod tests {
             );
         }
         let selected = fam.selected_member.to_string();
-        let text = checks_text(&checks, BrdfUnits::PerSr, &selected);
+        let text = checks_text(&checks, BrdfUnits::PerSr, &selected, CheckScope::All);
         for n in &names {
             assert!(text.contains(&format!("  {n}:")), "{n}: {text}");
         }
@@ -342,7 +382,7 @@ mod tests {
         // flagged models are named at the top too.
         let mut big = checks.clone();
         big[3].albedo.iter_mut().for_each(|a| a.1 *= 100.0);
-        let t = checks_text(&big, BrdfUnits::PerSr, &selected);
+        let t = checks_text(&big, BrdfUnits::PerSr, &selected, CheckScope::All);
         assert!(
             t.contains(&format!(
                 "NON-PHYSICAL (rho > 1, creates energy): {}",
@@ -350,12 +390,40 @@ mod tests {
             )),
             "{t}"
         );
-        assert!(checks_text(&big, BrdfUnits::Relative, &selected).contains("not judged"));
+        assert!(
+            checks_text(&big, BrdfUnits::Relative, &selected, CheckScope::All)
+                .contains("not judged")
+        );
         let j = checks_json(&big, BrdfUnits::PerSr);
         assert_eq!(j[3]["physical"], json!(false));
         assert_eq!(j[0]["physical"], json!(true));
         assert_eq!(j[3]["name"], json!(names[3]));
         assert!(j[3]["max_rel_error"].as_f64().unwrap() < DEFAULT_REL_ERROR);
+    }
+
+    #[test]
+    fn the_selected_scope_checks_the_selected_model_alone() {
+        let data = fe_per_sr();
+        let members: Vec<Member> = ["ideal-diffuse", "three-component"]
+            .iter()
+            .map(|n| Member::parse(n).unwrap())
+            .collect();
+        let opts = FitOptions {
+            members: Some(members),
+            ..FitOptions::default()
+        };
+        let mut fam = fit_family(&data, &opts, &Kind::ALL).unwrap();
+        let all = check_family(&fam);
+        fam.checks = CheckScope::Selected;
+        let one = check_family(&fam);
+        let selected = fam.selected_member.to_string();
+        assert_eq!(one.len(), 1);
+        assert_eq!(one[0].name, selected);
+        let same = all.iter().find(|c| c.name == selected).unwrap();
+        assert_eq!(one[0].albedo, same.albedo);
+        let t = checks_text(&one, BrdfUnits::PerSr, &selected, CheckScope::Selected);
+        assert!(t.contains("physical checks of the selected model"), "{t}");
+        assert!(!t.contains("physical checks of every"), "{t}");
     }
 
     #[test]

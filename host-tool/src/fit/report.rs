@@ -381,7 +381,7 @@ impl serde::Serialize for FamilyJson<'_> {
     fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         use serde::ser::SerializeMap;
         let f = self.0;
-        let mut m = s.serialize_map(Some(10 + usize::from(self.1.is_some())))?;
+        let mut m = s.serialize_map(Some(11 + usize::from(self.1.is_some())))?;
         m.serialize_entry("models", &ModelsJson(f))?;
         m.serialize_entry("selected", f.selected_member.name().as_str())?;
         m.serialize_entry("selected_bic", f.selected_bic.name().as_str())?;
@@ -395,6 +395,7 @@ impl serde::Serialize for FamilyJson<'_> {
             "physical_checks",
             &super::physical::checks_json(&super::physical::check_family(f), f.units),
         )?;
+        m.serialize_entry("physical_checks_of", f.checks.word())?;
         if let Some(i) = self.1 {
             m.serialize_entry("instrument", i)?;
         }

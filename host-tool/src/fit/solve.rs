@@ -64,6 +64,8 @@ pub struct FitOptions {
     /// The detector's acceptance half-angle (degrees): the model is averaged over it
     /// before it is compared with the readings (`gonio fit --aperture`).
     pub aperture: Option<f64>,
+    /// Which fitted models the reports' physical checks cover (`gonio fit --checks`).
+    pub checks: super::physical::CheckScope,
 }
 
 impl Default for FitOptions {
@@ -78,6 +80,7 @@ impl Default for FitOptions {
             tol: 1e-10,
             members: None,
             aperture: None,
+            checks: super::physical::CheckScope::All,
         }
     }
 }

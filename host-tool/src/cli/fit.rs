@@ -55,6 +55,10 @@ every grid point, so a lobe one reading step wide is found, then refined by Leve
 analytic Jacobian; members are fitted in parallel. With --fix or a robust --loss only the paper's four models \
 are fitted, from multi-start Levenberg–Marquardt. Every parameter is fitted as its logarithm; standard errors \
 come from the covariance at the optimum.\n\n\
+When at least 3 readings equal the sweep's smallest value exactly, the report asks whether that is a \
+detection floor; --floor auto leaves them out of the fit, --floor VALUE every reading at or below VALUE. When the \
+measured specular peak sits off the selected member's peak at every incidence (0.1 degree or more, same side), \
+the report says so: an angle offset or tilted sample no member has a parameter for.\n\n\
 --aperture (or a `# aperture: DEG` line in the sweep) averages each model over the detector's acceptance cone \
 before comparing, so widths are the surface's. The RMSE table is the paper's Table 3: per incidence, curves \
 normalised to their value at theta_r = theta_i, or at the nearest reading when there is none there (marked *). \
@@ -136,6 +140,15 @@ pub struct FitArgs {
     /// every amplitude carries besides its fit uncertainty.
     #[arg(long, value_name = "instrument.toml")]
     pub instrument: Option<PathBuf>,
+    /// Leave readings at or below a detection floor out of the fit: a value in the
+    /// sweep file's brdf units (0 leaves out zero and negative readings), or `auto`: the
+    /// sweep's smallest value when at least 3 readings equal it exactly (an
+    /// instrument's floor or placeholder repeats to every digit; a measurement does not).
+    /// Without it such readings are fitted, and the report asks whether they are a
+    /// floor. The report, the JSON notes and the residuals export say how many were
+    /// left out.
+    #[arg(long, value_name = "auto|VALUE", value_parser = fit::data::parse_floor)]
+    pub floor: Option<fit::Floor>,
 }
 
 /// `--aperture`'s value: a half-angle, or 0 (a point detector).
@@ -156,8 +169,9 @@ pub fn parse_member(s: &str) -> Result<Member, String> {
     Member::parse(t).map_err(|e| format!("'{}': {e}", crate::text::escape_line(s, 60)))
 }
 
-/// The fit options and models from the command line.
-pub fn options(args: &FitArgs) -> CliResult<(FitOptions, Vec<Kind>)> {
+/// The fit options from the command line (the members `--models` names, if any, in
+/// [`FitOptions::members`]).
+pub fn options(args: &FitArgs) -> CliResult<FitOptions> {
     let mut fixed = Fixed::default();
     for f in &args.fix {
         fixed.set(f).map_err(CliError::usage)?;
@@ -167,13 +181,13 @@ pub fn options(args: &FitArgs) -> CliResult<(FitOptions, Vec<Kind>)> {
         ResidualArg::Rel => Residual::Relative,
         ResidualArg::Abs => Residual::Absolute,
     };
-    let opts = FitOptions {
+    let mut opts = FitOptions {
         residual,
         loss: args.loss,
         fixed,
+        floor: args.floor,
         ..FitOptions::default()
     };
-    let mut opts = opts;
     if let Some(a) = args.aperture {
         opts.aperture = a.0;
     }
@@ -182,27 +196,18 @@ pub fn options(args: &FitArgs) -> CliResult<(FitOptions, Vec<Kind>)> {
             "--aperture cannot be combined with --fix or a robust --loss",
         ));
     }
-    let kinds = if args.models.is_empty() {
-        Kind::ALL.to_vec()
-    } else {
+    if !args.models.is_empty() {
         let mut m = args.models.clone();
         m.sort();
         m.dedup();
-        // The paper's kinds among them, for the older interface (Python).
-        let k: Vec<Kind> = m.iter().filter_map(|&m| fit::paper::kind_of(m)).collect();
         opts.members = Some(m);
-        k
-    };
-    Ok((opts, kinds))
+    }
+    Ok(opts)
 }
 
 /// Reads and fits a sweep file.
-pub fn fit_file(
-    path: &std::path::Path,
-    opts: &FitOptions,
-    kinds: &[Kind],
-) -> CliResult<(Dataset, FamilyFit)> {
-    match campaign::fit_sweep_file(path, opts, kinds) {
+pub fn fit_file(path: &std::path::Path, opts: &FitOptions) -> CliResult<(Dataset, FamilyFit)> {
+    match campaign::fit_sweep_file(path, opts) {
         Ok(fit) => {
             for w in &fit.warnings {
                 eprintln!("gonio: warning: {w}");
@@ -232,7 +237,7 @@ fn residual_name(r: Residual) -> &'static str {
 /// `gonio fit` over several sweeps: fits them all (a progress bar on a terminal),
 /// writes the reports and summary into --out, prints the summary; exit 1 if any
 /// sweep failed (each named on stderr), after all the others were fitted.
-fn run_campaign(args: &FitArgs, opts: &FitOptions, kinds: &[Kind]) -> CliResult {
+fn run_campaign(args: &FitArgs, opts: &FitOptions) -> CliResult {
     if args.plot.is_some() || !args.export.is_empty() || args.export_model.is_some() {
         return Err(CliError::usage(
             "--plot and --export take one sweep file; a campaign writes its reports to --out",
@@ -255,11 +260,10 @@ fn run_campaign(args: &FitArgs, opts: &FitOptions, kinds: &[Kind]) -> CliResult 
         Some((i, _)) => campaign::fit_files_with(
             &files,
             opts,
-            kinds,
             &super::fit_units::campaign_prepare(i),
             &|_, _| bar.inc(1),
         ),
-        None => campaign::fit_files(&files, opts, kinds, &|_, _| bar.inc(1)),
+        None => campaign::fit_files(&files, opts, &|_, _| bar.inc(1)),
     };
     bar.finish_and_clear();
     let (csv, _) = campaign::write_reports(
@@ -315,9 +319,9 @@ fn run_campaign(args: &FitArgs, opts: &FitOptions, kinds: &[Kind]) -> CliResult 
 
 /// Runs `gonio fit`.
 pub fn run(args: &FitArgs) -> CliResult {
-    let (opts, kinds) = options(args)?;
+    let opts = options(args)?;
     if args.sweeps.len() > 1 || args.sweeps[0].is_dir() {
-        return run_campaign(args, &opts, &kinds);
+        return run_campaign(args, &opts);
     }
     let sweep = args.sweeps[0].as_path();
     let (mut data, warnings) = campaign::read_data(sweep, &opts).map_err(file_error)?;
@@ -349,7 +353,7 @@ pub fn run(args: &FitArgs) -> CliResult {
             outfile::check(Target::new(&f, true).inputs(&inputs))?;
         }
     }
-    let fam = campaign::fit_data(sweep, &data, &opts, &kinds).map_err(file_error)?;
+    let fam = campaign::fit_data(sweep, &data, &opts).map_err(file_error)?;
     let residual = residual_name(opts.residual);
     if let Some(dir) = &args.plot {
         plot::write_plots(dir, &data, &fam, args.force)?;

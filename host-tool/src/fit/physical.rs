@@ -162,6 +162,7 @@ mod tests {
     use super::*;
     use crate::fit::data::synthetic_paper_sweep;
     use crate::fit::{Dataset, FitOptions, fit_family};
+    use brdf_core::member::Member;
 
     #[test]
     fn albedo_and_reciprocity_of_fitted_models() {
@@ -172,12 +173,15 @@ mod tests {
             r.brdf /= 2000.0;
         }
         let data = Dataset::from_rows(&rows, true).unwrap();
-        let kinds = [
-            Kind::IdealDiffuse,
-            Kind::TorranceSparrow,
-            Kind::ThreeComponent,
-        ];
-        let fam = fit_family(&data, &FitOptions::default(), &kinds).unwrap();
+        let opts = FitOptions {
+            members: Some(vec![
+                Member::IDEAL_DIFFUSE,
+                Member::TORRANCE_SPARROW,
+                Member::THREE_COMPONENT,
+            ]),
+            ..FitOptions::default()
+        };
+        let fam = fit_family(&data, &opts).unwrap();
         let checks = check_all(&fam);
         assert_eq!(checks.len(), fam.fits.len());
         let selected = check_family(&fam);

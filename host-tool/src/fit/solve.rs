@@ -64,6 +64,9 @@ pub struct FitOptions {
     /// The detector's acceptance half-angle (degrees): the model is averaged over it
     /// before it is compared with the readings (`gonio fit --aperture`).
     pub aperture: Option<f64>,
+    /// A detection floor: readings at or below it are left out of the data before the
+    /// fit (`gonio fit --floor`; see [`super::data::Floor`]).
+    pub floor: Option<super::data::Floor>,
 }
 
 impl Default for FitOptions {
@@ -78,6 +81,7 @@ impl Default for FitOptions {
             tol: 1e-10,
             members: None,
             aperture: None,
+            floor: None,
         }
     }
 }

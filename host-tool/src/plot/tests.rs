@@ -22,7 +22,7 @@ fn fixture() -> &'static (Dataset, FamilyFit) {
     static F: OnceLock<(Dataset, FamilyFit)> = OnceLock::new();
     F.get_or_init(|| {
         let data = Dataset::from_rows(&rows("fe-0.115", &[]), true).unwrap();
-        let fam = fit_family(&data, &FitOptions::default(), &Kind::ALL).unwrap();
+        let fam = fit_family(&data, &FitOptions::default()).unwrap();
         (data, fam)
     })
 }
@@ -132,7 +132,7 @@ fn normalised_curves_and_points_are_one_at_the_specular_angle() {
 #[test]
 fn without_a_specular_reading_curves_are_divided_at_the_nearest_reading_and_the_title_says_so() {
     let data = Dataset::from_rows(&rows("fe-0.115", &[20.0]), true).unwrap();
-    let fam = fit_family(&data, &FitOptions::default(), &Kind::ALL).unwrap();
+    let fam = fit_family(&data, &FitOptions::default()).unwrap();
     let fig = incidence_figure(&data, &fam, 2);
     assert!(
         fig.subtitles

@@ -247,19 +247,32 @@ pub(super) fn component_curves(
     out
 }
 
-/// Splits `text` into lines of at most `width` characters at spaces (a longer word
-/// stays whole).
+/// Splits `text` into lines of at most `width` characters at spaces, and inside a
+/// long member name after a `+` (member names have no spaces:
+/// `specular:ggx+specular-haze:ggx+ideal-diffuse`; a line broken there keeps its `+`
+/// at its end). A longer piece stays whole.
 pub(super) fn wrap(text: &str, width: usize) -> Vec<String> {
+    // Pieces: each ends at a space (joined back with one) or after a '+' (joined as is).
+    let mut pieces: Vec<(String, &str)> = Vec::new();
+    for word in text.split_whitespace() {
+        let mut rest = word;
+        while let Some(k) = rest.find('+').filter(|&k| k + 1 < rest.len()) {
+            pieces.push((rest[..=k].to_string(), ""));
+            rest = &rest[k + 1..];
+        }
+        pieces.push((rest.to_string(), " "));
+    }
     let mut lines = Vec::new();
     let mut line = String::new();
-    for word in text.split_whitespace() {
-        if !line.is_empty() && line.chars().count() + 1 + word.chars().count() > width {
+    let mut joiner = "";
+    for (piece, next) in pieces {
+        if !line.is_empty() && line.chars().count() + joiner.len() + piece.chars().count() > width {
             lines.push(std::mem::take(&mut line));
+        } else {
+            line.push_str(joiner);
         }
-        if !line.is_empty() {
-            line.push(' ');
-        }
-        line.push_str(word);
+        line.push_str(&piece);
+        joiner = next;
     }
     if !line.is_empty() {
         lines.push(line);

@@ -206,3 +206,22 @@ fn notes_wrap_at_spaces() {
         vec!["averyveryverylongword", "x"]
     );
 }
+
+#[test]
+fn long_member_names_wrap_after_a_plus_and_keep_every_character() {
+    use super::figures::wrap;
+    let name = "specular:ggx:smooth-ks+specular-haze:ggx+ideal-diffuse (selected)";
+    let lines = wrap(name, 32);
+    assert!(lines.len() > 1, "{lines:?}");
+    assert!(lines.iter().all(|l| l.chars().count() <= 32), "{lines:?}");
+    assert_eq!(
+        lines
+            .concat()
+            .replace("(selected)", " (selected)")
+            .replace("  ", " "),
+        name
+    );
+    assert_eq!(lines[0], "specular:ggx:smooth-ks+");
+    // Short labels are one line.
+    assert_eq!(wrap("measured", 32), ["measured"]);
+}

@@ -58,7 +58,8 @@ come from the covariance at the optimum.\n\n\
 When at least 3 readings equal the sweep's smallest value exactly, the report asks whether that is a \
 detection floor; --floor auto leaves them out of the fit, --floor VALUE every reading at or below VALUE. When the \
 measured specular peak sits off the selected member's peak at every incidence (0.1 degree or more, same side), \
-the report says so: an angle offset or tilted sample no member has a parameter for.\n\n\
+the report says so: an angle offset or tilted sample no member has a parameter for; and when the selected core \
+lobe is narrower at half maximum than the readings' step at the peak, that its width is not resolved.\n\n\
 --aperture (or a `# aperture: DEG` line in the sweep) averages each model over the detector's acceptance cone \
 before comparing, so widths are the surface's. The RMSE table is the paper's Table 3: per incidence, curves \
 normalised to their value at theta_r = theta_i, or at the nearest reading when there is none there (marked *). \

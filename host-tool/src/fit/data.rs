@@ -218,7 +218,11 @@ impl Dataset {
         let kept: Vec<Row>;
         let (rows, left_out) = match level {
             Some(f) => {
-                kept = rows.iter().filter(|r| !(r.brdf <= f)).copied().collect();
+                kept = rows
+                    .iter()
+                    .filter(|r| r.brdf > f || r.brdf.is_nan())
+                    .copied()
+                    .collect();
                 (kept.as_slice(), Some((f, rows.len() - kept.len())))
             }
             None => (rows, None),

@@ -18,7 +18,7 @@ const PEAK_RATIO: f64 = 10.0;
 fn vertex(x: [f64; 3], y: [f64; 3]) -> Option<f64> {
     let (d0, d1) = ((y[1] - y[0]) / (x[1] - x[0]), (y[2] - y[1]) / (x[2] - x[1]));
     let curv = (d1 - d0) / (x[2] - x[0]);
-    if !(curv < 0.0) {
+    if curv.is_nan() || curv >= 0.0 {
         return None;
     }
     // y' = d0 + curv (2 x - x0 - x1) = 0.

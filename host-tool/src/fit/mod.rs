@@ -353,8 +353,22 @@ fn variant_notes(cands: &[Candidate], sel: Member) -> Vec<String> {
     let haze = sel
         .haze
         .map_or(String::new(), |h| format!(" on a {} haze", h.dist.name()));
+    // A difference under the margin is no evidence for either shape: said, not implied.
+    let ties: Vec<String> = cands
+        .iter()
+        .filter(|c| same(c.member) && c.member != sel && c.aicc - best.aicc < AICC_MARGIN)
+        .map(|c| c.member.to_string())
+        .collect();
+    let tie = if ties.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "; within {AICC_MARGIN} of it, so these data do not tell it from {}",
+            ties.join(", ")
+        )
+    };
     vec![format!(
-        "specular lobe shape: {} with k_s {}{haze} has the lowest AICc of these components (AICc of the others: {})",
+        "specular lobe shape: {} with k_s {}{haze} has the lowest AICc of these components (AICc of the others: {}){tie}",
         core.dist.name(),
         core.ks.name(),
         others.join(", ")

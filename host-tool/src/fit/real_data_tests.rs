@@ -244,6 +244,23 @@ fn few_incidences_fit_without_panics_and_say_what_cannot_be_fitted() {
             f.notes
         );
         assert!(has_note(&f, "goodness of fit"), "{n_inc}: {:?}", f.notes);
+        if n_inc == 3 {
+            // A smooth k_s through three incidences is one k_s per incidence: the same
+            // model, so the notes must not present either form as chosen by the data.
+            let mut twin = sel;
+            let c = twin.core.as_mut().unwrap();
+            c.ks = match c.ks {
+                KsForm::Smooth => KsForm::PerIncidence,
+                KsForm::PerIncidence => KsForm::Smooth,
+            };
+            assert!(f.candidate(twin).is_some(), "{twin} not fitted");
+            let told = format!("do not tell it from {twin}");
+            let said = f
+                .notes
+                .iter()
+                .any(|n| n.contains("do not tell it from") && n.contains(&twin.to_string()));
+            assert!(said, "{told}: {:?}", f.notes);
+        }
         let fit = f.selected_fit().unwrap();
         let (s, _) = fit.sigma().unwrap();
         assert!((s / 0.01 - 1.0).abs() < 0.03, "{n_inc}: core {s}");

@@ -357,3 +357,28 @@ fn the_scatterworks_floor_readings_and_its_unresolved_core_are_said() {
     assert!(sel.core.is_some() && sel.haze.is_some(), "{sel}");
     assert!(rmse(&without) <= 0.01, "{}", rmse(&without));
 }
+
+#[test]
+fn an_absent_component_says_which_way_the_criterion_went_in_words() {
+    // The paper's iron has no haze: adding one does not lower AICc, and the note says
+    // by how much it is higher (not a bare signed number).
+    let p = brdf_core::Preset::by_name("fe-0.115").unwrap();
+    let f = family(&data::synthetic_paper_sweep(
+        |ti| p.model(ti).unwrap(),
+        0.005,
+        3,
+    ));
+    let note = f
+        .notes
+        .iter()
+        .find(|n| n.starts_with("specular-haze: absent"))
+        .unwrap_or_else(|| panic!("{:?}", f.notes));
+    assert!(
+        note.contains(" higher)") || note.contains("under the margin"),
+        "{note}"
+    );
+    assert!(
+        !note.contains("AICc -") && !note.contains("AICc +"),
+        "{note}"
+    );
+}

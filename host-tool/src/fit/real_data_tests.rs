@@ -331,6 +331,14 @@ fn the_scatterworks_floor_readings_and_its_unresolved_core_are_said() {
         "{:?}",
         with.notes
     );
+    // The JSON says where the 41.4-degree curves are normalised (no reading there).
+    let json: serde_json::Value =
+        serde_json::from_slice(&report::family_json_text(&with, None)).unwrap();
+    assert_eq!(
+        json["rmse_normalised_at"][1],
+        serde_json::json!([41.4, 41.0])
+    );
+    assert_eq!(json["rmse_normalised_at"][0], serde_json::json!([5.0, 5.0]));
     let without = scatterworks(Some(Floor::Auto));
     assert!(has_note(
         &without,

@@ -381,13 +381,22 @@ impl serde::Serialize for FamilyJson<'_> {
     fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         use serde::ser::SerializeMap;
         let f = self.0;
-        let mut m = s.serialize_map(Some(10 + usize::from(self.1.is_some())))?;
+        let mut m = s.serialize_map(Some(11 + usize::from(self.1.is_some())))?;
         m.serialize_entry("models", &ModelsJson(f))?;
         m.serialize_entry("selected", f.selected_member.name().as_str())?;
         m.serialize_entry("selected_bic", f.selected_bic.name().as_str())?;
         m.serialize_entry("selected_paper", f.selected.name())?;
         m.serialize_entry("selected_components", &member_components(f.selected_member))?;
         m.serialize_entry("aperture_deg", &opt(f.aperture))?;
+        // Per incidence [theta_i, theta_r]: the reading every curve of the paper's RMSE
+        // is normalised at (theta_r = theta_i, or the nearest reading when none is).
+        let at: Vec<[f64; 2]> = f
+            .incidences
+            .iter()
+            .zip(&f.rmse_nearest)
+            .map(|(&ti, near)| [ti, near.unwrap_or(ti)])
+            .collect();
+        m.serialize_entry("rmse_normalised_at", &at)?;
         m.serialize_entry("notes", &f.notes)?;
         m.serialize_entry("fit_seconds", &num(f.fit_seconds))?;
         m.serialize_entry("brdf_units", f.units.word())?;

@@ -14,8 +14,14 @@ use crate::fit::{Dataset, FamilyFit, Fit, Kind};
 /// Label of the y axis of the normalised figures.
 pub(super) const Y_DESC_NORMALISED: &str = "BRDF / BRDF(theta_r = theta_i)";
 
-/// Label of the y axis of the overview.
-pub(super) const Y_DESC_ABSOLUTE: &str = "BRDF (relative units)";
+/// Label of the y axis of the overview, in the fit's units (the sweep's `# brdf:` line,
+/// or 1/sr after `--instrument`).
+pub(super) fn y_desc_absolute(units: crate::sweep_file::BrdfUnits) -> &'static str {
+    match units {
+        crate::sweep_file::BrdfUnits::Relative => "BRDF (relative units)",
+        crate::sweep_file::BrdfUnits::PerSr => "BRDF (1/sr)",
+    }
+}
 
 /// An angle for a file name or a label: `20`, `22.5`.
 pub(super) fn angle_text(t: f64) -> String {
@@ -280,6 +286,14 @@ pub(super) fn wrap(text: &str, width: usize) -> Vec<String> {
     lines
 }
 
+/// What a `--floor` left out of the sweep (those readings are not in the data, so
+/// not drawn).
+fn left_out_note(data: &Dataset) -> Option<String> {
+    data.floor.left_out.map(|(f, n)| {
+        format!("{n} reading(s) at or below the detection floor {f:e} left out of the fit (--floor), not shown.")
+    })
+}
+
 /// Positive finite values only (a log axis shows nothing else).
 pub(super) fn plottable(p: &(f64, f64)) -> bool {
     p.1.is_finite() && p.1 > 0.0
@@ -452,6 +466,7 @@ pub(super) fn incidence_figure(data: &Dataset, fam: &FamilyFit, j: usize) -> Fig
     if hidden > 0 {
         notes.push(format!("{hidden} reading(s) <= 0 not shown (log axis)."));
     }
+    notes.extend(left_out_note(data));
     Figure {
         title: format!(
             "Normalised in-plane BRDF, theta_i = {} degrees",
@@ -549,12 +564,13 @@ pub(super) fn overview_figure(data: &Dataset, fam: &FamilyFit) -> Figure {
     if hidden > 0 {
         notes.push(format!("{hidden} reading(s) <= 0 not shown (log axis)."));
     }
+    notes.extend(left_out_note(data));
     Figure {
         title: format!("In-plane BRDF at every incidence: measured and {name}"),
         subtitles: vec![format!(
             "Selected model: {name}; RMSE of the normalised curves over all incidences {rmse}"
         )],
-        y_desc: Y_DESC_ABSOLUTE,
+        y_desc: y_desc_absolute(fam.units),
         curves,
         markers,
         guide: None,

@@ -74,7 +74,7 @@ fn writes_one_png_and_svg_per_incidence_and_an_overview() {
             assert!(text.starts_with("<svg"), "{name}");
             assert!(text.contains("theta_r (degrees)"), "{name}: x label");
             let y = if name.starts_with("overview") {
-                Y_DESC_ABSOLUTE
+                y_desc_absolute(fam.units)
             } else {
                 Y_DESC_NORMALISED
             };
@@ -224,4 +224,14 @@ fn long_member_names_wrap_after_a_plus_and_keep_every_character() {
     assert_eq!(lines[0], "specular:ggx:smooth-ks+");
     // Short labels are one line.
     assert_eq!(wrap("measured", 32), ["measured"]);
+}
+
+#[test]
+fn the_overview_says_the_fits_units() {
+    use crate::sweep_file::BrdfUnits;
+    assert_eq!(y_desc_absolute(BrdfUnits::PerSr), "BRDF (1/sr)");
+    assert_eq!(
+        y_desc_absolute(BrdfUnits::Relative),
+        "BRDF (relative units)"
+    );
 }

@@ -54,7 +54,7 @@ fn bench(c: &mut Criterion) {
     for name in ["fe-0.115", "cu-0.070"] {
         let data = Dataset::from_rows(&paper_sweep(name, 0.005), true).unwrap();
         g.bench_function(format!("{name} all four models"), |b| {
-            b.iter(|| fit_family(black_box(&data), &opts, &Kind::ALL).unwrap())
+            b.iter(|| fit_family(black_box(&data), &opts).unwrap())
         });
         g.bench_function(format!("{name} three-component"), |b| {
             b.iter(|| fit_kind(black_box(&data), Kind::ThreeComponent, &opts).unwrap())
@@ -80,7 +80,7 @@ fn bench(c: &mut Criterion) {
     g.sample_size(10);
     let data = Dataset::from_rows(&one_degree_grid("fe-0.115"), true).unwrap();
     g.bench_function("fe-0.115 all four models", |b| {
-        b.iter(|| fit_family(black_box(&data), &opts, &Kind::ALL).unwrap())
+        b.iter(|| fit_family(black_box(&data), &opts).unwrap())
     });
     g.bench_function("fe-0.115 three-component", |b| {
         b.iter(|| fit_kind(black_box(&data), Kind::ThreeComponent, &opts).unwrap())

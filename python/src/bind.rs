@@ -9,7 +9,7 @@ use gonio::calibrate::Instrument;
 use gonio::cli::fit::{self as fit_cmd, FitArgs};
 use gonio::cli::fit_units;
 use gonio::export::mitsuba::{self, MemberTable};
-use gonio::fit::{self, Dataset, FamilyFit, Fit, Kind, Residual, campaign};
+use gonio::fit::{self, Dataset, FamilyFit, Residual, campaign};
 use gonio::outfile::Target;
 use gonio::sweep_file::{self, Header, Row, SweepData, SweepStatus as Status, SweepWriter};
 
@@ -152,7 +152,7 @@ pub struct FitOutcome {
 /// file's line, `--instrument`'s conversion to 1/sr, and fitter.
 pub fn fit(path: Option<&Path>, rows: &[Row], req: &FitRequest) -> Result<FitOutcome, String> {
     let args = fit_args(path, req)?;
-    let (opts, kinds) = fit_cmd::options(&args).map_err(|e| e.to_string())?;
+    let opts = fit_cmd::options(&args).map_err(|e| e.to_string())?;
     let source = path.unwrap_or(Path::new("the arrays"));
     let mut data = match path {
         Some(p) => {
@@ -162,7 +162,8 @@ pub fn fit(path: Option<&Path>, rows: &[Row], req: &FitRequest) -> Result<FitOut
             }
             data
         }
-        None => Dataset::from_rows(rows, opts.residual != Residual::Absolute).map_err(|e| e.0)?,
+        None => Dataset::from_rows_floor(rows, opts.residual != Residual::Absolute, opts.floor)
+            .map_err(|e| e.0)?,
     };
     if let Some(a) = args.aperture {
         data.aperture = a.0;
@@ -174,7 +175,7 @@ pub fn fit(path: Option<&Path>, rows: &[Row], req: &FitRequest) -> Result<FitOut
         )),
         None => None,
     };
-    let family = campaign::fit_data(source, &data, &opts, &kinds).map_err(|e| e.to_string())?;
+    let family = campaign::fit_data(source, &data, &opts).map_err(|e| e.to_string())?;
     Ok(FitOutcome {
         family,
         data,
@@ -206,31 +207,25 @@ pub fn model_names(o: &FitOutcome) -> (Vec<String>, String) {
     (names, o.family.selected_member.to_string())
 }
 
-/// The fit of a model of the paper's family by name (the selected one for `None`).
-pub fn get_fit<'a>(o: &'a FitOutcome, name: Option<&str>) -> Result<&'a Fit, String> {
-    let kind = match name {
-        None => o.family.selected,
-        Some(n) => *Kind::ALL
-            .iter()
-            .find(|k| k.name() == n)
-            .ok_or_else(|| format!("unknown model '{n}'"))?,
+/// A fitted member by name (the selected one for `None`): any name `gonio fit
+/// --models` takes (paper names, their short forms, systematic names), a member the
+/// family fitted.
+pub fn get_fit(o: &FitOutcome, name: Option<&str>) -> Result<Member, String> {
+    let member = match name {
+        None => o.family.selected_member,
+        Some(n) => fit_cmd::parse_member(n).map_err(|e| format!("unknown model {e}"))?,
     };
-    o.family
-        .get(kind)
-        .ok_or_else(|| format!("{} was not fitted", kind.name()))
+    if o.family.candidate(member).is_none() {
+        return Err(format!("{member} was not fitted"));
+    }
+    Ok(member)
 }
 
 /// Any fitted member by name (the selected one for `None`) as brdf-core's member
 /// parameters per incidence: the one path from a fit to a model, whatever member the
 /// family fitted.
 pub fn fitted_table(o: &FitOutcome, name: Option<&str>) -> Result<(MemberTable, String), String> {
-    let member = match name {
-        None => o.family.selected_member,
-        Some(n) => match Kind::ALL.iter().find(|k| k.name() == n) {
-            Some(k) => k.member(),
-            None => Member::parse(n).map_err(|e| format!("unknown model '{n}': {e}"))?,
-        },
-    };
+    let member = get_fit(o, name)?;
     let table = gonio::export::fitted_table(&o.family, member).map_err(|e| e.to_string())?;
     Ok((
         table,
@@ -263,22 +258,21 @@ pub fn load_table(path: &Path) -> Result<MemberTable, String> {
     MemberTable::from_json(&text).map_err(|e| format!("{}: {e}", path.display()))
 }
 
-/// Per reading of the data: theta_i, theta_r, measured y, fitted f and the residual of
-/// the kind the fit minimised (ln f - ln y, f/y - 1 or f - y).
-pub fn residuals(o: &FitOutcome, fit: &Fit) -> Vec<[f64; 5]> {
+/// Per reading of the data: theta_i, theta_r, measured y, fitted f (as the fit
+/// compared it: the reading's own incidence's k_s, averaged over the aperture if the
+/// fit was; NaN where the model cannot be evaluated) and the residual of the kind the
+/// fit minimised (ln f - ln y, f/y - 1 or f - y): the rows of `gonio fit --export
+/// residuals=`.
+pub fn residuals(o: &FitOutcome, member: Member) -> Vec<[f64; 5]> {
+    let fitted = fit::goodness::fitted_of(&o.family, &o.data, member)
+        .unwrap_or_else(|| vec![None; o.data.obs.len()]);
     o.data
         .obs
         .iter()
-        .map(|ob| {
-            let f = fit
-                .model_at(&o.data.incidences, ob.theta_i)
-                .and_then(|m| m.eval(&ob.geom).ok())
-                .map_or(f64::NAN, |e| e.f);
-            let r = match o.residual {
-                Residual::Log => f.max(1e-300).ln() - ob.y.ln(),
-                Residual::Relative => f / ob.y - 1.0,
-                Residual::Absolute => f - ob.y,
-            };
+        .zip(fitted)
+        .map(|(ob, f)| {
+            let f = f.unwrap_or(f64::NAN);
+            let r = gonio::export::residual_value(o.residual, f, ob.y);
             [ob.theta_i, ob.theta_r, ob.y, f, r]
         })
         .collect()

@@ -7,13 +7,15 @@ use std::time::Instant;
 
 use brdf_core::Preset;
 use brdf_core::identity::PAPER_INCIDENCES;
+use brdf_core::member::Member;
 use serde::Serialize;
 
 use crate::capture::{
     CaptureError, CaptureSetup, HostPlan, PlanError, Quiet, SettingsOverride, capture,
 };
 use crate::device::{InProcessConnector, InProcessDevice, SimConfig};
-use crate::fit::{Dataset, FitOptions, Kind, fit_kind};
+use crate::fit::member_fit::fit_member;
+use crate::fit::{Dataset, FitOptions, Kind, Residual, fit_kind};
 use crate::sweep_file::{SweepFileError, read_sweep};
 
 /// Why a study could not run: its capture, its files or its fits failed.
@@ -88,12 +90,12 @@ fn measure(
     let rows = read_sweep(&out)?.rows;
     let _ = std::fs::remove_file(&out);
     let data = Dataset::from_rows(&rows, true).map_err(|e| StudyError::Failed(e.0))?;
-    let fit = fit_kind(&data, Kind::ThreeComponent, &FitOptions::default())
+    let fit = fit_member(&data, Member::THREE_COMPONENT, Residual::Log, None)
         .ok_or_else(|| StudyError::Failed("fit failed".into()))?;
     let (mut sum, mut n) = (0.0, 0usize);
     for i in 0..=16 {
         let ti = 5.0 * i as f64;
-        let (Some(m), Ok(truth)) = (fit.model_at(&data.incidences, ti), preset.model(ti)) else {
+        let (Some(m), Ok(truth)) = (fit.model_at(ti), preset.model(ti)) else {
             continue;
         };
         for k in 0..=170 {
@@ -176,7 +178,8 @@ pub struct FitResultRow {
 }
 
 /// Three-component fits of a simulated fe-0.115 paper sweep (0.5 % noise) across LM
-/// tolerances and start grids.
+/// tolerances and start grids: the paper-form path (`fit_kind`, what `--fix` and a
+/// robust `--loss` use), the one fitted from multi-start LM, so the one with starts.
 pub fn fit_study() -> Result<Vec<FitResultRow>> {
     let tmp = private_dir()?;
     let out = tmp.path().join("fe.csv");
@@ -294,8 +297,6 @@ fn scale_sweep(n_inc: usize, n_det: usize) -> Dataset {
 /// the whole default family and the three-component member, on the caller's thread
 /// pool (run it with one thread for per-core figures).
 pub fn scale_study() -> Result<Vec<ScaleRow>> {
-    use crate::fit::member_fit::fit_member;
-    use brdf_core::member::Member;
     let sizes = [
         (9, 17),
         (9, 35),
@@ -322,7 +323,7 @@ pub fn scale_study() -> Result<Vec<ScaleRow>> {
         let opts = FitOptions::default();
         let mut err = None;
         let family_ms = best_ms(reps, || {
-            if let Err(e) = crate::fit::fit_family(&data, &opts, &Kind::ALL) {
+            if let Err(e) = crate::fit::fit_family(&data, &opts) {
                 err = Some(e);
             }
         });
@@ -330,12 +331,7 @@ pub fn scale_study() -> Result<Vec<ScaleRow>> {
             return Err(StudyError::Failed(e));
         }
         let three_ms = best_ms(reps, || {
-            let _ = fit_member(
-                &data,
-                Member::THREE_COMPONENT,
-                crate::fit::Residual::Log,
-                None,
-            );
+            let _ = fit_member(&data, Member::THREE_COMPONENT, Residual::Log, None);
         });
         out.push(ScaleRow {
             readings: n,
@@ -357,7 +353,6 @@ const SCATTERWORKS: &[u8] =
 /// Scatterworks test data, each fitted alone, its time and Table-3 RMSE; and the whole
 /// family's time (milliseconds).
 pub fn member_study() -> Result<(Vec<MemberRow>, f64)> {
-    use crate::fit::member_fit::fit_member;
     let rows = crate::sweep_file::parse_sweep(SCATTERWORKS)
         .map_err(|(line, e)| StudyError::Failed(format!("test data line {line}: {e}")))?
         .rows;
@@ -365,14 +360,14 @@ pub fn member_study() -> Result<(Vec<MemberRow>, f64)> {
     let opts = FitOptions::default();
     let mut fam = None;
     let family_ms = best_ms(5, || {
-        fam = crate::fit::fit_family(&data, &opts, &Kind::ALL).ok();
+        fam = crate::fit::fit_family(&data, &opts).ok();
     });
     let fam = fam.ok_or_else(|| StudyError::Failed("family fit failed".into()))?;
     let mut out = Vec::new();
     for f in &fam.members {
         let m = f.member();
         let ms = best_ms(3, || {
-            let _ = fit_member(&data, m, crate::fit::Residual::Log, None);
+            let _ = fit_member(&data, m, Residual::Log, None);
         });
         out.push(MemberRow {
             member: m.to_string(),

@@ -17,7 +17,7 @@ use super::fit::fit_file;
 use super::output::write_stdout;
 use crate::capture::{CaptureSetup, HostPlan, SettingsOverride, progress};
 use crate::device::{InProcessDevice, SharedInProcessConnector};
-use crate::fit::{Dataset, FamilyFit, FitOptions, Kind, report};
+use crate::fit::{Dataset, FamilyFit, FitOptions, report};
 use crate::outfile::Target;
 use crate::{export, plot};
 
@@ -78,7 +78,7 @@ pub fn run(args: &DemoArgs) -> CliResult {
     let standard = format!("lambertian:{}", super::demo_units::DEMO_REFERENCE);
     let [_, report] = super::reference::capture_pair(&mut conn, &setup, &standard, prog.as_mut())?;
     drop(prog);
-    let (data, fam) = fit_file(&sweep, &FitOptions::default(), &Kind::ALL)?;
+    let (data, fam) = fit_file(&sweep, &FitOptions::default())?;
     let mut out = format!(
         "gonio demo: {} readings of a simulated {} sample ({}% noise per sample, {} samples per reading)\n\
          sweep file: {}\n\n",

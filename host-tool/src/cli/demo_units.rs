@@ -73,7 +73,7 @@ pub fn absolute_chain(
     )?;
     let abs = sweep.with_extension("abs.csv");
     outfile::write(Target::new(&abs, true), |w| w.write_all(text.as_bytes()))?;
-    let (abs_data, fam) = fit_file(&abs, &FitOptions::default(), &Kind::ALL)?;
+    let (abs_data, fam) = fit_file(&abs, &FitOptions::default())?;
     let k = f64::from(SIM_K);
     let mut s = String::new();
     let _ = writeln!(

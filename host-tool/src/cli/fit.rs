@@ -35,8 +35,10 @@ pub enum ResidualArg {
 pub enum ChecksArg {
     /// Every fitted model (the default for one sweep file).
     All,
-    /// The selected model only (the default in a campaign).
+    /// The selected model only.
     Selected,
+    /// None (the default in a campaign).
+    None,
 }
 
 /// `gonio fit`.
@@ -66,12 +68,17 @@ every grid point, so a lobe one reading step wide is found, then refined by Leve
 analytic Jacobian; members are fitted in parallel. With --fix or a robust --loss only the paper's four models \
 are fitted, from multi-start Levenberg–Marquardt. Every parameter is fitted as its logarithm; standard errors \
 come from the covariance at the optimum.\n\n\
+When at least 3 readings equal the sweep's smallest value exactly, the report asks whether that is a \
+detection floor; --floor auto leaves them out of the fit, --floor VALUE every reading at or below VALUE. When the \
+measured specular peak sits off the selected member's peak at every incidence (0.1 degree or more, same side), \
+the report says so: an angle offset or tilted sample no member has a parameter for; and when the selected core \
+lobe is narrower at half maximum than the readings' step at the peak, that its width is not resolved.\n\n\
 --aperture (or a `# aperture: DEG` line in the sweep) averages each model over the detector's acceptance cone \
 before comparing, so widths are the surface's. The RMSE table is the paper's Table 3: per incidence, curves \
 normalised to their value at theta_r = theta_i, or at the nearest reading when there is none there (marked *). \
 Angles in degrees, sigma_m in radians, BRDF in the file's units (its `# brdf:` line: relative, or 1/sr; \
---instrument fits in 1/sr). The report ends with physical checks of every model (of the selected one in a \
-campaign; see --checks): the directional albedo rho(theta_i) at each incidence (rho > 1 in 1/sr is flagged \
+--instrument fits in 1/sr). The report ends with physical checks of every model (none in a campaign unless \
+--checks says so): the directional albedo rho(theta_i) at each incidence (rho > 1 in 1/sr is flagged \
 non-physical) and the largest reciprocity ratio f(i->o)/f(o->i).",
     after_help = "Examples:\n  gonio fit fe.csv\n  gonio fit fe.csv --json > fe-fit.json\n  \
 gonio fit fe.csv --plot plots/ --export merl=fe.binary --export json=fe-params.json\n  \
@@ -148,11 +155,20 @@ pub struct FitArgs {
     #[arg(long, value_name = "instrument.toml")]
     pub instrument: Option<PathBuf>,
     /// Which fitted models the report's physical checks (albedo, reciprocity) cover.
-    /// Default: every model for one sweep file; the selected model in a campaign,
-    /// where the checks would cost several times the fits (about 0.1-0.3 s of CPU per
-    /// paper-grid file against a few ms for its fit).
+    /// Default: every model for one sweep file; none in a campaign, where even one
+    /// model's checks cost several times its fits (tens of ms of CPU per paper-grid
+    /// file, mostly the reciprocity grid, against a few ms for all its fits).
     #[arg(long, value_enum, value_name = "WHICH")]
     pub checks: Option<ChecksArg>,
+    /// Leave readings at or below a detection floor out of the fit: a value in the
+    /// sweep file's brdf units (0 leaves out zero and negative readings), or `auto`: the
+    /// sweep's smallest value when at least 3 readings equal it exactly (an
+    /// instrument's floor or placeholder repeats to every digit; a measurement does not).
+    /// Without it such readings are fitted, and the report asks whether they are a
+    /// floor. The report, the JSON notes and the residuals export say how many were
+    /// left out.
+    #[arg(long, value_name = "auto|VALUE", value_parser = fit::data::parse_floor)]
+    pub floor: Option<fit::Floor>,
 }
 
 /// `--aperture`'s value: a half-angle, or 0 (a point detector).
@@ -173,8 +189,9 @@ pub fn parse_member(s: &str) -> Result<Member, String> {
     Member::parse(t).map_err(|e| format!("'{}': {e}", crate::text::escape_line(s, 60)))
 }
 
-/// The fit options and models from the command line.
-pub fn options(args: &FitArgs) -> CliResult<(FitOptions, Vec<Kind>)> {
+/// The fit options from the command line (the members `--models` names, if any, in
+/// [`FitOptions::members`]).
+pub fn options(args: &FitArgs) -> CliResult<FitOptions> {
     let mut fixed = Fixed::default();
     for f in &args.fix {
         fixed.set(f).map_err(CliError::usage)?;
@@ -184,13 +201,13 @@ pub fn options(args: &FitArgs) -> CliResult<(FitOptions, Vec<Kind>)> {
         ResidualArg::Rel => Residual::Relative,
         ResidualArg::Abs => Residual::Absolute,
     };
-    let opts = FitOptions {
+    let mut opts = FitOptions {
         residual,
         loss: args.loss,
         fixed,
+        floor: args.floor,
         ..FitOptions::default()
     };
-    let mut opts = opts;
     if let Some(a) = args.aperture {
         opts.aperture = a.0;
     }
@@ -199,27 +216,18 @@ pub fn options(args: &FitArgs) -> CliResult<(FitOptions, Vec<Kind>)> {
             "--aperture cannot be combined with --fix or a robust --loss",
         ));
     }
-    let kinds = if args.models.is_empty() {
-        Kind::ALL.to_vec()
-    } else {
+    if !args.models.is_empty() {
         let mut m = args.models.clone();
         m.sort();
         m.dedup();
-        // The paper's kinds among them, for the older interface (Python).
-        let k: Vec<Kind> = m.iter().filter_map(|&m| fit::paper::kind_of(m)).collect();
         opts.members = Some(m);
-        k
-    };
-    Ok((opts, kinds))
+    }
+    Ok(opts)
 }
 
 /// Reads and fits a sweep file.
-pub fn fit_file(
-    path: &std::path::Path,
-    opts: &FitOptions,
-    kinds: &[Kind],
-) -> CliResult<(Dataset, FamilyFit)> {
-    match campaign::fit_sweep_file(path, opts, kinds) {
+pub fn fit_file(path: &std::path::Path, opts: &FitOptions) -> CliResult<(Dataset, FamilyFit)> {
+    match campaign::fit_sweep_file(path, opts) {
         Ok(fit) => {
             for w in &fit.warnings {
                 eprintln!("gonio: warning: {w}");
@@ -249,7 +257,7 @@ fn residual_name(r: Residual) -> &'static str {
 /// `gonio fit` over several sweeps: fits them all (a progress bar on a terminal),
 /// writes the reports and summary into --out, prints the summary; exit 1 if any
 /// sweep failed (each named on stderr), after all the others were fitted.
-fn run_campaign(args: &FitArgs, opts: &FitOptions, kinds: &[Kind]) -> CliResult {
+fn run_campaign(args: &FitArgs, opts: &FitOptions) -> CliResult {
     if args.plot.is_some() || !args.export.is_empty() || args.export_model.is_some() {
         return Err(CliError::usage(
             "--plot and --export take one sweep file; a campaign writes its reports to --out",
@@ -272,11 +280,10 @@ fn run_campaign(args: &FitArgs, opts: &FitOptions, kinds: &[Kind]) -> CliResult 
         Some((i, _)) => campaign::fit_files_with(
             &files,
             opts,
-            kinds,
             &super::fit_units::campaign_prepare(i),
             &|_, _| bar.inc(1),
         ),
-        None => campaign::fit_files(&files, opts, kinds, &|_, _| bar.inc(1)),
+        None => campaign::fit_files(&files, opts, &|_, _| bar.inc(1)),
     };
     bar.finish_and_clear();
     // Each file's report as a single-file fit's (its u(K) table and physical checks).
@@ -337,16 +344,17 @@ fn run_campaign(args: &FitArgs, opts: &FitOptions, kinds: &[Kind]) -> CliResult 
 
 /// Runs `gonio fit`.
 pub fn run(args: &FitArgs) -> CliResult {
-    let (mut opts, kinds) = options(args)?;
+    let mut opts = options(args)?;
     let campaign = args.sweeps.len() > 1 || args.sweeps[0].is_dir();
     opts.checks = match args.checks {
         Some(ChecksArg::All) => CheckScope::All,
         Some(ChecksArg::Selected) => CheckScope::Selected,
-        None if campaign => CheckScope::Selected,
+        Some(ChecksArg::None) => CheckScope::None,
+        None if campaign => CheckScope::None,
         None => CheckScope::All,
     };
     if campaign {
-        return run_campaign(args, &opts, &kinds);
+        return run_campaign(args, &opts);
     }
     let sweep = args.sweeps[0].as_path();
     let (mut data, warnings) = campaign::read_data(sweep, &opts).map_err(file_error)?;
@@ -378,7 +386,7 @@ pub fn run(args: &FitArgs) -> CliResult {
             outfile::check(Target::new(&f, true).inputs(&inputs))?;
         }
     }
-    let fam = campaign::fit_data(sweep, &data, &opts, &kinds).map_err(file_error)?;
+    let fam = campaign::fit_data(sweep, &data, &opts).map_err(file_error)?;
     let residual = residual_name(opts.residual);
     if let Some(dir) = &args.plot {
         plot::write_plots(dir, &data, &fam, args.force)?;

@@ -296,7 +296,7 @@ pub fn report_text(fam: &FamilyFit, inst: Option<(&Instrument, &Path)>) -> Strin
 mod tests {
     use super::*;
     use crate::fit::data::synthetic_paper_sweep;
-    use crate::fit::{FitOptions, Kind, fit_family};
+    use crate::fit::{FitOptions, fit_family};
     use brdf_core::member::Member;
 
     #[test]
@@ -310,7 +310,7 @@ mod tests {
             members: Some(vec![ggx]),
             ..FitOptions::default()
         };
-        let fam = fit_family(&data, &opts, &Kind::ALL).unwrap();
+        let fam = fit_family(&data, &opts).unwrap();
         assert_eq!(fam.selected_member, ggx);
         let inst = Instrument {
             k: 2000.0,

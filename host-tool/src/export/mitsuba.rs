@@ -478,17 +478,17 @@ mod tests {
 
     #[test]
     fn any_fitted_member_of_a_family_is_exported_in_its_units() {
-        use crate::fit::{Dataset, FitOptions, Kind, fit_family};
+        use crate::fit::{Dataset, FitOptions, fit_family};
         let p = brdf_core::Preset::by_name("fe-0.115").unwrap();
         let rows = crate::fit::data::synthetic_paper_sweep(|ti| p.model(ti).unwrap(), 0.0, 1);
         let mut data = Dataset::from_rows(&rows, true).unwrap();
         let haze =
             Member::parse("specular:ggx:smooth-ks+specular-haze:beckmann+ideal-diffuse").unwrap();
         let opts = FitOptions {
-            members: Some(vec![Kind::ThreeComponent.member(), haze]),
+            members: Some(vec![Member::THREE_COMPONENT, haze]),
             ..FitOptions::default()
         };
-        let fam = fit_family(&data, &opts, &[Kind::ThreeComponent]).unwrap();
+        let fam = fit_family(&data, &opts).unwrap();
         let t = crate::export::fitted_table(&fam, haze).unwrap();
         assert_eq!(t.member, haze);
         assert_eq!(t.params[0].member(), haze);
@@ -510,7 +510,7 @@ mod tests {
         assert!(matches!(e, ExportError::NotFitted(_)), "{e}");
         assert!(e.to_string().contains(&haze.to_string()), "{e}");
         data.units = crate::sweep_file::BrdfUnits::PerSr;
-        let fam = fit_family(&data, &opts, &[Kind::ThreeComponent]).unwrap();
+        let fam = fit_family(&data, &opts).unwrap();
         assert_eq!(
             crate::export::fitted_table(&fam, haze).unwrap().to_per_sr,
             Some(1.0)

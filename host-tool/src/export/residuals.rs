@@ -27,7 +27,8 @@ fn residual_words(kind: Residual) -> &'static str {
     }
 }
 
-/// Writes `theta_i,theta_r,measured,fitted,residual` for every reading of `data`, in
+/// Writes `theta_i,theta_r,measured,fitted,residual` for every reading of `data` (the
+/// readings fitted: those a `--floor` left out are only counted, on a `#` line), in
 /// its order, with the fitted member `member`'s value as the fit compared it (the
 /// reading's own incidence's k_s, averaged over the detector aperture if the fit was).
 /// A member that was not fitted is [`ExportError::NotFitted`]. A reading the model
@@ -40,12 +41,8 @@ pub fn write_residuals(
     member: Member,
     residual: Residual,
 ) -> Result<(), ExportError> {
-    let paper = crate::fit::paper::kind_of(member).and_then(|k| fam.get(k));
-    let fitted = match (fam.member(member), paper) {
-        (Some(m), _) => goodness::member_fitted(m, data),
-        (None, Some(f)) => goodness::kind_fitted(f, data),
-        (None, None) => return Err(super::not_fitted(fam, member)),
-    };
+    let fitted =
+        goodness::fitted_of(fam, data, member).ok_or_else(|| super::not_fitted(fam, member))?;
     write_atomic(target, |mut w| {
         write_rows(&mut w, data, member, &fitted, residual)
     })
@@ -69,6 +66,12 @@ fn write_rows(
         w,
         "# units: angles in degrees (theta_r signed, positive on the specular side), measured and fitted in the sweep's brdf units"
     )?;
+    if let Some((f, n)) = data.floor.left_out {
+        writeln!(
+            w,
+            "# left out of the fit: {n} reading(s) at or below the detection floor {f:e} (--floor), not listed"
+        )?;
+    }
     writeln!(w, "theta_i,theta_r,measured,fitted,residual")?;
     for (o, f) in data.obs.iter().zip(fitted) {
         match f {

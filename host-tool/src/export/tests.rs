@@ -22,7 +22,7 @@ fn fixture() -> &'static FamilyFit {
     static F: OnceLock<FamilyFit> = OnceLock::new();
     F.get_or_init(|| {
         let data = Dataset::from_rows(&rows(), true).unwrap();
-        fit_family(&data, &FitOptions::default(), &Kind::ALL).unwrap()
+        fit_family(&data, &FitOptions::default()).unwrap()
     })
 }
 
@@ -37,7 +37,14 @@ fn rel(a: f64, b: f64) -> f64 {
 #[test]
 fn an_unfitted_model_is_a_usage_error_naming_the_fitted_ones() {
     let data = Dataset::from_rows(&rows(), true).unwrap();
-    let fam = fit_family(&data, &FitOptions::default(), &[Kind::TorranceSparrow]).unwrap();
+    let fam = fit_family(
+        &data,
+        &FitOptions {
+            members: Some(vec![brdf_core::member::Member::TORRANCE_SPARROW]),
+            ..FitOptions::default()
+        },
+    )
+    .unwrap();
     let dir = tempdir("unfitted");
     let path = dir.join("m.json");
     let e = write_export(
@@ -382,7 +389,7 @@ fn haze_fixture() -> &'static FamilyFit {
             members: Some(vec![member]),
             ..FitOptions::default()
         };
-        let fam = fit_family(&data, &opts, &Kind::ALL).unwrap();
+        let fam = fit_family(&data, &opts).unwrap();
         assert_eq!(fam.selected_member, member);
         fam
     })

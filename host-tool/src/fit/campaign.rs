@@ -63,8 +63,9 @@ pub fn read_data(path: &Path, opts: &FitOptions) -> Result<(Dataset, Vec<String>
             path.display()
         ));
     }
-    let mut data = Dataset::from_rows(&sweep.rows, opts.residual != Residual::Absolute)
-        .map_err(|e| FileError::Input(format!("{}: {}", path.display(), e.0)))?;
+    let mut data =
+        Dataset::from_rows_floor(&sweep.rows, opts.residual != Residual::Absolute, opts.floor)
+            .map_err(|e| FileError::Input(format!("{}: {}", path.display(), e.0)))?;
     if let Some(a) = sweep.meta.get("aperture") {
         data.aperture = super::data::parse_aperture(a)
             .map_err(|e| FileError::Input(format!("{}: # aperture: {e}", path.display())))?;
@@ -74,23 +75,14 @@ pub fn read_data(path: &Path, opts: &FitOptions) -> Result<(Dataset, Vec<String>
 }
 
 /// Fits the family to data read from `path` (named in the message of a failure).
-pub fn fit_data(
-    path: &Path,
-    data: &Dataset,
-    opts: &FitOptions,
-    kinds: &[Kind],
-) -> Result<FamilyFit, FileError> {
-    fit_family(data, opts, kinds).map_err(|e| FileError::Fit(format!("{}: {e}", path.display())))
+pub fn fit_data(path: &Path, data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, FileError> {
+    fit_family(data, opts).map_err(|e| FileError::Fit(format!("{}: {e}", path.display())))
 }
 
 /// Reads, checks and fits one sweep file; every message starts with the path.
-pub fn fit_sweep_file(
-    path: &Path,
-    opts: &FitOptions,
-    kinds: &[Kind],
-) -> Result<SweepFit, FileError> {
+pub fn fit_sweep_file(path: &Path, opts: &FitOptions) -> Result<SweepFit, FileError> {
     let (data, warnings) = read_data(path, opts)?;
-    let family = fit_data(path, &data, opts, kinds)?;
+    let family = fit_data(path, &data, opts)?;
     Ok(SweepFit {
         data,
         family,
@@ -140,10 +132,9 @@ pub fn expand_inputs(paths: &[PathBuf]) -> Result<Vec<PathBuf>, String> {
 pub fn fit_files(
     files: &[PathBuf],
     opts: &FitOptions,
-    kinds: &[Kind],
     done: &(dyn Fn(&Path, bool) + Sync),
 ) -> Vec<CampaignFile> {
-    fit_files_with(files, opts, kinds, &|_, _| Ok(()), done)
+    fit_files_with(files, opts, &|_, _| Ok(()), done)
 }
 
 /// What [`fit_files_with`] does to each file's data before fitting it (e.g. converting
@@ -154,14 +145,13 @@ pub type Prepare = dyn Fn(&Path, &mut Dataset) -> Result<(), FileError> + Sync;
 pub fn fit_files_with(
     files: &[PathBuf],
     opts: &FitOptions,
-    kinds: &[Kind],
     prepare: &Prepare,
     done: &(dyn Fn(&Path, bool) + Sync),
 ) -> Vec<CampaignFile> {
     let one = |path: &Path| -> Result<SweepFit, FileError> {
         let (mut data, warnings) = read_data(path, opts)?;
         prepare(path, &mut data)?;
-        let family = fit_data(path, &data, opts, kinds)?;
+        let family = fit_data(path, &data, opts)?;
         Ok(SweepFit {
             data,
             family,
@@ -503,7 +493,7 @@ mod tests {
         std::fs::write(dir.join("in/bad.csv"), "theta_i,theta_r,brdf\n10,0,-1\n").unwrap();
         let inputs = expand_inputs(&[dir.join("in"), a.clone(), dir.join("missing.csv")]).unwrap();
         assert_eq!(inputs.len(), 5);
-        let files = fit_files(&inputs, &FitOptions::default(), &Kind::ALL, &|_, _| {});
+        let files = fit_files(&inputs, &FitOptions::default(), &|_, _| {});
         let status: Vec<bool> = files.iter().map(|f| f.outcome.is_ok()).collect();
         assert_eq!(status, [true, true, false, true, false]);
         let sigma = |i: usize| {

@@ -89,6 +89,80 @@ pub struct Dataset {
     /// The units of the brdf values (the sweep's `# brdf:` line; 1/sr after
     /// `--instrument`): relative unless said otherwise.
     pub units: BrdfUnits,
+    /// What the rows said of a detection floor, and what was left out for one.
+    pub floor: FloorReport,
+}
+
+/// A detection floor: readings at or below it are the instrument's limit, not
+/// measurements of the surface, and are left out of the fit (`gonio fit --floor`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Floor {
+    /// This value, in the sweep file's brdf units.
+    Value(f64),
+    /// The sweep's minimum when at least [`FLOOR_REPEATS`] readings equal it exactly
+    /// (nothing is left out otherwise).
+    Auto,
+}
+
+/// At least this many readings sharing exactly the sweep's smallest value make it a
+/// suspected detection floor: a measured value repeats to every printed digit only by
+/// chance, an instrument's floor or placeholder value repeats by design.
+pub const FLOOR_REPEATS: usize = 3;
+
+/// What a sweep's rows say of a detection floor.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct FloorReport {
+    /// The smallest value and how many readings equal it exactly, when at least
+    /// [`FLOOR_REPEATS`] do.
+    pub repeated_minimum: Option<(f64, usize)>,
+    /// The floor applied and how many readings at or below it were left out.
+    pub left_out: Option<(f64, usize)>,
+}
+
+impl FloorReport {
+    /// The notes a fit report gives: the suspected floor (with the option that leaves
+    /// it out) and what was left out.
+    pub fn notes(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        if let Some((f, n)) = self.left_out {
+            out.push(format!(
+                "{n} reading(s) at or below the detection floor {f:e} were left out of the fit (--floor)"
+            ));
+        } else if let Some((v, n)) = self.repeated_minimum {
+            out.push(format!(
+                "{n} readings equal the minimum {v:e}: a detection floor? They are fitted as measurements; \
+                 --floor auto (or --floor {v:e}) leaves them out"
+            ));
+        }
+        out
+    }
+}
+
+/// The smallest value of `rows` and how many readings equal it exactly, when at least
+/// [`FLOOR_REPEATS`] do (non-finite values ignored).
+pub fn repeated_minimum(rows: &[Row]) -> Option<(f64, usize)> {
+    let min = rows
+        .iter()
+        .map(|r| r.brdf)
+        .filter(|v| v.is_finite())
+        .min_by(f64::total_cmp)?;
+    let n = rows.iter().filter(|r| r.brdf == min).count();
+    (n >= FLOOR_REPEATS).then_some((min, n))
+}
+
+/// Parses `--floor`: `auto`, or a finite value >= 0 in the sweep's brdf units.
+pub fn parse_floor(text: &str) -> Result<Floor, String> {
+    let t = text.trim();
+    if t.eq_ignore_ascii_case("auto") {
+        return Ok(Floor::Auto);
+    }
+    match t.parse::<f64>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(Floor::Value(v)),
+        _ => Err(format!(
+            "floor '{}': expected auto or a finite value >= 0 (the sweep's brdf units)",
+            crate::text::escape_line(text, 40)
+        )),
+    }
 }
 
 /// Why data cannot be fitted.
@@ -124,6 +198,44 @@ impl Dataset {
     /// Checks and groups rows, in O(n log n). `positive` requires brdf > 0 (log and
     /// relative residuals divide by it).
     pub fn from_rows(rows: &[Row], positive: bool) -> Result<Self, DataError> {
+        Self::from_rows_floor(rows, positive, None)
+    }
+
+    /// [`Dataset::from_rows`], with the readings at or below a detection `floor` left
+    /// out (before any other check: a floor of 0 leaves out zero readings, which log
+    /// residuals could not take). [`Dataset::floor`] says what was found and done.
+    pub fn from_rows_floor(
+        rows: &[Row],
+        positive: bool,
+        floor: Option<Floor>,
+    ) -> Result<Self, DataError> {
+        let repeated = repeated_minimum(rows);
+        let level = match floor {
+            Some(Floor::Value(v)) => Some(v),
+            Some(Floor::Auto) => repeated.map(|(v, _)| v),
+            None => None,
+        };
+        let kept: Vec<Row>;
+        let (rows, left_out) = match level {
+            Some(f) => {
+                kept = rows
+                    .iter()
+                    .filter(|r| r.brdf > f || r.brdf.is_nan())
+                    .copied()
+                    .collect();
+                (kept.as_slice(), Some((f, rows.len() - kept.len())))
+            }
+            None => (rows, None),
+        };
+        let mut data = Self::checked(rows, positive)?;
+        data.floor = FloorReport {
+            repeated_minimum: repeated,
+            left_out,
+        };
+        Ok(data)
+    }
+
+    fn checked(rows: &[Row], positive: bool) -> Result<Self, DataError> {
         if rows.len() < 3 {
             return Err(DataError(format!(
                 "{} readings: at least 3 are needed to fit anything",
@@ -138,7 +250,7 @@ impl Dataset {
             if positive && r.brdf <= 0.0 {
                 return Err(DataError(format!(
                     "reading {} (theta_i {}, theta_r {}) has brdf {} <= 0: log and relative residuals \
-                     need positive values (use --residual absolute)",
+                     need positive values (use --residual abs, or --floor 0 to leave out readings <= 0)",
                     k + 1,
                     r.theta_i,
                     r.theta_r,
@@ -214,6 +326,7 @@ impl Dataset {
             nearest,
             aperture: None,
             units: BrdfUnits::Relative,
+            floor: FloorReport::default(),
         })
     }
 

@@ -1,6 +1,9 @@
 //! How well a fitted model follows the readings against their own noise: the fitted
 //! value at every reading (as the fit compared it) and the reduced chi-square.
 
+use brdf_core::member::Member;
+
+use super::FamilyFit;
 use super::data::Dataset;
 use super::member_fit::{MemberFit, eval_at};
 use super::solve::{Fit, Residual, residual_of};
@@ -16,6 +19,18 @@ pub fn member_fitted(fit: &MemberFit, data: &Dataset) -> Vec<Option<f64>> {
         .iter()
         .map(|o| eval_at(&models[o.inc], o, fit.aperture).map(|e| e.f))
         .collect()
+}
+
+/// The fitted value at every reading of `data` for `member` of `fam`: its grid fit's
+/// ([`member_fitted`]), else its paper-form fit's ([`kind_fitted`], `--fix` and robust
+/// losses); `None` when the family did not fit it. The one source of "fitted" for the
+/// residuals export and the Python bind.
+pub fn fitted_of(fam: &FamilyFit, data: &Dataset, member: Member) -> Option<Vec<Option<f64>>> {
+    if let Some(m) = fam.member(member) {
+        return Some(member_fitted(m, data));
+    }
+    let paper = super::paper::kind_of(member).and_then(|k| fam.get(k))?;
+    Some(kind_fitted(paper, data))
 }
 
 /// [`member_fitted`] for a paper-form fit (no aperture).

@@ -21,6 +21,7 @@ pub mod goodness;
 pub mod lm;
 pub mod member_fit;
 pub mod paper;
+pub mod peak;
 pub mod physical;
 pub mod report;
 pub mod select;
@@ -33,7 +34,7 @@ use rayon::prelude::*;
 
 use crate::sweep_file::BrdfUnits;
 
-pub use data::Dataset;
+pub use data::{Dataset, Floor};
 pub use family::{Fixed, Kind, Names};
 pub use solve::{Fit, FitOptions, Loss, Residual, fit_kind};
 
@@ -129,15 +130,12 @@ fn fit_members(
     out
 }
 
-/// Fits the family and selects a member. `kinds` is the paper-model list of the older
-/// interface: all four (the default) means the default family unless
-/// [`FitOptions::members`] names members; fewer means exactly those.
-pub fn fit_family(data: &Dataset, opts: &FitOptions, kinds: &[Kind]) -> Result<FamilyFit, String> {
+/// Fits the family and selects a member: the default family (three stages, see
+/// [`family`]) unless [`FitOptions::members`] names exactly the members to fit.
+pub fn fit_family(data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, String> {
     let t0 = Instant::now();
     let aperture = opts.aperture.or(data.aperture);
-    let requested: Option<Vec<Member>> = opts.members.clone().or_else(|| {
-        (kinds != Kind::ALL.as_slice()).then(|| kinds.iter().map(|k| k.member()).collect())
-    });
+    let requested: Option<Vec<Member>> = opts.members.clone();
     let grid = opts.loss == Loss::L2 && opts.fixed == Fixed::default();
     let mut notes = Vec::new();
     let mut members = Vec::new();
@@ -226,6 +224,23 @@ pub fn fit_family(data: &Dataset, opts: &FitOptions, kinds: &[Kind]) -> Result<F
         ));
     }
     summary.push(goodness_note(data, &candidates, selected_member));
+    summary.extend(data.floor.notes());
+    let fitted = match members.iter().find(|f| f.member() == selected_member) {
+        Some(f) => Some(goodness::member_fitted(f, data)),
+        None => paper::kind_of(selected_member)
+            .and_then(|k| fits.iter().find(|f| f.kind == k))
+            .map(|f| goodness::kind_fitted(f, data)),
+    };
+    if let Some(note) =
+        fitted.and_then(|v| peak::offset_note(data, &v, &selected_member.to_string()))
+    {
+        summary.push(note);
+    }
+    if let Some(f) = members.iter().find(|f| f.member() == selected_member)
+        && let (Some(core), Some((sigma, _))) = (selected_member.core, f.sigma())
+    {
+        summary.extend(peak::unresolved_core_note(data, core.dist, sigma));
+    }
     summary.append(&mut notes);
     let mut notes = summary;
     for f in &members {
@@ -341,8 +356,22 @@ fn variant_notes(cands: &[Candidate], sel: Member) -> Vec<String> {
     let haze = sel
         .haze
         .map_or(String::new(), |h| format!(" on a {} haze", h.dist.name()));
+    // A difference under the margin is no evidence for either shape: said, not implied.
+    let ties: Vec<String> = cands
+        .iter()
+        .filter(|c| same(c.member) && c.member != sel && c.aicc - best.aicc < AICC_MARGIN)
+        .map(|c| c.member.to_string())
+        .collect();
+    let tie = if ties.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "; within {AICC_MARGIN} of it, so these data do not tell it from {}",
+            ties.join(", ")
+        )
+    };
     vec![format!(
-        "specular lobe shape: {} with k_s {}{haze} has the lowest AICc of these components (AICc of the others: {})",
+        "specular lobe shape: {} with k_s {}{haze} has the lowest AICc of these components (AICc of the others: {}){tie}",
         core.dist.name(),
         core.ks.name(),
         others.join(", ")
@@ -401,3 +430,7 @@ fn goodness_note(data: &Dataset, cands: &[Candidate], sel: Member) -> String {
 #[cfg(test)]
 #[path = "fit_tests.rs"]
 mod tests;
+
+#[cfg(test)]
+#[path = "real_data_tests.rs"]
+mod real_data_tests;

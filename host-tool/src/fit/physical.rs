@@ -34,9 +34,11 @@ pub enum CheckScope {
     /// Every fitted model (the default for one sweep file).
     #[default]
     All,
-    /// The selected model only (a campaign's default: the checks cost several times
-    /// the fit of a small sweep, and a campaign's summary names only the selected model).
+    /// The selected model only.
     Selected,
+    /// None (a campaign's default: checking even one model costs several times the fit
+    /// of a small sweep, mostly the reciprocity grid's pairs).
+    None,
 }
 
 impl CheckScope {
@@ -45,6 +47,7 @@ impl CheckScope {
         match self {
             CheckScope::All => "all",
             CheckScope::Selected => "selected",
+            CheckScope::None => "none",
         }
     }
 }
@@ -187,6 +190,9 @@ fn finish(
 /// no member was fitted on the grid (`--fix`, robust losses); with
 /// [`CheckScope::Selected`] only the selected one.
 pub fn check_family(fam: &FamilyFit) -> Vec<ModelCheck> {
+    if fam.checks == CheckScope::None {
+        return Vec::new();
+    }
     let all = fam.checks == CheckScope::All;
     if fam.members.is_empty() {
         fam.fits
@@ -213,12 +219,20 @@ pub fn checks_text(
     scope: CheckScope,
 ) -> String {
     let mut s = String::new();
+    if scope == CheckScope::None {
+        let _ = writeln!(
+            s,
+            "\nphysical checks: not run (a campaign's default; --checks selected|all runs them)"
+        );
+        return s;
+    }
     let _ = writeln!(
         s,
         "\nphysical checks of {} (3-D model; BRDF in {units}; albedo by graded Gauss-Legendre, error estimate stated per model){}",
         match scope {
             CheckScope::All => "every fitted model",
             CheckScope::Selected => "the selected model (--checks all: every fitted model)",
+            CheckScope::None => unreachable!("returned above"),
         },
         match units {
             BrdfUnits::PerSr => "",
@@ -343,7 +357,7 @@ mod tests {
             members: Some(members.clone()),
             ..FitOptions::default()
         };
-        let fam = fit_family(&data, &opts, &Kind::ALL).unwrap();
+        let fam = fit_family(&data, &opts).unwrap();
         let checks = check_family(&fam);
         assert_eq!(checks.len(), fam.members.len());
         assert_eq!(fam.members.len(), members.len());
@@ -412,7 +426,7 @@ mod tests {
             members: Some(members),
             ..FitOptions::default()
         };
-        let mut fam = fit_family(&data, &opts, &Kind::ALL).unwrap();
+        let mut fam = fit_family(&data, &opts).unwrap();
         let all = check_family(&fam);
         fam.checks = CheckScope::Selected;
         let one = check_family(&fam);
@@ -424,6 +438,10 @@ mod tests {
         let t = checks_text(&one, BrdfUnits::PerSr, &selected, CheckScope::Selected);
         assert!(t.contains("physical checks of the selected model"), "{t}");
         assert!(!t.contains("physical checks of every"), "{t}");
+        fam.checks = CheckScope::None;
+        assert!(check_family(&fam).is_empty());
+        let t = checks_text(&[], BrdfUnits::PerSr, &selected, CheckScope::None);
+        assert!(t.contains("not run"), "{t}");
     }
 
     #[test]
@@ -434,10 +452,10 @@ mod tests {
                 sigma_m: Some(0.8),
                 ..Fixed::default()
             },
+            members: Some(vec![Member::IDEAL_DIFFUSE, Member::THREE_COMPONENT]),
             ..FitOptions::default()
         };
-        let kinds = [Kind::IdealDiffuse, Kind::ThreeComponent];
-        let fam = fit_family(&data, &opts, &kinds).unwrap();
+        let fam = fit_family(&data, &opts).unwrap();
         assert!(fam.members.is_empty());
         let checks = check_family(&fam);
         assert_eq!(checks.len(), fam.fits.len());

@@ -388,6 +388,15 @@ impl serde::Serialize for FamilyJson<'_> {
         m.serialize_entry("selected_paper", f.selected.name())?;
         m.serialize_entry("selected_components", &member_components(f.selected_member))?;
         m.serialize_entry("aperture_deg", &opt(f.aperture))?;
+        // Per incidence [theta_i, theta_r]: the reading every curve of the paper's RMSE
+        // is normalised at (theta_r = theta_i, or the nearest reading when none is).
+        let at: Vec<[f64; 2]> = f
+            .incidences
+            .iter()
+            .zip(&f.rmse_nearest)
+            .map(|(&ti, near)| [ti, near.unwrap_or(ti)])
+            .collect();
+        m.serialize_entry("rmse_normalised_at", &at)?;
         m.serialize_entry("notes", &f.notes)?;
         m.serialize_entry("fit_seconds", &num(f.fit_seconds))?;
         m.serialize_entry("brdf_units", f.units.word())?;

@@ -423,12 +423,13 @@ pub fn component_notes(s: &Selection<'_>, sel: Member) -> Vec<String> {
                     amp_text(c, t.amplitude)
                 )
             } else if t.gain <= MARGIN {
-                format!(
-                    "{}: absent ({} fits no better: {crit} {:+.1})",
-                    c.name(),
-                    t.member,
-                    t.gain
-                )
+                // gain = criterion without minus with: say which way it went in words.
+                let by = if t.gain < 0.0 {
+                    format!("{crit} {:.1} higher", -t.gain)
+                } else {
+                    format!("{crit} only {:.1} lower, under the margin {MARGIN}", t.gain)
+                };
+                format!("{}: absent ({} fits no better: {by})", c.name(), t.member)
             } else {
                 format!(
                     "{}: absent ({} has {crit} {:.1} lower, but {}: NOT supported)",

@@ -66,6 +66,9 @@ pub struct FitOptions {
     pub aperture: Option<f64>,
     /// Which fitted models the reports' physical checks cover (`gonio fit --checks`).
     pub checks: super::physical::CheckScope,
+    /// A detection floor: readings at or below it are left out of the data before the
+    /// fit (`gonio fit --floor`; see [`super::data::Floor`]).
+    pub floor: Option<super::data::Floor>,
 }
 
 impl Default for FitOptions {
@@ -81,6 +84,7 @@ impl Default for FitOptions {
             members: None,
             aperture: None,
             checks: super::physical::CheckScope::All,
+            floor: None,
         }
     }
 }

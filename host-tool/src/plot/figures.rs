@@ -14,8 +14,14 @@ use crate::fit::{Dataset, FamilyFit, Fit, Kind};
 /// Label of the y axis of the normalised figures.
 pub(super) const Y_DESC_NORMALISED: &str = "BRDF / BRDF(theta_r = theta_i)";
 
-/// Label of the y axis of the overview.
-pub(super) const Y_DESC_ABSOLUTE: &str = "BRDF (relative units)";
+/// Label of the y axis of the overview, in the fit's units (the sweep's `# brdf:` line,
+/// or 1/sr after `--instrument`).
+pub(super) fn y_desc_absolute(units: crate::sweep_file::BrdfUnits) -> &'static str {
+    match units {
+        crate::sweep_file::BrdfUnits::Relative => "BRDF (relative units)",
+        crate::sweep_file::BrdfUnits::PerSr => "BRDF (1/sr)",
+    }
+}
 
 /// An angle for a file name or a label: `20`, `22.5`.
 pub(super) fn angle_text(t: f64) -> String {
@@ -247,24 +253,45 @@ pub(super) fn component_curves(
     out
 }
 
-/// Splits `text` into lines of at most `width` characters at spaces (a longer word
-/// stays whole).
+/// Splits `text` into lines of at most `width` characters at spaces, and inside a
+/// long member name after a `+` (member names have no spaces:
+/// `specular:ggx+specular-haze:ggx+ideal-diffuse`; a line broken there keeps its `+`
+/// at its end). A longer piece stays whole.
 pub(super) fn wrap(text: &str, width: usize) -> Vec<String> {
+    // Pieces: each ends at a space (joined back with one) or after a '+' (joined as is).
+    let mut pieces: Vec<(String, &str)> = Vec::new();
+    for word in text.split_whitespace() {
+        let mut rest = word;
+        while let Some(k) = rest.find('+').filter(|&k| k + 1 < rest.len()) {
+            pieces.push((rest[..=k].to_string(), ""));
+            rest = &rest[k + 1..];
+        }
+        pieces.push((rest.to_string(), " "));
+    }
     let mut lines = Vec::new();
     let mut line = String::new();
-    for word in text.split_whitespace() {
-        if !line.is_empty() && line.chars().count() + 1 + word.chars().count() > width {
+    let mut joiner = "";
+    for (piece, next) in pieces {
+        if !line.is_empty() && line.chars().count() + joiner.len() + piece.chars().count() > width {
             lines.push(std::mem::take(&mut line));
+        } else {
+            line.push_str(joiner);
         }
-        if !line.is_empty() {
-            line.push(' ');
-        }
-        line.push_str(word);
+        line.push_str(&piece);
+        joiner = next;
     }
     if !line.is_empty() {
         lines.push(line);
     }
     lines
+}
+
+/// What a `--floor` left out of the sweep (those readings are not in the data, so
+/// not drawn).
+fn left_out_note(data: &Dataset) -> Option<String> {
+    data.floor.left_out.map(|(f, n)| {
+        format!("{n} reading(s) at or below the detection floor {f:e} left out of the fit (--floor), not shown.")
+    })
 }
 
 /// Positive finite values only (a log axis shows nothing else).
@@ -439,6 +466,7 @@ pub(super) fn incidence_figure(data: &Dataset, fam: &FamilyFit, j: usize) -> Fig
     if hidden > 0 {
         notes.push(format!("{hidden} reading(s) <= 0 not shown (log axis)."));
     }
+    notes.extend(left_out_note(data));
     Figure {
         title: format!(
             "Normalised in-plane BRDF, theta_i = {} degrees",
@@ -536,12 +564,13 @@ pub(super) fn overview_figure(data: &Dataset, fam: &FamilyFit) -> Figure {
     if hidden > 0 {
         notes.push(format!("{hidden} reading(s) <= 0 not shown (log axis)."));
     }
+    notes.extend(left_out_note(data));
     Figure {
         title: format!("In-plane BRDF at every incidence: measured and {name}"),
         subtitles: vec![format!(
             "Selected model: {name}; RMSE of the normalised curves over all incidences {rmse}"
         )],
-        y_desc: Y_DESC_ABSOLUTE,
+        y_desc: y_desc_absolute(fam.units),
         curves,
         markers,
         guide: None,

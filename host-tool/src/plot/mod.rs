@@ -27,7 +27,7 @@ pub(crate) use text::CrispText;
 
 #[cfg(test)]
 use figures::{
-    Y_DESC_ABSOLUTE, Y_DESC_NORMALISED, angle_text, display_name, incidence_figure, wrap,
+    Y_DESC_NORMALISED, angle_text, display_name, incidence_figure, wrap, y_desc_absolute,
 };
 #[cfg(test)]
 use render::{log_ticks, tick_text};

@@ -240,8 +240,11 @@ fn render<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, fig: &Figure) -> Re
         .pos(Pos::new(HPos::Left, VPos::Center));
     let row = 26;
     let y0 = 24;
-    for (k, (swatch, label)) in fig.legend.iter().enumerate() {
-        let y = y0 + row * k as i32;
+    // Labels wrapped to the panel (about 32 characters at this size beside a swatch).
+    let mut y = y0;
+    for (swatch, label) in &fig.legend {
+        let lines = wrap(label, 32);
+        let height = row + 18 * (lines.len().max(1) as i32 - 1);
         let (x0, x1) = (8, 40);
         match *swatch {
             Swatch::Line(c, width) => legend_area
@@ -282,12 +285,19 @@ fn render<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, fig: &Figure) -> Re
                     .map_err(err)?;
             }
         }
-        legend_area
-            .draw(&Text::new(label.clone(), (x1 + 8, y), text_style.clone()))
-            .map_err(err)?;
+        for (k, line) in lines.into_iter().enumerate() {
+            legend_area
+                .draw(&Text::new(
+                    line,
+                    (x1 + 8, y + 18 * k as i32),
+                    text_style.clone(),
+                ))
+                .map_err(err)?;
+        }
+        y += height;
     }
     let note_style = (FONT, 13).into_font().color(&RGBColor(80, 80, 80));
-    let y_notes = y0 + row * fig.legend.len() as i32 + 12;
+    let y_notes = y + 12;
     let lines: Vec<String> = fig.notes.iter().flat_map(|n| wrap(n, 38)).collect();
     for (k, n) in lines.iter().enumerate() {
         legend_area

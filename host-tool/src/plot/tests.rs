@@ -22,7 +22,7 @@ fn fixture() -> &'static (Dataset, FamilyFit) {
     static F: OnceLock<(Dataset, FamilyFit)> = OnceLock::new();
     F.get_or_init(|| {
         let data = Dataset::from_rows(&rows("fe-0.115", &[]), true).unwrap();
-        let fam = fit_family(&data, &FitOptions::default(), &Kind::ALL).unwrap();
+        let fam = fit_family(&data, &FitOptions::default()).unwrap();
         (data, fam)
     })
 }
@@ -74,7 +74,7 @@ fn writes_one_png_and_svg_per_incidence_and_an_overview() {
             assert!(text.starts_with("<svg"), "{name}");
             assert!(text.contains("theta_r (degrees)"), "{name}: x label");
             let y = if name.starts_with("overview") {
-                Y_DESC_ABSOLUTE
+                y_desc_absolute(fam.units)
             } else {
                 Y_DESC_NORMALISED
             };
@@ -132,7 +132,7 @@ fn normalised_curves_and_points_are_one_at_the_specular_angle() {
 #[test]
 fn without_a_specular_reading_curves_are_divided_at_the_nearest_reading_and_the_title_says_so() {
     let data = Dataset::from_rows(&rows("fe-0.115", &[20.0]), true).unwrap();
-    let fam = fit_family(&data, &FitOptions::default(), &Kind::ALL).unwrap();
+    let fam = fit_family(&data, &FitOptions::default()).unwrap();
     let fig = incidence_figure(&data, &fam, 2);
     assert!(
         fig.subtitles
@@ -204,5 +204,34 @@ fn notes_wrap_at_spaces() {
     assert_eq!(
         wrap("averyveryverylongword x", 5),
         vec!["averyveryverylongword", "x"]
+    );
+}
+
+#[test]
+fn long_member_names_wrap_after_a_plus_and_keep_every_character() {
+    use super::figures::wrap;
+    let name = "specular:ggx:smooth-ks+specular-haze:ggx+ideal-diffuse (selected)";
+    let lines = wrap(name, 32);
+    assert!(lines.len() > 1, "{lines:?}");
+    assert!(lines.iter().all(|l| l.chars().count() <= 32), "{lines:?}");
+    assert_eq!(
+        lines
+            .concat()
+            .replace("(selected)", " (selected)")
+            .replace("  ", " "),
+        name
+    );
+    assert_eq!(lines[0], "specular:ggx:smooth-ks+");
+    // Short labels are one line.
+    assert_eq!(wrap("measured", 32), ["measured"]);
+}
+
+#[test]
+fn the_overview_says_the_fits_units() {
+    use crate::sweep_file::BrdfUnits;
+    assert_eq!(y_desc_absolute(BrdfUnits::PerSr), "BRDF (1/sr)");
+    assert_eq!(
+        y_desc_absolute(BrdfUnits::Relative),
+        "BRDF (relative units)"
     );
 }

@@ -463,7 +463,7 @@ const CASES: &[Case] = &[
     case(&["fit", "{d}/fit-nan.csv"], 2, ":3: brdf 'nan'"),
     case(&["fit", "{d}/fit-bin.csv"], 2, "not UTF-8"),
     case(&["fit", "{d}/fit-few.csv"], 2, "at least 3"),
-    case(&["fit", "{d}/fit-neg.csv"], 2, "--residual absolute"),
+    case(&["fit", "{d}/fit-neg.csv"], 2, "--residual abs,"),
     case(&["fit", "{d}/fit-range.csv"], 2, "theta_r = 95"),
     case(&["fit", "{d}/fe-0.115.csv", "--fix", "sigma=-1"], 2, "> 0"),
     case(

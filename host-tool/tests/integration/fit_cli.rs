@@ -272,3 +272,60 @@ fn residuals_export_has_one_row_per_reading_in_file_order() {
         out.stderr
     );
 }
+
+#[test]
+fn a_detection_floor_is_asked_about_and_left_out_with_floor() {
+    // The Scatterworks metal (real data, in 1/sr): seven readings of exactly 1e-4.
+    let d = scratch("floor");
+    let sweep = crate::util::repo_root()
+        .join("host-tool/tests/data/scatterworks-solar-array-532nm.sweep.csv");
+    let s = sweep.to_str().unwrap();
+    let out = gonio(&["fit", s, "--json"]);
+    assert!(out.ok(), "{}", out.stderr);
+    let v: serde_json::Value = serde_json::from_str(&out.stdout).unwrap();
+    assert_eq!(v["brdf_units"], "1/sr");
+    let notes: Vec<&str> = v["notes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|n| n.as_str().unwrap())
+        .collect();
+    assert!(
+        notes
+            .iter()
+            .any(|n| n.starts_with("7 readings equal the minimum 1e-4: a detection floor?")),
+        "{notes:?}"
+    );
+    let res = d.join("res.csv");
+    let out = gonio(&[
+        "fit",
+        s,
+        "--floor",
+        "auto",
+        "--export",
+        &format!("residuals={}", res.display()),
+    ]);
+    assert!(out.ok(), "{}", out.stderr);
+    assert!(
+        out.stdout
+            .contains("7 reading(s) at or below the detection floor 1e-4 were left out")
+    );
+    let text = std::fs::read_to_string(&res).unwrap();
+    assert!(
+        text.contains("# left out of the fit: 7 reading(s)"),
+        "{text}"
+    );
+    let rows = text.lines().filter(|l| !l.starts_with('#')).count() - 1;
+    assert_eq!(rows, 716 - 7);
+    // Bad values are refused with one line naming the option.
+    let out = gonio(&["fit", s, "--floor", "lots"]);
+    assert_eq!(out.code, 2, "{}", out.stderr);
+    assert!(out.stderr.contains("--floor"), "{}", out.stderr);
+    // --help documents it.
+    let out = gonio(&["fit", "--help"]);
+    assert!(
+        out.stdout.contains("--floor <auto|VALUE>"),
+        "{}",
+        out.stdout
+    );
+}

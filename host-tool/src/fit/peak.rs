@@ -1,0 +1,165 @@
+//! Where the measured specular peak sits against the fitted one: an angle offset or a
+//! tilted sample moves the measured peak off the mirror direction, and no member has
+//! a parameter for it, so the report says so instead of leaving it in the residuals.
+
+use brdf_core::lobe::Distribution;
+
+use super::data::Dataset;
+
+/// An offset smaller than this (degrees) is not reported.
+pub const MIN_OFFSET: f64 = 0.1;
+
+/// A peak is a specular peak when it stands this many times above its incidence's
+/// smallest reading.
+const PEAK_RATIO: f64 = 10.0;
+
+/// The vertex of the parabola through three points (x ascending), `None` when they do
+/// not bend down.
+fn vertex(x: [f64; 3], y: [f64; 3]) -> Option<f64> {
+    let (d0, d1) = ((y[1] - y[0]) / (x[1] - x[0]), (y[2] - y[1]) / (x[2] - x[1]));
+    let curv = (d1 - d0) / (x[2] - x[0]);
+    if curv.is_nan() || curv >= 0.0 {
+        return None;
+    }
+    // y' = d0 + curv (2 x - x0 - x1) = 0.
+    Some(0.5 * (x[0] + x[1] - d0 / curv))
+}
+
+/// Per incidence (degrees): the measured peak's position minus the fitted one's, each
+/// the vertex of a parabola in ln(value) through the highest reading and its two
+/// neighbours in theta_r, for incidences with a peak (at least [`PEAK_RATIO`] above
+/// their lowest reading, not at the sweep's end, bending down in both). `fitted` is the
+/// model's value at every reading of `data` (file order).
+pub fn offsets(data: &Dataset, fitted: &[Option<f64>]) -> Vec<(f64, f64)> {
+    let mut out = Vec::new();
+    for (j, &ti) in data.incidences.iter().enumerate() {
+        let mut rows: Vec<usize> = data.rows_of(j).to_vec();
+        rows.sort_by(|&a, &b| data.obs[a].theta_r.total_cmp(&data.obs[b].theta_r));
+        let y = |k: usize| data.obs[k].y;
+        let Some(top) = (0..rows.len()).max_by(|&a, &b| y(rows[a]).total_cmp(&y(rows[b]))) else {
+            continue;
+        };
+        let low = rows.iter().map(|&k| y(k)).fold(f64::INFINITY, f64::min);
+        if top == 0 || top + 1 >= rows.len() || !(low > 0.0 && y(rows[top]) >= PEAK_RATIO * low) {
+            continue;
+        }
+        let three = [rows[top - 1], rows[top], rows[top + 1]];
+        let x = three.map(|k| data.obs[k].theta_r);
+        let measured = vertex(x, three.map(|k| y(k).ln()));
+        let model: Option<[f64; 3]> = three
+            .iter()
+            .map(|&k| fitted[k].filter(|f| *f > 0.0).map(f64::ln))
+            .collect::<Option<Vec<f64>>>()
+            .map(|v| [v[0], v[1], v[2]]);
+        if let (Some(m), Some(f)) = (measured, model.and_then(|f| vertex(x, f))) {
+            out.push((ti, m - f));
+        }
+    }
+    out
+}
+
+/// A note when the measured peak sits on the same side of the fitted one at every
+/// incidence with a peak, by at least [`MIN_OFFSET`] degrees at each.
+pub fn offset_note(data: &Dataset, fitted: &[Option<f64>], member: &str) -> Option<String> {
+    let d = offsets(data, fitted);
+    let same_side = d.iter().all(|&(_, o)| o > 0.0) || d.iter().all(|&(_, o)| o < 0.0);
+    if d.is_empty() || !same_side || d.iter().any(|&(_, o)| o.abs() < MIN_OFFSET) {
+        return None;
+    }
+    let mean = d.iter().map(|&(_, o)| o).sum::<f64>() / d.len() as f64;
+    let each: Vec<String> = d.iter().map(|(t, o)| format!("{t}: {o:+.2}")).collect();
+    Some(format!(
+        "the measured specular peak sits {mean:+.2} deg in theta_r from {member}'s (per theta_i: {}): \
+         an angle offset or a tilted sample? No member has a parameter for it; it widens the fitted core",
+        each.join(", ")
+    ))
+}
+
+/// The full width at half maximum in theta_r (degrees) of a lobe of width `sigma`
+/// near the mirror direction: its distribution of slopes (D cos^4 alpha) falls to half
+/// at tan^2 alpha = 2 ln 2 sigma^2 (Beckmann) or (sqrt 2 - 1) 2 sigma^2 (GGX), and in
+/// the plane theta_r moves twice as fast as the half-vector angle alpha, so the width
+/// is 4 alpha.
+pub fn lobe_fwhm_deg(dist: Distribution, sigma: f64) -> f64 {
+    let t2 = match dist {
+        Distribution::Beckmann => 2.0 * std::f64::consts::LN_2,
+        Distribution::Ggx => 2.0 * (std::f64::consts::SQRT_2 - 1.0),
+    } * sigma
+        * sigma;
+    4.0 * t2.sqrt().atan().to_degrees()
+}
+
+/// The smallest detector step (degrees) next to the mirror direction over the
+/// incidences: per incidence, the gap from the reading nearest to theta_r = theta_i to
+/// its nearest neighbour in theta_r.
+pub fn step_at_peak(data: &Dataset) -> Option<f64> {
+    let mut best: Option<f64> = None;
+    for (j, &ti) in data.incidences.iter().enumerate() {
+        let tr: Vec<f64> = data
+            .rows_of(j)
+            .iter()
+            .map(|&k| data.obs[k].theta_r)
+            .collect();
+        let Some(near) = tr
+            .iter()
+            .copied()
+            .min_by(|a, b| (a - ti).abs().total_cmp(&(b - ti).abs()))
+        else {
+            continue;
+        };
+        let gap = tr
+            .iter()
+            .map(|&t| (t - near).abs())
+            .filter(|&d| d > 1e-9)
+            .fold(f64::INFINITY, f64::min);
+        if gap.is_finite() {
+            best = Some(best.map_or(gap, |b: f64| b.min(gap)));
+        }
+    }
+    best
+}
+
+/// A note when the selected core lobe is narrower (FWHM in theta_r) than the readings'
+/// step at the peak: the readings then see the lobe's integral over a step, not its
+/// shape, so its width is not measured. `dist` and `sigma` are the core lobe's.
+pub fn unresolved_core_note(data: &Dataset, dist: Distribution, sigma: f64) -> Option<String> {
+    let step = step_at_peak(data)?;
+    let w = lobe_fwhm_deg(dist, sigma);
+    (w < step).then(|| {
+        format!(
+            "the core lobe (sigma {sigma:.2e}, about {w:.2} deg wide at half maximum in theta_r) is narrower than the \
+             readings' step at the peak ({step} deg): these readings do not resolve its width (a finer step, or \
+             --aperture with the detector's half-angle, would)"
+        )
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_vertex_of_a_parabola() {
+        // y = -(x - 0.3)^2 at uneven steps.
+        let x = [-1.0, 0.0, 2.0];
+        let v = vertex(x, x.map(|x: f64| -(x - 0.3) * (x - 0.3))).unwrap();
+        assert!((v - 0.3).abs() < 1e-12, "{v}");
+        assert!(vertex(x, x.map(|x: f64| x * x)).is_none());
+    }
+
+    #[test]
+    fn a_lobes_width_at_half_maximum_is_where_its_slope_distribution_halves() {
+        use brdf_core::lobe::Lobe;
+        // D cos^4 alpha is the distribution of slopes tan alpha (Beckmann: Gaussian,
+        // GGX: (1 + tan^2 / m^2)^-2); its half maximum sets the width.
+        for sigma in [0.003, 0.05, 0.3] {
+            for dist in [Distribution::Beckmann, Distribution::Ggx] {
+                let lobe = Lobe::new(dist, sigma, "sigma").unwrap();
+                let a = (lobe_fwhm_deg(dist, sigma) / 4.0).to_radians();
+                let r = lobe.distribution(a.cos(), a.sin()) * a.cos().powi(4)
+                    / lobe.distribution(1.0, 0.0);
+                assert!((r - 0.5).abs() < 1e-9, "{dist:?} {sigma}: {r}");
+            }
+        }
+    }
+}

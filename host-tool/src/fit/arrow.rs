@@ -129,8 +129,8 @@ pub trait RowSink {
 pub struct Normal {
     shape: Shape,
     /// Global block, row-major `n_global x n_global`: only the upper triangle (column
-    /// >= row) is kept up to date (it is symmetric; [`RowSink::row`] is the hot loop
-    /// and accumulates half), read through [`Normal::u_at`].
+    /// at least row) is kept up to date (it is symmetric; [`RowSink::row`] is the hot
+    /// loop and accumulates half), read through [`Normal::u_at`].
     u: Vec<f64>,
     /// Coupling per group, row-major `n_global x n_local(k)` at `n_global * local_start[k]`.
     w: Vec<f64>,

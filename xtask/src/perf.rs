@@ -173,6 +173,8 @@ pub fn perf_report() -> Result {
             "1",
             "--plot",
             png.to_str().ok_or("path")?,
+            // The chart is regenerated with the report it belongs to.
+            "--force",
         ],
     )?;
     let firmware = firmware_bench()?;

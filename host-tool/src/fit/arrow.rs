@@ -128,7 +128,9 @@ pub trait RowSink {
 #[derive(Debug, Clone)]
 pub struct Normal {
     shape: Shape,
-    /// Global block, row-major `n_global x n_global`.
+    /// Global block, row-major `n_global x n_global`: only the upper triangle (column
+    /// at least row) is kept up to date (it is symmetric; [`RowSink::row`] is the hot
+    /// loop and accumulates half), read through [`Normal::u_at`].
     u: Vec<f64>,
     /// Coupling per group, row-major `n_global x n_local(k)` at `n_global * local_start[k]`.
     w: Vec<f64>,
@@ -168,6 +170,17 @@ impl Normal {
         self.v.fill(0.0);
         self.g.fill(0.0);
         self.cost = 0.0;
+    }
+
+    /// Element `(a, b)` of the global block (from the upper triangle).
+    #[inline]
+    fn u_at(&self, a: usize, b: usize) -> f64 {
+        let ng = self.shape.n_global;
+        if a <= b {
+            self.u[a * ng + b]
+        } else {
+            self.u[b * ng + a]
+        }
     }
 
     /// `J^T r`.
@@ -278,7 +291,7 @@ impl Normal {
         let mut q = 0.0;
         for a in 0..ng {
             for b in 0..ng {
-                q += xg[a] * self.u[a * ng + b] * xg[b];
+                q += xg[a] * self.u_at(a, b) * xg[b];
             }
         }
         for Block { nl, lo, vb, wb, .. } in s.blocks() {
@@ -310,11 +323,12 @@ impl RowSink for Normal {
         debug_assert_eq!(jg.len(), ng);
         debug_assert_eq!(nl, s.n_local(group));
         self.cost += r * r;
-        for a in 0..ng {
-            let ja = jg[a];
-            self.g[a] += ja * r;
-            let row = &mut self.u[a * ng..a * ng + ng];
-            for (u, &jb) in row.iter_mut().zip(jg) {
+        let jg = &jg[..ng];
+        for (a, (&ja, ga)) in jg.iter().zip(&mut self.g[..ng]).enumerate() {
+            *ga += ja * r;
+            // The upper triangle only (see `u`).
+            let row = &mut self.u[a * ng + a..a * ng + ng];
+            for (u, &jb) in row.iter_mut().zip(&jg[a..]) {
                 *u += ja * jb;
             }
         }
@@ -400,6 +414,12 @@ pub fn solve_damped(n: &Normal, d: &[f64], lambda: f64, ws: &mut Workspace, x: &
     ws.yl.resize(nl_total, 0.0);
     ws.s.clear();
     ws.s.extend_from_slice(&n.u);
+    // The lower triangle from the upper (see `Normal::u`): the Cholesky reads it.
+    for a in 0..ng {
+        for b in 0..a {
+            ws.s[a * ng + b] = ws.s[b * ng + a];
+        }
+    }
     let maxl = s.max_local();
     ws.m.resize(maxl * maxl, 0.0);
     ws.col.resize(maxl, 0.0);
@@ -554,7 +574,7 @@ impl ArrowInverse {
             .collect();
         // Scaled blocks: entries times inv_scale of row and column.
         let mut sm: Vec<f64> = (0..ng * ng)
-            .map(|ab| n.u[ab] * inv_scale[ab / ng] * inv_scale[ab % ng])
+            .map(|ab| n.u_at(ab / ng, ab % ng) * inv_scale[ab / ng] * inv_scale[ab % ng])
             .collect();
         for a in 0..ng {
             if inv_scale[a] == 0.0 {

@@ -10,7 +10,8 @@ use super::arrow::{Normal, RowSink, Shape, Workspace, solve_damped};
 pub trait ArrowProblem {
     /// The column layout; parameters are ordered globals first, then each group's locals.
     fn shape(&self) -> &Shape;
-    /// The sum of squared residuals at `x`; `None` where the model cannot be evaluated.
+    /// The sum of squared residuals at `x`; `None` where the model cannot be evaluated
+    /// (for checks: [`minimize`] takes the cost from [`ArrowProblem::rows`]).
     fn cost(&mut self, x: &[f64]) -> Option<f64>;
     /// Streams every row's residual and Jacobian blocks at `x` to `sink`; false where the
     /// model cannot be evaluated.
@@ -85,7 +86,7 @@ pub struct LmReport {
     pub termination: Termination,
     /// Steps tried.
     pub iterations: usize,
-    /// Cost evaluations plus Jacobian evaluations.
+    /// Passes over the rows (each gives the cost and the Jacobian).
     pub evaluations: usize,
 }
 
@@ -216,6 +217,7 @@ pub fn minimize<P: ArrowProblem>(p: &mut P, x0: &[f64], opts: &LmOptions) -> LmR
         full: vec![0.0; np],
         ws: Workspace::default(),
     };
+    let mut trial_normal = normal.clone();
     let mut cost = normal.cost();
     let mut termination = Termination::MaxIterations;
     let mut iterations = 0;
@@ -260,7 +262,14 @@ pub fn minimize<P: ArrowProblem>(p: &mut P, x0: &[f64], opts: &LmOptions) -> LmR
             .sum::<f64>()
             .sqrt();
         let small_step = snorm <= opts.xtol * (xnorm + opts.xtol);
-        let new_cost = p.cost(&trial).filter(|c| c.is_finite());
+        // One pass at the trial point gives its cost and, if the step is accepted, the
+        // normal equations there (a separate cost pass would evaluate the model twice
+        // per accepted step; most steps are accepted).
+        trial_normal.clear();
+        let new_cost = p
+            .rows(&trial, &mut trial_normal)
+            .then(|| trial_normal.cost())
+            .filter(|c| c.is_finite());
         evaluations += 1;
         let actual = new_cost.map_or(f64::NEG_INFINITY, |c| cost - c);
         let rho = if predicted > 0.0 {
@@ -271,13 +280,7 @@ pub fn minimize<P: ArrowProblem>(p: &mut P, x0: &[f64], opts: &LmOptions) -> LmR
         if rho > 1e-4 {
             let old = cost;
             x.copy_from_slice(&trial);
-            normal.clear();
-            evaluations += 1;
-            if !p.rows(&x, &mut normal) {
-                // Evaluable for the cost but not the Jacobian: stop where we are.
-                termination = Termination::NoProgress;
-                break;
-            }
+            std::mem::swap(&mut normal, &mut trial_normal);
             cost = normal.cost();
             diag = normal.diagonal();
             update_scale(&mut d, &diag);

@@ -44,7 +44,8 @@ pub const SIGMA_M_GRID: [f64; 3] = [0.3, 0.7, 1.5];
 /// (the two lobes then keep their roles: core narrow, haze wide).
 pub const HAZE_OVER_CORE: f64 = 3.0;
 
-/// LM refines this many of the best grid points.
+/// LM refines at most this many of the best grid points (those in a basin not yet
+/// explored, see [`fit_member_with`]).
 pub const REFINED: usize = 3;
 
 fn log_grid(lo: f64, hi: f64, n: usize) -> Vec<f64> {
@@ -951,12 +952,30 @@ pub fn fit_member_with(
         pinned: vec![false; layout.len()],
     };
     let mut best: Option<(f64, Vec<f64>, bool)> = None;
-    let mut refined = 0;
-    for k in starts {
-        if refined == REFINED {
-            break;
-        }
+    // The log widths (core, haze, sigma_m) of every optimum reached so far.
+    let mut optima: Vec<[f64; 3]> = Vec::new();
+    let steps = [
+        grid_step(&core_w),
+        grid_step(&haze_w),
+        grid_step(&SIGMA_M_GRID),
+    ];
+    for k in starts.into_iter().take(REFINED) {
         let (ci, hi, si) = (k / (nh * nd), (k / nd) % nh, k % nd);
+        let at = [core_w[ci].ln(), haze_w[hi].ln(), SIGMA_M_GRID[si].ln()];
+        let on = [
+            member.core.is_some(),
+            member.haze.is_some(),
+            member.directional,
+        ];
+        // A start within BASIN grid steps of an optimum already reached (in every
+        // width the member has) lies in that optimum's basin: LM would only find it
+        // again.
+        let explored = optima
+            .iter()
+            .any(|o| (0..3).all(|d| !on[d] || (at[d] - o[d]).abs() <= BASIN * steps[d]));
+        if explored {
+            continue;
+        }
         let Some(pt) = point(ci, hi, si) else {
             continue;
         };
@@ -977,10 +996,14 @@ pub fn fit_member_with(
             continue;
         };
         p.pinned = pinned;
-        refined += 1;
         let Some((c, x, converged)) = refine(&mut p, x0, &lm) else {
             continue;
         };
+        optima.push([
+            layout.sigma.map_or(0.0, |i| x[i]),
+            layout.ln_sigma_haze(&x).unwrap_or(0.0),
+            layout.sigma_m.map_or(0.0, |i| x[i]),
+        ]);
         if best.as_ref().is_none_or(|b| c < b.0) {
             best = Some((c, x, converged));
         }
@@ -1013,6 +1036,19 @@ pub fn fit_member_with(
         rmse_by_inc,
         rmse,
     })
+}
+
+/// A later grid start this many grid steps (or fewer) from an optimum already reached,
+/// in every width, is not refined (see [`fit_member_with`]): on the test sweeps such
+/// starts all returned to that optimum, at the cost of 30-70 LM iterations each.
+pub const BASIN: f64 = 2.0;
+
+/// The largest spacing of a log-spaced grid in ln (1e-9 wider, against rounding).
+fn grid_step(w: &[f64]) -> f64 {
+    w.windows(2)
+        .map(|p| (p[1] / p[0]).ln().abs())
+        .fold(0.0, f64::max)
+        * (1.0 + 1e-9)
 }
 
 /// The cost of a grid point's solution in the fit's own residuals, every amplitude

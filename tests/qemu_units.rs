@@ -56,7 +56,7 @@ fn reference_and_sample_on_the_board_recover_the_absolute_brdf() {
     let text = calibrate::sweep::convert_text("fe.csv", &bytes, &data, &inst, "i").unwrap();
     let abs = dir.path().join("fe-abs.csv");
     std::fs::write(&abs, text).unwrap();
-    let fit = campaign::fit_sweep_file(&abs, &FitOptions::default(), &Kind::ALL).unwrap();
+    let fit = campaign::fit_sweep_file(&abs, &FitOptions::default()).unwrap();
     let fam = &fit.family;
     let three = fam.get(Kind::ThreeComponent).unwrap();
     let fe = Preset::by_name("fe-0.115").unwrap();

@@ -275,7 +275,8 @@ class FitResult:
 def fit(source, theta_r=None, brdf=None, *, residual: str = "log", loss: str = "l2",
         fix: Union[None, Mapping[str, float], Iterable[str]] = None,
         models: Union[None, str, Sequence[str]] = None, aperture: Optional[float] = None,
-        instrument: Union[None, str, os.PathLike] = None) -> FitResult:
+        instrument: Union[None, str, os.PathLike] = None,
+        floor: Union[None, str, float] = None) -> FitResult:
     """Fits the model family like ``gonio fit`` fits one sweep.
 
     ``source`` is a sweep file path, or the theta_i array with ``theta_r`` and ``brdf``.
@@ -284,7 +285,9 @@ def fit(source, theta_r=None, brdf=None, *, residual: str = "log", loss: str = "
     names ``--models`` takes (ideal, ts, three, three-smooth or systematic member names;
     list or comma-separated); ``aperture`` the detector's acceptance half-angle in
     degrees (0 turns off the sweep's ``# aperture:`` line); ``instrument`` an instrument
-    file of ``gonio calibrate`` (the readings are fitted in 1/sr).
+    file of ``gonio calibrate`` (the readings are fitted in 1/sr); ``floor`` ``"auto"``
+    or a value in the data's units: readings at or below a detection floor are left out
+    (``"auto"``: the smallest value when at least 3 readings repeat it exactly).
     """
     if isinstance(fix, Mapping):
         fix = [f"{k}={v!r}" for k, v in fix.items()]
@@ -293,7 +296,8 @@ def fit(source, theta_r=None, brdf=None, *, residual: str = "log", loss: str = "
         models = [m for m in models.split(",") if m]
     models = list(models or [])
     extra = {"aperture": None if aperture is None else float(aperture),
-             "instrument": None if instrument is None else os.fspath(instrument)}
+             "instrument": None if instrument is None else os.fspath(instrument),
+             "floor": None if floor is None else (floor if isinstance(floor, str) else repr(float(floor)))}
     if theta_r is None and brdf is None:
         raw = _gonio._fit(os.fspath(source), [], [], [], residual, loss, fix, models, **extra)
     else:

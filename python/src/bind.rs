@@ -96,6 +96,9 @@ pub struct FitRequest<'a> {
     /// `--instrument`: an instrument file (`gonio calibrate`); the readings are fitted
     /// in 1/sr.
     pub instrument: Option<&'a Path>,
+    /// `--floor`: `auto` or a value in the data's units; readings at or below it are
+    /// left out of the fit.
+    pub floor: Option<&'a str>,
 }
 
 /// `gonio fit`'s own argument parser, so options, defaults and messages are the CLI's.
@@ -121,6 +124,9 @@ fn fit_args(path: Option<&Path>, req: &FitRequest) -> Result<FitArgs, String> {
     }
     if let Some(p) = req.instrument {
         argv.push(format!("--instrument={}", p.display()));
+    }
+    if let Some(f) = req.floor {
+        argv.push(format!("--floor={f}"));
     }
     FitCommand::try_parse_from(argv)
         .map(|c| c.args)

@@ -606,9 +606,10 @@ impl PyFit {
 
 /// Fits the model family with `gonio fit`'s options: a sweep file path, or rows
 /// (theta_i, theta_r, brdf arrays) when path is None; aperture in degrees (None: the
-/// file's line), instrument an instrument file (None: relative units).
+/// file's line), instrument an instrument file (None: relative units), floor `auto` or
+/// a value (None: every reading fitted).
 #[pyfunction]
-#[pyo3(signature = (path, theta_i, theta_r, brdf, residual, loss, fix, models, aperture=None, instrument=None))]
+#[pyo3(signature = (path, theta_i, theta_r, brdf, residual, loss, fix, models, aperture=None, instrument=None, floor=None))]
 #[allow(clippy::too_many_arguments)]
 fn _fit(
     py: Python<'_>,
@@ -622,6 +623,7 @@ fn _fit(
     models: Vec<String>,
     aperture: Option<f64>,
     instrument: Option<PathBuf>,
+    floor: Option<String>,
 ) -> PyResult<PyFit> {
     if theta_i.len() != theta_r.len() || theta_i.len() != brdf.len() {
         return Err(err("theta_i, theta_r and brdf must have the same length"));
@@ -636,6 +638,7 @@ fn _fit(
         models,
         aperture,
         instrument: instrument.as_deref(),
+        floor: floor.as_deref(),
     };
     let outcome = py
         .detach(|| bind::fit(path.as_deref(), &rows, &req))

@@ -137,3 +137,26 @@ def test_fit_arrays_and_errors():
         gonio.fit(FE_SWEEP, models=["four"])
     with pytest.raises(gonio.GonioError, match="at least 3"):
         gonio.fit([10.0], [10.0], [1.0])
+
+
+def test_fit_floor_as_on_the_command_line(gonio_bin, tmp_path):
+    # A copper sweep whose five farthest readings sit on a detection floor.
+    m = gonio.Model.preset("cu-0.070")
+    ti, tr = np.meshgrid([10.0, 30.0, 50.0], np.arange(-80.0, 81.0, 5.0), indexing="ij")
+    y = m.eval(ti, tr)
+    floor = float(y.min()) / 10
+    y.ravel()[np.argsort(np.abs(tr.ravel()))[-5:]] = floor
+    path = tmp_path / "cu-floor.csv"
+    gonio.write_sweep(path, ti, tr, y)
+    for value, argv in (("auto", ["--floor", "auto"]), (floor, ["--floor", repr(floor)])):
+        ours = json.loads(gonio.fit(path, models="three", floor=value).to_json())
+        cli = json.loads(subprocess.run([gonio_bin, "fit", str(path), "--json", "--models", "three", *argv],
+                                        check=True, capture_output=True, text=True).stdout)
+        for d in (cli, ours):
+            d.pop("fit_seconds")
+        assert_same_json(ours, cli)
+        assert any("5 reading" in n for n in ours["notes"]), ours["notes"]
+    unfloored = json.loads(gonio.fit(path, models="three").to_json())
+    assert unfloored["models"][0]["ssr"] > ours["models"][0]["ssr"]
+    with pytest.raises(gonio.GonioError, match="--floor"):
+        gonio.fit(path, floor="often")

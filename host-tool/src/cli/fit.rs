@@ -157,7 +157,7 @@ pub struct FitArgs {
     /// Which fitted models the report's physical checks (albedo, reciprocity) cover.
     /// Default: every model for one sweep file; none in a campaign, where even one
     /// model's checks cost several times its fits (tens of ms of CPU per paper-grid
-    /// file, mostly the reciprocity grid, against a few ms for all its fits).
+    /// file, mostly the albedo quadrature, against a few ms for all its fits).
     #[arg(long, value_enum, value_name = "WHICH")]
     pub checks: Option<ChecksArg>,
     /// Leave readings at or below a detection floor out of the fit: a value in the

@@ -36,8 +36,8 @@ pub enum CheckScope {
     All,
     /// The selected model only.
     Selected,
-    /// None (a campaign's default: checking even one model costs several times the fit
-    /// of a small sweep, mostly the reciprocity grid's pairs).
+    /// None (a campaign's default: checking even one model costs several times the fits
+    /// of a small sweep, mostly the albedo quadrature).
     None,
 }
 

@@ -8,6 +8,7 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use brdf_core::Preset;
+use brdf_core::protocol::PROTOCOL_VERSION as V;
 use gonio::device::{PtyDevice, SimConfig};
 use gonio::sweep_file::read_sweep;
 
@@ -88,7 +89,8 @@ fn info_and_a_full_capture_over_a_pty() {
     assert!(out.ok(), "{}", out.last_line());
     let text = out.stdout.clone();
     assert!(
-        text.contains("protocol:  1 (this gonio: 1)") && text.contains("-90 .. 90 degrees"),
+        text.contains(&format!("protocol:  {V} (this gonio: {V})"))
+            && text.contains("-90 .. 90 degrees"),
         "{text}"
     );
     let d = scratch("full");
@@ -410,8 +412,8 @@ fn device_answering_info_with(info: Vec<u8>) -> (PathBuf, std::thread::JoinHandl
 fn protocol_mismatch_says_which_side_to_update() {
     let _one = one_at_a_time();
     for (version, advice) in [
-        (2u16, "update gonio"),
-        (0, "update the firmware (gonio flash)"),
+        (V + 1, "update gonio"),
+        (V - 1, "update the firmware (gonio flash)"),
     ] {
         let (path, h) = foreign_device(version);
         let out: Run = gonio_command()
@@ -424,7 +426,7 @@ fn protocol_mismatch_says_which_side_to_update() {
         assert_eq!(err.lines().count(), 1, "{err}");
         assert!(
             err.contains(&format!(
-                "device speaks protocol v{version}, this gonio speaks v1: {advice}"
+                "device speaks protocol v{version}, this gonio speaks v{V}: {advice}"
             )),
             "{err}"
         );
@@ -436,7 +438,7 @@ fn protocol_mismatch_says_which_side_to_update() {
 fn an_info_of_this_version_that_does_not_decode_gets_no_version_advice() {
     let _one = one_at_a_time();
     // The foreign device's Info body after the version is not this protocol's Info.
-    let (path, h) = foreign_device(1);
+    let (path, h) = foreign_device(V);
     let t0 = Instant::now();
     let out: Run = gonio_command()
         .args(["info", "--port", path.to_str().unwrap(), "--timeout", "2"])

@@ -12,7 +12,7 @@ use brdf_core::{PRESETS, Preset};
 use gonio::device::{PtyDevice, SimConfig};
 use serde_json::Value;
 
-use crate::util::{gonio, scratch};
+use crate::util::{convert, gonio, scratch};
 
 /// The three-component parameters of `fit --json` as brdf-core models per incidence.
 fn fitted_models(json: &str) -> Vec<(f64, Model<f64>)> {
@@ -117,14 +117,7 @@ fn capture_reference_calibrate_convert_and_fit_recover_the_absolute_brdf() {
     );
 
     let abs = dir.join("cu-abs.csv");
-    let conv = gonio(&[
-        "convert",
-        &s(&sample),
-        "--instrument",
-        &s(&inst),
-        "--out",
-        &s(&abs),
-    ]);
+    let conv = convert(&sample, &inst, &abs);
     assert!(conv.ok(), "{}", conv.stderr);
     let fit = gonio(&["fit", &s(&abs), "--json"]);
     assert!(fit.ok(), "{}", fit.stderr);
@@ -306,24 +299,10 @@ fn a_campaign_fits_in_one_over_sr_with_one_instrument() {
     }
     // A file already in 1/sr is refused with one line, naming it.
     let abs = dir.join("fe-abs.csv");
-    let conv = gonio(&[
-        "convert",
-        &s(&fe),
-        "--instrument",
-        &s(&inst),
-        "--out",
-        &s(&abs),
-    ]);
+    let conv = convert(&fe, &inst, &abs);
     assert!(conv.ok(), "{}", conv.stderr);
     let cu_abs = dir.join("cu-abs.csv");
-    let conv = gonio(&[
-        "convert",
-        &s(&cu),
-        "--instrument",
-        &s(&inst),
-        "--out",
-        &s(&cu_abs),
-    ]);
+    let conv = convert(&cu, &inst, &cu_abs);
     assert!(conv.ok(), "{}", conv.stderr);
     let bad = gonio(&[
         "fit",

@@ -5,7 +5,7 @@
 use std::f64::consts::PI;
 use std::path::Path;
 
-use crate::util::{gonio, one_line, scratch, simulated};
+use crate::util::{convert, gonio, one_line, scratch, simulated};
 
 /// The simulator's virtual sample reads the paper's relative values: with the
 /// relative-BRDF convention they are K f with f in 1/sr for this K (as in
@@ -75,14 +75,7 @@ fn calibrate_convert_and_fit_recover_the_absolute_brdf() {
     assert!((k / K_SIM - 1.0).abs() < 0.001, "{k}");
 
     let abs = dir.join("abs.csv");
-    let out = gonio(&[
-        "convert",
-        &s(&sample),
-        "--instrument",
-        &s(&inst),
-        "--out",
-        &s(&abs),
-    ]);
+    let out = convert(&sample, &inst, &abs);
     assert!(out.ok(), "{}", out.stderr);
     let text = std::fs::read_to_string(&abs).unwrap();
     assert!(text.contains("\n# brdf: 1/sr\n"), "{text}");
@@ -135,14 +128,7 @@ fn calibrate_convert_and_fit_recover_the_absolute_brdf() {
     );
 
     // Mixing units is refused, one line each.
-    let out = gonio(&[
-        "convert",
-        &s(&abs),
-        "--instrument",
-        &s(&inst),
-        "--out",
-        &s(&dir.join("x.csv")),
-    ]);
+    let out = convert(&abs, &inst, &dir.join("x.csv"));
     assert_eq!(out.code, 2);
     assert!(
         one_line(&out.stderr).contains("already holds brdf in 1/sr"),

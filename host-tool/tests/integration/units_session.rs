@@ -12,7 +12,7 @@ use brdf_core::sim::SIM_K;
 use gonio::sweep_file::read_sweep;
 use serde_json::Value;
 
-use crate::util::{gonio, scratch};
+use crate::util::{convert, gonio, scratch};
 
 fn s(p: &Path) -> String {
     p.to_str().unwrap().to_string()
@@ -153,14 +153,7 @@ fn a_table_standard_in_the_simulator_calibrates_the_absolute_brdf() {
     );
 
     let abs = dir.join("fe-abs.csv");
-    let conv = gonio(&[
-        "convert",
-        &s(&sample),
-        "--instrument",
-        &s(&inst),
-        "--out",
-        &s(&abs),
-    ]);
+    let conv = convert(&sample, &inst, &abs);
     assert!(conv.ok(), "{}", conv.stderr);
     let fit = gonio(&["fit", &s(&abs), "--json"]);
     assert!(fit.ok(), "{}", fit.stderr);

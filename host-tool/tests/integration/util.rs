@@ -65,6 +65,13 @@ pub fn gonio(args: &[&str]) -> Run {
         .into()
 }
 
+/// `gonio convert SAMPLE --instrument INST --out OUT` (to 1/sr); the run, whatever
+/// its outcome (callers assert success or the refusal they expect).
+pub fn convert(sample: &std::path::Path, inst: &std::path::Path, out: &std::path::Path) -> Run {
+    let [a, b, c] = [sample, inst, out].map(|p| p.to_str().expect("UTF-8 path").to_string());
+    gonio(&["convert", &a, "--instrument", &b, "--out", &c])
+}
+
 /// A fresh scratch directory, removed with everything in it when dropped; derefs to its
 /// path.
 pub struct Scratch(tempfile::TempDir);

@@ -314,14 +314,56 @@ impl Normal {
     }
 }
 
-impl RowSink for Normal {
-    #[inline]
-    fn row(&mut self, group: usize, r: f64, jg: &[f64], jl: &[f64]) {
+impl Normal {
+    /// [`RowSink::row`] for `NG` globals and `NL` locals known at compile time: the
+    /// same sums in the same order per element (so the same bits), with the loops
+    /// unrolled and the bounds checks hoisted; the LM's hot loop.
+    #[inline(always)]
+    fn row_fixed<const NG: usize, const NL: usize>(
+        &mut self,
+        group: usize,
+        r: f64,
+        jg: &[f64],
+        jl: &[f64],
+    ) {
+        let (Some(jg), Ok(jl)) = (jg.first_chunk::<NG>(), <&[f64; NL]>::try_from(jl)) else {
+            unreachable!("row_fixed dispatched on the slices' lengths")
+        };
+        self.cost += r * r;
+        let u = &mut self.u[..NG * NG];
+        let g = &mut self.g[..NG];
+        for a in 0..NG {
+            g[a] += jg[a] * r;
+            // The upper triangle only (see `u`).
+            for b in a..NG {
+                u[a * NG + b] += jg[a] * jg[b];
+            }
+        }
+        if NL == 0 {
+            return;
+        }
+        let Block { lo, vb, wb, .. } = self.shape.block(group);
+        let gl = &mut self.g[lo..lo + NL];
+        let v = &mut self.v[vb..vb + NL * NL];
+        for l in 0..NL {
+            gl[l] += jl[l] * r;
+            for m in 0..NL {
+                v[l * NL + m] += jl[l] * jl[m];
+            }
+        }
+        let w = &mut self.w[wb..wb + NG * NL];
+        for a in 0..NG {
+            for l in 0..NL {
+                w[a * NL + l] += jg[a] * jl[l];
+            }
+        }
+    }
+
+    /// [`RowSink::row`] for any sizes.
+    fn row_dyn(&mut self, group: usize, r: f64, jg: &[f64], jl: &[f64]) {
         let s = &self.shape;
         let ng = s.n_global;
         let nl = jl.len();
-        debug_assert_eq!(jg.len(), ng);
-        debug_assert_eq!(nl, s.n_local(group));
         self.cost += r * r;
         let jg = &jg[..ng];
         for (a, (&ja, ga)) in jg.iter().zip(&mut self.g[..ng]).enumerate() {
@@ -347,6 +389,29 @@ impl RowSink for Normal {
                 self.w[wb + a * nl + l] += jg[a] * jl[l];
             }
         }
+    }
+}
+
+impl RowSink for Normal {
+    #[inline]
+    fn row(&mut self, group: usize, r: f64, jg: &[f64], jl: &[f64]) {
+        debug_assert_eq!(jg.len(), self.shape.n_global);
+        debug_assert_eq!(jl.len(), self.shape.n_local(group));
+        // The members' sizes (at most 11 globals, 2 locals per incidence) get a
+        // kernel each; anything else the general loop.
+        macro_rules! fixed {
+            ($($ng:literal)*) => {
+                match (self.shape.n_global, jl.len()) {
+                    $(
+                        ($ng, 0) => self.row_fixed::<$ng, 0>(group, r, jg, jl),
+                        ($ng, 1) => self.row_fixed::<$ng, 1>(group, r, jg, jl),
+                        ($ng, 2) => self.row_fixed::<$ng, 2>(group, r, jg, jl),
+                    )*
+                    _ => self.row_dyn(group, r, jg, jl),
+                }
+            };
+        }
+        fixed!(0 1 2 3 4 5 6 7 8 9 10 11);
     }
 }
 

@@ -924,17 +924,47 @@ pub fn fit_member_with(
     let idx = |ci: usize, hi: usize, si: usize| (ci * nh + hi) * nd + si;
     let resid = Residuals::new(data, residual);
     let floor = amplitude_floor(data);
-    // Every grid point ranked by the fit's own cost at its (floored) amplitudes.
-    let mut cost = vec![f64::INFINITY; nc * nh * nd];
+    // Every grid point ranked by the fit's own cost at its (floored) amplitudes. Only
+    // the REFINED best are refined, so a point's cost is summed only while it could
+    // still be among them: the points are costed in the order of their weighted linear
+    // cost (cheap, from the solve, and close to the final order), and a point whose
+    // partial sum already exceeds the REFINED-th best full cost so far stops there and
+    // is left out (its full cost would only be larger). The REFINED best and their
+    // order are exactly those of costing every point in full.
+    let mut solved: Vec<(usize, f64, Amplitudes)> = Vec::new();
     for ci in 0..nc {
         for hi in (0..nh).filter(|&hi| usable(ci, hi)) {
             for si in 0..nd {
                 let Some(pt) = point(ci, hi, si) else {
                     continue;
                 };
-                if solve_point(bases, &pt, &mut scratch).is_some() {
-                    cost[idx(ci, hi, si)] = point_cost(bases, &pt, &scratch, &resid, floor);
+                if let Some(linear) = solve_point(bases, &pt, &mut scratch) {
+                    let amp = Amplitudes::of(&scratch, &pt, n_inc);
+                    solved.push((idx(ci, hi, si), linear, amp));
                 }
+            }
+        }
+    }
+    solved.sort_by(|a, b| a.1.total_cmp(&b.1));
+    let mut cost = vec![f64::INFINITY; nc * nh * nd];
+    // The REFINED smallest full costs so far, ascending.
+    let mut kept: Vec<f64> = Vec::with_capacity(REFINED + 1);
+    for (k, _, amp) in &solved {
+        let (ci, hi, si) = (k / (nh * nd), (k / nd) % nh, k % nd);
+        let Some(pt) = point(ci, hi, si) else {
+            continue;
+        };
+        let bound = if kept.len() == REFINED {
+            kept[REFINED - 1]
+        } else {
+            f64::INFINITY
+        };
+        if let Some(c) = point_cost(bases, &pt, amp, &resid, floor, bound) {
+            cost[*k] = c;
+            if c.is_finite() {
+                let at = kept.partition_point(|&v| v <= c);
+                kept.insert(at, c);
+                kept.truncate(REFINED);
             }
         }
     }
@@ -1051,18 +1081,19 @@ fn grid_step(w: &[f64]) -> f64 {
         * (1.0 + 1e-9)
 }
 
-/// The cost of a grid point's solution in the fit's own residuals, every amplitude
-/// floored at `floor` as the start vector has it: what the starts are ranked by (the
-/// weighted linear cost the solve minimises misranks narrow lobes that fall between
-/// readings).
+/// The cost of a grid point's solution (amplitudes `amp`) in the fit's own residuals,
+/// every amplitude floored at `floor` as the start vector has it: what the starts are
+/// ranked by (the weighted linear cost the solve minimises misranks narrow lobes that
+/// fall between readings). `None` as soon as the partial sum exceeds `bound` (the
+/// cost would too: every term is a square).
 fn point_cost(
     g: &GridBases<'_>,
     p: &Point<'_>,
-    s: &GridScratch,
+    amp: &Amplitudes,
     resid: &Residuals,
     floor: f64,
-) -> f64 {
-    let amp = Amplitudes::of(s, p, g.data.incidences.len());
+    bound: f64,
+) -> Option<f64> {
     let mut cost = 0.0;
     for (k, o) in g.data.obs.iter().enumerate() {
         let mut f = if p.ideal { amp.kid.max(floor) } else { 0.0 };
@@ -1076,8 +1107,11 @@ fn point_cost(
         }
         let r = resid.of(f, k, o.y);
         cost += r * r;
+        if cost > bound {
+            return None;
+        }
     }
-    cost
+    Some(cost)
 }
 
 /// LM from `x0` with the pinned amplitudes held. LM is first given [`PROBE_ITERATIONS`]

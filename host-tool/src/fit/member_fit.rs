@@ -557,6 +557,20 @@ pub struct GridBases<'a> {
     /// [role (core, haze)][distribution]: one basis per width of the role's grid.
     lobes: [[OnceLock<Vec<Option<Basis>>>; 2]; 2],
     dd: OnceLock<Vec<Option<Basis>>>,
+    /// [core distribution][haze distribution]: the core-haze cross moments of every
+    /// width pair a grid point can combine (see [`GridBases::core_haze`]).
+    core_haze: [[OnceLock<Crosses>; 2]; 2],
+    /// [role][distribution]: the lobe-directional cross moments of every width pair.
+    lobe_dd: [[OnceLock<Crosses>; 2]; 2],
+}
+
+/// Cross moments per incidence of pairs of bases, row-major over the two grids
+/// (`None` where a basis is missing or the pair is not combined).
+type Crosses = Vec<Option<Vec<f64>>>;
+
+/// Index 0 Beckmann, 1 GGX.
+fn dist_index(dist: Distribution) -> usize {
+    usize::from(dist == Distribution::Ggx)
 }
 
 impl<'a> GridBases<'a> {
@@ -583,6 +597,8 @@ impl<'a> GridBases<'a> {
             myy,
             lobes: Default::default(),
             dd: OnceLock::new(),
+            core_haze: Default::default(),
+            lobe_dd: Default::default(),
         }
     }
 
@@ -634,6 +650,39 @@ impl<'a> GridBases<'a> {
                     };
                     basis_of(self.data, p, self.aperture, |b| b.directional).map(|b| self.basis(b))
                 })
+                .collect()
+        })
+    }
+
+    /// The core-haze cross moments, `[ci * n_haze + hi]`, of the pairs with the haze
+    /// at least [`HAZE_OVER_CORE`] times the core's width (the others are never
+    /// combined): computed once per data and shared by the members with both lobes.
+    fn core_haze(&self, core: Distribution, haze: Distribution) -> &[Option<Vec<f64>>] {
+        self.core_haze[dist_index(core)][dist_index(haze)].get_or_init(|| {
+            let (cw, hw) = (core_grid(), haze_grid());
+            let (cores, hazes) = (self.lobes(0, core), self.lobes(1, haze));
+            let nh = hazes.len();
+            (0..cores.len() * nh)
+                .map(|k| {
+                    let (ci, hi) = (k / nh, k % nh);
+                    if hw[hi] >= HAZE_OVER_CORE * cw[ci] {
+                        Some(self.cross(cores[ci].as_ref()?, hazes[hi].as_ref()?))
+                    } else {
+                        None
+                    }
+                })
+                .collect()
+        })
+    }
+
+    /// The cross moments of the lobes of `role` (0 core, 1 haze) for `dist` with the
+    /// directional bases, `[li * n_sigma_m + si]`: computed once per data and shared.
+    fn lobe_dd(&self, role: usize, dist: Distribution) -> &[Option<Vec<f64>>] {
+        self.lobe_dd[role][dist_index(dist)].get_or_init(|| {
+            let (lobes, dds) = (self.lobes(role, dist), self.dd());
+            let nd = dds.len();
+            (0..lobes.len() * nd)
+                .map(|k| Some(self.cross(lobes[k / nd].as_ref()?, dds[k % nd].as_ref()?)))
                 .collect()
         })
     }
@@ -876,28 +925,23 @@ pub fn fit_member_with(
     } else {
         vec![None]
     };
-    let cross =
-        |a: Option<&Basis>, b: Option<&Basis>| -> Option<Vec<f64>> { Some(bases.cross(a?, b?)) };
     let (nc, nh, nd) = (cores.len(), hazes.len(), dds.len());
     let usable =
         |ci: usize, hi: usize| member.haze.is_none() || haze_w[hi] >= HAZE_OVER_CORE * core_w[ci];
-    // Cross moments of the pairs a grid point can combine.
-    let ch: Vec<Option<Vec<f64>>> = (0..nc * nh)
-        .map(|k| {
-            let (ci, hi) = (k / nh, k % nh);
-            if usable(ci, hi) {
-                cross(cores[ci], hazes[hi])
-            } else {
-                None
-            }
-        })
-        .collect();
-    let cd: Vec<Option<Vec<f64>>> = (0..nc * nd)
-        .map(|k| cross(cores[k / nd], dds[k % nd]))
-        .collect();
-    let hd: Vec<Option<Vec<f64>>> = (0..nh * nd)
-        .map(|k| cross(hazes[k / nd], dds[k % nd]))
-        .collect();
+    // Cross moments of the pairs a grid point can combine (none where the member lacks
+    // one of the two).
+    let nothing: Crosses = vec![None; nc.max(nh) * nd.max(nh)];
+    let ch: &[Option<Vec<f64>>] = match (member.core, member.haze) {
+        (Some(c), Some(h)) => bases.core_haze(c.dist, h.dist),
+        _ => &nothing,
+    };
+    let lobe_dd = |role: usize, spec: Option<LobeSpec>| -> &[Option<Vec<f64>>] {
+        match spec {
+            Some(l) if member.directional => bases.lobe_dd(role, l.dist),
+            _ => &nothing,
+        }
+    };
+    let (cd, hd) = (lobe_dd(0, member.core), lobe_dd(1, member.haze));
     let point = |ci: usize, hi: usize, si: usize| -> Option<Point<'_>> {
         fn lobe(on: bool, b: Option<&Basis>) -> Option<Option<&Basis>> {
             if on { b.map(Some) } else { Some(None) }

@@ -417,6 +417,7 @@ impl RowSink for Normal {
 
 /// In-place Cholesky of a row-major `n x n` symmetric positive definite matrix (lower
 /// triangle overwritten by L). False when a pivot is not positive.
+#[inline(always)]
 fn cholesky(a: &mut [f64], n: usize) -> bool {
     for j in 0..n {
         let mut d = a[j * n + j];
@@ -440,6 +441,7 @@ fn cholesky(a: &mut [f64], n: usize) -> bool {
 }
 
 /// Solves `L L^T x = b` in place with the factor from [`cholesky`].
+#[inline(always)]
 fn cholesky_solve(l: &[f64], n: usize, b: &mut [f64]) {
     for i in 0..n {
         let mut s = b[i];
@@ -473,7 +475,40 @@ pub struct Workspace {
 /// block. False when the damped matrix is not positive definite (raise lambda).
 pub fn solve_damped(n: &Normal, d: &[f64], lambda: f64, ws: &mut Workspace, x: &mut [f64]) -> bool {
     let s = &n.shape;
-    let ng = s.n_global;
+    let nl0 = if s.groups() > 0 { s.n_local(0) } else { 0 };
+    let uniform = s.blocks().all(|b| b.nl == nl0);
+    // The grid's and the members' sizes (few globals, every group with the same
+    // 0-2 locals) get a body each with the sizes constant, so the small loops and
+    // Cholesky factors unroll (same operations in the same order: the same bits).
+    macro_rules! sized {
+        ($($ng:literal)*) => {
+            match (s.n_global, uniform.then_some(nl0)) {
+                $(
+                    ($ng, Some(0)) => damped_body(n, d, lambda, ws, x, $ng, Some(0)),
+                    ($ng, Some(1)) => damped_body(n, d, lambda, ws, x, $ng, Some(1)),
+                    ($ng, Some(2)) => damped_body(n, d, lambda, ws, x, $ng, Some(2)),
+                )*
+                _ => damped_body(n, d, lambda, ws, x, s.n_global, None),
+            }
+        };
+    }
+    sized!(0 1 2 3 4 5 6 7 8)
+}
+
+/// [`solve_damped`] for `ng` globals (`n.shape`'s) and, when `local` says so, that many
+/// locals in every group; inlined into each call so that constant sizes unroll.
+#[inline(always)]
+fn damped_body(
+    n: &Normal,
+    d: &[f64],
+    lambda: f64,
+    ws: &mut Workspace,
+    x: &mut [f64],
+    ng: usize,
+    local: Option<usize>,
+) -> bool {
+    let s = &n.shape;
+    debug_assert_eq!(ng, s.n_global);
     let nl_total = s.local_start[s.groups()];
     ws.y.resize(nl_total * ng, 0.0);
     ws.yl.resize(nl_total, 0.0);
@@ -485,7 +520,7 @@ pub fn solve_damped(n: &Normal, d: &[f64], lambda: f64, ws: &mut Workspace, x: &
             ws.s[a * ng + b] = ws.s[b * ng + a];
         }
     }
-    let maxl = s.max_local();
+    let maxl = local.unwrap_or_else(|| s.max_local());
     ws.m.resize(maxl * maxl, 0.0);
     ws.col.resize(maxl, 0.0);
     for a in 0..ng {
@@ -496,6 +531,7 @@ pub fn solve_damped(n: &Normal, d: &[f64], lambda: f64, ws: &mut Workspace, x: &
         nl, lo, ls, vb, wb, ..
     } in s.blocks()
     {
+        let nl = local.unwrap_or(nl);
         if nl == 0 {
             continue;
         }
@@ -547,6 +583,7 @@ pub fn solve_damped(n: &Normal, d: &[f64], lambda: f64, ws: &mut Workspace, x: &
     cholesky_solve(&ws.s, ng, &mut x[..ng]);
     let (xg, xl) = x.split_at_mut(ng);
     for Block { nl, ls, .. } in s.blocks() {
+        let nl = local.unwrap_or(nl);
         for l in 0..nl {
             let yrow = &ws.y[(ls + l) * ng..(ls + l + 1) * ng];
             let mut t = ws.yl[ls + l];

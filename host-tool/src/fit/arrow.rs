@@ -205,12 +205,19 @@ impl Normal {
 
     /// The whole diagonal of `J^T J`, in O(parameters).
     pub fn diagonal(&self) -> Vec<f64> {
+        let mut d = Vec::new();
+        self.diagonal_into(&mut d);
+        d
+    }
+
+    /// [`Normal::diagonal`] into `d` (cleared first), so repeated solves allocate nothing.
+    pub fn diagonal_into(&self, d: &mut Vec<f64>) {
         let ng = self.shape.n_global;
-        let mut d: Vec<f64> = (0..ng).map(|i| self.u[i * ng + i]).collect();
+        d.clear();
+        d.extend((0..ng).map(|i| self.u[i * ng + i]));
         for b in self.shape.blocks() {
             d.extend((0..b.nl).map(|a| self.v[b.vb + a * b.nl + a]));
         }
-        d
     }
 
     /// Holds parameter `i` where it is: its row and column of `J^T J` and its gradient

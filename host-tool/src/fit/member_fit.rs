@@ -323,6 +323,8 @@ impl ArrowProblem for Problem<'_> {
         let l = &self.layout;
         let mut jg = vec![0.0; l.n_global];
         let mut jl = [0.0; 2];
+        // Most starts pin nothing: then no row needs its columns zeroed.
+        let any_pinned = self.pinned.iter().any(|&p| p);
         for (j, model) in models.iter().enumerate() {
             for &k in self.data.rows_of(j) {
                 let o = &self.data.obs[k];
@@ -366,14 +368,16 @@ impl ArrowProblem for Problem<'_> {
                     jl[n] = scale * g.haze.ln_ks;
                     n += 1;
                 }
-                for (i, v) in jg.iter_mut().enumerate() {
-                    if self.pinned[i] {
-                        *v = 0.0;
+                if any_pinned {
+                    for (i, v) in jg.iter_mut().enumerate() {
+                        if self.pinned[i] {
+                            *v = 0.0;
+                        }
                     }
-                }
-                for (s, v) in jl[..n].iter_mut().enumerate() {
-                    if self.pinned[l.n_global + j * n + s] {
-                        *v = 0.0;
+                    for (s, v) in jl[..n].iter_mut().enumerate() {
+                        if self.pinned[l.n_global + j * n + s] {
+                            *v = 0.0;
+                        }
                     }
                 }
                 let r = self.resid.of(e.f, k, o.y);

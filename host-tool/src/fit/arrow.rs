@@ -205,12 +205,19 @@ impl Normal {
 
     /// The whole diagonal of `J^T J`, in O(parameters).
     pub fn diagonal(&self) -> Vec<f64> {
+        let mut d = Vec::new();
+        self.diagonal_into(&mut d);
+        d
+    }
+
+    /// [`Normal::diagonal`] into `d` (cleared first), so repeated solves allocate nothing.
+    pub fn diagonal_into(&self, d: &mut Vec<f64>) {
         let ng = self.shape.n_global;
-        let mut d: Vec<f64> = (0..ng).map(|i| self.u[i * ng + i]).collect();
+        d.clear();
+        d.extend((0..ng).map(|i| self.u[i * ng + i]));
         for b in self.shape.blocks() {
             d.extend((0..b.nl).map(|a| self.v[b.vb + a * b.nl + a]));
         }
-        d
     }
 
     /// Holds parameter `i` where it is: its row and column of `J^T J` and its gradient
@@ -314,14 +321,56 @@ impl Normal {
     }
 }
 
-impl RowSink for Normal {
-    #[inline]
-    fn row(&mut self, group: usize, r: f64, jg: &[f64], jl: &[f64]) {
+impl Normal {
+    /// [`RowSink::row`] for `NG` globals and `NL` locals known at compile time: the
+    /// same sums in the same order per element (so the same bits), with the loops
+    /// unrolled and the bounds checks hoisted; the LM's hot loop.
+    #[inline(always)]
+    fn row_fixed<const NG: usize, const NL: usize>(
+        &mut self,
+        group: usize,
+        r: f64,
+        jg: &[f64],
+        jl: &[f64],
+    ) {
+        let (Some(jg), Ok(jl)) = (jg.first_chunk::<NG>(), <&[f64; NL]>::try_from(jl)) else {
+            unreachable!("row_fixed dispatched on the slices' lengths")
+        };
+        self.cost += r * r;
+        let u = &mut self.u[..NG * NG];
+        let g = &mut self.g[..NG];
+        for a in 0..NG {
+            g[a] += jg[a] * r;
+            // The upper triangle only (see `u`).
+            for b in a..NG {
+                u[a * NG + b] += jg[a] * jg[b];
+            }
+        }
+        if NL == 0 {
+            return;
+        }
+        let Block { lo, vb, wb, .. } = self.shape.block(group);
+        let gl = &mut self.g[lo..lo + NL];
+        let v = &mut self.v[vb..vb + NL * NL];
+        for l in 0..NL {
+            gl[l] += jl[l] * r;
+            for m in 0..NL {
+                v[l * NL + m] += jl[l] * jl[m];
+            }
+        }
+        let w = &mut self.w[wb..wb + NG * NL];
+        for a in 0..NG {
+            for l in 0..NL {
+                w[a * NL + l] += jg[a] * jl[l];
+            }
+        }
+    }
+
+    /// [`RowSink::row`] for any sizes.
+    fn row_dyn(&mut self, group: usize, r: f64, jg: &[f64], jl: &[f64]) {
         let s = &self.shape;
         let ng = s.n_global;
         let nl = jl.len();
-        debug_assert_eq!(jg.len(), ng);
-        debug_assert_eq!(nl, s.n_local(group));
         self.cost += r * r;
         let jg = &jg[..ng];
         for (a, (&ja, ga)) in jg.iter().zip(&mut self.g[..ng]).enumerate() {
@@ -350,8 +399,32 @@ impl RowSink for Normal {
     }
 }
 
+impl RowSink for Normal {
+    #[inline]
+    fn row(&mut self, group: usize, r: f64, jg: &[f64], jl: &[f64]) {
+        debug_assert_eq!(jg.len(), self.shape.n_global);
+        debug_assert_eq!(jl.len(), self.shape.n_local(group));
+        // The members' sizes (at most 11 globals, 2 locals per incidence) get a
+        // kernel each; anything else the general loop.
+        macro_rules! fixed {
+            ($($ng:literal)*) => {
+                match (self.shape.n_global, jl.len()) {
+                    $(
+                        ($ng, 0) => self.row_fixed::<$ng, 0>(group, r, jg, jl),
+                        ($ng, 1) => self.row_fixed::<$ng, 1>(group, r, jg, jl),
+                        ($ng, 2) => self.row_fixed::<$ng, 2>(group, r, jg, jl),
+                    )*
+                    _ => self.row_dyn(group, r, jg, jl),
+                }
+            };
+        }
+        fixed!(0 1 2 3 4 5 6 7 8 9 10 11);
+    }
+}
+
 /// In-place Cholesky of a row-major `n x n` symmetric positive definite matrix (lower
 /// triangle overwritten by L). False when a pivot is not positive.
+#[inline(always)]
 fn cholesky(a: &mut [f64], n: usize) -> bool {
     for j in 0..n {
         let mut d = a[j * n + j];
@@ -375,6 +448,7 @@ fn cholesky(a: &mut [f64], n: usize) -> bool {
 }
 
 /// Solves `L L^T x = b` in place with the factor from [`cholesky`].
+#[inline(always)]
 fn cholesky_solve(l: &[f64], n: usize, b: &mut [f64]) {
     for i in 0..n {
         let mut s = b[i];
@@ -408,7 +482,40 @@ pub struct Workspace {
 /// block. False when the damped matrix is not positive definite (raise lambda).
 pub fn solve_damped(n: &Normal, d: &[f64], lambda: f64, ws: &mut Workspace, x: &mut [f64]) -> bool {
     let s = &n.shape;
-    let ng = s.n_global;
+    let nl0 = if s.groups() > 0 { s.n_local(0) } else { 0 };
+    let uniform = s.blocks().all(|b| b.nl == nl0);
+    // The grid's and the members' sizes (few globals, every group with the same
+    // 0-2 locals) get a body each with the sizes constant, so the small loops and
+    // Cholesky factors unroll (same operations in the same order: the same bits).
+    macro_rules! sized {
+        ($($ng:literal)*) => {
+            match (s.n_global, uniform.then_some(nl0)) {
+                $(
+                    ($ng, Some(0)) => damped_body(n, d, lambda, ws, x, $ng, Some(0)),
+                    ($ng, Some(1)) => damped_body(n, d, lambda, ws, x, $ng, Some(1)),
+                    ($ng, Some(2)) => damped_body(n, d, lambda, ws, x, $ng, Some(2)),
+                )*
+                _ => damped_body(n, d, lambda, ws, x, s.n_global, None),
+            }
+        };
+    }
+    sized!(0 1 2 3 4 5 6 7 8)
+}
+
+/// [`solve_damped`] for `ng` globals (`n.shape`'s) and, when `local` says so, that many
+/// locals in every group; inlined into each call so that constant sizes unroll.
+#[inline(always)]
+fn damped_body(
+    n: &Normal,
+    d: &[f64],
+    lambda: f64,
+    ws: &mut Workspace,
+    x: &mut [f64],
+    ng: usize,
+    local: Option<usize>,
+) -> bool {
+    let s = &n.shape;
+    debug_assert_eq!(ng, s.n_global);
     let nl_total = s.local_start[s.groups()];
     ws.y.resize(nl_total * ng, 0.0);
     ws.yl.resize(nl_total, 0.0);
@@ -420,7 +527,7 @@ pub fn solve_damped(n: &Normal, d: &[f64], lambda: f64, ws: &mut Workspace, x: &
             ws.s[a * ng + b] = ws.s[b * ng + a];
         }
     }
-    let maxl = s.max_local();
+    let maxl = local.unwrap_or_else(|| s.max_local());
     ws.m.resize(maxl * maxl, 0.0);
     ws.col.resize(maxl, 0.0);
     for a in 0..ng {
@@ -431,6 +538,7 @@ pub fn solve_damped(n: &Normal, d: &[f64], lambda: f64, ws: &mut Workspace, x: &
         nl, lo, ls, vb, wb, ..
     } in s.blocks()
     {
+        let nl = local.unwrap_or(nl);
         if nl == 0 {
             continue;
         }
@@ -482,6 +590,7 @@ pub fn solve_damped(n: &Normal, d: &[f64], lambda: f64, ws: &mut Workspace, x: &
     cholesky_solve(&ws.s, ng, &mut x[..ng]);
     let (xg, xl) = x.split_at_mut(ng);
     for Block { nl, ls, .. } in s.blocks() {
+        let nl = local.unwrap_or(nl);
         for l in 0..nl {
             let yrow = &ws.y[(ls + l) * ng..(ls + l + 1) * ng];
             let mut t = ws.yl[ls + l];

@@ -323,6 +323,8 @@ impl ArrowProblem for Problem<'_> {
         let l = &self.layout;
         let mut jg = vec![0.0; l.n_global];
         let mut jl = [0.0; 2];
+        // Most starts pin nothing: then no row needs its columns zeroed.
+        let any_pinned = self.pinned.iter().any(|&p| p);
         for (j, model) in models.iter().enumerate() {
             for &k in self.data.rows_of(j) {
                 let o = &self.data.obs[k];
@@ -366,14 +368,16 @@ impl ArrowProblem for Problem<'_> {
                     jl[n] = scale * g.haze.ln_ks;
                     n += 1;
                 }
-                for (i, v) in jg.iter_mut().enumerate() {
-                    if self.pinned[i] {
-                        *v = 0.0;
+                if any_pinned {
+                    for (i, v) in jg.iter_mut().enumerate() {
+                        if self.pinned[i] {
+                            *v = 0.0;
+                        }
                     }
-                }
-                for (s, v) in jl[..n].iter_mut().enumerate() {
-                    if self.pinned[l.n_global + j * n + s] {
-                        *v = 0.0;
+                    for (s, v) in jl[..n].iter_mut().enumerate() {
+                        if self.pinned[l.n_global + j * n + s] {
+                            *v = 0.0;
+                        }
                     }
                 }
                 let r = self.resid.of(e.f, k, o.y);
@@ -557,6 +561,20 @@ pub struct GridBases<'a> {
     /// [role (core, haze)][distribution]: one basis per width of the role's grid.
     lobes: [[OnceLock<Vec<Option<Basis>>>; 2]; 2],
     dd: OnceLock<Vec<Option<Basis>>>,
+    /// [core distribution][haze distribution]: the core-haze cross moments of every
+    /// width pair a grid point can combine (see [`GridBases::core_haze`]).
+    core_haze: [[OnceLock<Crosses>; 2]; 2],
+    /// [role][distribution]: the lobe-directional cross moments of every width pair.
+    lobe_dd: [[OnceLock<Crosses>; 2]; 2],
+}
+
+/// Cross moments per incidence of pairs of bases, row-major over the two grids
+/// (`None` where a basis is missing or the pair is not combined).
+type Crosses = Vec<Option<Vec<f64>>>;
+
+/// Index 0 Beckmann, 1 GGX.
+fn dist_index(dist: Distribution) -> usize {
+    usize::from(dist == Distribution::Ggx)
 }
 
 impl<'a> GridBases<'a> {
@@ -583,6 +601,8 @@ impl<'a> GridBases<'a> {
             myy,
             lobes: Default::default(),
             dd: OnceLock::new(),
+            core_haze: Default::default(),
+            lobe_dd: Default::default(),
         }
     }
 
@@ -634,6 +654,39 @@ impl<'a> GridBases<'a> {
                     };
                     basis_of(self.data, p, self.aperture, |b| b.directional).map(|b| self.basis(b))
                 })
+                .collect()
+        })
+    }
+
+    /// The core-haze cross moments, `[ci * n_haze + hi]`, of the pairs with the haze
+    /// at least [`HAZE_OVER_CORE`] times the core's width (the others are never
+    /// combined): computed once per data and shared by the members with both lobes.
+    fn core_haze(&self, core: Distribution, haze: Distribution) -> &[Option<Vec<f64>>] {
+        self.core_haze[dist_index(core)][dist_index(haze)].get_or_init(|| {
+            let (cw, hw) = (core_grid(), haze_grid());
+            let (cores, hazes) = (self.lobes(0, core), self.lobes(1, haze));
+            let nh = hazes.len();
+            (0..cores.len() * nh)
+                .map(|k| {
+                    let (ci, hi) = (k / nh, k % nh);
+                    if hw[hi] >= HAZE_OVER_CORE * cw[ci] {
+                        Some(self.cross(cores[ci].as_ref()?, hazes[hi].as_ref()?))
+                    } else {
+                        None
+                    }
+                })
+                .collect()
+        })
+    }
+
+    /// The cross moments of the lobes of `role` (0 core, 1 haze) for `dist` with the
+    /// directional bases, `[li * n_sigma_m + si]`: computed once per data and shared.
+    fn lobe_dd(&self, role: usize, dist: Distribution) -> &[Option<Vec<f64>>] {
+        self.lobe_dd[role][dist_index(dist)].get_or_init(|| {
+            let (lobes, dds) = (self.lobes(role, dist), self.dd());
+            let nd = dds.len();
+            (0..lobes.len() * nd)
+                .map(|k| Some(self.cross(lobes[k / nd].as_ref()?, dds[k % nd].as_ref()?)))
                 .collect()
         })
     }
@@ -876,28 +929,23 @@ pub fn fit_member_with(
     } else {
         vec![None]
     };
-    let cross =
-        |a: Option<&Basis>, b: Option<&Basis>| -> Option<Vec<f64>> { Some(bases.cross(a?, b?)) };
     let (nc, nh, nd) = (cores.len(), hazes.len(), dds.len());
     let usable =
         |ci: usize, hi: usize| member.haze.is_none() || haze_w[hi] >= HAZE_OVER_CORE * core_w[ci];
-    // Cross moments of the pairs a grid point can combine.
-    let ch: Vec<Option<Vec<f64>>> = (0..nc * nh)
-        .map(|k| {
-            let (ci, hi) = (k / nh, k % nh);
-            if usable(ci, hi) {
-                cross(cores[ci], hazes[hi])
-            } else {
-                None
-            }
-        })
-        .collect();
-    let cd: Vec<Option<Vec<f64>>> = (0..nc * nd)
-        .map(|k| cross(cores[k / nd], dds[k % nd]))
-        .collect();
-    let hd: Vec<Option<Vec<f64>>> = (0..nh * nd)
-        .map(|k| cross(hazes[k / nd], dds[k % nd]))
-        .collect();
+    // Cross moments of the pairs a grid point can combine (none where the member lacks
+    // one of the two).
+    let nothing: Crosses = vec![None; nc.max(nh) * nd.max(nh)];
+    let ch: &[Option<Vec<f64>>] = match (member.core, member.haze) {
+        (Some(c), Some(h)) => bases.core_haze(c.dist, h.dist),
+        _ => &nothing,
+    };
+    let lobe_dd = |role: usize, spec: Option<LobeSpec>| -> &[Option<Vec<f64>>] {
+        match spec {
+            Some(l) if member.directional => bases.lobe_dd(role, l.dist),
+            _ => &nothing,
+        }
+    };
+    let (cd, hd) = (lobe_dd(0, member.core), lobe_dd(1, member.haze));
     let point = |ci: usize, hi: usize, si: usize| -> Option<Point<'_>> {
         fn lobe(on: bool, b: Option<&Basis>) -> Option<Option<&Basis>> {
             if on { b.map(Some) } else { Some(None) }
@@ -924,17 +972,47 @@ pub fn fit_member_with(
     let idx = |ci: usize, hi: usize, si: usize| (ci * nh + hi) * nd + si;
     let resid = Residuals::new(data, residual);
     let floor = amplitude_floor(data);
-    // Every grid point ranked by the fit's own cost at its (floored) amplitudes.
-    let mut cost = vec![f64::INFINITY; nc * nh * nd];
+    // Every grid point ranked by the fit's own cost at its (floored) amplitudes. Only
+    // the REFINED best are refined, so a point's cost is summed only while it could
+    // still be among them: the points are costed in the order of their weighted linear
+    // cost (cheap, from the solve, and close to the final order), and a point whose
+    // partial sum already exceeds the REFINED-th best full cost so far stops there and
+    // is left out (its full cost would only be larger). The REFINED best and their
+    // order are exactly those of costing every point in full.
+    let mut solved: Vec<(usize, f64, Amplitudes)> = Vec::new();
     for ci in 0..nc {
         for hi in (0..nh).filter(|&hi| usable(ci, hi)) {
             for si in 0..nd {
                 let Some(pt) = point(ci, hi, si) else {
                     continue;
                 };
-                if solve_point(bases, &pt, &mut scratch).is_some() {
-                    cost[idx(ci, hi, si)] = point_cost(bases, &pt, &scratch, &resid, floor);
+                if let Some(linear) = solve_point(bases, &pt, &mut scratch) {
+                    let amp = Amplitudes::of(&scratch, &pt, n_inc);
+                    solved.push((idx(ci, hi, si), linear, amp));
                 }
+            }
+        }
+    }
+    solved.sort_by(|a, b| a.1.total_cmp(&b.1));
+    let mut cost = vec![f64::INFINITY; nc * nh * nd];
+    // The REFINED smallest full costs so far, ascending.
+    let mut kept: Vec<f64> = Vec::with_capacity(REFINED + 1);
+    for (k, _, amp) in &solved {
+        let (ci, hi, si) = (k / (nh * nd), (k / nd) % nh, k % nd);
+        let Some(pt) = point(ci, hi, si) else {
+            continue;
+        };
+        let bound = if kept.len() == REFINED {
+            kept[REFINED - 1]
+        } else {
+            f64::INFINITY
+        };
+        if let Some(c) = point_cost(bases, &pt, amp, &resid, floor, bound) {
+            cost[*k] = c;
+            if c.is_finite() {
+                let at = kept.partition_point(|&v| v <= c);
+                kept.insert(at, c);
+                kept.truncate(REFINED);
             }
         }
     }
@@ -1051,18 +1129,19 @@ fn grid_step(w: &[f64]) -> f64 {
         * (1.0 + 1e-9)
 }
 
-/// The cost of a grid point's solution in the fit's own residuals, every amplitude
-/// floored at `floor` as the start vector has it: what the starts are ranked by (the
-/// weighted linear cost the solve minimises misranks narrow lobes that fall between
-/// readings).
+/// The cost of a grid point's solution (amplitudes `amp`) in the fit's own residuals,
+/// every amplitude floored at `floor` as the start vector has it: what the starts are
+/// ranked by (the weighted linear cost the solve minimises misranks narrow lobes that
+/// fall between readings). `None` as soon as the partial sum exceeds `bound` (the
+/// cost would too: every term is a square).
 fn point_cost(
     g: &GridBases<'_>,
     p: &Point<'_>,
-    s: &GridScratch,
+    amp: &Amplitudes,
     resid: &Residuals,
     floor: f64,
-) -> f64 {
-    let amp = Amplitudes::of(s, p, g.data.incidences.len());
+    bound: f64,
+) -> Option<f64> {
     let mut cost = 0.0;
     for (k, o) in g.data.obs.iter().enumerate() {
         let mut f = if p.ideal { amp.kid.max(floor) } else { 0.0 };
@@ -1076,8 +1155,11 @@ fn point_cost(
         }
         let r = resid.of(f, k, o.y);
         cost += r * r;
+        if cost > bound {
+            return None;
+        }
     }
-    cost
+    Some(cost)
 }
 
 /// LM from `x0` with the pinned amplitudes held. LM is first given [`PROBE_ITERATIONS`]

@@ -471,8 +471,7 @@ pub(super) fn solve_linear_into(
     x: &mut [f64],
 ) -> bool {
     let np = normal.shape().n_params();
-    d.clear();
-    d.extend((0..np).map(|i| normal.diag(i)));
+    normal.diagonal_into(d);
     let mean = d.iter().sum::<f64>() / np.max(1) as f64;
     for v in d.iter_mut() {
         if *v <= 0.0 {

@@ -6,62 +6,12 @@
 
 use std::path::Path;
 
-use brdf_core::model::{Components, Model, Params};
 use brdf_core::sim::SIM_K;
 use brdf_core::{PRESETS, Preset};
 use gonio::device::{PtyDevice, SimConfig};
 use serde_json::Value;
 
-use crate::util::{convert, gonio, scratch};
-
-/// The three-component parameters of `fit --json` as brdf-core models per incidence.
-fn fitted_models(json: &str) -> Vec<(f64, Model<f64>)> {
-    let v: Value = serde_json::from_str(json).unwrap();
-    let m = v["models"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|m| m["name"] == "three-component")
-        .expect("a three-component fit");
-    let p = &m["params"];
-    let f = |k: &str| p[k].as_f64().unwrap();
-    p["k_s"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|pair| {
-            let (ti, ks) = (pair[0].as_f64().unwrap(), pair[1].as_f64().unwrap());
-            let params = Params {
-                ks,
-                sigma: f("sigma"),
-                kdd: f("k_dd"),
-                sigma_m: f("sigma_m"),
-                kid: f("k_id"),
-            };
-            (ti, Model::new(params, Components::ALL).unwrap())
-        })
-        .collect()
-}
-
-/// Largest |f_fit / f_true - 1| over the paper's grid (away from retro-reflection),
-/// f_true = preset / K in 1/sr.
-fn worst_error(models: &[(f64, Model<f64>)], preset: &Preset) -> f64 {
-    let k = f64::from(SIM_K);
-    let mut worst: f64 = 0.0;
-    for (ti, m) in models {
-        let truth = preset.model::<f64>(*ti).unwrap();
-        for j in -8..=8 {
-            let tr = 10.0 * j as f64;
-            if (tr + ti).abs() < 5.0 {
-                continue;
-            }
-            let got = m.eval_in_plane(*ti, tr).unwrap().f;
-            let want = truth.eval_in_plane(*ti, tr).unwrap().f / k;
-            worst = worst.max((got / want - 1.0).abs());
-        }
-    }
-    worst
-}
+use crate::util::{convert, fitted_models, gonio, scratch, worst_error};
 
 #[test]
 fn capture_reference_calibrate_convert_and_fit_recover_the_absolute_brdf() {

@@ -12,7 +12,7 @@ use brdf_core::sim::SIM_K;
 use gonio::sweep_file::read_sweep;
 use serde_json::Value;
 
-use crate::util::{convert, gonio, scratch};
+use crate::util::{convert, fitted_models, gonio, scratch, worst_error};
 
 fn s(p: &Path) -> String {
     p.to_str().unwrap().to_string()
@@ -40,44 +40,6 @@ fn write_table(path: &Path) {
         }
     }
     std::fs::write(path, t).unwrap();
-}
-
-/// Largest |f_fit / f_true - 1| of the three-component fit of `fit --json` over the
-/// readings' grid away from retro-reflection, f_true = preset / K.
-fn worst_three_component(json: &str, preset: &Preset) -> f64 {
-    let v: Value = serde_json::from_str(json).unwrap();
-    let m = v["models"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|m| m["name"] == "three-component")
-        .expect("a three-component fit");
-    let p = &m["params"];
-    let f = |k: &str| p[k].as_f64().unwrap();
-    let k = f64::from(SIM_K);
-    let mut worst: f64 = 0.0;
-    for pair in p["k_s"].as_array().unwrap() {
-        let (ti, ks) = (pair[0].as_f64().unwrap(), pair[1].as_f64().unwrap());
-        let params = brdf_core::model::Params {
-            ks,
-            sigma: f("sigma"),
-            kdd: f("k_dd"),
-            sigma_m: f("sigma_m"),
-            kid: f("k_id"),
-        };
-        let m = brdf_core::Model::new(params, brdf_core::model::Components::ALL).unwrap();
-        let truth = preset.model::<f64>(ti).unwrap();
-        for j in -8..=8 {
-            let tr = 10.0 * j as f64;
-            if (tr + ti).abs() < 5.0 {
-                continue;
-            }
-            let got = m.eval_in_plane(ti, tr).unwrap().f;
-            let want = truth.eval_in_plane(ti, tr).unwrap().f / k;
-            worst = worst.max((got / want - 1.0).abs());
-        }
-    }
-    worst
 }
 
 fn calibrate_json(reference: &Path, out: &Path, extra: &[&str]) -> (f64, f64, Value) {
@@ -157,7 +119,7 @@ fn a_table_standard_in_the_simulator_calibrates_the_absolute_brdf() {
     assert!(conv.ok(), "{}", conv.stderr);
     let fit = gonio(&["fit", &s(&abs), "--json"]);
     assert!(fit.ok(), "{}", fit.stderr);
-    let worst = worst_three_component(&fit.stdout, preset);
+    let worst = worst_error(&fitted_models(&fit.stdout), preset);
     eprintln!(
         "table standard: K = {k} ± {u_k} (true {k_true}; as Lambertian {k_l}), worst |f_fit/f_true - 1| = {:.3} %",
         100.0 * worst

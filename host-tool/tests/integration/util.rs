@@ -1,5 +1,6 @@
-//! What every integration test shares: running `gonio` and reading what it said, and
-//! scratch directories that clean up after themselves.
+//! What every integration test shares: running `gonio` and reading what it said,
+//! scratch directories that clean up after themselves, and reading a fit back as
+//! brdf-core models to compare with the simulated truth.
 
 use std::ops::Deref;
 use std::path::{Path, PathBuf};
@@ -70,6 +71,58 @@ pub fn gonio(args: &[&str]) -> Run {
 pub fn convert(sample: &std::path::Path, inst: &std::path::Path, out: &std::path::Path) -> Run {
     let [a, b, c] = [sample, inst, out].map(|p| p.to_str().expect("UTF-8 path").to_string());
     gonio(&["convert", &a, "--instrument", &b, "--out", &c])
+}
+
+/// The three-component parameters of `fit --json` as brdf-core models per incidence.
+pub fn fitted_models(json: &str) -> Vec<(f64, brdf_core::Model<f64>)> {
+    let v: serde_json::Value = serde_json::from_str(json).unwrap();
+    let m = v["models"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|m| m["name"] == "three-component")
+        .expect("a three-component fit");
+    let p = &m["params"];
+    let f = |k: &str| p[k].as_f64().unwrap();
+    p["k_s"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|pair| {
+            let (ti, ks) = (pair[0].as_f64().unwrap(), pair[1].as_f64().unwrap());
+            let params = brdf_core::model::Params {
+                ks,
+                sigma: f("sigma"),
+                kdd: f("k_dd"),
+                sigma_m: f("sigma_m"),
+                kid: f("k_id"),
+            };
+            (
+                ti,
+                brdf_core::Model::new(params, brdf_core::model::Components::ALL).unwrap(),
+            )
+        })
+        .collect()
+}
+
+/// Largest |f_fit / f_true - 1| over the paper's grid (away from retro-reflection),
+/// f_true = preset / K in 1/sr.
+pub fn worst_error(models: &[(f64, brdf_core::Model<f64>)], preset: &brdf_core::Preset) -> f64 {
+    let k = f64::from(brdf_core::sim::SIM_K);
+    let mut worst: f64 = 0.0;
+    for (ti, m) in models {
+        let truth = preset.model::<f64>(*ti).unwrap();
+        for j in -8..=8 {
+            let tr = 10.0 * j as f64;
+            if (tr + ti).abs() < 5.0 {
+                continue;
+            }
+            let got = m.eval_in_plane(*ti, tr).unwrap().f;
+            let want = truth.eval_in_plane(*ti, tr).unwrap().f / k;
+            worst = worst.max((got / want - 1.0).abs());
+        }
+    }
+    worst
 }
 
 /// A fresh scratch directory, removed with everything in it when dropped; derefs to its

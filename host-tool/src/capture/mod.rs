@@ -850,5 +850,18 @@ impl<C: Connector> Run<'_, C> {
     }
 }
 
+/// docs/protocol.md with its whitespace collapsed to single spaces, for the tests that
+/// keep one of its statements true (a sentence may wrap anywhere in the file).
+#[cfg(test)]
+pub(crate) fn protocol_doc_words() -> String {
+    std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/protocol.md"),
+    )
+    .expect("docs/protocol.md")
+    .split_whitespace()
+    .collect::<Vec<_>>()
+    .join(" ")
+}
+
 #[cfg(test)]
 mod tests;

@@ -95,13 +95,7 @@ fn no_sweep_sent_is_longer_than_the_devices_max_points() {
         assert_eq!(s.len() == 1, max == 963, "{max}: {} sweeps", s.len());
     }
     // As docs/protocol.md says.
-    let doc = std::fs::read_to_string(
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/protocol.md"),
-    )
-    .unwrap()
-    .split_whitespace()
-    .collect::<Vec<_>>()
-    .join(" ");
+    let doc = crate::capture::protocol_doc_words();
     assert!(doc.contains(
         "a plan longer than the device's `max_points` is sent as several point lists of at most `max_points` (and 240) points, never as one grid"
     ));

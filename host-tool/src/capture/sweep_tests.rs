@@ -334,12 +334,6 @@ fn progress_done_counts_the_skipped_points_on_resume() {
     let mut s = SweepState::new(&sweep(0, 3));
     let (steps, _) = feed(&mut s, vec![progress(4, 3)]);
     assert!(matches!(&steps[0], Step::OtherPlan(_)), "{steps:?}");
-    let doc = std::fs::read_to_string(
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/protocol.md"),
-    )
-    .unwrap()
-    .split_whitespace()
-    .collect::<Vec<_>>()
-    .join(" ");
+    let doc = crate::capture::protocol_doc_words();
     assert!(doc.contains("a `Progress.done` below the sweep's `skip` or above `total`"));
 }

@@ -136,7 +136,8 @@ pub fn ensure_qemu(root: &Path) -> Result {
 /// and older fail to compile its kernels on these machines, 19 works), through apt-get
 /// when none is there. Not fatal: without it the llvm tests skip and say why.
 pub fn ensure_libllvm(root: &Path) {
-    let lib = Path::new("/usr/lib/x86_64-linux-gnu");
+    // Debian's multiarch directory: x86_64-linux-gnu, aarch64-linux-gnu.
+    let lib = PathBuf::from(format!("/usr/lib/{}-linux-gnu", std::env::consts::ARCH));
     let usable = (17..=30).any(|v| {
         lib.join(format!("libLLVM-{v}.so")).exists()
             || lib.join(format!("libLLVM.so.{v}.1")).exists()

@@ -44,6 +44,7 @@ pub enum ChecksArg {
 /// `gonio fit`.
 #[derive(Debug, Args)]
 #[command(
+    allow_negative_numbers = true,
     about = "Fit the BRDF model family to a sweep file",
     long_about = "Fit a family of BRDF models to a sweep file and say which components the data support.\n\n\
 The family is built from four components: specular (the paper's lobe, eq. 3-4), specular-haze (a second, wider \

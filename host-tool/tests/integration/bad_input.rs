@@ -478,6 +478,26 @@ const CASES: &[Case] = &[
     ),
     case(&["fit", "{d}/fe-0.115.csv", "--loss", "tukey"], 2, "--loss"),
     case(&["fit", "{d}/fe-0.115.csv", "--models", "four"], 2, "four"),
+    case(
+        &["fit", "{d}/fe-0.115.csv", "--floor", "-1"],
+        2,
+        "floor '-1': expected auto or a finite value >= 0",
+    ),
+    case(
+        &["fit", "{d}/fe-0.115.csv", "--floor", "nan"],
+        2,
+        "floor 'nan': expected auto",
+    ),
+    case(
+        &["fit", "{d}/fe-0.115.csv", "--floor", "often"],
+        2,
+        "floor 'often': expected auto",
+    ),
+    case(
+        &["fit", "{d}/fe-0.115.csv", "--checks", "some"],
+        2,
+        "[possible values: all, selected, none]",
+    ),
     // eval
     case(
         &[

@@ -1,5 +1,5 @@
 //! Physical checks of fitted models (issue 17): the directional albedo rho(theta_i) at
-//! every fitted incidence with its quadrature error (rho > 1 in 1/sr means the model
+//! every fitted incidence (at most [`MAX_CHECKED_INCIDENCES`] of them) with its quadrature error (rho > 1 in 1/sr means the model
 //! creates energy) and the largest reciprocity ratio f(i->o)/f(o->i), both from
 //! brdf-core's 3-D evaluation, for every fitted model: each member of the family (GGX
 //! cores and haze lobes included), or the paper fits on the `--fix`/robust path.
@@ -62,6 +62,9 @@ pub struct ModelCheck {
     pub albedo: Vec<(f64, f64, f64)>,
     /// BRDF evaluations the albedos took (the rules and their error estimates).
     pub evaluations: usize,
+    /// The fitted incidences (of which `albedo` holds [`checked_incidences`]'s
+    /// subset when there are more than [`MAX_CHECKED_INCIDENCES`]).
+    pub incidences: usize,
     /// The reciprocity check on [`Grid::DEFAULT`], k_s taken at the polar angle of the
     /// incident direction (interpolated between the fitted incidences).
     pub reciprocity: Option<Reciprocity>,
@@ -80,6 +83,30 @@ impl ModelCheck {
             .map(|a| if a.1 > 0.0 { a.2 / a.1 } else { 0.0 })
             .fold(0.0, f64::max)
     }
+}
+
+/// The most incidences whose albedo is computed per model: a sweep with more (a
+/// campaign of scattered incidences, 50,000 in #14's case) would spend minutes in the
+/// quadrature; the 1-degree grid's 90 are all checked.
+pub const MAX_CHECKED_INCIDENCES: usize = 90;
+
+/// The incidences (indices into `n` sorted incidences) whose albedo is checked: all of
+/// them up to [`MAX_CHECKED_INCIDENCES`], else that many evenly spaced (first and last
+/// included) plus the one with the largest `amplitude` (the per-incidence k_s is what
+/// makes rho vary between neighbours, so the largest is where rho > 1 would show).
+pub fn checked_incidences(n: usize, amplitude: impl Fn(usize) -> f64) -> Vec<usize> {
+    if n <= MAX_CHECKED_INCIDENCES {
+        return (0..n).collect();
+    }
+    let m = MAX_CHECKED_INCIDENCES - 1;
+    let mut out: Vec<usize> = (0..m).map(|k| k * (n - 1) / (m - 1)).collect();
+    let largest = (0..n)
+        .max_by(|&a, &b| amplitude(a).total_cmp(&amplitude(b)))
+        .unwrap_or(0);
+    out.push(largest);
+    out.sort_unstable();
+    out.dedup();
+    out
 }
 
 /// A paper fit at any incidence as a 3-D BRDF closure (k_s at w_i's polar angle).
@@ -124,11 +151,12 @@ pub fn member_fit_brdf(
 /// Checks one paper fit: albedo per incidence on [`Rule::DEFAULT`]'s panels with the
 /// fewest nodes that reach [`CHECK_REL_ERROR`], reciprocity on [`Grid::DEFAULT`].
 pub fn check_fit(fam: &FamilyFit, fit: &Fit) -> ModelCheck {
-    let albedo: Vec<_> = fam
-        .incidences
-        .par_iter()
-        .enumerate()
-        .filter_map(|(j, &ti)| {
+    let n = fam.incidences.len();
+    let ks = |j: usize| fit.values.ks.get(j).copied().unwrap_or(0.0);
+    let albedo: Vec<_> = checked_incidences(n, ks)
+        .into_par_iter()
+        .filter_map(|j| {
+            let ti = fam.incidences[j];
             let m = fit.values.model(fit.kind, j)?;
             let a = albedo_within(
                 ti.clamp(0.0, 90.0),
@@ -142,7 +170,7 @@ pub fn check_fit(fam: &FamilyFit, fit: &Fit) -> ModelCheck {
         })
         .collect();
     let reciprocity = reciprocity(&Grid::DEFAULT, fit_brdf(fam, fit)).ok();
-    finish(fit.kind.name().to_string(), albedo, reciprocity)
+    finish(fit.kind.name().to_string(), albedo, n, reciprocity)
 }
 
 /// Checks one fitted member: albedo at each fitted incidence (the model with that
@@ -150,11 +178,14 @@ pub fn check_fit(fam: &FamilyFit, fit: &Fit) -> ModelCheck {
 /// with the fewest nodes that reach [`CHECK_REL_ERROR`], reciprocity on [`Grid::DEFAULT`].
 pub fn check_member(fit: &MemberFit) -> ModelCheck {
     let models = fit.layout.models(&fit.x).unwrap_or_default();
-    let albedo: Vec<_> = fit
-        .incidences
-        .par_iter()
-        .zip(models.par_iter())
-        .filter_map(|(&ti, m)| {
+    let amplitude = |j: usize| {
+        let a = models[j].amplitudes();
+        a.core + a.haze
+    };
+    let albedo: Vec<_> = checked_incidences(models.len(), amplitude)
+        .into_par_iter()
+        .filter_map(|j| {
+            let (ti, m) = (fit.incidences[j], &models[j]);
             let panels = Rule::for_width(m.narrowest_width()).panels;
             let a = albedo_within(
                 ti.clamp(0.0, 90.0),
@@ -168,12 +199,13 @@ pub fn check_member(fit: &MemberFit) -> ModelCheck {
         })
         .collect();
     let reciprocity = reciprocity(&Grid::DEFAULT, member_fit_brdf(fit)).ok();
-    finish(fit.member().to_string(), albedo, reciprocity)
+    finish(fit.member().to_string(), albedo, models.len(), reciprocity)
 }
 
 fn finish(
     name: String,
     albedo: Vec<(f64, brdf_core::albedo::Albedo)>,
+    incidences: usize,
     reciprocity: Option<Reciprocity>,
 ) -> ModelCheck {
     let evaluations = albedo.iter().map(|a| a.1.evaluations).sum();
@@ -181,6 +213,7 @@ fn finish(
         name,
         albedo: albedo.iter().map(|(t, a)| (*t, a.rho, a.error)).collect(),
         evaluations,
+        incidences,
         reciprocity,
     }
 }
@@ -270,9 +303,18 @@ pub fn checks_text(
             ""
         };
         let _ = writeln!(s, "  {}:{verdict}{mark}", c.name);
+        let subset = if c.albedo.len() < c.incidences {
+            format!(
+                " at {} of {} incidences (evenly spaced, plus the largest k_s where there is one)",
+                c.albedo.len(),
+                c.incidences
+            )
+        } else {
+            String::new()
+        };
         let _ = writeln!(
             s,
-            "    rho(theta_i) {}  (quadrature error <= {:.1e} relative)",
+            "    rho(theta_i){subset} {}  (quadrature error <= {:.1e} relative)",
             rho.join("  "),
             c.max_rel_error()
         );
@@ -300,8 +342,9 @@ fn short(x: f64) -> String {
     }
 }
 
-/// The checks as JSON: per model, `name`, `albedo` [[theta_i, rho, error]], `max_rho`,
-/// `max_rel_error`, `physical` (null in relative units), `reciprocity_max_ratio`.
+/// The checks as JSON: per model, `name`, `albedo` [[theta_i, rho, error]] (at
+/// [`checked_incidences`]), `max_rho`, `max_rel_error`, `incidences` (how many were
+/// fitted), `physical` (null in relative units), `reciprocity_max_ratio`.
 pub fn checks_json(checks: &[ModelCheck], units: BrdfUnits) -> Value {
     let num = |x: f64| if x.is_finite() { json!(x) } else { Value::Null };
     Value::Array(
@@ -313,6 +356,7 @@ pub fn checks_json(checks: &[ModelCheck], units: BrdfUnits) -> Value {
                     "albedo": c.albedo.iter().map(|(t, r, e)| json!([t, num(*r), num(*e)])).collect::<Vec<_>>(),
                     "max_rho": num(c.max_rho()),
                     "max_rel_error": num(c.max_rel_error()),
+                    "incidences": c.incidences,
                     "physical": match units { BrdfUnits::PerSr => json!(c.max_rho() <= 1.0), BrdfUnits::Relative => Value::Null },
                     "reciprocity_max_ratio": c.reciprocity.map_or(Value::Null, |r| num(r.max_ratio)),
                 })
@@ -339,6 +383,23 @@ mod tests {
         let mut data = Dataset::from_rows(&rows, true).unwrap();
         data.units = BrdfUnits::PerSr;
         data
+    }
+
+    #[test]
+    fn many_incidences_are_checked_at_a_spread_subset_with_the_largest_amplitude() {
+        assert_eq!(checked_incidences(5, |_| 0.0), vec![0, 1, 2, 3, 4]);
+        let all = checked_incidences(MAX_CHECKED_INCIDENCES, |_| 0.0);
+        assert_eq!(all.len(), MAX_CHECKED_INCIDENCES);
+        let n = 50_000;
+        let peak = 12_345;
+        let sub = checked_incidences(n, |j| if j == peak { 9.0 } else { 1.0 });
+        assert!(sub.len() <= MAX_CHECKED_INCIDENCES);
+        assert_eq!((sub[0], *sub.last().unwrap()), (0, n - 1));
+        assert!(sub.contains(&peak), "the largest amplitude is checked");
+        assert!(sub.windows(2).all(|w| w[0] < w[1]), "sorted, no repeats");
+        // Evenly spread: no gap much wider than n / MAX.
+        let gap = sub.windows(2).map(|w| w[1] - w[0]).max().unwrap();
+        assert!(gap <= 2 * n / MAX_CHECKED_INCIDENCES, "largest gap {gap}");
     }
 
     #[test]

@@ -904,6 +904,17 @@ pub fn fit_member_with(
     member: Member,
     residual: Residual,
 ) -> Option<MemberFit> {
+    fit_member_keeping(bases, member, residual, KEPT_AMPLITUDE_BYTES)
+}
+
+/// [`fit_member_with`] keeping at most `kept_bytes` of grid amplitudes between the
+/// grid's solves and its costing (the tests compare both paths).
+fn fit_member_keeping(
+    bases: &GridBases<'_>,
+    member: Member,
+    residual: Residual,
+    kept_bytes: usize,
+) -> Option<MemberFit> {
     let data = bases.data;
     let aperture = bases.aperture;
     let n_inc = data.incidences.len();
@@ -979,7 +990,13 @@ pub fn fit_member_with(
     // partial sum already exceeds the REFINED-th best full cost so far stops there and
     // is left out (its full cost would only be larger). The REFINED best and their
     // order are exactly those of costing every point in full.
-    let mut solved: Vec<(usize, f64, Amplitudes)> = Vec::new();
+    // Each point's amplitudes are kept for its costing below unless they would take
+    // more than `kept_bytes` (many incidences: 57 points x 50,000 incidences
+    // were 46 MB); then the point is solved again when costed (the same solve, so the
+    // same amplitudes).
+    let points = nc * nh * nd;
+    let keep = points * n_inc * std::mem::size_of::<[f64; 2]>() <= kept_bytes;
+    let mut solved: Vec<(usize, f64, Option<Amplitudes>)> = Vec::new();
     for ci in 0..nc {
         for hi in (0..nh).filter(|&hi| usable(ci, hi)) {
             for si in 0..nd {
@@ -987,7 +1004,7 @@ pub fn fit_member_with(
                     continue;
                 };
                 if let Some(linear) = solve_point(bases, &pt, &mut scratch) {
-                    let amp = Amplitudes::of(&scratch, &pt, n_inc);
+                    let amp = keep.then(|| Amplitudes::of(&scratch, &pt, n_inc));
                     solved.push((idx(ci, hi, si), linear, amp));
                 }
             }
@@ -997,10 +1014,21 @@ pub fn fit_member_with(
     let mut cost = vec![f64::INFINITY; nc * nh * nd];
     // The REFINED smallest full costs so far, ascending.
     let mut kept: Vec<f64> = Vec::with_capacity(REFINED + 1);
-    for (k, _, amp) in &solved {
+    for (k, _, kept_amp) in &solved {
         let (ci, hi, si) = (k / (nh * nd), (k / nd) % nh, k % nd);
         let Some(pt) = point(ci, hi, si) else {
             continue;
+        };
+        let solved_again;
+        let amp = match kept_amp {
+            Some(a) => a,
+            None => {
+                if solve_point(bases, &pt, &mut scratch).is_none() {
+                    continue;
+                }
+                solved_again = Amplitudes::of(&scratch, &pt, n_inc);
+                &solved_again
+            }
         };
         let bound = if kept.len() == REFINED {
             kept[REFINED - 1]
@@ -1115,6 +1143,11 @@ pub fn fit_member_with(
         rmse,
     })
 }
+
+/// The most bytes the grid's amplitudes may take between its solves and its costing
+/// (see [`fit_member_with`]): 16 MB, far above the paper grid's and the 1-degree
+/// grid's needs, so only sweeps of thousands of incidences solve their points twice.
+pub const KEPT_AMPLITUDE_BYTES: usize = 16 << 20;
 
 /// A later grid start this many grid steps (or fewer) from an optimum already reached,
 /// in every width, is not refined (see [`fit_member_with`]): on the test sweeps such

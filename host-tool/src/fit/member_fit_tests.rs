@@ -219,3 +219,23 @@ fn aperture_averaging_removes_the_detectors_blur() {
     );
     assert!(without.ssr > with.ssr);
 }
+
+/// Solving each grid point again when costed (what many incidences do, to bound the
+/// memory) gives the very same fit as keeping the amplitudes.
+#[test]
+fn grid_points_solved_again_give_the_same_fit() {
+    let fe = brdf_core::Preset::by_name("fe-0.115").unwrap();
+    let rows = crate::fit::data::synthetic_paper_sweep(|ti| fe.model(ti).unwrap(), 0.005, 7);
+    let data = Dataset::from_rows(&rows, true).unwrap();
+    let bases = GridBases::new(&data, None);
+    let haze = Member {
+        haze: Member::THREE_COMPONENT.core,
+        ..Member::THREE_COMPONENT
+    };
+    for m in [Member::THREE_COMPONENT, haze] {
+        let kept = fit_member_keeping(&bases, m, Residual::Log, usize::MAX).unwrap();
+        let again = fit_member_keeping(&bases, m, Residual::Log, 0).unwrap();
+        assert_eq!(kept.ssr.to_bits(), again.ssr.to_bits(), "{m}");
+        assert_eq!(kept.x, again.x, "{m}");
+    }
+}

@@ -1,8 +1,9 @@
 //! Physical checks of fitted models (issue 17): the directional albedo rho(theta_i) at
-//! every fitted incidence (at most [`MAX_CHECKED_INCIDENCES`] of them) with its quadrature error (rho > 1 in 1/sr means the model
-//! creates energy) and the largest reciprocity ratio f(i->o)/f(o->i), both from
-//! brdf-core's 3-D evaluation, for every fitted model: each member of the family (GGX
-//! cores and haze lobes included), or the paper fits on the `--fix`/robust path.
+//! every fitted incidence (at most [`MAX_CHECKED_INCIDENCES`] of them) with its
+//! quadrature error (rho > 1 in 1/sr means the model creates energy) and the largest
+//! reciprocity ratio f(i->o)/f(o->i), both from brdf-core's 3-D evaluation, for every
+//! fitted model: each member of the family (GGX cores and haze lobes included), or the
+//! paper fits on the `--fix`/robust path.
 //!
 //! Computed in the report stage, not by `fit_family` (its `fit_seconds` and the fit
 //! benches do not include them), members and incidences in parallel, each albedo with

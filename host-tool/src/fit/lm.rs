@@ -265,17 +265,19 @@ pub fn minimize<P: ArrowProblem>(p: &mut P, x0: &[f64], opts: &LmOptions) -> LmR
         // One pass at the trial point gives its cost and, if the step is accepted, the
         // normal equations there (a separate cost pass would evaluate the model twice
         // per accepted step; most steps are accepted).
-        trial_normal.clear();
-        let new_cost = p
-            .rows(&trial, &mut trial_normal)
-            .then(|| trial_normal.cost())
-            .filter(|c| c.is_finite());
-        evaluations += 1;
-        let actual = new_cost.map_or(f64::NEG_INFINITY, |c| cost - c);
-        let rho = if predicted > 0.0 {
-            actual / predicted
+        // A step the linear model itself says cannot lower the cost (a bound clipped
+        // it) is rejected whatever the trial's cost: its row pass is skipped.
+        let (actual, rho) = if predicted > 0.0 {
+            trial_normal.clear();
+            let new_cost = p
+                .rows(&trial, &mut trial_normal)
+                .then(|| trial_normal.cost())
+                .filter(|c| c.is_finite());
+            evaluations += 1;
+            let actual = new_cost.map_or(f64::NEG_INFINITY, |c| cost - c);
+            (actual, actual / predicted)
         } else {
-            -1.0
+            (f64::NEG_INFINITY, -1.0)
         };
         if rho > 1e-4 {
             let old = cost;

@@ -6,7 +6,8 @@ Same model (docs/model.md eq. 2-6), same residuals as `gonio fit` (ln f - ln y),
 coordinates (logarithms of sigma, sigma_m, k_dd, k_id and one k_s per incidence), a
 generic starting point, scipy's default finite-difference Jacobian and 'trf' method.
 Prints one JSON object: seconds per fit (best of --repeat), cost, the paper's
-normalised RMSE, and the fitted parameters.
+normalised RMSE, the fitted parameters, and the start x0 (in the order of gonio's
+three-component layout, for `gonio bench --fit-vs SWEEP --start X0`).
 
     python3 bench/fit_scipy.py SWEEP.csv [--repeat 20]
 """
@@ -79,6 +80,7 @@ def main():
         "rmse": math.sqrt(sq / n) if n else None,
         "sigma": math.exp(p[0]), "sigma_m": math.exp(p[1]), "k_dd": math.exp(p[2]), "k_id": math.exp(p[3]),
         "nfev": int(res.nfev), "status": int(res.status),
+        "x0": [float(v) for v in x0],
     }))
 
 

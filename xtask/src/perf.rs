@@ -125,13 +125,41 @@ fn gonio_fit_result(text: &str, model: &str) -> Result<(f64, f64)> {
     Ok((seconds, number(fit, "/rmse", "gonio fit --json")?))
 }
 
-/// `bench/fit_scipy.py`: (best seconds, RMSE).
-fn scipy_fit_result(text: &str) -> Result<(f64, f64)> {
-    let v = parse_json(text, "bench/fit_scipy.py")?;
-    Ok((
-        number(&v, "/seconds", "bench/fit_scipy.py")?,
-        number(&v, "/rmse", "bench/fit_scipy.py")?,
-    ))
+/// `bench/fit_scipy.py`: (best seconds, RMSE, its start x0 as a JSON array for
+/// `gonio bench --start`).
+fn scipy_fit_result(text: &str) -> Result<(f64, f64, String)> {
+    let what = "bench/fit_scipy.py";
+    let v = parse_json(text, what)?;
+    let (seconds, rmse) = (number(&v, "/seconds", what)?, number(&v, "/rmse", what)?);
+    let x0 = match v.get("x0") {
+        Some(Value::Array(a)) if !a.is_empty() && a.iter().all(Value::is_number) => {
+            Value::Array(a.clone()).to_string()
+        }
+        Some(x) => return Err(format!("{what}: /x0 is not an array of numbers ({x})")),
+        None => return Err(format!("{what}: no /x0 in its JSON")),
+    };
+    Ok((seconds, rmse, x0))
+}
+
+/// What `gonio bench --fit-vs --json` measured (times in µs, Table-3 RMSEs).
+#[derive(Debug, Clone, PartialEq)]
+struct VersusResult {
+    one_lm_us: f64,
+    one_lm_rmse: f64,
+    default_us: f64,
+    default_rmse: f64,
+}
+
+/// `gonio bench --fit-vs --json` (host-tool's bench/versus.rs).
+fn versus_result(text: &str) -> Result<VersusResult> {
+    let what = "gonio bench --fit-vs --json";
+    let v = parse_json(text, what)?;
+    Ok(VersusResult {
+        one_lm_us: number(&v, "/one_lm/microseconds", what)?,
+        one_lm_rmse: number(&v, "/one_lm/rmse", what)?,
+        default_us: number(&v, "/default_fit/microseconds", what)?,
+        default_rmse: number(&v, "/default_fit/rmse", what)?,
+    })
 }
 
 fn output(dir: &Path, program: &str, args: &[&str]) -> Result<String> {
@@ -185,7 +213,7 @@ pub fn perf_report() -> Result {
         .map_err(|e| e.to_string())?;
     let tmp = scratch.path();
     let mut scipy = String::from(
-        "| sweep | gonio three-component (µs) | gonio all four models (µs) | scipy three-component (µs) | ratio (three) | RMSE gonio | RMSE scipy |\n|---|---|---|---|---|---|---|\n",
+        "| sweep | scipy one solve (µs) | gonio one LM from scipy's start (µs) | gonio default three fit (µs) | gonio all four models (µs) | ratio scipy / one LM | ratio scipy / default | RMSE scipy | RMSE one LM | RMSE default |\n|---|---|---|---|---|---|---|---|---|---|\n",
     );
     let mut ratios = Vec::new();
     for material in ["fe-0.115", "cu-0.070", "al-0.782"] {
@@ -204,20 +232,23 @@ pub fn perf_report() -> Result {
                 "-q",
             ],
         )?;
-        // Best of 15 fit times; the RMSE is the three-component model's.
-        let best = |models: &str| -> Result<(f64, f64)> {
-            let mut t = f64::INFINITY;
-            let mut rmse = f64::NAN;
-            for _ in 0..15 {
-                let j = output(&root, gonio, &["fit", sweep, "--models", models, "--json"])?;
-                let (seconds, r) = gonio_fit_result(&j, "three-component")?;
-                t = t.min(seconds);
-                rmse = r;
-            }
-            Ok((t * 1e6, rmse))
-        };
-        let (three_us, rmse_g) = best("three")?;
-        let (all_us, _) = best("ideal,ts,three,three-smooth")?;
+        // Best of 15 whole `gonio fit` runs of all four models (time as the JSON says).
+        let mut all = f64::INFINITY;
+        for _ in 0..15 {
+            let j = output(
+                &root,
+                gonio,
+                &[
+                    "fit",
+                    sweep,
+                    "--models",
+                    "ideal,ts,three,three-smooth",
+                    "--json",
+                ],
+            )?;
+            all = all.min(gonio_fit_result(&j, "three-component")?.0);
+        }
+        let all_us = all * 1e6;
         let py = output(
             &root,
             "python3",
@@ -228,12 +259,26 @@ pub fn perf_report() -> Result {
                 "15",
             ],
         )?;
-        let (scipy_s, rmse_s) = scipy_fit_result(&py)?;
+        let (scipy_s, rmse_s, x0) = scipy_fit_result(&py)?;
         let scipy_us = scipy_s * 1e6;
-        ratios.push(scipy_us / three_us);
+        // gonio from scipy's very start, and its default fit, in-process, warm.
+        let vs = output(
+            &root,
+            gonio,
+            &[
+                "bench", "--fit-vs", sweep, "--start", &x0, "--repeat", "15", "--json",
+            ],
+        )?;
+        let v = versus_result(&vs)?;
+        ratios.push(scipy_us / v.one_lm_us);
         scipy.push_str(&format!(
-            "| {material} 9x17, 0.5 % noise | {three_us:.0} | {all_us:.0} | {scipy_us:.0} | {:.0}x | {rmse_g:.6} | {rmse_s:.6} |\n",
-            scipy_us / three_us
+            "| {material} 9x17, 0.5 % noise | {scipy_us:.0} | {:.0} | {:.0} | {all_us:.0} | {:.0}x | {:.0}x | {rmse_s:.6} | {:.6} | {:.6} |\n",
+            v.one_lm_us,
+            v.default_us,
+            scipy_us / v.one_lm_us,
+            scipy_us / v.default_us,
+            v.one_lm_rmse,
+            v.default_rmse,
         ));
     }
     drop(scratch);
@@ -292,10 +337,13 @@ mod tests {
 
     #[test]
     fn null_rmse_is_nan_and_missing_fields_are_errors() {
-        let (s, r) =
-            scipy_fit_result(r#"{"seconds": 0.01, "cost_ssr": 1.0, "rmse": null}"#).unwrap();
+        let (s, r, x0) = scipy_fit_result(
+            r#"{"seconds": 0.01, "cost_ssr": 1.0, "rmse": null, "x0": [-2.5, 4.0]}"#,
+        )
+        .unwrap();
         assert_eq!(s, 0.01);
         assert!(r.is_nan());
+        assert_eq!(x0, "[-2.5,4.0]");
         assert!(
             scipy_fit_result(r#"{"rmse": 0.1}"#)
                 .unwrap_err()
@@ -303,5 +351,36 @@ mod tests {
         );
         assert!(scipy_fit_result("Traceback (most recent call last)").is_err());
         assert!(gonio_fit_result(r#"{"fit_seconds": "soon"}"#, "x").is_err());
+    }
+
+    #[test]
+    fn scipy_start_must_be_an_array_of_numbers() {
+        let no = scipy_fit_result(r#"{"seconds": 0.01, "rmse": 0.1}"#).unwrap_err();
+        assert!(no.contains("no /x0"), "{no}");
+        for bad in [r#""x0": []"#, r#""x0": [1, "a"]"#, r#""x0": 3"#] {
+            let j = format!(r#"{{"seconds": 0.01, "rmse": 0.1, {bad}}}"#);
+            let err = scipy_fit_result(&j).unwrap_err();
+            assert!(err.contains("/x0 is not an array"), "{bad}: {err}");
+        }
+    }
+
+    /// The shape of `gonio bench --fit-vs --json` (host-tool's bench/versus.rs).
+    const VERSUS: &str = r#"{"readings": 153, "incidences": 9, "repeat": 15, "start": [0.0],
+        "one_lm": {"microseconds": 141.5, "rmse": 0.0017783, "ssr": 0.001, "converged": true,
+                   "x": [0.0], "iterations": 7, "evaluations": 8},
+        "default_fit": {"microseconds": 492.0, "rmse": null, "ssr": 0.001, "converged": true,
+                        "x": [0.0], "iterations": null, "evaluations": null}}"#;
+
+    #[test]
+    fn reads_both_fits_of_the_versus_json() {
+        let v = versus_result(VERSUS).unwrap();
+        assert_eq!(
+            (v.one_lm_us, v.one_lm_rmse, v.default_us),
+            (141.5, 0.0017783, 492.0)
+        );
+        assert!(v.default_rmse.is_nan());
+        let err = versus_result(r#"{"one_lm": {"microseconds": 1.0}}"#).unwrap_err();
+        assert!(err.contains("/one_lm/rmse"), "{err}");
+        assert!(versus_result("gonio: error").is_err());
     }
 }

@@ -1,12 +1,13 @@
 //! Benchmarks behind `gonio bench` and docs/PERFORMANCE.md: the evaluation
 //! [`variants`] (speed against error), the slower [`study`] runs (readings against fit
-//! error, fit time against error), their text [`table`]s and the speed-against-error
-//! [`chart`].
+//! error, fit time against error), the three-component fit timed for the comparison
+//! with scipy ([`versus`]), their text [`table`]s and the speed-against-error [`chart`].
 
 pub mod chart;
 pub mod study;
 pub mod table;
 pub mod variants;
+pub mod versus;
 
 pub use chart::speed_vs_error;
 pub use study::{
@@ -14,3 +15,4 @@ pub use study::{
     scale_study,
 };
 pub use variants::{VariantResult, bench_params, dense_grid, eval_grid, eval_pairs, naive, run};
+pub use versus::{Versus, VersusFit, check_start, fit_versus, parse_start};

@@ -1,6 +1,7 @@
-//! The text tables `gonio bench` prints: variants, and the studies when run.
+//! The text tables `gonio bench` prints: variants, the studies when run, and the
+//! comparison fits of `--fit-vs`.
 
-use super::{FitResultRow, PlanResult, VariantResult};
+use super::{FitResultRow, PlanResult, VariantResult, Versus};
 
 /// The variants table `gonio bench` prints.
 pub fn variants_table(rows: &[VariantResult]) -> String {
@@ -84,6 +85,38 @@ pub fn members_table(rows: &[super::MemberRow], family_ms: f64) -> String {
     }
     t.push_str(&format!(
         "whole family (bases shared, members on the pool's threads): {family_ms:.2} ms\n"
+    ));
+    t
+}
+
+/// The table of `gonio bench --fit-vs`: both three-component fits.
+pub fn versus_table(v: &Versus) -> String {
+    let mut t = format!(
+        "{:<34} {:>12} {:>12} {:>14} {:>10}\n",
+        "three-component fit", "best (us)", "RMSE", "SSR", "converged"
+    );
+    let rmse = |r: Option<f64>| r.map_or("-".to_string(), |r| format!("{r:.6}"));
+    for (name, f) in [
+        ("one LM from --start", &v.one_lm),
+        ("default (width grid + LM)", &v.default_fit),
+    ] {
+        t.push_str(&format!(
+            "{:<34} {:>12.1} {:>12} {:>14.6e} {:>10}\n",
+            name,
+            f.microseconds,
+            rmse(f.rmse),
+            f.ssr,
+            if f.converged { "yes" } else { "no" }
+        ));
+    }
+    t.push_str(&format!(
+        "{} readings at {} incidences; best of {} warm runs each, one thread; one LM: {} steps, \
+         {} passes over the readings\n",
+        v.readings,
+        v.incidences,
+        v.repeat,
+        v.one_lm.iterations.unwrap_or(0),
+        v.one_lm.evaluations.unwrap_or(0)
     ));
     t
 }

@@ -35,10 +35,35 @@ pub struct BenchArgs {
     /// Overwrite the --plot file if it exists.
     #[arg(long)]
     pub force: bool,
+    /// Instead of the variants: time the three-component fit of this sweep file
+    /// against `bench/fit_scipy.py` like for like. Two fits, each warm, best of
+    /// --repeat, on one thread: exactly one Levenberg–Marquardt run from --start
+    /// (scipy's own start, no grid) and the default fit (`gonio fit --models three`:
+    /// the width grid, then LM from its best points); their times (µs), Table-3 RMSEs
+    /// and SSRs (log residuals; the sweep's aperture, if it declares one, applies to
+    /// both, the scipy script ignores it).
+    #[arg(long, value_name = "SWEEP.csv", requires = "start", conflicts_with_all = ["study", "plot"])]
+    pub fit_vs: Option<std::path::PathBuf>,
+    /// With --fit-vs: the start of the one-LM fit, a JSON array or comma-separated
+    /// numbers: ln sigma, ln sigma_m, ln k_dd, ln k_id, then ln k_s for each incidence
+    /// (the order of `bench/fit_scipy.py`'s printed x0).
+    #[arg(
+        long,
+        value_name = "X0",
+        requires = "fit_vs",
+        allow_hyphen_values = true
+    )]
+    pub start: Option<String>,
+    /// With --fit-vs: timed runs of each fit (1 to 10000).
+    #[arg(long, value_name = "N", default_value_t = 15, requires = "fit_vs")]
+    pub repeat: usize,
 }
 
 /// Runs `gonio bench`.
 pub fn run(args: &BenchArgs) -> CliResult {
+    if let Some(sweep) = &args.fit_vs {
+        return fit_vs(args, sweep);
+    }
     if !(args.seconds.is_finite() && args.seconds > 0.0 && args.seconds <= 60.0) {
         return Err(CliError::usage("--seconds must be in (0, 60]"));
     }
@@ -79,6 +104,28 @@ pub fn run(args: &BenchArgs) -> CliResult {
             t.push_str(&table::members_table(m, *ms));
         }
         t
+    };
+    write_stdout(text.as_bytes())
+}
+
+/// `gonio bench --fit-vs SWEEP --start X0`.
+fn fit_vs(args: &BenchArgs, sweep: &std::path::Path) -> CliResult {
+    if !(1..=10_000).contains(&args.repeat) {
+        return Err(CliError::usage("--repeat must be in 1..=10000"));
+    }
+    let x0 = bench::parse_start(args.start.as_deref().unwrap_or("")).map_err(CliError::usage)?;
+    let (data, warnings) =
+        crate::fit::campaign::read_data(sweep, &crate::fit::FitOptions::default())
+            .map_err(|e| CliError::usage(e.to_string()))?;
+    for w in &warnings {
+        eprintln!("gonio: warning: {w}");
+    }
+    bench::check_start(&data, &x0).map_err(CliError::usage)?;
+    let v = bench::fit_versus(&data, &x0, args.repeat).map_err(CliError::failed)?;
+    let text = if args.json {
+        serde_json::to_string_pretty(&v).expect("JSON of numbers") + "\n"
+    } else {
+        table::versus_table(&v)
     };
     write_stdout(text.as_bytes())
 }

@@ -907,6 +907,14 @@ pub fn fit_member_with(
     fit_member_keeping(bases, member, residual, KEPT_AMPLITUDE_BYTES)
 }
 
+/// The data cannot determine the member: no parameters, too few readings for them
+/// (and for a residual degree of freedom), or a smooth k_s over fewer than 3 incidences.
+fn undetermined(data: &Dataset, layout: &Layout) -> bool {
+    layout.is_empty()
+        || data.obs.len() <= layout.len() + 1
+        || ((layout.core_poly.is_some() || layout.haze_poly.is_some()) && data.incidences.len() < 3)
+}
+
 /// [`fit_member_with`] keeping at most `kept_bytes` of grid amplitudes between the
 /// grid's solves and its costing (the tests compare both paths).
 fn fit_member_keeping(
@@ -919,10 +927,7 @@ fn fit_member_keeping(
     let aperture = bases.aperture;
     let n_inc = data.incidences.len();
     let layout = Layout::new(member, n_inc);
-    if layout.is_empty() || data.obs.len() <= layout.len() + 1 {
-        return None;
-    }
-    if (layout.core_poly.is_some() || layout.haze_poly.is_some()) && n_inc < 3 {
+    if undetermined(data, &layout) {
         return None;
     }
     let core_w = core_grid();
@@ -1115,7 +1120,13 @@ fn fit_member_keeping(
         }
     }
     let (ssr, x, converged) = best?;
-    // The covariance from the full Jacobian (held amplitudes included).
+    finish(&mut p, x, ssr, converged)
+}
+
+/// The fit at LM's optimum `x` (cost `ssr`): the covariance from the full Jacobian
+/// (held amplitudes included) and the paper's RMSE.
+fn finish(p: &mut Problem<'_>, x: Vec<f64>, ssr: f64, converged: bool) -> Option<MemberFit> {
+    let (data, layout, aperture) = (p.data, p.layout.clone(), p.aperture);
     p.pinned.fill(false);
     let mut normal = Normal::new(layout.shape());
     if !p.rows(&x, &mut normal) {
@@ -1141,6 +1152,60 @@ fn fit_member_keeping(
         aperture,
         rmse_by_inc,
         rmse,
+    })
+}
+
+/// One local fit of [`fit_member_from`]: the fit and LM's own counts.
+#[derive(Debug, Clone)]
+pub struct LocalFit {
+    /// The fit at the point LM reached.
+    pub fit: MemberFit,
+    /// LM steps tried.
+    pub iterations: usize,
+    /// Passes over the readings (each gives the cost and the Jacobian).
+    pub evaluations: usize,
+}
+
+/// Exactly one Levenberg–Marquardt run (default [`LmOptions`], nothing held, no grid)
+/// of `member` from `x0`, in the member's [`Layout`] coordinates (for the
+/// three-component member: ln sigma, ln sigma_m, ln k_dd, ln k_id, then ln k_s per
+/// incidence). What a generic local solver does from one start: the benchmark against
+/// scipy's `least_squares` starts both from the same point. `None` when `x0` has the
+/// wrong length or a non-finite entry, the data cannot determine the member (as
+/// [`fit_member`]), or the model cannot be evaluated at `x0`.
+pub fn fit_member_from(
+    data: &Dataset,
+    member: Member,
+    residual: Residual,
+    aperture: Option<f64>,
+    x0: &[f64],
+) -> Option<LocalFit> {
+    let layout = Layout::new(member, data.incidences.len());
+    if x0.len() != layout.len() || x0.iter().any(|u| !u.is_finite()) {
+        return None;
+    }
+    if undetermined(data, &layout) {
+        return None;
+    }
+    let resid = Residuals::new(data, residual);
+    let mut p = Problem {
+        data,
+        shape: layout.shape(),
+        pinned: vec![false; layout.len()],
+        layout,
+        residual,
+        resid: &resid,
+        aperture,
+    };
+    let rep = minimize(&mut p, x0, &LmOptions::default());
+    if !rep.cost.is_finite() {
+        return None;
+    }
+    let converged = rep.termination.converged();
+    Some(LocalFit {
+        fit: finish(&mut p, rep.x, rep.cost, converged)?,
+        iterations: rep.iterations,
+        evaluations: rep.evaluations,
     })
 }
 

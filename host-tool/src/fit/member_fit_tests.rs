@@ -239,3 +239,69 @@ fn grid_points_solved_again_give_the_same_fit() {
         assert_eq!(kept.x, again.x, "{m}");
     }
 }
+
+/// bench/fit_scipy.py's start over `n_inc` incidences: sigma 0.1, sigma_m 0.5,
+/// k_dd 100, k_id 10, every k_s 100 (ln of each, in the three-component layout).
+fn scipy_start(n_inc: usize) -> Vec<f64> {
+    let mut x0 = vec![0.1f64.ln(), 0.5f64.ln(), 100f64.ln(), 10f64.ln()];
+    x0.resize(4 + n_inc, 100f64.ln());
+    x0
+}
+
+/// One LM from the scipy script's generic start reaches the default (grid + LM) fit's
+/// optimum on simulated paper sweeps of the presets that docs/PERFORMANCE.md compares:
+/// the like-for-like timing compares two solvers reaching the same fit.
+#[test]
+fn one_lm_from_the_scipy_start_reaches_the_default_fit() {
+    for (name, seed) in [("fe-0.115", 1), ("cu-0.070", 2), ("al-0.782", 3)] {
+        let preset = brdf_core::Preset::by_name(name).unwrap();
+        let rows =
+            crate::fit::data::synthetic_paper_sweep(|ti| preset.model(ti).unwrap(), 0.005, seed);
+        let data = Dataset::from_rows(&rows, true).unwrap();
+        let m = Member::THREE_COMPONENT;
+        let grid = fit_member(&data, m, Residual::Log, None).unwrap();
+        let x0 = scipy_start(data.incidences.len());
+        let one = fit_member_from(&data, m, Residual::Log, None, &x0).unwrap();
+        assert!(one.fit.converged, "{name}");
+        assert!(
+            one.iterations > 0 && one.evaluations > one.iterations / 2,
+            "{name}"
+        );
+        assert!(
+            ((one.fit.ssr - grid.ssr) / grid.ssr).abs() < 1e-8,
+            "{name}: one LM {} against the default {}",
+            one.fit.ssr,
+            grid.ssr
+        );
+        let (r1, r2) = (one.fit.rmse.unwrap(), grid.rmse.unwrap());
+        assert!(
+            ((r1 - r2) / r2).abs() < 1e-6,
+            "{name}: RMSE {r1} against {r2}"
+        );
+        for (a, b) in one.fit.x.iter().zip(&grid.x) {
+            assert!(
+                (a - b).abs() < 1e-4,
+                "{name}: {:?} against {:?}",
+                one.fit.x,
+                grid.x
+            );
+        }
+    }
+}
+
+#[test]
+fn one_lm_refuses_a_start_of_the_wrong_length_or_not_finite() {
+    let fe = brdf_core::Preset::by_name("fe-0.115").unwrap();
+    let rows = crate::fit::data::synthetic_paper_sweep(|ti| fe.model(ti).unwrap(), 0.005, 1);
+    let data = Dataset::from_rows(&rows, true).unwrap();
+    let m = Member::THREE_COMPONENT;
+    let mut x0 = scipy_start(data.incidences.len());
+    assert!(fit_member_from(&data, m, Residual::Log, None, &x0[1..]).is_none());
+    x0.push(0.0);
+    assert!(fit_member_from(&data, m, Residual::Log, None, &x0).is_none());
+    x0.pop();
+    x0[2] = f64::NAN;
+    assert!(fit_member_from(&data, m, Residual::Log, None, &x0).is_none());
+    x0[2] = f64::INFINITY;
+    assert!(fit_member_from(&data, m, Residual::Log, None, &x0).is_none());
+}

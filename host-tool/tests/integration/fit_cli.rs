@@ -1,7 +1,7 @@
 //! `gonio fit` and `gonio demo` as a user runs them: the JSON contract, the table, and
-//! bad input.
+//! bad input; `gonio bench --fit-vs` (the fit timed against scipy's start).
 
-use crate::util::{gonio, scratch, simulated};
+use crate::util::{gonio, one_line, scratch, simulated};
 
 #[test]
 fn json_follows_the_contract() {
@@ -328,4 +328,74 @@ fn a_detection_floor_is_asked_about_and_left_out_with_floor() {
         "{}",
         out.stdout
     );
+}
+
+/// bench/fit_scipy.py's start on the paper grid (9 incidences), as it prints `x0`.
+const SCIPY_X0: &str = "[-2.302585, -0.693147, 4.605170, 2.302585, 4.605170, 4.605170, \
+    4.605170, 4.605170, 4.605170, 4.605170, 4.605170, 4.605170, 4.605170]";
+
+#[test]
+fn bench_fit_vs_times_both_fits_to_the_same_optimum() {
+    let d = scratch("fitvs");
+    let f = simulated(&d, "fe-0.115");
+    let f = f.to_str().unwrap();
+    let out = gonio(&[
+        "bench", "--fit-vs", f, "--start", SCIPY_X0, "--repeat", "2", "--json",
+    ]);
+    assert!(out.ok(), "{}", out.stderr);
+    let v: serde_json::Value = serde_json::from_str(&out.stdout).unwrap();
+    assert_eq!(v["readings"], 153);
+    let (one, grid) = (&v["one_lm"], &v["default_fit"]);
+    for fit in [one, grid] {
+        assert!(fit["microseconds"].as_f64().unwrap() > 0.0, "{fit}");
+        assert!(fit["rmse"].as_f64().unwrap() > 0.0, "{fit}");
+    }
+    let (s1, s2) = (one["ssr"].as_f64().unwrap(), grid["ssr"].as_f64().unwrap());
+    assert!(((s1 - s2) / s2).abs() < 1e-8, "{s1} against {s2}");
+    assert!(one["iterations"].as_u64().unwrap() > 0);
+    // The table names both fits.
+    let t = gonio(&["bench", "--fit-vs", f, "--start", SCIPY_X0, "--repeat", "1"]);
+    assert!(t.ok(), "{}", t.stderr);
+    assert!(
+        t.stdout.contains("one LM from --start") && t.stdout.contains("default"),
+        "{}",
+        t.stdout
+    );
+}
+
+#[test]
+fn bench_fit_vs_refuses_a_bad_start() {
+    let d = scratch("fitvs-bad");
+    let f = simulated(&d, "fe-0.115");
+    let f = f.to_str().unwrap();
+    for (start, says) in [
+        (
+            "[-2.3, -0.69, 4.6]",
+            "--start has 3 values; the three-component model on these data has 13",
+        ),
+        (
+            "-2.3,-0.69,4.6,2.3,nan,4.6,4.6,4.6,4.6,4.6,4.6,4.6,4.6",
+            "value 5 is not finite",
+        ),
+        (
+            "-2.3,-0.69,4.6,2.3,inf,4.6,4.6,4.6,4.6,4.6,4.6,4.6,4.6",
+            "value 5 is not finite",
+        ),
+        ("[1, \"a\"]", "not a JSON array of numbers"),
+        ("1,x,3", "'x' is not a number"),
+    ] {
+        let out = gonio(&["bench", "--fit-vs", f, "--start", start]);
+        assert_eq!(out.code, 2, "{start}: {}", out.stderr);
+        assert!(
+            one_line(&out.stderr).contains(says),
+            "{start}: {}",
+            out.stderr
+        );
+    }
+    // --fit-vs needs a start; --start and --repeat need --fit-vs.
+    assert_eq!(gonio(&["bench", "--fit-vs", f]).code, 2);
+    assert_eq!(gonio(&["bench", "--start", "1"]).code, 2);
+    let out = gonio(&["bench", "--fit-vs", f, "--start", SCIPY_X0, "--repeat", "0"]);
+    assert_eq!(out.code, 2);
+    assert!(one_line(&out.stderr).contains("--repeat"), "{}", out.stderr);
 }

@@ -232,8 +232,7 @@ pub fn fit_study() -> Result<Vec<FitResultRow>> {
 }
 
 /// One sweep size: the whole default family's fit time and the three-component
-/// member's, one core (the fit's own threads are not used: `RAYON_NUM_THREADS=1`
-/// gives the per-core figure; the study times in the calling thread's pool).
+/// member's, on one core ([`on_one_thread`]).
 #[derive(Debug, Clone, Serialize)]
 pub struct ScaleRow {
     /// Readings.
@@ -260,6 +259,16 @@ pub struct MemberRow {
     pub rmse: f64,
     /// Selected by the family.
     pub selected: bool,
+}
+
+/// Runs `f` on a one-thread rayon pool: the fit's own parallel loops then run on this
+/// one core, so times are per-core figures whatever the machine has.
+pub fn on_one_thread<R: Send>(f: impl FnOnce() -> R + Send) -> std::result::Result<R, String> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .map_err(|e| format!("a one-thread pool: {e}"))?;
+    Ok(pool.install(f))
 }
 
 fn best_ms(reps: usize, mut f: impl FnMut()) -> f64 {
@@ -294,9 +303,13 @@ fn scale_sweep(n_inc: usize, n_det: usize) -> Dataset {
 
 /// Fit time against readings (9 incidences, 17 to 11,111 detector angles: 153 to
 /// 10^5 readings) and against incidences (17 detector angles, 9 to 900 incidences),
-/// the whole default family and the three-component member, on the caller's thread
-/// pool (run it with one thread for per-core figures).
+/// the whole default family and the three-component member, on one core
+/// ([`on_one_thread`]).
 pub fn scale_study() -> Result<Vec<ScaleRow>> {
+    on_one_thread(scale_study_here).map_err(StudyError::Failed)?
+}
+
+fn scale_study_here() -> Result<Vec<ScaleRow>> {
     let sizes = [
         (9, 17),
         (9, 35),
@@ -351,8 +364,12 @@ const SCATTERWORKS: &[u8] =
 
 /// Speed against error per member: every member the default family fits on the
 /// Scatterworks test data, each fitted alone, its time and Table-3 RMSE; and the whole
-/// family's time (milliseconds).
+/// family's time (milliseconds); on one core ([`on_one_thread`]).
 pub fn member_study() -> Result<(Vec<MemberRow>, f64)> {
+    on_one_thread(member_study_here).map_err(StudyError::Failed)?
+}
+
+fn member_study_here() -> Result<(Vec<MemberRow>, f64)> {
     let rows = crate::sweep_file::parse_sweep(SCATTERWORKS)
         .map_err(|(line, e)| StudyError::Failed(format!("test data line {line}: {e}")))?
         .rows;

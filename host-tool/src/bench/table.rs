@@ -64,7 +64,7 @@ pub fn scale_table(rows: &[super::ScaleRow]) -> String {
             r.readings, r.incidences, r.family_ms, r.family_us_per_reading, r.three_ms
         ));
     }
-    t.push_str("fe-0.115 simulated, 0.5 % noise; whole default family and the three-component member; best of repeats\n");
+    t.push_str("fe-0.115 simulated, 0.5 % noise; whole default family and the three-component member; best of repeats, one core (a one-thread pool)\n");
     t
 }
 

@@ -7,6 +7,7 @@ use std::time::Instant;
 use brdf_core::member::Member;
 use serde::Serialize;
 
+use super::study::on_one_thread;
 use crate::fit::member_fit::{Layout, MemberFit, fit_member_from};
 use crate::fit::{Dataset, FitOptions, Residual, fit_family};
 
@@ -126,11 +127,7 @@ fn row(microseconds: f64, fit: &MemberFit) -> VersusFit {
 pub fn fit_versus(data: &Dataset, x0: &[f64], repeat: usize) -> Result<Versus, String> {
     check_start(data, x0)?;
     let repeat = repeat.max(1);
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(1)
-        .build()
-        .map_err(|e| format!("a one-thread pool: {e}"))?;
-    pool.install(|| {
+    on_one_thread(|| {
         let member = Member::THREE_COMPONENT;
         let (us, local) = best_of(repeat, || {
             fit_member_from(data, member, Residual::Log, data.aperture, x0).ok_or_else(|| {
@@ -158,7 +155,7 @@ pub fn fit_versus(data: &Dataset, x0: &[f64], repeat: usize) -> Result<Versus, S
             one_lm,
             default_fit: row(us, fit),
         })
-    })
+    })?
 }
 
 #[cfg(test)]

@@ -9,7 +9,7 @@ use brdf_core::member::Member;
 
 use super::args::{parse_export, parse_loss};
 use super::error::{CliError, CliResult};
-use super::output::write_stdout;
+use super::output::{write_stdout, write_stdout_with};
 use crate::calibrate::Instrument;
 use crate::export::ExportFormat;
 use crate::fit::campaign::{self, FileError};
@@ -406,7 +406,12 @@ pub fn run(args: &FitArgs) -> CliResult {
             _ => export::write_export(*format, target, &fam, member)?,
         }
     }
-    write_stdout(&report_bytes(&fam, args.json, residual, inst))
+    if args.json {
+        // Streamed: the JSON of many incidences is tens of MB.
+        let inst = inst.map(|(i, p)| super::fit_units::instrument_json(&fam, i, p));
+        return write_stdout_with(|w| fit::report::write_family_json(&fam, inst.as_ref(), w));
+    }
+    write_stdout(&report_bytes(&fam, false, residual, inst))
 }
 
 /// The report of one fit, the same for `gonio fit SWEEP` and each file of a campaign:

@@ -660,3 +660,20 @@ fn goodness_of_fit_is_judged_against_the_readings_noise() {
         f.notes
     );
 }
+
+#[test]
+fn streamed_json_is_the_tree_written_whole() {
+    // `gonio fit --json` writes the report as it is serialised: the same bytes as the
+    // whole tree (the form tests and library users read) printed at once.
+    let rows = preset_sweep("fe-0.115", 0.01, 5);
+    let f = family(&rows);
+    let mut whole = serde_json::to_vec_pretty(&report::family_json(&f)).unwrap();
+    whole.push(b'\n');
+    let mut streamed = Vec::new();
+    report::write_family_json(&f, None, &mut streamed).unwrap();
+    assert!(!f.members.is_empty());
+    assert_eq!(
+        String::from_utf8(streamed).unwrap(),
+        String::from_utf8(whole).unwrap()
+    );
+}

@@ -219,9 +219,18 @@ impl Layout {
 
     /// The models of every incidence at `x`; `None` when one cannot be built.
     pub fn models(&self, x: &[f64]) -> Option<Vec<MemberModel<f64>>> {
-        (0..self.n_inc)
-            .map(|j| MemberModel::new(&self.params(x, j)).ok())
-            .collect()
+        // Allocated once at its size: collecting Options grows the vector by doubling
+        // (a model is some 300 bytes; 50,000 incidences held 21 MB for 15).
+        let mut out = Vec::with_capacity(self.n_inc);
+        for j in 0..self.n_inc {
+            out.push(self.model(x, j)?);
+        }
+        Some(out)
+    }
+
+    /// The model of incidence `j` at `x`; `None` when it cannot be built.
+    pub fn model(&self, x: &[f64], j: usize) -> Option<MemberModel<f64>> {
+        MemberModel::new(&self.params(x, j)).ok()
     }
 }
 
@@ -317,18 +326,21 @@ impl ArrowProblem for Problem<'_> {
     }
 
     fn rows<S: RowSink>(&mut self, x: &[f64], sink: &mut S) -> bool {
-        let Some(models) = self.layout.models(x) else {
-            return false;
-        };
         let l = &self.layout;
         let mut jg = vec![0.0; l.n_global];
         let mut jl = [0.0; 2];
         // Most starts pin nothing: then no row needs its columns zeroed.
         let any_pinned = self.pinned.iter().any(|&p| p);
-        for (j, model) in models.iter().enumerate() {
+        // Each incidence's model is built as its rows are: holding them all would be
+        // the largest allocation of an LM step on a sweep of thousands of incidences.
+        // A model that cannot be built fails the call (the sink is then discarded).
+        for j in 0..l.n_inc {
+            let Some(model) = l.model(x, j) else {
+                return false;
+            };
             for &k in self.data.rows_of(j) {
                 let o = &self.data.obs[k];
-                let Some((e, g)) = eval_grad_at(model, o, self.aperture) else {
+                let Some((e, g)) = eval_grad_at(&model, o, self.aperture) else {
                     return false;
                 };
                 let scale = match self.residual {
@@ -510,10 +522,12 @@ fn basis_of(
     pick: fn(&Parts) -> f64,
 ) -> Option<Vec<f64>> {
     let m = MemberModel::new(&params).ok()?;
-    data.obs
-        .iter()
-        .map(|o| eval_at(&m, o, aperture).map(|e| pick(&e.basis)))
-        .collect()
+    // Allocated at its size (collecting Options would grow it by doubling).
+    let mut b = Vec::with_capacity(data.obs.len());
+    for o in &data.obs {
+        b.push(pick(&eval_at(&m, o, aperture)?.basis));
+    }
+    Some(b)
 }
 
 type Parts = brdf_core::member_model::Parts<f64>;
@@ -603,6 +617,36 @@ impl<'a> GridBases<'a> {
             dd: OnceLock::new(),
             core_haze: Default::default(),
             lobe_dd: Default::default(),
+        }
+    }
+
+    /// Drops the bases and cross moments none of `members` uses (they are computed
+    /// again, the same, should a later member need them): between the family's
+    /// stages, so a stage's members are fitted beside only their own bases (50,000
+    /// incidences: 2 MB a basis, 0.4 MB a cross moment).
+    pub fn retain_for(&mut self, members: &[Member]) {
+        let uses = |f: &dyn Fn(&Member) -> bool| members.iter().any(f);
+        let is = |l: Option<LobeSpec>, d: usize| l.is_some_and(|l| dist_index(l.dist) == d);
+        for d in 0..2 {
+            for (role, pick) in [
+                (0, (|m| m.core) as fn(&Member) -> Option<LobeSpec>),
+                (1, |m| m.haze),
+            ] {
+                if !uses(&|m| is(pick(m), d)) {
+                    self.lobes[role][d].take();
+                }
+                if !uses(&|m| m.directional && is(pick(m), d)) {
+                    self.lobe_dd[role][d].take();
+                }
+            }
+            for h in 0..2 {
+                if !uses(&|m| is(m.core, d) && is(m.haze, h)) {
+                    self.core_haze[d][h].take();
+                }
+            }
+        }
+        if !uses(&|m| m.directional) {
+            self.dd.take();
         }
     }
 
@@ -1210,9 +1254,11 @@ pub fn fit_member_from(
 }
 
 /// The most bytes the grid's amplitudes may take between its solves and its costing
-/// (see [`fit_member_with`]): 16 MB, far above the paper grid's and the 1-degree
-/// grid's needs, so only sweeps of thousands of incidences solve their points twice.
-pub const KEPT_AMPLITUDE_BYTES: usize = 16 << 20;
+/// (see [`fit_member_with`]): 4 MB per member (members are fitted in parallel, each
+/// keeping its own), far above the paper grid's (57 points x 9 incidences, 8 KB) and
+/// the 1-degree grid's needs, so only sweeps of thousands of incidences solve their
+/// points twice (at 16 MB two 19-point members over 50,000 incidences held 30 MB).
+pub const KEPT_AMPLITUDE_BYTES: usize = 4 << 20;
 
 /// A later grid start this many grid steps (or fewer) from an optimum already reached,
 /// in every width, is not refined (see [`fit_member_with`]): on the test sweeps such

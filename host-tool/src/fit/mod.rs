@@ -142,7 +142,7 @@ pub fn fit_family(data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, String
     let mut fits = Vec::new();
     if grid {
         let stage_a = requested.clone().unwrap_or_else(family::default_members);
-        let bases = GridBases::new(data, aperture);
+        let mut bases = GridBases::new(data, aperture);
         members = fit_members(&bases, &stage_a, opts.residual, &mut notes);
         if requested.is_none() {
             // Stage two: the selected component set's lobe variants (GGX, smooth k_s).
@@ -152,6 +152,7 @@ pub fn fit_family(data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, String
                     .into_iter()
                     .filter(|m| !stage_a.contains(m))
                     .collect();
+                bases.retain_for(&more);
                 members.extend(fit_members(&bases, &more, opts.residual, &mut notes));
             }
             // Stage three: the selected member's haze with the other distribution.
@@ -160,6 +161,7 @@ pub fn fit_family(data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, String
                 && let Some(m) = family::haze_variant_of(best.member)
                 && !members.iter().any(|f| f.member() == m)
             {
+                bases.retain_for(&[m]);
                 members.extend(fit_members(&bases, &[m], opts.residual, &mut notes));
             }
         }

@@ -343,9 +343,20 @@ pub fn family_json(f: &FamilyFit) -> Value {
 /// one model's JSON tree is in memory at once), with a final newline. `instrument` is
 /// the `--instrument` section, when the data were converted to 1/sr by one.
 pub fn family_json_text(f: &FamilyFit, instrument: Option<&Value>) -> Vec<u8> {
-    let mut out = serde_json::to_vec_pretty(&FamilyJson(f, instrument)).expect("JSON of numbers");
-    out.push(b'\n');
+    let mut out = Vec::new();
+    write_family_json(f, instrument, &mut out).expect("JSON of numbers");
     out
+}
+
+/// [`family_json_text`] written to `w` as it is serialised (a sweep of 50,000
+/// incidences gives 60 MB of text, never held whole).
+pub fn write_family_json<W: std::io::Write>(
+    f: &FamilyFit,
+    instrument: Option<&Value>,
+    mut w: W,
+) -> std::io::Result<()> {
+    serde_json::to_writer_pretty(&mut w, &FamilyJson(f, instrument))?;
+    w.write_all(b"\n")
 }
 
 /// Serialises as [`family_json`], each model's tree built only while it is written.

@@ -406,12 +406,8 @@ pub fn run(args: &FitArgs) -> CliResult {
             _ => export::write_export(*format, target, &fam, member)?,
         }
     }
-    if args.json {
-        // Streamed: the JSON of many incidences is tens of MB.
-        let inst = inst.map(|(i, p)| super::fit_units::instrument_json(&fam, i, p));
-        return write_stdout_with(|w| fit::report::write_family_json(&fam, inst.as_ref(), w));
-    }
-    write_stdout(&report_bytes(&fam, false, residual, inst))
+    // Streamed: the JSON of many incidences is tens of MB.
+    write_stdout_with(|w| write_report(&fam, args.json, residual, inst, w))
 }
 
 /// The report of one fit, the same for `gonio fit SWEEP` and each file of a campaign:
@@ -423,12 +419,25 @@ fn report_bytes(
     residual: &str,
     inst: Option<(&Instrument, &std::path::Path)>,
 ) -> Vec<u8> {
+    let mut out = Vec::new();
+    write_report(fam, json, residual, inst, &mut out).expect("writing to memory");
+    out
+}
+
+/// [`report_bytes`] written to `w` as it is made (the JSON as it is serialised).
+fn write_report(
+    fam: &FamilyFit,
+    json: bool,
+    residual: &str,
+    inst: Option<(&Instrument, &std::path::Path)>,
+    w: &mut dyn std::io::Write,
+) -> std::io::Result<()> {
     if json {
         let inst = inst.map(|(i, p)| super::fit_units::instrument_json(fam, i, p));
-        fit::report::family_json_text(fam, inst.as_ref())
+        fit::report::write_family_json(fam, inst.as_ref(), w)
     } else {
         let mut t = fit::report::family_table(fam, residual);
         t.push_str(&super::fit_units::report_text(fam, inst));
-        t.into_bytes()
+        w.write_all(t.as_bytes())
     }
 }

@@ -52,10 +52,12 @@ lobe with its own width), directional-diffuse (eq. 5) and ideal-diffuse (eq. 6);
 (Trowbridge–Reitz), its k_s one value per incidence or a smooth k_s(theta_i). The paper's members keep their \
 names (ideal-diffuse, torrance-sparrow, three-component, three-component-smooth-ks); the others are named by \
 their components, e.g. specular:ggx+specular-haze+ideal-diffuse.\n\n\
-The default does not fit every combination. It fits what is needed to decide: first every component set with \
-the ideal diffuse and the paper's lobe (ideal-diffuse, directional-diffuse+ideal-diffuse, torrance-sparrow, \
-three-component, and both with a haze lobe) plus three-component-smooth-ks; then, for the component set \
-selected, the variants of its core lobe (Beckmann or GGX, k_s per incidence or smooth); then, if the member \
+The default does not fit every combination. It fits what is needed to decide: first the paper's four members, \
+directional-diffuse+ideal-diffuse and three-component with a haze lobe; then, of the component sets with the \
+ideal diffuse and the paper's lobe, each one component from the member selected (its claims compare against \
+it) or that could still beat it (a member fits no better than a larger member it is nested in, which bounds \
+its AICc and BIC), until none is left: so torrance-sparrow with a haze is fitted only when it matters; then, \
+for the component set selected, the variants of its core lobe (Beckmann or GGX, k_s per incidence or smooth); then, if the member \
 selected has a haze, that member with the haze's other distribution. --models fits exactly the members named.\n\n\
 Selection: a component is supported only when the comparison that adds that component alone favours it by AICc \
 (by more than 2) AND its amplitude is determined (not at its bound, standard error under a third of the value; \

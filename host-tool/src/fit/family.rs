@@ -1,7 +1,11 @@
 //! The model family: the paper's four models and their parameters, and the default
 //! members drawn from brdf-core's lattice.
 
+use brdf_core::member::{Component, LobeSpec, Member};
 use brdf_core::{Components, Model, Params};
+
+use super::member_fit::{Layout, MemberFit};
+use super::select::{Candidate, Criterion, Selection, reference};
 
 /// The models fitted, from the simplest up.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -57,8 +61,7 @@ impl Kind {
 
     /// The member of brdf-core's component lattice this kind is (its report name is the
     /// member's paper name).
-    pub const fn member(self) -> brdf_core::member::Member {
-        use brdf_core::member::Member;
+    pub const fn member(self) -> Member {
         match self {
             Kind::IdealDiffuse => Member::IDEAL_DIFFUSE,
             Kind::TorranceSparrow => Member::TORRANCE_SPARROW,
@@ -292,13 +295,12 @@ pub fn coords(kind: Kind, n_inc: usize) -> Vec<Coord> {
     c
 }
 
-/// The first stage of the default family, generated from brdf-core's lattice: every
-/// member with the ideal diffuse on and the reference lobe (Beckmann, one k_s per
-/// incidence) for whichever of the core and haze lobes are on — the six component sets
-/// whose comparisons decide each component — plus the paper's members (which adds
-/// `three-component-smooth-ks`). Simplest first.
-pub fn default_members() -> Vec<brdf_core::member::Member> {
-    use brdf_core::member::{LobeSpec, Member};
+/// The members whose comparisons decide each component, generated from brdf-core's
+/// lattice: every member with the ideal diffuse on and the reference lobe (Beckmann,
+/// one k_s per incidence) for whichever of the core and haze lobes are on (the six
+/// component sets), plus the paper's members (which adds `three-component-smooth-ks`).
+/// Simplest first.
+pub fn reference_members() -> Vec<Member> {
     let reference = |l: Option<LobeSpec>| l.is_none_or(|l| l == LobeSpec::PAPER);
     let mut out: Vec<Member> = Member::lattice()
         .filter(|m| m.ideal && reference(m.core) && reference(m.haze))
@@ -309,11 +311,71 @@ pub fn default_members() -> Vec<brdf_core::member::Member> {
     out
 }
 
+/// The first stage of the default family: of [`reference_members`], the paper's
+/// members and those one component from the paper's three-component model
+/// (`directional-diffuse+ideal-diffuse` and the member with every component). The
+/// rest (a haze without the directional diffuse) is fitted only when the decision
+/// needs it ([`needed`]). Simplest first.
+pub fn default_members() -> Vec<Member> {
+    reference_members()
+        .into_iter()
+        .filter(|m| m.paper_name().is_some() || apart(*m, Member::THREE_COMPONENT) == 1)
+        .collect()
+}
+
+/// How many components are on in one of `a`, `b` but not in both.
+fn apart(a: Member, b: Member) -> usize {
+    Component::ALL
+        .iter()
+        .filter(|&&c| a.has(c) != b.has(c))
+        .count()
+}
+
+/// The members of [`reference_members`] not in `tried` that the decision needs, given
+/// the members fitted so far (`fits`, and their `cands`): for AICc and for BIC, each one
+/// component from the selected member's component set (the selected member's claims
+/// compare against it), and each whose criterion could still be lower than the
+/// selected member's. A member nested in a fitted reference member (every component it
+/// has is on there) fits no better than that member, so its criterion is at least the
+/// one of that member's sum of squares with its own parameter count; a member nested in
+/// none is needed. Fitting what this returns until it returns nothing selects the
+/// member that fitting every reference member would (the tests check it).
+pub fn needed(fits: &[MemberFit], cands: &[Candidate], tried: &[Member]) -> Vec<Member> {
+    let Some(first) = fits.first() else {
+        return Vec::new();
+    };
+    let (n, n_inc) = (first.n, first.incidences.len());
+    let nested = |m: Member, big: Member| {
+        big != m && big == reference(big) && m.components().all(|c| big.has(c))
+    };
+    let bests: Vec<(Criterion, Member, f64)> = Criterion::ALL
+        .into_iter()
+        .filter_map(|crit| {
+            let b = Selection::new(cands, crit).best()?;
+            Some((crit, reference(b.member), crit.of(b)))
+        })
+        .collect();
+    reference_members()
+        .into_iter()
+        .filter(|m| !tried.contains(m))
+        .filter(|&m| {
+            let k = Layout::new(m, n_inc).len();
+            let ssr_floor = fits
+                .iter()
+                .filter(|f| nested(m, f.member()))
+                .map(|f| f.ssr)
+                .min_by(f64::total_cmp);
+            bests.iter().any(|&(crit, best, value)| {
+                apart(m, best) == 1 || ssr_floor.is_none_or(|s| crit.of_ssr(s, n, k) <= value)
+            })
+        })
+        .collect()
+}
+
 /// The second stage: the variants of the selected member's component set that decide
 /// its core lobe's distribution (Beckmann or GGX) and k_s form (per incidence or
 /// smooth), from the lattice: same components, same haze lobe, any core lobe.
-pub fn variants_of(selected: brdf_core::member::Member) -> Vec<brdf_core::member::Member> {
-    use brdf_core::member::Member;
+pub fn variants_of(selected: Member) -> Vec<Member> {
     if selected.core.is_none() {
         return Vec::new();
     }
@@ -331,7 +393,7 @@ pub fn variants_of(selected: brdf_core::member::Member) -> Vec<brdf_core::member
 /// (Beckmann to GGX or back), `None` without a haze. A haze's tail decides how a sharp
 /// core's wings fall (a Beckmann haze is Gaussian in slope, a GGX one falls as a power
 /// law), and the core's shape was decided on the reference haze.
-pub fn haze_variant_of(selected: brdf_core::member::Member) -> Option<brdf_core::member::Member> {
+pub fn haze_variant_of(selected: Member) -> Option<Member> {
     use brdf_core::lobe::Distribution;
     let mut m = selected;
     let h = m.haze.as_mut()?;

@@ -447,11 +447,7 @@ impl MemberFit {
 
     /// AICc (infinite when n <= k + 1).
     pub fn aicc(&self) -> f64 {
-        let (n, k) = (self.n as f64, self.k() as f64);
-        if n <= k + 1.0 {
-            return f64::INFINITY;
-        }
-        n * (self.ssr / n).max(1e-300).ln() + 2.0 * k + 2.0 * k * (k + 1.0) / (n - k - 1.0)
+        super::select::aicc(self.ssr, self.n, self.k())
     }
 
     /// A parameter's value in natural units (exp of its log coordinate) and its standard

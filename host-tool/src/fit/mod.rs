@@ -130,6 +130,31 @@ fn fit_members(
     out
 }
 
+/// The family's first stage: [`family::default_members`], then the reference members
+/// the decision needs ([`family::needed`]: one component from the selection, or
+/// possibly better than it) until none is. Returns the fits, in the lattice's order,
+/// and every member tried (fitted or not).
+fn stage_one(
+    bases: &GridBases<'_>,
+    residual: Residual,
+    notes: &mut Vec<String>,
+) -> (Vec<MemberFit>, Vec<Member>) {
+    let mut tried = family::default_members();
+    let mut members = fit_members(bases, &tried, residual, notes);
+    loop {
+        let cands = candidates_of_members(bases.data(), &members, residual);
+        let more = family::needed(&members, &cands, &tried);
+        if more.is_empty() {
+            break;
+        }
+        tried.extend(&more);
+        members.extend(fit_members(bases, &more, residual, notes));
+    }
+    let order = family::reference_members();
+    members.sort_by_key(|f| order.iter().position(|&m| m == f.member()));
+    (members, tried)
+}
+
 /// Fits the family and selects a member: the default family (three stages, see
 /// [`family`]) unless [`FitOptions::members`] names exactly the members to fit.
 pub fn fit_family(data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, String> {
@@ -141,16 +166,18 @@ pub fn fit_family(data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, String
     let mut members = Vec::new();
     let mut fits = Vec::new();
     if grid {
-        let stage_a = requested.clone().unwrap_or_else(family::default_members);
         let mut bases = GridBases::new(data, aperture);
-        members = fit_members(&bases, &stage_a, opts.residual, &mut notes);
-        if requested.is_none() {
+        if let Some(listed) = &requested {
+            members = fit_members(&bases, listed, opts.residual, &mut notes);
+        } else {
+            let tried;
+            (members, tried) = stage_one(&bases, opts.residual, &mut notes);
             // Stage two: the selected component set's lobe variants (GGX, smooth k_s).
             let cands = candidates_of_members(data, &members, opts.residual);
             if let Some(best) = Selection::new(&cands, Criterion::Aicc).best() {
                 let more: Vec<Member> = family::variants_of(best.member)
                     .into_iter()
-                    .filter(|m| !stage_a.contains(m))
+                    .filter(|m| !tried.contains(m))
                     .collect();
                 bases.retain_for(&more);
                 members.extend(fit_members(&bases, &more, opts.residual, &mut notes));

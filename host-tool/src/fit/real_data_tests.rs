@@ -314,15 +314,75 @@ fn a_ggx_core_is_told_from_a_beckmann_one() {
 }
 
 fn scatterworks(floor: Option<Floor>) -> FamilyFit {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data/scatterworks-solar-array-532nm.sweep.csv");
     let opts = FitOptions {
         floor,
         ..FitOptions::default()
     };
-    let (data, _) = campaign::read_data(&path, &opts).unwrap();
+    fit_family(&scatterworks_data(&opts), &opts).unwrap()
+}
+
+/// The Scatterworks test sweep, read as `gonio fit` reads it with `opts`.
+fn scatterworks_data(opts: &FitOptions) -> Dataset {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/scatterworks-solar-array-532nm.sweep.csv");
+    let (data, _) = campaign::read_data(&path, opts).unwrap();
     assert_eq!(data.units, crate::sweep_file::BrdfUnits::PerSr);
-    fit_family(&data, &opts).unwrap()
+    data
+}
+
+/// Stage one fits only what the decision needs, yet selects (by AICc and by BIC) what
+/// fitting every reference member would: on data without a haze (the member with a
+/// haze and no directional diffuse is then left out), on Torrance–Sparrow data (it is
+/// torrance-sparrow's neighbour), on two lobes without the directional diffuse and on
+/// the Scatterworks metal (it is the answer's component set).
+#[test]
+fn stage_one_selects_what_fitting_every_reference_member_would() {
+    use brdf_core::{Model, Preset};
+    let fe = Preset::by_name("fe-0.115").unwrap();
+    let paper = |m: &dyn Fn(f64) -> Model<f64>| {
+        Dataset::from_rows(&data::synthetic_paper_sweep(m, 0.005, 3), true).unwrap()
+    };
+    let two = rows_of(
+        &[20.0, 40.0, 60.0],
+        |ti, tr| model_value(&two_lobes(ti), ti, tr),
+        0.01,
+        5,
+    );
+    let cases = [
+        ("fe-0.115", paper(&|ti| fe.model(ti).unwrap()), false),
+        (
+            "torrance-sparrow",
+            paper(&|ti| Model::torrance_sparrow(100.0 + 2.0 * ti, 0.1, 12.0).unwrap()),
+            true,
+        ),
+        ("two lobes", Dataset::from_rows(&two, true).unwrap(), true),
+        (
+            "scatterworks",
+            scatterworks_data(&FitOptions::default()),
+            true,
+        ),
+    ];
+    let deferred = Member::parse("specular:beckmann+specular-haze:beckmann+ideal-diffuse").unwrap();
+    assert!(!family::default_members().contains(&deferred));
+    for (name, data, fits_deferred) in cases {
+        let bases = GridBases::new(&data, None);
+        let mut notes = Vec::new();
+        let (some, tried) = stage_one(&bases, Residual::Log, &mut notes);
+        let every = fit_members(
+            &bases,
+            &family::reference_members(),
+            Residual::Log,
+            &mut notes,
+        );
+        assert_eq!(tried.contains(&deferred), fits_deferred, "{name}");
+        assert!(some.len() < every.len() || fits_deferred, "{name}");
+        let some = candidates_of_members(&data, &some, Residual::Log);
+        let every = candidates_of_members(&data, &every, Residual::Log);
+        for crit in Criterion::ALL {
+            let best = |c: &[Candidate]| Selection::new(c, crit).best().map(|b| b.member);
+            assert_eq!(best(&some), best(&every), "{name}, {}", crit.name());
+        }
+    }
 }
 
 #[test]

@@ -209,10 +209,20 @@ impl Candidate {
     }
 }
 
-/// BIC from the sum of squares.
+/// BIC from the sum of squares `ssr` of `n` readings and `k` free parameters.
 pub fn bic(ssr: f64, n: usize, k: usize) -> f64 {
     let (n, k) = (n as f64, k as f64);
     n * (ssr / n).max(1e-300).ln() + k * n.ln()
+}
+
+/// AICc (Akaike's criterion with the small-sample correction) from the sum of squares
+/// `ssr` of `n` readings and `k` free parameters; infinite when n <= k + 1.
+pub fn aicc(ssr: f64, n: usize, k: usize) -> f64 {
+    let (n, k) = (n as f64, k as f64);
+    if n <= k + 1.0 {
+        return f64::INFINITY;
+    }
+    n * (ssr / n).max(1e-300).ln() + 2.0 * k + 2.0 * k * (k + 1.0) / (n - k - 1.0)
 }
 
 /// The criterion selection ranks by.
@@ -225,10 +235,23 @@ pub enum Criterion {
 }
 
 impl Criterion {
-    fn of(self, c: &Candidate) -> f64 {
+    /// Both criteria, the selection's first.
+    pub const ALL: [Criterion; 2] = [Criterion::Aicc, Criterion::Bic];
+
+    /// The criterion of a candidate.
+    pub fn of(self, c: &Candidate) -> f64 {
         match self {
             Criterion::Aicc => c.aicc,
             Criterion::Bic => c.bic,
+        }
+    }
+
+    /// The criterion of a fit with sum of squares `ssr`, `n` readings and `k` free
+    /// parameters.
+    pub fn of_ssr(self, ssr: f64, n: usize, k: usize) -> f64 {
+        match self {
+            Criterion::Aicc => aicc(ssr, n, k),
+            Criterion::Bic => bic(ssr, n, k),
         }
     }
 

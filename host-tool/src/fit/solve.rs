@@ -126,17 +126,12 @@ impl Fit {
 
     /// Akaike's criterion with the small-sample correction (infinite when n <= k + 1).
     pub fn aicc(&self) -> f64 {
-        let (n, k) = (self.n as f64, self.k() as f64);
-        if n <= k + 1.0 {
-            return f64::INFINITY;
-        }
-        n * (self.ssr / n).max(1e-300).ln() + 2.0 * k + 2.0 * k * (k + 1.0) / (n - k - 1.0)
+        super::select::aicc(self.ssr, self.n, self.k())
     }
 
     /// Bayesian information criterion.
     pub fn bic(&self) -> f64 {
-        let (n, k) = (self.n as f64, self.k() as f64);
-        n * (self.ssr / n).max(1e-300).ln() + k * n.ln()
+        super::select::bic(self.ssr, self.n, self.k())
     }
 
     /// k_s at any incidence (degrees): the smooth model's curve, or for per-angle

@@ -130,6 +130,37 @@ fn fit_members(
     out
 }
 
+/// The members fitted so far, each with its candidate (its goodness computed once,
+/// however often the stages select).
+#[derive(Default)]
+struct Fitted {
+    members: Vec<MemberFit>,
+    cands: Vec<Candidate>,
+}
+
+impl Fitted {
+    /// Fits `members` (in parallel) and adds those that could be fitted.
+    fn add(
+        &mut self,
+        bases: &GridBases<'_>,
+        members: &[Member],
+        residual: Residual,
+        notes: &mut Vec<String>,
+    ) {
+        let new = fit_members(bases, members, residual, notes);
+        self.cands
+            .extend(candidates_of_members(bases.data(), &new, residual));
+        self.members.extend(new);
+    }
+
+    /// The member selected by AICc so far.
+    fn best(&self) -> Option<Member> {
+        Selection::new(&self.cands, Criterion::Aicc)
+            .best()
+            .map(|c| c.member)
+    }
+}
+
 /// The family's first stage: [`family::default_members`], then the reference members
 /// the decision needs ([`family::needed`]: one component from the selection, or
 /// possibly better than it) until none is. Returns the fits, in the lattice's order,
@@ -138,21 +169,24 @@ fn stage_one(
     bases: &GridBases<'_>,
     residual: Residual,
     notes: &mut Vec<String>,
-) -> (Vec<MemberFit>, Vec<Member>) {
+) -> (Fitted, Vec<Member>) {
     let mut tried = family::default_members();
-    let mut members = fit_members(bases, &tried, residual, notes);
+    let mut fitted = Fitted::default();
+    fitted.add(bases, &tried, residual, notes);
     loop {
-        let cands = candidates_of_members(bases.data(), &members, residual);
-        let more = family::needed(&members, &cands, &tried);
+        let more = family::needed(&fitted.members, &fitted.cands, &tried);
         if more.is_empty() {
             break;
         }
         tried.extend(&more);
-        members.extend(fit_members(bases, &more, residual, notes));
+        fitted.add(bases, &more, residual, notes);
     }
     let order = family::reference_members();
-    members.sort_by_key(|f| order.iter().position(|&m| m == f.member()));
-    (members, tried)
+    let mut both: Vec<(MemberFit, Candidate)> =
+        fitted.members.into_iter().zip(fitted.cands).collect();
+    both.sort_by_key(|(f, _)| order.iter().position(|&m| m == f.member()));
+    let (members, cands) = both.into_iter().unzip();
+    (Fitted { members, cands }, tried)
 }
 
 /// Fits the family and selects a member: the default family (three stages, see
@@ -163,38 +197,35 @@ pub fn fit_family(data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, String
     let requested: Option<Vec<Member>> = opts.members.clone();
     let grid = opts.loss == Loss::L2 && opts.fixed == Fixed::default();
     let mut notes = Vec::new();
-    let mut members = Vec::new();
+    let mut fitted = Fitted::default();
     let mut fits = Vec::new();
     if grid {
         let mut bases = GridBases::new(data, aperture);
         if let Some(listed) = &requested {
-            members = fit_members(&bases, listed, opts.residual, &mut notes);
+            fitted.add(&bases, listed, opts.residual, &mut notes);
         } else {
             let tried;
-            (members, tried) = stage_one(&bases, opts.residual, &mut notes);
+            (fitted, tried) = stage_one(&bases, opts.residual, &mut notes);
             // Stage two: the selected component set's lobe variants (GGX, smooth k_s).
-            let cands = candidates_of_members(data, &members, opts.residual);
-            if let Some(best) = Selection::new(&cands, Criterion::Aicc).best() {
-                let more: Vec<Member> = family::variants_of(best.member)
+            if let Some(best) = fitted.best() {
+                let more: Vec<Member> = family::variants_of(best)
                     .into_iter()
                     .filter(|m| !tried.contains(m))
                     .collect();
                 bases.retain_for(&more);
-                members.extend(fit_members(&bases, &more, opts.residual, &mut notes));
+                fitted.add(&bases, &more, opts.residual, &mut notes);
             }
             // Stage three: the selected member's haze with the other distribution.
-            let cands = candidates_of_members(data, &members, opts.residual);
-            if let Some(best) = Selection::new(&cands, Criterion::Aicc).best()
-                && let Some(m) = family::haze_variant_of(best.member)
-                && !members.iter().any(|f| f.member() == m)
+            if let Some(m) = fitted.best().and_then(family::haze_variant_of)
+                && !fitted.members.iter().any(|f| f.member() == m)
             {
                 bases.retain_for(&[m]);
-                members.extend(fit_members(&bases, &[m], opts.residual, &mut notes));
+                fitted.add(&bases, &[m], opts.residual, &mut notes);
             }
         }
         fits = Kind::ALL
             .iter()
-            .filter_map(|k| members.iter().find(|f| f.member() == k.member()))
+            .filter_map(|k| fitted.members.iter().find(|f| f.member() == k.member()))
             .filter_map(paper::to_fit)
             .collect();
     } else {
@@ -225,6 +256,10 @@ pub fn fit_family(data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, String
         }
     }
     let fit_seconds = t0.elapsed().as_secs_f64();
+    let Fitted {
+        members,
+        cands: member_cands,
+    } = fitted;
     let candidates: Vec<Candidate> = if members.is_empty() {
         fits.iter()
             .map(|f| {
@@ -234,7 +269,7 @@ pub fn fit_family(data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, String
             })
             .collect()
     } else {
-        candidates_of_members(data, &members, opts.residual)
+        member_cands
     };
     let sel = Selection::new(&candidates, Criterion::Aicc);
     let selected_member = sel

@@ -375,8 +375,8 @@ fn stage_one_selects_what_fitting_every_reference_member_would() {
             &mut notes,
         );
         assert_eq!(tried.contains(&deferred), fits_deferred, "{name}");
-        assert!(some.len() < every.len() || fits_deferred, "{name}");
-        let some = candidates_of_members(&data, &some, Residual::Log);
+        assert!(some.members.len() < every.len() || fits_deferred, "{name}");
+        let some = some.cands;
         let every = candidates_of_members(&data, &every, Residual::Log);
         for crit in Criterion::ALL {
             let best = |c: &[Candidate]| Selection::new(c, crit).best().map(|b| b.member);

@@ -422,6 +422,45 @@ impl RowSink for Normal {
     }
 }
 
+/// In-place inverse of a row-major symmetric `n x n` matrix, n = 1 or 2, in closed form.
+/// False unless it is positive definite (the same test as [`cholesky`]'s pivots: a > 0
+/// and a c - b^2 > 0, finite).
+#[inline(always)]
+fn invert_small(m: &mut [f64], n: usize) -> bool {
+    let a = m[0];
+    if !(a > 0.0 && a.is_finite()) {
+        return false;
+    }
+    if n == 1 {
+        m[0] = 1.0 / a;
+        return true;
+    }
+    // The lower off-diagonal, as the Cholesky factor reads it.
+    let (b, c) = (m[2], m[3]);
+    let det = a * c - b * b;
+    if !(det > 0.0 && det.is_finite()) {
+        return false;
+    }
+    let inv = 1.0 / det;
+    m[0] = c * inv;
+    m[1] = -b * inv;
+    m[2] = -b * inv;
+    m[3] = a * inv;
+    true
+}
+
+/// `b = M^-1 b` with the inverse from [`invert_small`].
+#[inline(always)]
+fn apply_small(inv: &[f64], n: usize, b: &mut [f64]) {
+    if n == 1 {
+        b[0] *= inv[0];
+    } else {
+        let (x, y) = (b[0], b[1]);
+        b[0] = inv[0] * x + inv[1] * y;
+        b[1] = inv[2] * x + inv[3] * y;
+    }
+}
+
 /// In-place Cholesky of a row-major `n x n` symmetric positive definite matrix (lower
 /// triangle overwritten by L). False when a pivot is not positive.
 #[inline(always)]
@@ -547,9 +586,23 @@ fn damped_body(
         for l in 0..nl {
             m[l * nl + l] += lambda * d[lo + l];
         }
-        if !cholesky(m, nl) {
+        // The members' blocks (1 or 2 locals) are inverted in closed form: one division
+        // and no square root, where a Cholesky factor's solves are chains of them.
+        let small = nl <= 2;
+        if !(if small {
+            invert_small(m, nl)
+        } else {
+            cholesky(m, nl)
+        }) {
             return false;
         }
+        let solve = |m: &[f64], b: &mut [f64]| {
+            if small {
+                apply_small(m, nl, b)
+            } else {
+                cholesky_solve(m, nl, b)
+            }
+        };
         // Y = M^-1 W^T, column by column (one column per global).
         let y = &mut ws.y[ls * ng..(ls + nl) * ng];
         for a in 0..ng {
@@ -557,7 +610,7 @@ fn damped_body(
             for l in 0..nl {
                 col[l] = n.w[wb + a * nl + l];
             }
-            cholesky_solve(m, nl, col);
+            solve(m, col);
             for l in 0..nl {
                 y[l * ng + a] = col[l];
             }
@@ -566,7 +619,7 @@ fn damped_body(
         for l in 0..nl {
             yl[l] = -n.g[lo + l];
         }
-        cholesky_solve(m, nl, yl);
+        solve(m, yl);
         // S -= W Y, rhs -= W yl.
         for a in 0..ng {
             let wa = &n.w[wb + a * nl..wb + a * nl + nl];
@@ -940,6 +993,29 @@ mod tests {
                     (DVector::from_vec(x.clone()).transpose() * &jtj * DVector::from_vec(x))[0];
                 assert!((q - qd).abs() < 1e-10 * qd.abs().max(1.0));
             }
+        }
+    }
+
+    #[test]
+    fn a_singular_local_block_fails_undamped_and_solves_damped() {
+        // Two equal local columns (a singular 2x2 block; 1x1 blocks with a zero column
+        // beside it): no undamped step, as the Cholesky factor's pivot test said.
+        for locals in [&[2usize, 2][..], &[1, 1]] {
+            let mut n = Normal::new(Shape::new(1, locals.iter().copied()));
+            for k in 0..4 {
+                let t = k as f64;
+                let jl: Vec<f64> = match locals[0] {
+                    2 => vec![1.0 + t, 1.0 + t],
+                    _ => vec![0.0],
+                };
+                n.row(0, 0.1 * t, &[1.0], &jl);
+                n.row(1, -0.2 * t, &[0.5], &[1.0, 2.0][..locals[1]]);
+            }
+            let d = vec![1.0; n.shape().n_params()];
+            let mut x = vec![0.0; d.len()];
+            let mut ws = Workspace::default();
+            assert!(!solve_damped(&n, &d, 0.0, &mut ws, &mut x), "{locals:?}");
+            assert!(solve_damped(&n, &d, 1e-3, &mut ws, &mut x), "{locals:?}");
         }
     }
 

@@ -13,7 +13,7 @@
 use nalgebra::{DMatrix, SymmetricEigen};
 
 /// The column layout of an arrow problem.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, PartialEq)]
 pub struct Shape {
     n_global: usize,
     /// Cumulative local column counts: group k's locals are parameters
@@ -21,6 +21,47 @@ pub struct Shape {
     local_start: Vec<usize>,
     /// Offset of group k's `n_local^2` block in the local-block storage.
     v_start: Vec<usize>,
+}
+
+// `clone_from` field by field: the grid's active set and LM's held steps copy normal
+// equations into a scratch copy again and again, and the derived `clone_from` would
+// allocate each copy afresh (megabytes at 50,000 incidences).
+impl Clone for Shape {
+    fn clone(&self) -> Self {
+        Shape {
+            n_global: self.n_global,
+            local_start: self.local_start.clone(),
+            v_start: self.v_start.clone(),
+        }
+    }
+
+    fn clone_from(&mut self, o: &Self) {
+        self.n_global = o.n_global;
+        self.local_start.clone_from(&o.local_start);
+        self.v_start.clone_from(&o.v_start);
+    }
+}
+
+impl Clone for Normal {
+    fn clone(&self) -> Self {
+        Normal {
+            shape: self.shape.clone(),
+            u: self.u.clone(),
+            w: self.w.clone(),
+            v: self.v.clone(),
+            g: self.g.clone(),
+            cost: self.cost,
+        }
+    }
+
+    fn clone_from(&mut self, o: &Self) {
+        self.shape.clone_from(&o.shape);
+        self.u.clone_from(&o.u);
+        self.w.clone_from(&o.w);
+        self.v.clone_from(&o.v);
+        self.g.clone_from(&o.g);
+        self.cost = o.cost;
+    }
 }
 
 impl Shape {
@@ -125,7 +166,7 @@ pub trait RowSink {
 }
 
 /// `J^T J`, `J^T r` and `r^T r`, accumulated row by row in arrow form.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct Normal {
     shape: Shape,
     /// Global block, row-major `n_global x n_global`: only the upper triangle (column

@@ -203,9 +203,14 @@ pub fn minimize<P: ArrowProblem>(p: &mut P, x0: &[f64], opts: &LmOptions) -> LmR
     let mut diag = normal.diagonal();
     let mut d = vec![0.0; np];
     update_scale(&mut d, &diag);
-    let scale =
-        |d: &[f64]| -> Vec<f64> { d.iter().map(|&v| if v > 0.0 { v } else { 1.0 }).collect() };
-    let mut dscale = scale(&d);
+    // Into the same storage at every accepted step (np entries: 50,000 incidences'
+    // worth would be allocated and freed twice a step).
+    let scale = |d: &[f64], out: &mut Vec<f64>| {
+        out.clear();
+        out.extend(d.iter().map(|&v| if v > 0.0 { v } else { 1.0 }));
+    };
+    let mut dscale = Vec::with_capacity(np);
+    scale(&d, &mut dscale);
     let mut lambda = 1e-3;
     let mut nu = 2.0;
     let mut ws = Workspace::default();
@@ -284,9 +289,9 @@ pub fn minimize<P: ArrowProblem>(p: &mut P, x0: &[f64], opts: &LmOptions) -> LmR
             x.copy_from_slice(&trial);
             std::mem::swap(&mut normal, &mut trial_normal);
             cost = normal.cost();
-            diag = normal.diagonal();
+            normal.diagonal_into(&mut diag);
             update_scale(&mut d, &diag);
-            dscale = scale(&d);
+            scale(&d, &mut dscale);
             lambda *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
             lambda = lambda.max(1e-300);
             nu = 2.0;

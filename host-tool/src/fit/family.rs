@@ -339,7 +339,9 @@ fn apart(a: Member, b: Member) -> usize {
 /// has is on there) fits no better than that member, so its criterion is at least the
 /// one of that member's sum of squares with its own parameter count; a member nested in
 /// none is needed. Fitting what this returns until it returns nothing selects the
-/// member that fitting every reference member would (the tests check it).
+/// member that fitting every reference member would, as far as each fit reaches its
+/// optimum (the bound assumes the larger member's fit did; the tests check it on four
+/// kinds of data).
 pub fn needed(fits: &[MemberFit], cands: &[Candidate], tried: &[Member]) -> Vec<Member> {
     let Some(first) = fits.first() else {
         return Vec::new();

@@ -1119,28 +1119,36 @@ fn fit_member_keeping(
         pinned: vec![false; layout.len()],
     };
     let mut best: Option<(f64, Vec<f64>, bool)> = None;
-    // The log widths (core, haze, sigma_m) of every optimum reached so far.
-    let mut optima: Vec<[f64; 3]> = Vec::new();
+    // The log widths (core, haze, sigma_m) and the cost of every optimum reached so far.
+    let mut optima: Vec<([f64; 3], f64)> = Vec::new();
     let steps = [
         grid_step(&core_w),
         grid_step(&haze_w),
         grid_step(&SIGMA_M_GRID),
     ];
+    let on = [
+        member.core.is_some(),
+        member.haze.is_some(),
+        member.directional,
+    ];
+    let widths = |x: &[f64]| {
+        [
+            layout.sigma.map_or(0.0, |i| x[i]),
+            layout.ln_sigma_haze(x).unwrap_or(0.0),
+            layout.sigma_m.map_or(0.0, |i| x[i]),
+        ]
+    };
+    // Widths within BASIN grid steps of an optimum already reached (in every width the
+    // member has) lie in that optimum's basin: LM from there would only find it again.
+    let in_basin = |optima: &[([f64; 3], f64)], at: [f64; 3], cost: f64| {
+        optima.iter().any(|(o, c)| {
+            cost >= *c && (0..3).all(|d| !on[d] || (at[d] - o[d]).abs() <= BASIN * steps[d])
+        })
+    };
     for k in starts.into_iter().take(REFINED) {
         let (ci, hi, si) = (k / (nh * nd), (k / nd) % nh, k % nd);
         let at = [core_w[ci].ln(), haze_w[hi].ln(), SIGMA_M_GRID[si].ln()];
-        let on = [
-            member.core.is_some(),
-            member.haze.is_some(),
-            member.directional,
-        ];
-        // A start within BASIN grid steps of an optimum already reached (in every
-        // width the member has) lies in that optimum's basin: LM would only find it
-        // again.
-        let explored = optima
-            .iter()
-            .any(|o| (0..3).all(|d| !on[d] || (at[d] - o[d]).abs() <= BASIN * steps[d]));
-        if explored {
+        if in_basin(&optima, at, f64::INFINITY) {
             continue;
         }
         let Some(pt) = point(ci, hi, si) else {
@@ -1163,14 +1171,13 @@ fn fit_member_keeping(
             continue;
         };
         p.pinned = pinned;
-        let Some((c, x, converged)) = refine(&mut p, x0, &lm) else {
+        // The same test between LM's rounds: a start whose path has come into the basin
+        // of an optimum already reached, no lower than it, is left there.
+        let explored = |x: &[f64], cost: f64| in_basin(&optima, widths(x), cost);
+        let Some((c, x, converged)) = refine(&mut p, x0, &lm, &explored) else {
             continue;
         };
-        optima.push([
-            layout.sigma.map_or(0.0, |i| x[i]),
-            layout.ln_sigma_haze(&x).unwrap_or(0.0),
-            layout.sigma_m.map_or(0.0, |i| x[i]),
-        ]);
+        optima.push((widths(&x), c));
         if best.as_ref().is_none_or(|b| c < b.0) {
             best = Some((c, x, converged));
         }
@@ -1333,10 +1340,17 @@ fn point_cost(
 /// pinned amplitude whose release would lower the cost by more than [`RELEASE_GAIN`]
 /// (relative, a one-dimensional Gauss–Newton estimate) is released, started at that
 /// estimate, and LM run again: the result satisfies the bound's optimality condition
-/// to that tolerance. Returns the cost, the optimum and whether LM converged.
+/// to that tolerance. Returns the cost, the optimum and whether LM converged; `None`
+/// when the start failed, or when between two rounds `explored` says the point reached
+/// (its cost given) lies in the basin of an optimum already found.
 // x, the pins and the bounds are parallel arrays indexed together.
 #[allow(clippy::needless_range_loop)]
-fn refine(p: &mut Problem<'_>, x0: Vec<f64>, lm: &LmOptions) -> Option<(f64, Vec<f64>, bool)> {
+fn refine(
+    p: &mut Problem<'_>,
+    x0: Vec<f64>,
+    lm: &LmOptions,
+    explored: &dyn Fn(&[f64], f64) -> bool,
+) -> Option<(f64, Vec<f64>, bool)> {
     let mut x = x0;
     let mut probe = true;
     for _ in 0..6 {
@@ -1353,6 +1367,9 @@ fn refine(p: &mut Problem<'_>, x0: Vec<f64>, lm: &LmOptions) -> Option<(f64, Vec
             return None;
         }
         if probe && rep.termination == Termination::MaxIterations {
+            if explored(&rep.x, rep.cost) {
+                return None;
+            }
             probe = false;
             let l = &p.layout;
             for i in 0..x.len() {
@@ -1390,6 +1407,9 @@ fn refine(p: &mut Problem<'_>, x0: Vec<f64>, lm: &LmOptions) -> Option<(f64, Vec
         }
         if !released {
             return Some((rep.cost, x, rep.termination.converged()));
+        }
+        if explored(&x, rep.cost) {
+            return None;
         }
         probe = false;
     }

@@ -20,7 +20,6 @@ use brdf_core::member_model::{
 };
 use nalgebra::{DMatrix, DVector};
 
-use std::cell::RefCell;
 use std::sync::OnceLock;
 
 use super::arrow::{ArrowInverse, Normal, RowSink, Shape, Workspace};
@@ -1198,18 +1197,12 @@ fn finish(p: &mut Problem<'_>, x: Vec<f64>, ssr: f64, converged: bool) -> Option
     let n = data.obs.len();
     let cov = ArrowInverse::new(&normal).scaled(ssr / (n - layout.len()) as f64);
     let identifiable = cov.identifiable().to_vec();
-    // The paper's RMSE compares the surface's model (point values) with the readings.
-    // It visits the incidences in turn: one incidence's model at a time (the list of
-    // all was the largest allocation of a fit of 50,000 incidences, 16 MB); the row
-    // pass above built every one of them, so none fails here.
-    let current: RefCell<Option<(usize, MemberModel<f64>)>> = RefCell::new(None);
-    let (rmse_by_inc, rmse) = paper_rmse_with(data, |j, g: &Geometry<f64>| {
-        let mut c = current.borrow_mut();
-        if c.as_ref().is_none_or(|(k, _)| *k != j) {
-            *c = Some((j, layout.model(&x, j)?));
-        }
-        let (_, m) = c.as_ref()?;
-        m.eval(data.incidences[j], g).ok().map(|e| e.f)
+    // The paper's RMSE compares the surface's model (point values) with the readings,
+    // one incidence's model at a time (the list of all was the largest allocation of a
+    // fit of 50,000 incidences, 16 MB); the row pass above built every one of them.
+    let (rmse_by_inc, rmse) = paper_rmse_with(data, |j| {
+        let (ti, m) = (data.incidences[j], layout.model(&x, j)?);
+        Some(move |g: &Geometry<f64>| m.eval(ti, g).ok().map(|e| e.f))
     });
     Some(MemberFit {
         layout,

@@ -662,16 +662,18 @@ fn finish(
 /// an incidence has no reading exactly there, both are normalised at the reading
 /// nearest to it ([`Dataset::specular_reference`]). One pass over the readings.
 pub fn paper_rmse(data: &Dataset, kind: Kind, v: &Values) -> (Vec<Option<f64>>, Option<f64>) {
-    paper_rmse_with(data, |j, g| {
-        v.model(kind, j).and_then(|m| m.eval(g).ok()).map(|e| e.f)
+    paper_rmse_with(data, |j| {
+        let m = v.model(kind, j)?;
+        Some(move |g: &Geometry<f64>| m.eval(g).ok().map(|e| e.f))
     })
 }
 
-/// [`paper_rmse`] for any model: `f(j, geometry)` is the model's value at incidence
-/// `j` (None when it cannot be evaluated).
-pub fn paper_rmse_with(
+/// [`paper_rmse`] for any model: `model_at(j)` gives incidence `j`'s model as its value
+/// at a geometry (None when it cannot be built or evaluated); it is asked once per
+/// incidence, so one model is held at a time.
+pub fn paper_rmse_with<F: Fn(&Geometry<f64>) -> Option<f64>>(
     data: &Dataset,
-    f: impl Fn(usize, &Geometry<f64>) -> Option<f64>,
+    mut model_at: impl FnMut(usize) -> Option<F>,
 ) -> (Vec<Option<f64>>, Option<f64>) {
     let mut per = Vec::with_capacity(data.incidences.len());
     let (mut sum, mut count) = (0.0, 0usize);
@@ -681,14 +683,18 @@ pub fn paper_rmse_with(
             continue;
         };
         let y_ref = data.obs[r].y;
-        let Some(f_ref) = f(j, &data.obs[r].geom) else {
+        let Some(f) = model_at(j) else {
+            per.push(None);
+            continue;
+        };
+        let Some(f_ref) = f(&data.obs[r].geom) else {
             per.push(None);
             continue;
         };
         let (mut s, mut c) = (0.0, 0usize);
         for &k in data.rows_of(j) {
             let o = &data.obs[k];
-            let fk = f(j, &o.geom).unwrap_or(f64::NAN);
+            let fk = f(&o.geom).unwrap_or(f64::NAN);
             let d = o.y / y_ref - fk / f_ref;
             s += d * d;
             c += 1;

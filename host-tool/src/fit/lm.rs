@@ -61,6 +61,8 @@ pub enum Termination {
     NoProgress,
     /// The model cannot be evaluated at the start.
     Failed,
+    /// The caller's test stopped it ([`minimize_until`]).
+    Stopped,
 }
 
 impl Termination {
@@ -221,6 +223,17 @@ fn bounded_step<P: ArrowProblem>(
 
 /// Minimises the sum of squared residuals of `p` from `x0`.
 pub fn minimize<P: ArrowProblem>(p: &mut P, x0: &[f64], opts: &LmOptions) -> LmReport {
+    minimize_until(p, x0, opts, &mut |_, _| false)
+}
+
+/// [`minimize`], stopped ([`Termination::Stopped`]) as soon as `stop` says so of the
+/// point and cost an accepted step reached.
+pub fn minimize_until<P: ArrowProblem>(
+    p: &mut P,
+    x0: &[f64],
+    opts: &LmOptions,
+    stop: &mut dyn FnMut(&[f64], f64) -> bool,
+) -> LmReport {
     let shape = p.shape().clone();
     let np = shape.n_params();
     let mut x = x0.to_vec();
@@ -332,6 +345,10 @@ pub fn minimize<P: ArrowProblem>(p: &mut P, x0: &[f64], opts: &LmOptions) -> LmR
             lambda *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
             lambda = lambda.max(1e-300);
             nu = 2.0;
+            if stop(&x, cost) {
+                termination = Termination::Stopped;
+                break;
+            }
             if actual <= opts.ftol * old && predicted <= opts.ftol * old && rho <= 2.0 {
                 termination = Termination::Cost;
                 break;
@@ -550,5 +567,22 @@ mod tests {
         assert_eq!(rep.x[0], 0.2);
         assert!((rep.x[1] - 21.8 / 101.0).abs() < 1e-9, "{:?}", rep.x);
         assert!(rep.evaluations <= 5, "{} passes", rep.evaluations);
+    }
+
+    #[test]
+    fn the_callers_test_stops_lm_at_the_first_accepted_step_it_accepts() {
+        let (mut p, _) = decay(0.0);
+        let x0 = [3.0, -1.0, 0.1, 0.1, 0.1];
+        let start = p.cost(&x0).unwrap();
+        let mut seen = 0;
+        let rep = minimize_until(&mut p, &x0, &LmOptions::default(), &mut |_, c| {
+            seen += 1;
+            c < start / 10.0
+        });
+        assert_eq!(rep.termination, Termination::Stopped);
+        assert!(!rep.termination.converged());
+        assert!(rep.cost < start / 10.0 && rep.cost > 1e-20, "{}", rep.cost);
+        assert_eq!(p.cost(&rep.x).unwrap(), rep.cost);
+        assert!(seen >= 1 && seen < rep.iterations + 1);
     }
 }

@@ -24,7 +24,7 @@ use std::sync::OnceLock;
 
 use super::arrow::{ArrowInverse, Normal, RowSink, Shape, Workspace};
 use super::data::{Dataset, Observation};
-use super::lm::{ArrowProblem, LmOptions, Termination, minimize};
+use super::lm::{ArrowProblem, LmOptions, Termination, minimize, minimize_until};
 use super::solve::{Residual, paper_rmse_with, residual_of, solve_linear_into};
 
 /// Core-lobe widths of the grid: log-spaced, sigma 0.002..1.
@@ -1170,8 +1170,9 @@ fn fit_member_keeping(
             continue;
         };
         p.pinned = pinned;
-        // The same test between LM's rounds: a start whose path has come into the basin
-        // of an optimum already reached, no lower than it, is left there.
+        // The same test after each accepted LM step and between rounds: a start whose
+        // path has come into the basin of an optimum already reached, no lower than
+        // it, is left there.
         let explored = |x: &[f64], cost: f64| in_basin(&optima, widths(x), cost);
         let Some((c, x, converged)) = refine(&mut p, x0, &lm, &explored) else {
             continue;
@@ -1334,8 +1335,9 @@ fn point_cost(
 /// (relative, a one-dimensional Gauss–Newton estimate) is released, started at that
 /// estimate, and LM run again: the result satisfies the bound's optimality condition
 /// to that tolerance. Returns the cost, the optimum and whether LM converged; `None`
-/// when the start failed, or when between two rounds `explored` says the point reached
-/// (its cost given) lies in the basin of an optimum already found.
+/// when the start failed, or when after an accepted LM step or between two rounds
+/// `explored` says the point reached (its cost given) lies in the basin of an optimum
+/// already found.
 // x, the pins and the bounds are parallel arrays indexed together.
 #[allow(clippy::needless_range_loop)]
 fn refine(
@@ -1355,8 +1357,10 @@ fn refine(
             },
             ..*lm
         };
-        let rep = minimize(p, &x, &opts);
-        if !rep.cost.is_finite() {
+        // The basin test after every accepted step too: a path that has come into a
+        // known optimum's basin ends there.
+        let rep = minimize_until(p, &x, &opts, &mut |x, c| explored(x, c));
+        if !rep.cost.is_finite() || rep.termination == Termination::Stopped {
             return None;
         }
         if probe && rep.termination == Termination::MaxIterations {

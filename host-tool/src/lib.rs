@@ -13,8 +13,8 @@
 //! | [`plot`] | PNG and SVG figures of a fit against its data |
 //! | [`bench`] | evaluation variants, the slower studies, their tables and chart |
 //! | [`outfile`] | the one way an output file is written: checked target, private temporary file, sync, rename |
-//! | [`text`] | one escaped, bounded line for messages quoting input ([`text::escape_line`]) |
 //! | [`flash`] | flashing the firmware through a debug probe (probe-rs) |
+//! | [`memory`] | the process's resident memory: freed memory given back to the system |
 //! | [`text`] | device and file text made safe to print: control characters escaped, length bounded |
 //! | `testing` | test support (feature `testing`): link fault injection, a faulty connector, shared assertions |
 //!
@@ -31,6 +31,7 @@ pub mod export;
 pub mod fit;
 pub mod flash;
 pub mod import;
+pub mod memory;
 pub mod outfile;
 pub mod plot;
 pub mod sweep_file;

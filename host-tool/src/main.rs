@@ -63,27 +63,8 @@ fn run(cli: Cli) -> CliResult {
 /// Characters of a command-line error shown (clap's message quotes the value given).
 const MAX_CLAP_MESSAGE: usize = 400;
 
-/// Buffers from this size up are mapped on their own and returned to the system when
-/// freed (glibc's default threshold rises to 32 MB as large buffers are freed, and its
-/// per-thread arenas then keep them: a fit of 100,000 readings over 50,000 incidences
-/// held 207 MB resident for a 140 MB heap, 161 MB with this, 3 % slower; sweeps of a
-/// few thousand readings allocate nothing this large).
-const MMAP_THRESHOLD_BYTES: i32 = 512 * 1024;
-
-/// Sets [`MMAP_THRESHOLD_BYTES`] unless the user set glibc's own
-/// `MALLOC_MMAP_THRESHOLD_`.
-fn bound_resident_memory() {
-    #[cfg(all(target_os = "linux", target_env = "gnu"))]
-    if std::env::var_os("MALLOC_MMAP_THRESHOLD_").is_none() {
-        // SAFETY: mallopt only sets an allocator parameter; called before any thread.
-        unsafe {
-            libc::mallopt(libc::M_MMAP_THRESHOLD, MMAP_THRESHOLD_BYTES);
-        }
-    }
-}
-
 fn main() -> ExitCode {
-    bound_resident_memory();
+    gonio::memory::bound_resident_memory();
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
         Err(e) if !e.use_stderr() => {

@@ -408,6 +408,9 @@ pub fn run(args: &FitArgs) -> CliResult {
             _ => export::write_export(*format, target, &fam, member)?,
         }
     }
+    // The fit's buffers, freed in the workers' arenas, go back before the report
+    // allocates its own.
+    crate::memory::release_freed_memory();
     // Streamed: the JSON of many incidences is tens of MB.
     write_stdout_with(|w| write_report(&fam, args.json, residual, inst, w))
 }

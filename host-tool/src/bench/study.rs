@@ -245,6 +245,9 @@ pub struct ScaleRow {
     pub family_us_per_reading: f64,
     /// Milliseconds for the three-component member alone.
     pub three_ms: f64,
+    /// Milliseconds for the whole family on all of the machine's cores (members, and
+    /// the row passes of sweeps of thousands of readings, on rayon's threads).
+    pub family_all_cores_ms: f64,
 }
 
 /// One member of the default family on the Scatterworks test data: fit time and the
@@ -304,7 +307,7 @@ fn scale_sweep(n_inc: usize, n_det: usize) -> Dataset {
 /// Fit time against readings (9 incidences, 17 to 11,111 detector angles: 153 to
 /// 10^5 readings) and against incidences (17 detector angles, 9 to 900 incidences),
 /// the whole default family and the three-component member, on one core
-/// ([`on_one_thread`]).
+/// ([`on_one_thread`]); and the whole family on all cores.
 pub fn scale_study() -> Result<Vec<ScaleRow>> {
     on_one_thread(scale_study_here).map_err(StudyError::Failed)?
 }
@@ -322,6 +325,10 @@ fn scale_study_here() -> Result<Vec<ScaleRow>> {
         (450, 17),
         (900, 17),
     ];
+    // A pool of one thread per core, for the all-cores column.
+    let all_cores = rayon::ThreadPoolBuilder::new()
+        .build()
+        .map_err(|e| StudyError::Failed(format!("a thread pool: {e}")))?;
     let mut out = Vec::new();
     for (n_inc, n_det) in sizes {
         let data = scale_sweep(n_inc, n_det);
@@ -346,12 +353,18 @@ fn scale_study_here() -> Result<Vec<ScaleRow>> {
         let three_ms = best_ms(reps, || {
             let _ = fit_member(&data, Member::THREE_COMPONENT, Residual::Log, None);
         });
+        let family_all_cores_ms = all_cores.install(|| {
+            best_ms(reps, || {
+                let _ = crate::fit::fit_family(&data, &opts);
+            })
+        });
         out.push(ScaleRow {
             readings: n,
             incidences: data.incidences.len(),
             family_ms,
             family_us_per_reading: family_ms * 1e3 / n as f64,
             three_ms,
+            family_all_cores_ms,
         });
     }
     Ok(out)

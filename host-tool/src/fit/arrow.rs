@@ -204,6 +204,34 @@ impl Normal {
         &self.shape
     }
 
+    /// Normal equations of groups `groups` of `shape` alone (same globals): a part of
+    /// a row pass that [`Normal::absorb`] adds into the whole one.
+    pub fn part(shape: &Shape, groups: std::ops::Range<usize>) -> Self {
+        let sizes = groups.map(|k| shape.n_local(k));
+        Normal::new(Shape::new(shape.n_global, sizes))
+    }
+
+    /// Adds the part `part` (made by [`Normal::part`] for the groups from `first` on)
+    /// into these equations: its globals summed, its groups' blocks copied (no other
+    /// part has rows of them; these equations must hold none either).
+    pub fn absorb(&mut self, part: &Normal, first: usize) {
+        let (s, ps) = (&self.shape, &part.shape);
+        let ng = s.n_global;
+        debug_assert_eq!(ng, ps.n_global);
+        for (a, b) in self.u.iter_mut().zip(&part.u) {
+            *a += b;
+        }
+        for (a, b) in self.g[..ng].iter_mut().zip(&part.g[..ng]) {
+            *a += b;
+        }
+        let (l0, v0) = (s.local_start[first], s.v_start[first]);
+        let (nl, nv) = (ps.local_start[ps.groups()], ps.v_start[ps.groups()]);
+        self.w[ng * l0..ng * (l0 + nl)].copy_from_slice(&part.w);
+        self.v[v0..v0 + nv].copy_from_slice(&part.v);
+        self.g[ng + l0..ng + l0 + nl].copy_from_slice(&part.g[ng..]);
+        self.cost += part.cost;
+    }
+
     /// Resets to zero (keeps the storage).
     pub fn clear(&mut self) {
         self.u.fill(0.0);

@@ -16,6 +16,13 @@ pub trait ArrowProblem {
     /// Streams every row's residual and Jacobian blocks at `x` to `sink`; false where the
     /// model cannot be evaluated.
     fn rows<S: RowSink>(&mut self, x: &[f64], sink: &mut S) -> bool;
+    /// The normal equations at `x` into `out` (cleared first): the pass [`minimize`]
+    /// makes at each trial point. The default streams [`ArrowProblem::rows`]; a
+    /// problem may make it in parts on several threads.
+    fn normal(&mut self, x: &[f64], out: &mut Normal) -> bool {
+        out.clear();
+        self.rows(x, out)
+    }
     /// Moves `x` onto the feasible set (box bounds); the default has none.
     fn project(&self, _x: &mut [f64]) {}
 }
@@ -240,7 +247,7 @@ pub fn minimize_until<P: ArrowProblem>(
     p.project(&mut x);
     let mut normal = Normal::new(shape);
     let mut evaluations = 1;
-    if !p.rows(&x, &mut normal) || !normal.cost().is_finite() {
+    if !p.normal(&x, &mut normal) || !normal.cost().is_finite() {
         return LmReport {
             x,
             cost: f64::INFINITY,
@@ -323,9 +330,8 @@ pub fn minimize_until<P: ArrowProblem>(
         // A step the linear model itself says cannot lower the cost (a bound clipped
         // it) is rejected whatever the trial's cost: its row pass is skipped.
         let (actual, rho) = if predicted > 0.0 {
-            trial_normal.clear();
             let new_cost = p
-                .rows(&trial, &mut trial_normal)
+                .normal(&trial, &mut trial_normal)
                 .then(|| trial_normal.cost())
                 .filter(|c| c.is_finite());
             evaluations += 1;

@@ -20,6 +20,7 @@ use brdf_core::member_model::{
 };
 use nalgebra::{DMatrix, DVector};
 
+use rayon::prelude::*;
 use std::sync::OnceLock;
 
 use super::arrow::{ArrowInverse, Normal, RowSink, Shape, Workspace};
@@ -271,6 +272,50 @@ struct Problem<'a> {
     aperture: Option<f64>,
     /// Parameters held where they are (their Jacobian columns zeroed).
     pinned: Vec<bool>,
+    /// The row pass's parts (see [`PART_ROWS`]): each part's incidences and its
+    /// normal equations; empty when the sweep is one part.
+    parts: Vec<(std::ops::Range<usize>, Normal)>,
+}
+
+/// Readings per part of an LM row pass: a sweep of at least two parts has its parts
+/// made on rayon's threads and added in order. The parts depend on the sweep alone, so
+/// the sums (and the fit) are the same on any number of threads; a sweep of the
+/// paper's size (153 readings) is one part, made as before.
+pub const PART_ROWS: usize = 2048;
+
+impl<'a> Problem<'a> {
+    fn new(
+        data: &'a Dataset,
+        layout: Layout,
+        residual: Residual,
+        resid: &'a Residuals,
+        aperture: Option<f64>,
+    ) -> Self {
+        let shape = layout.shape();
+        // Whole incidences, about PART_ROWS readings each.
+        let mut parts = Vec::new();
+        let (mut first, mut rows) = (0, 0);
+        for j in 0..layout.n_inc {
+            rows += data.rows_of(j).len();
+            if rows >= PART_ROWS || j + 1 == layout.n_inc {
+                parts.push((first..j + 1, Normal::part(&shape, first..j + 1)));
+                (first, rows) = (j + 1, 0);
+            }
+        }
+        if parts.len() < 2 {
+            parts.clear();
+        }
+        Problem {
+            data,
+            pinned: vec![false; layout.len()],
+            shape,
+            layout,
+            residual,
+            resid,
+            aperture,
+            parts,
+        }
+    }
 }
 
 /// The model at a reading: the point value, or its average over the detector's
@@ -310,22 +355,9 @@ impl Problem<'_> {
     }
 }
 
-impl ArrowProblem for Problem<'_> {
-    fn shape(&self) -> &Shape {
-        &self.shape
-    }
-
-    fn cost(&mut self, x: &[f64]) -> Option<f64> {
-        let models = self.layout.models(x)?;
-        let mut c = 0.0;
-        for (k, o) in self.data.obs.iter().enumerate() {
-            let r = self.resid.of(self.value(&models[o.inc], o)?, k, o.y);
-            c += r * r;
-        }
-        Some(c)
-    }
-
-    fn rows<S: RowSink>(&mut self, x: &[f64], sink: &mut S) -> bool {
+impl Problem<'_> {
+    /// The rows of incidences `groups`, each given to `sink` under its incidence.
+    fn rows_in<S: RowSink>(&self, x: &[f64], groups: std::ops::Range<usize>, sink: &mut S) -> bool {
         let l = &self.layout;
         let mut jg = vec![0.0; l.n_global];
         let mut jl = [0.0; 2];
@@ -334,7 +366,7 @@ impl ArrowProblem for Problem<'_> {
         // Each incidence's model is built as its rows are: holding them all would be
         // the largest allocation of an LM step on a sweep of thousands of incidences.
         // A model that cannot be built fails the call (the sink is then discarded).
-        for j in 0..l.n_inc {
+        for j in groups {
             let Some(model) = l.model(x, j) else {
                 return false;
             };
@@ -397,6 +429,56 @@ impl ArrowProblem for Problem<'_> {
             }
         }
         true
+    }
+}
+
+/// A sink whose groups are numbered from `.1` (a part of [`Normal::part`]).
+struct Offset<'a>(&'a mut Normal, usize);
+
+impl RowSink for Offset<'_> {
+    #[inline]
+    fn row(&mut self, group: usize, r: f64, jg: &[f64], jl: &[f64]) {
+        self.0.row(group - self.1, r, jg, jl);
+    }
+}
+
+impl ArrowProblem for Problem<'_> {
+    fn shape(&self) -> &Shape {
+        &self.shape
+    }
+
+    fn cost(&mut self, x: &[f64]) -> Option<f64> {
+        let models = self.layout.models(x)?;
+        let mut c = 0.0;
+        for (k, o) in self.data.obs.iter().enumerate() {
+            let r = self.resid.of(self.value(&models[o.inc], o)?, k, o.y);
+            c += r * r;
+        }
+        Some(c)
+    }
+
+    fn rows<S: RowSink>(&mut self, x: &[f64], sink: &mut S) -> bool {
+        self.rows_in(x, 0..self.layout.n_inc, sink)
+    }
+
+    fn normal(&mut self, x: &[f64], out: &mut Normal) -> bool {
+        out.clear();
+        if self.parts.is_empty() {
+            return self.rows_in(x, 0..self.layout.n_inc, out);
+        }
+        let mut parts = std::mem::take(&mut self.parts);
+        let this = &*self;
+        let ok = parts.par_iter_mut().all(|(groups, part)| {
+            part.clear();
+            this.rows_in(x, groups.clone(), &mut Offset(part, groups.start))
+        });
+        if ok {
+            for (groups, part) in &parts {
+                out.absorb(part, groups.start);
+            }
+        }
+        self.parts = parts;
+        ok
     }
 
     fn project(&self, x: &mut [f64]) {
@@ -1108,15 +1190,7 @@ fn fit_member_keeping(
     starts.sort_by(|&a, &b| cost[a].total_cmp(&cost[b]));
     let width = |spec: Option<LobeSpec>, w: &[f64], i: usize| spec.map_or(1.0, |_| w[i]);
     let lm = LmOptions::default();
-    let mut p = Problem {
-        data,
-        shape: layout.shape(),
-        layout: layout.clone(),
-        residual,
-        resid: &resid,
-        aperture,
-        pinned: vec![false; layout.len()],
-    };
+    let mut p = Problem::new(data, layout.clone(), residual, &resid, aperture);
     let mut best: Option<(f64, Vec<f64>, bool)> = None;
     // The log widths (core, haze, sigma_m) and the cost of every optimum reached so far.
     let mut optima: Vec<([f64; 3], f64)> = Vec::new();
@@ -1192,7 +1266,7 @@ fn finish(p: &mut Problem<'_>, x: Vec<f64>, ssr: f64, converged: bool) -> Option
     let (data, layout, aperture) = (p.data, p.layout.clone(), p.aperture);
     p.pinned.fill(false);
     let mut normal = Normal::new(layout.shape());
-    if !p.rows(&x, &mut normal) {
+    if !p.normal(&x, &mut normal) {
         return None;
     }
     let n = data.obs.len();
@@ -1253,15 +1327,7 @@ pub fn fit_member_from(
         return None;
     }
     let resid = Residuals::new(data, residual);
-    let mut p = Problem {
-        data,
-        shape: layout.shape(),
-        pinned: vec![false; layout.len()],
-        layout,
-        residual,
-        resid: &resid,
-        aperture,
-    };
+    let mut p = Problem::new(data, layout, residual, &resid, aperture);
     let rep = minimize(&mut p, x0, &LmOptions::default());
     if !rep.cost.is_finite() {
         return None;
@@ -1388,7 +1454,7 @@ fn refine(
         }
         let pinned = std::mem::replace(&mut p.pinned, vec![false; x.len()]);
         let mut full = Normal::new(p.shape.clone());
-        let ok = p.rows(&x, &mut full);
+        let ok = p.normal(&x, &mut full);
         p.pinned = pinned;
         let mut released = false;
         if ok {

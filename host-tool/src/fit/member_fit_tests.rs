@@ -305,3 +305,59 @@ fn one_lm_refuses_a_start_of_the_wrong_length_or_not_finite() {
     x0[2] = f64::INFINITY;
     assert!(fit_member_from(&data, m, Residual::Log, None, &x0).is_none());
 }
+
+#[test]
+fn a_row_pass_in_parts_equals_the_whole_pass_on_any_number_of_threads() {
+    // 30 incidences x 179 detector angles: 5,370 readings, three parts.
+    let preset = brdf_core::Preset::by_name("fe-0.115").unwrap();
+    let inc: Vec<f64> = (0..30).map(|k| 80.0 * k as f64 / 29.0).collect();
+    let det: Vec<f64> = (0..179).map(|k| -89.0 + k as f64).collect();
+    let rows = crate::fit::data::synthetic_sweep(
+        &inc,
+        |_| det.clone(),
+        |ti| preset.model(ti).unwrap(),
+        0.005,
+        3,
+    );
+    let data = Dataset::from_rows(&rows, true).unwrap();
+    let member =
+        Member::parse("specular:beckmann+specular-haze:beckmann+directional-diffuse+ideal-diffuse")
+            .unwrap();
+    let x = fit_member(&data, member, Residual::Log, None).unwrap().x;
+    let resid = Residuals::new(&data, Residual::Log);
+    let layout = Layout::new(member, data.incidences.len());
+    let mut p = Problem::new(&data, layout.clone(), Residual::Log, &resid, None);
+    assert_eq!(p.parts.len(), 3);
+    let mut whole = Normal::new(layout.shape());
+    assert!(p.rows(&x, &mut whole));
+    let on = |threads: usize, p: &mut Problem<'_>| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let mut n = Normal::new(layout.shape());
+        assert!(pool.install(|| p.normal(&x, &mut n)));
+        n
+    };
+    let (one, two) = (on(1, &mut p), on(2, &mut p));
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * a.abs().max(b.abs()).max(1e-300);
+    assert!(close(one.cost(), whole.cost()));
+    let g = whole.gradient().to_vec();
+    for (i, &gi) in g.iter().enumerate() {
+        // At the optimum the gradient is a cancellation: compared on its own scale.
+        let scale = (whole.diag(i) * whole.cost()).sqrt();
+        assert!(
+            (one.gradient()[i] - gi).abs() <= 1e-12 * scale,
+            "gradient {i}"
+        );
+        assert!(close(one.diag(i), whole.diag(i)), "diagonal {i}");
+    }
+    // The whole matrix through its quadratic form along the gradient.
+    assert!(close(one.quad(&g), whole.quad(&g)));
+    // The parts are the sweep's, not the pool's: the same bits on one thread and two.
+    assert_eq!(one.cost().to_bits(), two.cost().to_bits());
+    for (a, b) in one.gradient().iter().zip(two.gradient()) {
+        assert_eq!(a.to_bits(), b.to_bits());
+    }
+    assert_eq!(one.quad(&g).to_bits(), two.quad(&g).to_bits());
+}

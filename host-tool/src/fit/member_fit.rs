@@ -1191,7 +1191,7 @@ fn fit_member_keeping(
     let width = |spec: Option<LobeSpec>, w: &[f64], i: usize| spec.map_or(1.0, |_| w[i]);
     let lm = LmOptions::default();
     let mut p = Problem::new(data, layout.clone(), residual, &resid, aperture);
-    let mut best: Option<(f64, Vec<f64>, bool)> = None;
+    let mut best: Option<(f64, Vec<f64>, bool, Option<Normal>)> = None;
     // The log widths (core, haze, sigma_m) and the cost of every optimum reached so far.
     let mut optima: Vec<([f64; 3], f64)> = Vec::new();
     let steps = [
@@ -1248,27 +1248,41 @@ fn fit_member_keeping(
         // path has come into the basin of an optimum already reached, no lower than
         // it, is left there.
         let explored = |x: &[f64], cost: f64| in_basin(&optima, widths(x), cost);
-        let Some((c, x, converged)) = refine(&mut p, x0, &lm, &explored) else {
+        let Some((c, x, converged, normal)) = refine(&mut p, x0, &lm, &explored) else {
             continue;
         };
         optima.push((widths(&x), c));
         if best.as_ref().is_none_or(|b| c < b.0) {
-            best = Some((c, x, converged));
+            best = Some((c, x, converged, normal));
         }
     }
-    let (ssr, x, converged) = best?;
-    finish(&mut p, x, ssr, converged)
+    let (ssr, x, converged, normal) = best?;
+    finish(&mut p, x, ssr, converged, normal)
 }
 
 /// The fit at LM's optimum `x` (cost `ssr`): the covariance from the full Jacobian
-/// (held amplitudes included) and the paper's RMSE.
-fn finish(p: &mut Problem<'_>, x: Vec<f64>, ssr: f64, converged: bool) -> Option<MemberFit> {
+/// (held amplitudes included) and the paper's RMSE. `normal`: the normal equations
+/// at `x` with nothing held, when LM's last pass made them (else a pass makes them).
+fn finish(
+    p: &mut Problem<'_>,
+    x: Vec<f64>,
+    ssr: f64,
+    converged: bool,
+    normal: Option<Normal>,
+) -> Option<MemberFit> {
     let (data, layout, aperture) = (p.data, p.layout.clone(), p.aperture);
     p.pinned.fill(false);
-    let mut normal = Normal::new(layout.shape());
-    if !p.normal(&x, &mut normal) {
-        return None;
-    }
+    // LM's last pass, when nothing was held in it, is this pass already.
+    let normal = match normal {
+        Some(n) => n,
+        None => {
+            let mut n = Normal::new(layout.shape());
+            if !p.normal(&x, &mut n) {
+                return None;
+            }
+            n
+        }
+    };
     let n = data.obs.len();
     let cov = ArrowInverse::new(&normal).scaled(ssr / (n - layout.len()) as f64);
     let identifiable = cov.identifiable().to_vec();
@@ -1334,7 +1348,7 @@ pub fn fit_member_from(
     }
     let converged = rep.termination.converged();
     Some(LocalFit {
-        fit: finish(&mut p, rep.x, rep.cost, converged)?,
+        fit: finish(&mut p, rep.x, rep.cost, converged, Some(rep.normal))?,
         iterations: rep.iterations,
         evaluations: rep.evaluations,
     })
@@ -1400,7 +1414,8 @@ fn point_cost(
 /// pinned amplitude whose release would lower the cost by more than [`RELEASE_GAIN`]
 /// (relative, a one-dimensional Gauss–Newton estimate) is released, started at that
 /// estimate, and LM run again: the result satisfies the bound's optimality condition
-/// to that tolerance. Returns the cost, the optimum and whether LM converged; `None`
+/// to that tolerance. Returns the cost, the optimum, whether LM converged and, when
+/// nothing is held at the end, LM's normal equations there; `None`
 /// when the start failed, or when after an accepted LM step or between two rounds
 /// `explored` says the point reached (its cost given) lies in the basin of an optimum
 /// already found.
@@ -1411,7 +1426,7 @@ fn refine(
     x0: Vec<f64>,
     lm: &LmOptions,
     explored: &dyn Fn(&[f64], f64) -> bool,
-) -> Option<(f64, Vec<f64>, bool)> {
+) -> Option<(f64, Vec<f64>, bool, Option<Normal>)> {
     let mut x = x0;
     let mut probe = true;
     for _ in 0..6 {
@@ -1450,7 +1465,7 @@ fn refine(
         }
         x = rep.x;
         if !p.pinned.iter().any(|&b| b) {
-            return Some((rep.cost, x, rep.termination.converged()));
+            return Some((rep.cost, x, rep.termination.converged(), Some(rep.normal)));
         }
         let pinned = std::mem::replace(&mut p.pinned, vec![false; x.len()]);
         let mut full = Normal::new(p.shape.clone());
@@ -1469,7 +1484,7 @@ fn refine(
             }
         }
         if !released {
-            return Some((rep.cost, x, rep.termination.converged()));
+            return Some((rep.cost, x, rep.termination.converged(), None));
         }
         if explored(&x, rep.cost) {
             return None;
@@ -1477,9 +1492,11 @@ fn refine(
         probe = false;
     }
     let rep = minimize(p, &x, lm);
-    rep.cost
-        .is_finite()
-        .then(|| (rep.cost, rep.x, rep.termination.converged()))
+    let held = p.pinned.iter().any(|&b| b);
+    rep.cost.is_finite().then(|| {
+        let normal = (!held).then_some(rep.normal);
+        (rep.cost, rep.x, rep.termination.converged(), normal)
+    })
 }
 
 /// LM steps before vanishing amplitudes are looked for (see [`refine`]).

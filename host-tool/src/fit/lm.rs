@@ -525,13 +525,14 @@ mod tests {
         }
     }
 
-    /// r = (10 (x0 - x1), x0 + x1 - 2) with x0 <= 0.2: the optimum is on the bound.
+    /// r = (10 (x0 - x1), x0 + x1 - 2) with x0 <= 0.2 (two globals, one group without
+    /// locals): the optimum is on the bound.
     struct Valley;
 
     impl ArrowProblem for Valley {
         fn shape(&self) -> &Shape {
             static SHAPE: std::sync::OnceLock<Shape> = std::sync::OnceLock::new();
-            SHAPE.get_or_init(|| Shape::new(2, Vec::<usize>::new()))
+            SHAPE.get_or_init(|| Shape::new(2, [0]))
         }
         fn cost(&mut self, x: &[f64]) -> Option<f64> {
             Some(100.0 * (x[0] - x[1]).powi(2) + (x[0] + x[1] - 2.0).powi(2))

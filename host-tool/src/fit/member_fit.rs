@@ -277,8 +277,8 @@ struct Problem<'a> {
     parts: Vec<(std::ops::Range<usize>, Normal)>,
 }
 
-/// Readings per part of an LM row pass: a sweep of at least two parts has its parts
-/// made on rayon's threads and added in order. The parts depend on the sweep alone, so
+/// Least readings per part of an LM row pass: a sweep of two parts or more (at least
+/// twice this many readings) has its parts made on rayon's threads and added in order. The parts depend on the sweep alone, so
 /// the sums (and the fit) are the same on any number of threads; a sweep of the
 /// paper's size (153 readings) is one part, made as before.
 pub const PART_ROWS: usize = 2048;
@@ -292,19 +292,29 @@ impl<'a> Problem<'a> {
         aperture: Option<f64>,
     ) -> Self {
         let shape = layout.shape();
-        // Whole incidences, about PART_ROWS readings each.
-        let mut parts = Vec::new();
+        // Whole incidences, at least PART_ROWS readings each (a short rest joins the
+        // last part).
+        let mut ranges: Vec<std::ops::Range<usize>> = Vec::new();
         let (mut first, mut rows) = (0, 0);
         for j in 0..layout.n_inc {
             rows += data.rows_of(j).len();
-            if rows >= PART_ROWS || j + 1 == layout.n_inc {
-                parts.push((first..j + 1, Normal::part(&shape, first..j + 1)));
+            if rows >= PART_ROWS {
+                ranges.push(first..j + 1);
                 (first, rows) = (j + 1, 0);
             }
         }
-        if parts.len() < 2 {
-            parts.clear();
+        match ranges.last_mut() {
+            Some(last) => last.end = layout.n_inc,
+            None => ranges.push(0..layout.n_inc),
         }
+        let parts = if ranges.len() < 2 {
+            Vec::new()
+        } else {
+            ranges
+                .into_iter()
+                .map(|r| (r.clone(), Normal::part(&shape, r)))
+                .collect()
+        };
         Problem {
             data,
             pinned: vec![false; layout.len()],

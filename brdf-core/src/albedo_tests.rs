@@ -200,12 +200,16 @@ fn error_estimate_bounds_the_error_when_nodes_double() {
             rule = rule.doubled();
         }
         // Doubling the nodes shrinks the error: at every step for an analytic
-        // integrand, overall (4 -> 32 nodes, by 10x at least) for a kinked one.
+        // integrand, overall (4 -> 32 nodes, by 10x at least) for a kinked one. An
+        // error already at the rounding of the sums (the 64-node reference adds a
+        // million terms; Beckmann 0.5 is 2.7e-14 from it at 16 and at 32 nodes) cannot
+        // shrink further; there it moves either way with the order of the sums.
+        let floor = 1e-13 * exact.abs();
         if smooth {
             assert!(
                 errors
                     .windows(2)
-                    .all(|w| w[1].0 <= w[0].0 && w[1].1 <= w[0].1),
+                    .all(|w| (w[1].0 <= w[0].0 || w[1].0 <= floor) && w[1].1 <= w[0].1),
                 "{name}: {errors:?}"
             );
         } else {

@@ -248,6 +248,11 @@ pub struct ScaleRow {
     /// Milliseconds for the whole family on all of the machine's cores (members, and
     /// the row passes of sweeps of thousands of readings, on rayon's threads).
     pub family_all_cores_ms: f64,
+    /// Milliseconds for the report's physical checks of every fitted member (what
+    /// `gonio fit` runs on one sweep file after the fit: albedo at up to
+    /// [`crate::fit::physical::MAX_CHECKED_INCIDENCES`] incidences and reciprocity), on
+    /// all cores, one run.
+    pub checks_all_cores_ms: f64,
 }
 
 /// One member of the default family on the Scatterworks test data: fit time and the
@@ -358,6 +363,14 @@ fn scale_study_here() -> Result<Vec<ScaleRow>> {
                 let _ = crate::fit::fit_family(&data, &opts);
             })
         });
+        let fam = all_cores
+            .install(|| crate::fit::fit_family(&data, &opts))
+            .map_err(StudyError::Failed)?;
+        let checks_all_cores_ms = all_cores.install(|| {
+            best_ms(1, || {
+                let _ = crate::fit::physical::check_family(&fam);
+            })
+        });
         out.push(ScaleRow {
             readings: n,
             incidences: data.incidences.len(),
@@ -365,6 +378,7 @@ fn scale_study_here() -> Result<Vec<ScaleRow>> {
             family_us_per_reading: family_ms * 1e3 / n as f64,
             three_ms,
             family_all_cores_ms,
+            checks_all_cores_ms,
         });
     }
     Ok(out)

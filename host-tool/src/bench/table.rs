@@ -55,22 +55,29 @@ pub fn fits_table(fits: &[FitResultRow]) -> String {
 /// The scale study's table (fit time against readings and incidences).
 pub fn scale_table(rows: &[super::ScaleRow]) -> String {
     let mut t = format!(
-        "\n{:>9} {:>10} {:>12} {:>14} {:>12} {:>16}\n",
-        "readings", "incidences", "family ms", "us/reading", "three ms", "family ms, all"
+        "\n{:>9} {:>10} {:>12} {:>14} {:>12} {:>16} {:>16}\n",
+        "readings",
+        "incidences",
+        "family ms",
+        "us/reading",
+        "three ms",
+        "family ms, all",
+        "checks ms, all"
     );
     for r in rows {
         t.push_str(&format!(
-            "{:>9} {:>10} {:>12.2} {:>14.2} {:>12.3} {:>16.2}\n",
+            "{:>9} {:>10} {:>12.2} {:>14.2} {:>12.3} {:>16.2} {:>16.1}\n",
             r.readings,
             r.incidences,
             r.family_ms,
             r.family_us_per_reading,
             r.three_ms,
-            r.family_all_cores_ms
+            r.family_all_cores_ms,
+            r.checks_all_cores_ms
         ));
     }
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    t.push_str(&format!("fe-0.115 simulated, 0.5 % noise; whole default family and the three-component member; best of repeats, one core (a one-thread pool); \"all\": the family on all {cores} cores\n"));
+    t.push_str(&format!("fe-0.115 simulated, 0.5 % noise; whole default family and the three-component member; best of repeats, one core (a one-thread pool); \"all\": the family on all {cores} cores; \"checks\": the report's physical checks of every fitted member after the fit (albedo at up to {} incidences, reciprocity), all cores, one run\n", crate::fit::physical::MAX_CHECKED_INCIDENCES));
     t
 }
 

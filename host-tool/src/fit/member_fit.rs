@@ -21,7 +21,7 @@ use brdf_core::member_model::{
 use nalgebra::{DMatrix, DVector};
 
 use rayon::prelude::*;
-use std::sync::OnceLock;
+use std::sync::{Arc, Mutex, OnceLock};
 
 use super::arrow::{ArrowInverse, Normal, RowSink, Shape, Workspace};
 use super::data::{Dataset, Observation};
@@ -670,7 +670,14 @@ pub struct GridBases<'a> {
     core_haze: [[OnceLock<Crosses>; 2]; 2],
     /// [role][distribution]: the lobe-directional cross moments of every width pair.
     lobe_dd: [[OnceLock<Crosses>; 2]; 2],
+    /// The best points of each grid searched so far, by the grid's member (k_s per
+    /// incidence) and residual (see [`GridBases::starts`]).
+    starts: Mutex<Vec<SharedStarts>>,
 }
+
+/// A grid searched once and shared: its member (k_s per incidence), the residual, and
+/// its best points once found.
+type SharedStarts = (Member, Residual, Arc<OnceLock<Vec<usize>>>);
 
 /// Cross moments per incidence of pairs of bases, row-major over the two grids
 /// (`None` where a basis is missing or the pair is not combined).
@@ -707,7 +714,44 @@ impl<'a> GridBases<'a> {
             dd: OnceLock::new(),
             core_haze: Default::default(),
             lobe_dd: Default::default(),
+            starts: Mutex::default(),
         }
+    }
+
+    /// The best points of `member`'s grid under `residual`: found by `search` for the
+    /// first member with that grid, then shared. A member and its smooth-k_s variant
+    /// share their grid (the grid solves k_s per incidence for both), so the variant
+    /// is given the same starts without a second search. A member asking while another
+    /// searches its grid waits for that search.
+    fn starts(
+        &self,
+        member: Member,
+        residual: Residual,
+        search: impl FnOnce() -> Vec<usize>,
+    ) -> Vec<usize> {
+        let per_incidence = |l: Option<LobeSpec>| {
+            l.map(|l| LobeSpec {
+                ks: KsForm::PerIncidence,
+                ..l
+            })
+        };
+        let key = Member {
+            core: per_incidence(member.core),
+            haze: per_incidence(member.haze),
+            ..member
+        };
+        let cell = {
+            let mut all = self.starts.lock().unwrap_or_else(|e| e.into_inner());
+            match all.iter().find(|(m, r, _)| *m == key && *r == residual) {
+                Some((_, _, c)) => c.clone(),
+                None => {
+                    let c = Arc::new(OnceLock::new());
+                    all.push((key, residual, c.clone()));
+                    c
+                }
+            }
+        };
+        cell.get_or_init(search).clone()
     }
 
     /// Drops the bases and cross moments none of `members` uses (they are computed
@@ -854,6 +898,184 @@ struct Point<'b> {
     /// Cross moments core-dd, haze-dd.
     ld: [Option<&'b [f64]>; 2],
     ideal: bool,
+}
+
+/// One member's grid: the bases and cross moments of its lobes by grid index
+/// (`[None]` for a component the member lacks).
+struct Grid<'b> {
+    member: Member,
+    core_w: Vec<f64>,
+    haze_w: Vec<f64>,
+    cores: Vec<Option<&'b Basis>>,
+    hazes: Vec<Option<&'b Basis>>,
+    dds: Vec<Option<&'b Basis>>,
+    /// Core-haze, core-dd and haze-dd cross moments (`None`: the member lacks a pair).
+    ch: Option<&'b [Option<Vec<f64>>]>,
+    cd: Option<&'b [Option<Vec<f64>>]>,
+    hd: Option<&'b [Option<Vec<f64>>]>,
+    data: &'b Dataset,
+    bases: &'b GridBases<'b>,
+}
+
+impl<'b> Grid<'b> {
+    fn new(bases: &'b GridBases<'b>, member: Member) -> Self {
+        let lobes = |role: usize, spec: Option<LobeSpec>| -> Vec<Option<&'b Basis>> {
+            match spec {
+                Some(s) => bases
+                    .lobes(role, s.dist)
+                    .iter()
+                    .map(Option::as_ref)
+                    .collect(),
+                None => vec![None],
+            }
+        };
+        let dds = if member.directional {
+            bases.dd().iter().map(Option::as_ref).collect()
+        } else {
+            vec![None]
+        };
+        let lobe_dd = |role: usize, spec: Option<LobeSpec>| {
+            spec.filter(|_| member.directional)
+                .map(|l| bases.lobe_dd(role, l.dist))
+        };
+        Grid {
+            member,
+            core_w: core_grid(),
+            haze_w: haze_grid(),
+            cores: lobes(0, member.core),
+            hazes: lobes(1, member.haze),
+            dds,
+            ch: match (member.core, member.haze) {
+                (Some(c), Some(h)) => Some(bases.core_haze(c.dist, h.dist)),
+                _ => None,
+            },
+            cd: lobe_dd(0, member.core),
+            hd: lobe_dd(1, member.haze),
+            data: bases.data,
+            bases,
+        }
+    }
+
+    /// The number of grid points (usable or not).
+    fn len(&self) -> usize {
+        self.cores.len() * self.hazes.len() * self.dds.len()
+    }
+
+    /// Grid point `k` as (core, haze, sigma_m) indices.
+    fn at(&self, k: usize) -> (usize, usize, usize) {
+        let (nh, nd) = (self.hazes.len(), self.dds.len());
+        (k / (nh * nd), (k / nd) % nh, k % nd)
+    }
+
+    /// Whether the point combines these widths: a haze at least [`HAZE_OVER_CORE`]
+    /// times the core's width (so the lobes keep their roles).
+    fn usable(&self, ci: usize, hi: usize) -> bool {
+        self.member.haze.is_none() || self.haze_w[hi] >= HAZE_OVER_CORE * self.core_w[ci]
+    }
+
+    /// The functions of grid point (ci, hi, si); `None` where a basis failed.
+    fn point(&self, ci: usize, hi: usize, si: usize) -> Option<Point<'b>> {
+        fn lobe(on: bool, b: Option<&Basis>) -> Option<Option<&Basis>> {
+            if on { b.map(Some) } else { Some(None) }
+        }
+        let (nh, nd) = (self.hazes.len(), self.dds.len());
+        let m = &self.member;
+        let cross = |c: Option<&'b [Option<Vec<f64>>]>, k: usize| c.and_then(|c| c[k].as_deref());
+        Some(Point {
+            lobes: [
+                lobe(m.core.is_some(), self.cores[ci])?,
+                lobe(m.haze.is_some(), self.hazes[hi])?,
+            ],
+            ch: cross(self.ch, ci * nh + hi),
+            dd: if m.directional {
+                Some(self.dds[si]?)
+            } else {
+                None
+            },
+            ld: [cross(self.cd, ci * nd + si), cross(self.hd, hi * nd + si)],
+            ideal: m.ideal,
+        })
+    }
+
+    /// Storage for this grid's solves over `n_inc` incidences.
+    fn scratch(&self, n_inc: usize) -> GridScratch {
+        let m = &self.member;
+        let nl = usize::from(m.core.is_some()) + usize::from(m.haze.is_some());
+        let ng = usize::from(m.directional) + usize::from(m.ideal);
+        GridScratch::new(Shape::new(ng, (0..n_inc).map(|_| nl)))
+    }
+}
+
+/// The [`REFINED`] best points of `grid` (indices, best first), ranked by the fit's own
+/// cost at their (floored) amplitudes. Only those are refined, so a point's cost is
+/// summed only while it could still be among them: the points are costed in the
+/// order of their weighted linear cost (cheap, from the solve, and close to the final
+/// order), and a point whose partial sum already exceeds the REFINED-th best full cost
+/// so far stops there and is left out (its full cost would only be larger). The
+/// REFINED best and their order are exactly those of costing every point in full.
+/// Each point's amplitudes are kept for its costing unless they would take more than
+/// `kept_bytes` (many incidences: 57 points x 50,000 incidences were 46 MB); then the
+/// point is solved again when costed (the same solve, so the same amplitudes).
+fn best_points(
+    grid: &Grid<'_>,
+    resid: &Residuals,
+    kept_bytes: usize,
+    scratch: &mut GridScratch,
+) -> Vec<usize> {
+    let n_inc = grid.data.incidences.len();
+    let floor = amplitude_floor(grid.data);
+    let keep = grid.len() * n_inc * std::mem::size_of::<[f64; 2]>() <= kept_bytes;
+    let mut solved: Vec<(usize, f64, Option<Amplitudes>)> = Vec::new();
+    for k in 0..grid.len() {
+        let (ci, hi, si) = grid.at(k);
+        if !grid.usable(ci, hi) {
+            continue;
+        }
+        let Some(pt) = grid.point(ci, hi, si) else {
+            continue;
+        };
+        if let Some(linear) = solve_point(grid.bases, &pt, scratch) {
+            let amp = keep.then(|| Amplitudes::of(scratch, &pt, n_inc));
+            solved.push((k, linear, amp));
+        }
+    }
+    solved.sort_by(|a, b| a.1.total_cmp(&b.1));
+    // The REFINED smallest full costs so far, ascending, with their points.
+    let mut kept: Vec<(f64, usize)> = Vec::with_capacity(REFINED + 1);
+    let mut solved_again = Amplitudes {
+        ks: Vec::new(),
+        kdd: 0.0,
+        kid: 0.0,
+    };
+    for (k, _, kept_amp) in &solved {
+        let (ci, hi, si) = grid.at(*k);
+        let Some(pt) = grid.point(ci, hi, si) else {
+            continue;
+        };
+        let amp = match kept_amp {
+            Some(a) => a,
+            None => {
+                if solve_point(grid.bases, &pt, scratch).is_none() {
+                    continue;
+                }
+                solved_again.fill(scratch, &pt, n_inc);
+                &solved_again
+            }
+        };
+        let bound = if kept.len() == REFINED {
+            kept[REFINED - 1].0
+        } else {
+            f64::INFINITY
+        };
+        if let Some(c) = point_cost(grid.bases, &pt, amp, resid, floor, bound)
+            && c.is_finite()
+        {
+            let at = kept.partition_point(|&(v, j)| (v, j) <= (c, *k));
+            kept.insert(at, (c, *k));
+            kept.truncate(REFINED);
+        }
+    }
+    kept.into_iter().map(|(_, k)| k).collect()
 }
 
 /// Reused storage of the grid's solves (a grid point allocates nothing).
@@ -1075,131 +1297,13 @@ fn fit_member_keeping(
     if undetermined(data, &layout) {
         return None;
     }
-    let core_w = core_grid();
-    let haze_w = haze_grid();
-    let cores: Vec<Option<&Basis>> = match member.core {
-        Some(s) => bases.lobes(0, s.dist).iter().map(Option::as_ref).collect(),
-        None => vec![None],
-    };
-    let hazes: Vec<Option<&Basis>> = match member.haze {
-        Some(s) => bases.lobes(1, s.dist).iter().map(Option::as_ref).collect(),
-        None => vec![None],
-    };
-    let dds: Vec<Option<&Basis>> = if member.directional {
-        bases.dd().iter().map(Option::as_ref).collect()
-    } else {
-        vec![None]
-    };
-    let (nc, nh, nd) = (cores.len(), hazes.len(), dds.len());
-    let usable =
-        |ci: usize, hi: usize| member.haze.is_none() || haze_w[hi] >= HAZE_OVER_CORE * core_w[ci];
-    // Cross moments of the pairs a grid point can combine (none where the member lacks
-    // one of the two).
-    let nothing: Crosses = vec![None; nc.max(nh) * nd.max(nh)];
-    let ch: &[Option<Vec<f64>>] = match (member.core, member.haze) {
-        (Some(c), Some(h)) => bases.core_haze(c.dist, h.dist),
-        _ => &nothing,
-    };
-    let lobe_dd = |role: usize, spec: Option<LobeSpec>| -> &[Option<Vec<f64>>] {
-        match spec {
-            Some(l) if member.directional => bases.lobe_dd(role, l.dist),
-            _ => &nothing,
-        }
-    };
-    let (cd, hd) = (lobe_dd(0, member.core), lobe_dd(1, member.haze));
-    let point = |ci: usize, hi: usize, si: usize| -> Option<Point<'_>> {
-        fn lobe(on: bool, b: Option<&Basis>) -> Option<Option<&Basis>> {
-            if on { b.map(Some) } else { Some(None) }
-        }
-        Some(Point {
-            lobes: [
-                lobe(member.core.is_some(), cores[ci])?,
-                lobe(member.haze.is_some(), hazes[hi])?,
-            ],
-            ch: ch[ci * nh + hi].as_deref(),
-            dd: if member.directional {
-                Some(dds[si]?)
-            } else {
-                None
-            },
-            ld: [cd[ci * nd + si].as_deref(), hd[hi * nd + si].as_deref()],
-            ideal: member.ideal,
-        })
-    };
-    let nl = usize::from(member.core.is_some()) + usize::from(member.haze.is_some());
-    let ng = usize::from(member.directional) + usize::from(member.ideal);
-    let mut scratch = GridScratch::new(Shape::new(ng, (0..n_inc).map(|_| nl)));
-    // The weighted cost of every grid point (infinite where skipped or failed).
-    let idx = |ci: usize, hi: usize, si: usize| (ci * nh + hi) * nd + si;
+    let grid = Grid::new(bases, member);
+    let (core_w, haze_w) = (&grid.core_w, &grid.haze_w);
     let resid = Residuals::new(data, residual);
-    let floor = amplitude_floor(data);
-    // Every grid point ranked by the fit's own cost at its (floored) amplitudes. Only
-    // the REFINED best are refined, so a point's cost is summed only while it could
-    // still be among them: the points are costed in the order of their weighted linear
-    // cost (cheap, from the solve, and close to the final order), and a point whose
-    // partial sum already exceeds the REFINED-th best full cost so far stops there and
-    // is left out (its full cost would only be larger). The REFINED best and their
-    // order are exactly those of costing every point in full.
-    // Each point's amplitudes are kept for its costing below unless they would take
-    // more than `kept_bytes` (many incidences: 57 points x 50,000 incidences
-    // were 46 MB); then the point is solved again when costed (the same solve, so the
-    // same amplitudes).
-    let points = nc * nh * nd;
-    let keep = points * n_inc * std::mem::size_of::<[f64; 2]>() <= kept_bytes;
-    let mut solved: Vec<(usize, f64, Option<Amplitudes>)> = Vec::new();
-    for ci in 0..nc {
-        for hi in (0..nh).filter(|&hi| usable(ci, hi)) {
-            for si in 0..nd {
-                let Some(pt) = point(ci, hi, si) else {
-                    continue;
-                };
-                if let Some(linear) = solve_point(bases, &pt, &mut scratch) {
-                    let amp = keep.then(|| Amplitudes::of(&scratch, &pt, n_inc));
-                    solved.push((idx(ci, hi, si), linear, amp));
-                }
-            }
-        }
-    }
-    solved.sort_by(|a, b| a.1.total_cmp(&b.1));
-    let mut cost = vec![f64::INFINITY; nc * nh * nd];
-    // The REFINED smallest full costs so far, ascending.
-    let mut kept: Vec<f64> = Vec::with_capacity(REFINED + 1);
-    let mut solved_again = Amplitudes {
-        ks: Vec::new(),
-        kdd: 0.0,
-        kid: 0.0,
-    };
-    for (k, _, kept_amp) in &solved {
-        let (ci, hi, si) = (k / (nh * nd), (k / nd) % nh, k % nd);
-        let Some(pt) = point(ci, hi, si) else {
-            continue;
-        };
-        let amp = match kept_amp {
-            Some(a) => a,
-            None => {
-                if solve_point(bases, &pt, &mut scratch).is_none() {
-                    continue;
-                }
-                solved_again.fill(&scratch, &pt, n_inc);
-                &solved_again
-            }
-        };
-        let bound = if kept.len() == REFINED {
-            kept[REFINED - 1]
-        } else {
-            f64::INFINITY
-        };
-        if let Some(c) = point_cost(bases, &pt, amp, &resid, floor, bound) {
-            cost[*k] = c;
-            if c.is_finite() {
-                let at = kept.partition_point(|&v| v <= c);
-                kept.insert(at, c);
-                kept.truncate(REFINED);
-            }
-        }
-    }
-    let mut starts: Vec<usize> = (0..cost.len()).filter(|&k| cost[k].is_finite()).collect();
-    starts.sort_by(|&a, &b| cost[a].total_cmp(&cost[b]));
+    let mut scratch = grid.scratch(n_inc);
+    let starts = bases.starts(member, residual, || {
+        best_points(&grid, &resid, kept_bytes, &mut scratch)
+    });
     let width = |spec: Option<LobeSpec>, w: &[f64], i: usize| spec.map_or(1.0, |_| w[i]);
     let lm = LmOptions::default();
     let mut p = Problem::new(data, layout.clone(), residual, &resid, aperture);
@@ -1207,8 +1311,8 @@ fn fit_member_keeping(
     // The log widths (core, haze, sigma_m) and the cost of every optimum reached so far.
     let mut optima: Vec<([f64; 3], f64)> = Vec::new();
     let steps = [
-        grid_step(&core_w),
-        grid_step(&haze_w),
+        grid_step(core_w),
+        grid_step(haze_w),
         grid_step(&SIGMA_M_GRID),
     ];
     let on = [
@@ -1230,13 +1334,13 @@ fn fit_member_keeping(
             cost >= *c && (0..3).all(|d| !on[d] || (at[d] - o[d]).abs() <= BASIN * steps[d])
         })
     };
-    for k in starts.into_iter().take(REFINED) {
-        let (ci, hi, si) = (k / (nh * nd), (k / nd) % nh, k % nd);
+    for k in starts {
+        let (ci, hi, si) = grid.at(k);
         let at = [core_w[ci].ln(), haze_w[hi].ln(), SIGMA_M_GRID[si].ln()];
         if in_basin(&optima, at, f64::INFINITY) {
             continue;
         }
-        let Some(pt) = point(ci, hi, si) else {
+        let Some(pt) = grid.point(ci, hi, si) else {
             continue;
         };
         if solve_point(bases, &pt, &mut scratch).is_none() {
@@ -1244,8 +1348,8 @@ fn fit_member_keeping(
         }
         let amp = Amplitudes::of(&scratch, &pt, n_inc);
         let sigmas = [
-            width(member.core, &core_w, ci),
-            width(member.haze, &haze_w, hi),
+            width(member.core, core_w, ci),
+            width(member.haze, haze_w, hi),
         ];
         let sm = if member.directional {
             SIGMA_M_GRID[si]

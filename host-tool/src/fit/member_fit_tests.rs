@@ -1,4 +1,5 @@
 use std::path::Path;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use brdf_core::lobe::Distribution;
 use brdf_core::member::Member;
@@ -227,14 +228,15 @@ fn grid_points_solved_again_give_the_same_fit() {
     let fe = brdf_core::Preset::by_name("fe-0.115").unwrap();
     let rows = crate::fit::data::synthetic_paper_sweep(|ti| fe.model(ti).unwrap(), 0.005, 7);
     let data = Dataset::from_rows(&rows, true).unwrap();
-    let bases = GridBases::new(&data, None);
     let haze = Member {
         haze: Member::THREE_COMPONENT.core,
         ..Member::THREE_COMPONENT
     };
     for m in [Member::THREE_COMPONENT, haze] {
-        let kept = fit_member_keeping(&bases, m, Residual::Log, usize::MAX).unwrap();
-        let again = fit_member_keeping(&bases, m, Residual::Log, 0).unwrap();
+        // Bases each: shared bases would hand the second fit the first one's starts.
+        let kept =
+            fit_member_keeping(&GridBases::new(&data, None), m, Residual::Log, usize::MAX).unwrap();
+        let again = fit_member_keeping(&GridBases::new(&data, None), m, Residual::Log, 0).unwrap();
         assert_eq!(kept.ssr.to_bits(), again.ssr.to_bits(), "{m}");
         assert_eq!(kept.x, again.x, "{m}");
     }
@@ -362,4 +364,53 @@ fn a_row_pass_in_parts_equals_the_whole_pass_on_any_number_of_threads() {
         assert_eq!(a.to_bits(), b.to_bits());
     }
     assert_eq!(one.quad(&g).to_bits(), two.quad(&g).to_bits());
+}
+
+/// A member's grid is searched once per residual: its smooth-k_s variant is given the
+/// same starts without a search, another residual or another grid searches again, and
+/// the starts shared are those the variant's own search finds.
+#[test]
+fn a_smooth_ks_variant_shares_its_members_grid_search() {
+    let fe = brdf_core::Preset::by_name("fe-0.115").unwrap();
+    let rows = crate::fit::data::synthetic_paper_sweep(|ti| fe.model(ti).unwrap(), 0.005, 7);
+    let data = Dataset::from_rows(&rows, true).unwrap();
+    let bases = GridBases::new(&data, None);
+    let searches = AtomicUsize::new(0);
+    let search = |starts: Vec<usize>| {
+        let searches = &searches;
+        move || {
+            searches.fetch_add(1, Ordering::Relaxed);
+            starts
+        }
+    };
+    let (local, smooth) = (Member::THREE_COMPONENT, Member::THREE_COMPONENT_SMOOTH_KS);
+    assert_eq!(
+        bases.starts(local, Residual::Log, search(vec![4, 2])),
+        [4, 2]
+    );
+    assert_eq!(bases.starts(smooth, Residual::Log, search(vec![9])), [4, 2]);
+    assert_eq!(searches.load(Ordering::Relaxed), 1);
+    assert_eq!(
+        bases.starts(smooth, Residual::Relative, search(vec![7])),
+        [7]
+    );
+    assert_eq!(
+        bases.starts(Member::TORRANCE_SPARROW, Residual::Log, search(vec![1])),
+        [1]
+    );
+    assert_eq!(searches.load(Ordering::Relaxed), 3);
+    // The search itself: the variant's own grid finds the member's starts.
+    let resid = Residuals::new(&data, Residual::Log);
+    let best = |m: Member| {
+        let grid = Grid::new(&bases, m);
+        best_points(
+            &grid,
+            &resid,
+            usize::MAX,
+            &mut grid.scratch(data.incidences.len()),
+        )
+    };
+    let found = best(local);
+    assert_eq!(found.len(), REFINED);
+    assert_eq!(best(smooth), found);
 }

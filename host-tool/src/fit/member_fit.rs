@@ -923,7 +923,6 @@ struct Grid<'b> {
     ch: Option<&'b [Option<Vec<f64>>]>,
     cd: Option<&'b [Option<Vec<f64>>]>,
     hd: Option<&'b [Option<Vec<f64>>]>,
-    data: &'b Dataset,
     bases: &'b GridBases<'b>,
 }
 
@@ -961,7 +960,6 @@ impl<'b> Grid<'b> {
             },
             cd: lobe_dd(0, member.core),
             hd: lobe_dd(1, member.haze),
-            data: bases.data,
             bases,
         }
     }
@@ -1032,8 +1030,9 @@ fn best_points(
     kept_bytes: usize,
     scratch: &mut GridScratch,
 ) -> Vec<usize> {
-    let n_inc = grid.data.incidences.len();
-    let floor = amplitude_floor(grid.data);
+    let data = grid.bases.data;
+    let n_inc = data.incidences.len();
+    let floor = amplitude_floor(data);
     let keep = grid.len() * n_inc * std::mem::size_of::<[f64; 2]>() <= kept_bytes;
     let mut solved: Vec<(usize, f64, Option<Amplitudes>)> = Vec::new();
     for k in 0..grid.len() {

@@ -491,6 +491,79 @@ impl RowSink for Normal {
     }
 }
 
+/// One group's elimination in [`damped_body`]: its damped local block `m` (`nl x nl`,
+/// from `n.v`) inverted, `Y = M^-1 W^T` and `M^-1 (-g)` into the workspace, and the
+/// Schur complement and right-hand side updated. `col` holds one column (`nl`). False
+/// when the block is not positive definite.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn eliminate(
+    n: &Normal,
+    blk: &Block,
+    d: &[f64],
+    lambda: f64,
+    ws: &mut Workspace,
+    x: &mut [f64],
+    ng: usize,
+    nl: usize,
+    m: &mut [f64],
+    col: &mut [f64],
+) -> bool {
+    let (lo, ls, vb, wb) = (blk.lo, blk.ls, blk.vb, blk.wb);
+    m.copy_from_slice(&n.v[vb..vb + nl * nl]);
+    for l in 0..nl {
+        m[l * nl + l] += lambda * d[lo + l];
+    }
+    let small = nl <= 2;
+    if !(if small {
+        invert_small(m, nl)
+    } else {
+        cholesky(m, nl)
+    }) {
+        return false;
+    }
+    let solve = |m: &[f64], b: &mut [f64]| {
+        if small {
+            apply_small(m, nl, b)
+        } else {
+            cholesky_solve(m, nl, b)
+        }
+    };
+    // Y = M^-1 W^T, column by column (one column per global).
+    let y = &mut ws.y[ls * ng..(ls + nl) * ng];
+    for a in 0..ng {
+        for l in 0..nl {
+            col[l] = n.w[wb + a * nl + l];
+        }
+        solve(m, col);
+        for l in 0..nl {
+            y[l * ng + a] = col[l];
+        }
+    }
+    let yl = &mut ws.yl[ls..ls + nl];
+    for l in 0..nl {
+        yl[l] = -n.g[lo + l];
+    }
+    solve(m, yl);
+    // S -= W Y, rhs -= W yl.
+    for a in 0..ng {
+        let wa = &n.w[wb + a * nl..wb + a * nl + nl];
+        for b in 0..ng {
+            let mut t = 0.0;
+            for l in 0..nl {
+                t += wa[l] * y[l * ng + b];
+            }
+            ws.s[a * ng + b] -= t;
+        }
+        let mut t = 0.0;
+        for l in 0..nl {
+            t += wa[l] * yl[l];
+        }
+        x[a] -= t;
+    }
+    true
+}
+
 /// In-place inverse of a row-major symmetric `n x n` matrix, n = 1 or 2, in closed form.
 /// False unless it is positive definite (the same test as [`cholesky`]'s pivots: a > 0
 /// and a c - b^2 > 0, finite).
@@ -642,68 +715,49 @@ fn damped_body(
         ws.s[a * ng + a] += lambda * d[a];
         x[a] = -n.g[a];
     }
-    for Block {
-        nl, lo, ls, vb, wb, ..
-    } in s.blocks()
-    {
-        let nl = local.unwrap_or(nl);
+    for blk in s.blocks() {
+        let nl = local.unwrap_or(blk.nl);
         if nl == 0 {
             continue;
         }
-        let m = &mut ws.m[..nl * nl];
-        m.copy_from_slice(&n.v[vb..vb + nl * nl]);
-        for l in 0..nl {
-            m[l * nl + l] += lambda * d[lo + l];
-        }
         // The members' blocks (1 or 2 locals) are inverted in closed form: one division
-        // and no square root, where a Cholesky factor's solves are chains of them.
-        let small = nl <= 2;
-        if !(if small {
-            invert_small(m, nl)
+        // and no square root, where a Cholesky factor's solves are chains of them. Their
+        // inverse and column stay in registers (stack arrays): through the workspace,
+        // each 16-byte load of two values just stored one by one stalled on store
+        // forwarding (a tenth of this solve's time on the grid).
+        let ok = if nl <= 2 {
+            let (mut m, mut col) = ([0.0; 4], [0.0; 2]);
+            eliminate(
+                n,
+                &blk,
+                d,
+                lambda,
+                ws,
+                x,
+                ng,
+                nl,
+                &mut m[..nl * nl],
+                &mut col[..nl],
+            )
         } else {
-            cholesky(m, nl)
-        }) {
-            return false;
-        }
-        let solve = |m: &[f64], b: &mut [f64]| {
-            if small {
-                apply_small(m, nl, b)
-            } else {
-                cholesky_solve(m, nl, b)
-            }
+            let (mut m, mut col) = (std::mem::take(&mut ws.m), std::mem::take(&mut ws.col));
+            let ok = eliminate(
+                n,
+                &blk,
+                d,
+                lambda,
+                ws,
+                x,
+                ng,
+                nl,
+                &mut m[..nl * nl],
+                &mut col[..nl],
+            );
+            (ws.m, ws.col) = (m, col);
+            ok
         };
-        // Y = M^-1 W^T, column by column (one column per global).
-        let y = &mut ws.y[ls * ng..(ls + nl) * ng];
-        for a in 0..ng {
-            let col = &mut ws.col[..nl];
-            for l in 0..nl {
-                col[l] = n.w[wb + a * nl + l];
-            }
-            solve(m, col);
-            for l in 0..nl {
-                y[l * ng + a] = col[l];
-            }
-        }
-        let yl = &mut ws.yl[ls..ls + nl];
-        for l in 0..nl {
-            yl[l] = -n.g[lo + l];
-        }
-        solve(m, yl);
-        // S -= W Y, rhs -= W yl.
-        for a in 0..ng {
-            let wa = &n.w[wb + a * nl..wb + a * nl + nl];
-            for b in 0..ng {
-                let mut t = 0.0;
-                for l in 0..nl {
-                    t += wa[l] * y[l * ng + b];
-                }
-                ws.s[a * ng + b] -= t;
-            }
-            let mut t = 0.0;
-            for l in 0..nl {
-                t += wa[l] * yl[l];
-            }
-            x[a] -= t;
+        if !ok {
+            return false;
         }
     }
     if !cholesky(&mut ws.s, ng) {

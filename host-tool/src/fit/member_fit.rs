@@ -1178,6 +1178,9 @@ fn solve_point(g: &GridBases<'_>, p: &Point<'_>, s: &mut GridScratch) -> Option<
         );
     }
     s.off.fill(false);
+    // Whether `s.sol` solves the equations with its zeros held (the last pass removed
+    // nothing).
+    let mut solved = false;
     for pass in 0..4 {
         // The first pass holds nothing: solve the assembled equations themselves.
         let eqs = if pass == 0 {
@@ -1201,16 +1204,22 @@ fn solve_point(g: &GridBases<'_>, p: &Point<'_>, s: &mut GridScratch) -> Option<
             }
         }
         if !changed {
+            solved = true;
             break;
         }
     }
+    // cost + 2 g.x + x^T A x. A solution has x^T A x = -g.x (every free row of A x is
+    // -g, every held column's x is 0), which saves the quadratic form; the two differ
+    // in rounding only, and this cost only orders the costing of `best_points`, which
+    // cannot change the points chosen.
     let gx: f64 = s
         .sol
         .iter()
         .zip(s.normal.gradient())
         .map(|(x, g)| x * g)
         .sum();
-    let cost = (s.normal.cost() + 2.0 * gx + s.normal.quad(&s.sol)).max(0.0);
+    let quad = if solved { -gx } else { s.normal.quad(&s.sol) };
+    let cost = (s.normal.cost() + 2.0 * gx + quad).max(0.0);
     cost.is_finite().then_some(cost)
 }
 

@@ -466,6 +466,15 @@ pub(super) fn solve_linear_into(
     x: &mut [f64],
 ) -> bool {
     let np = normal.shape().n_params();
+    // Undamped first: its damping term 0 * d is 0 for any finite d, so the scaling is
+    // computed only when a ridge is needed (d holds ones between calls).
+    if d.len() != np {
+        d.clear();
+        d.resize(np, 1.0);
+    }
+    if solve_damped(normal, d, 0.0, ws, x) {
+        return true;
+    }
     normal.diagonal_into(d);
     let mean = d.iter().sum::<f64>() / np.max(1) as f64;
     for v in d.iter_mut() {
@@ -473,12 +482,11 @@ pub(super) fn solve_linear_into(
             *v = mean.max(1e-300);
         }
     }
-    for ridge in [0.0, 1e-12, 1e-8] {
-        if solve_damped(normal, d, ridge, ws, x) {
-            return true;
-        }
-    }
-    false
+    let ok = [1e-12, 1e-8]
+        .into_iter()
+        .any(|ridge| solve_damped(normal, d, ridge, ws, x));
+    d.clear();
+    ok
 }
 
 /// Fits one model. `None` when the data cannot support it (fewer points than

@@ -290,8 +290,8 @@ fn best_ms(reps: usize, mut f: impl FnMut()) -> f64 {
 }
 
 /// A simulated fe-0.115 sweep, 0.5 % noise: `n_inc` incidences in [0, 80] degrees,
-/// `n_det` detector angles in [-85, 85].
-fn scale_sweep(n_inc: usize, n_det: usize) -> Dataset {
+/// `n_det` detector angles in [-85, 85] (9 x 17: the study's paper-grid sweep).
+pub(crate) fn scale_sweep(n_inc: usize, n_det: usize) -> Dataset {
     let preset = Preset::by_name("fe-0.115").expect("preset");
     let inc: Vec<f64> = (0..n_inc)
         .map(|k| 80.0 * k as f64 / (n_inc.max(2) - 1) as f64)

@@ -251,12 +251,13 @@ pub fn minimize<P: ArrowProblem>(p: &mut P, x0: &[f64], opts: &LmOptions) -> LmR
 }
 
 /// [`minimize`], stopped ([`Termination::Stopped`]) as soon as `stop` says so of the
-/// point and cost an accepted step reached.
+/// point an accepted step reached and the normal equations there (its cost, gradient
+/// and diagonal).
 pub fn minimize_until<P: ArrowProblem>(
     p: &mut P,
     x0: &[f64],
     opts: &LmOptions,
-    stop: &mut dyn FnMut(&[f64], f64) -> bool,
+    stop: &mut dyn FnMut(&[f64], &Normal) -> bool,
 ) -> LmReport {
     let shape = p.shape().clone();
     let np = shape.n_params();
@@ -388,7 +389,7 @@ pub fn minimize_until<P: ArrowProblem>(
             nu = 2.0;
             // Shortened steps go on while the damped step is longer than max_step.
             retry = capped;
-            if stop(&x, cost) {
+            if stop(&x, &normal) {
                 termination = Termination::Stopped;
                 break;
             }
@@ -673,7 +674,8 @@ mod tests {
         let x0 = [3.0, -1.0, 0.1, 0.1, 0.1];
         let start = p.cost(&x0).unwrap();
         let mut seen = 0;
-        let rep = minimize_until(&mut p, &x0, &LmOptions::default(), &mut |_, c| {
+        let rep = minimize_until(&mut p, &x0, &LmOptions::default(), &mut |_, n| {
+            let c = n.cost();
             seen += 1;
             c < start / 10.0
         });

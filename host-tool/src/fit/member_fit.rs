@@ -1544,7 +1544,10 @@ fn point_cost(
 /// LM from `x0` with the pinned amplitudes held. LM is first given [`PROBE_ITERATIONS`]
 /// steps; an amplitude that fell by more than [`VANISHING`] in its log coordinate
 /// meanwhile is on its way to zero (in log coordinates it would crawl for tens of
-/// steps without changing the fit) and is pinned at its bound too. At the optimum each
+/// steps without changing the fit) and is pinned at its bound too. An amplitude that
+/// [`vanishes`] after an accepted step of the probe is pinned there, and the probe
+/// starts again (the crawl is then not waited for: on the study's sweep each GGX
+/// member's k_id vanished at the first step and crawled for the other 14). At the optimum each
 /// pinned amplitude whose release would lower the cost by more than [`RELEASE_GAIN`]
 /// (relative, a one-dimensional Gauss–Newton estimate) is released, started at that
 /// estimate, and LM run again: the result satisfies the bound's optimality condition
@@ -1573,20 +1576,42 @@ fn refine(
             ..*lm
         };
         // The basin test after every accepted step too: a path that has come into a
-        // known optimum's basin ends there.
-        let rep = minimize_until(p, &x, &opts, &mut |x, c| explored(x, c));
-        if !rep.cost.is_finite() || rep.termination == Termination::Stopped {
+        // known optimum's basin ends there. While probing, so does a step after which
+        // an amplitude is vanishing.
+        let free: Vec<bool> = (0..x.len())
+            .map(|i| probe && !p.pinned[i] && p.layout.is_amplitude(i))
+            .collect();
+        let mut vanishing = false;
+        let rep = minimize_until(p, &x, &opts, &mut |x, n| {
+            if explored(x, n.cost()) {
+                return true;
+            }
+            vanishing = (0..x.len()).any(|i| free[i] && vanishes(n, i));
+            vanishing
+        });
+        if !rep.cost.is_finite() {
             return None;
         }
-        if probe && rep.termination == Termination::MaxIterations {
-            if explored(&rep.x, rep.cost) {
-                return None;
-            }
-            probe = false;
-            let l = &p.layout;
+        if vanishing {
             for i in 0..x.len() {
-                if !p.pinned[i] && l.is_amplitude(i) && rep.x[i] < x[i] - VANISHING {
+                if free[i] && vanishes(&rep.normal, i) {
                     p.pinned[i] = true;
+                }
+            }
+        } else if rep.termination == Termination::Stopped {
+            return None;
+        }
+        if vanishing || (probe && rep.termination == Termination::MaxIterations) {
+            if !vanishing {
+                if explored(&rep.x, rep.cost) {
+                    return None;
+                }
+                probe = false;
+                let l = &p.layout;
+                for i in 0..x.len() {
+                    if !p.pinned[i] && l.is_amplitude(i) && rep.x[i] < x[i] - VANISHING {
+                        p.pinned[i] = true;
+                    }
                 }
             }
             x = rep.x;
@@ -1631,6 +1656,16 @@ fn refine(
         let normal = (!held).then_some(rep.normal);
         (rep.cost, rep.x, rep.termination.converged(), normal)
     })
+}
+
+/// Whether amplitude `i` (a log coordinate) is vanishing at the point of `n`: the
+/// one-dimensional Gauss–Newton step in the amplitude itself, a (1 - g/d) with
+/// g = (J^T r)_i and d = (J^T J)_ii in the log coordinate, reaches zero or below (the
+/// residual is linear in the amplitude, to first order). The release test of
+/// [`refine`] starts a released amplitude at that same step.
+fn vanishes(n: &Normal, i: usize) -> bool {
+    let d = n.diag(i);
+    d > 0.0 && n.gradient()[i] >= d
 }
 
 /// LM steps before vanishing amplitudes are looked for (see [`refine`]).

@@ -414,3 +414,71 @@ fn a_smooth_ks_variant_shares_its_members_grid_search() {
     assert_eq!(found.len(), REFINED);
     assert_eq!(best(smooth), found);
 }
+
+/// `vanishes` is the one-dimensional Gauss–Newton step in the amplitude a = e^u
+/// itself reaching zero: for r = a b - y that step lands on the least-squares a, so an
+/// optimum at a/2 is not vanishing, one at 0 or below is.
+#[test]
+fn an_amplitude_vanishes_when_its_newton_step_reaches_zero() {
+    let b = [1.0, 2.0, 0.5];
+    let a: f64 = 0.8;
+    let normal_for = |optimum: f64| {
+        let mut n = Normal::new(Shape::new(1, [0]));
+        for bk in b {
+            // r = a b - y with y = optimum b; dr/du = a b.
+            n.row(0, a * bk - optimum * bk, &[a * bk], &[]);
+        }
+        n
+    };
+    assert!(!vanishes(&normal_for(0.5 * a), 0));
+    assert!(!vanishes(&normal_for(0.01 * a), 0));
+    assert!(vanishes(&normal_for(0.0), 0));
+    assert!(vanishes(&normal_for(-0.1 * a), 0));
+    // No pull at all (a column of zeros) is not vanishing.
+    let mut flat = Normal::new(Shape::new(1, [0]));
+    flat.row(0, 1.0, &[0.0], &[]);
+    assert!(!vanishes(&flat, 0));
+}
+
+/// A k_id the data do not have (a GGX lobe on the study's Beckmann sweep: the fit's
+/// k_id goes to its bound) is pinned once its Newton step reaches zero, not after a
+/// crawl: the fit reaches the cost of a plain LM that crawls there, and holds k_id at
+/// its bound.
+#[test]
+fn a_vanishing_amplitude_pinned_early_reaches_the_crawls_optimum() {
+    let data = crate::bench::study::scale_sweep(9, 17);
+    let mut ggx = Member::THREE_COMPONENT;
+    ggx.core.as_mut().unwrap().dist = Distribution::Ggx;
+    let fit = fit_member(&data, ggx, Residual::Log, None).unwrap();
+    let kid = fit.layout.kid.unwrap();
+    let lower = fit.layout.bounds(kid).0;
+    assert_eq!(fit.x[kid], lower, "k_id should end at its bound");
+    // From the optimum with k_id put back at a tenth of the readings' median.
+    let mut x0 = fit.x.clone();
+    let mut ys: Vec<f64> = data.obs.iter().map(|o| o.y).collect();
+    ys.sort_by(f64::total_cmp);
+    x0[kid] = (0.1 * ys[ys.len() / 2]).ln();
+    let resid = Residuals::new(&data, Residual::Log);
+    let mut p = Problem::new(&data, fit.layout.clone(), Residual::Log, &resid, None);
+    let crawl = minimize(&mut p, &x0, &LmOptions::default());
+    // Called after every accepted step (and between rounds): counts them.
+    let steps = std::cell::Cell::new(0);
+    let count = |_: &[f64], _: f64| {
+        steps.set(steps.get() + 1);
+        false
+    };
+    let (cost, x, converged, _) =
+        refine(&mut p, x0.clone(), &LmOptions::default(), &count).unwrap();
+    assert!(converged);
+    assert_eq!(x[kid], lower);
+    assert!(
+        cost <= crawl.cost * (1.0 + 1e-9),
+        "pinned early {cost:e}, crawled {:e} in {} steps",
+        crawl.cost,
+        crawl.iterations
+    );
+    // The crawl is what the pin saves: LM alone takes many steps to get there; pinned
+    // at its first vanishing step the fit takes fewer than the probe's.
+    assert!(crawl.iterations > PROBE_ITERATIONS, "{}", crawl.iterations);
+    assert!(steps.get() < PROBE_ITERATIONS, "{} steps", steps.get());
+}

@@ -1089,12 +1089,14 @@ fn best_points(
 
 /// Reused storage of the grid's solves (a grid point allocates nothing).
 struct GridScratch {
+    /// The point's normal equations; the active set's removed columns are held in it.
     normal: Normal,
-    held: Normal,
     ws: Workspace,
     d: Vec<f64>,
     sol: Vec<f64>,
     off: Vec<bool>,
+    /// The columns the last pass removed (held before the next).
+    fresh: Vec<usize>,
 }
 
 impl GridScratch {
@@ -1102,12 +1104,12 @@ impl GridScratch {
         let np = shape.n_params();
         let normal = Normal::new(shape);
         GridScratch {
-            held: normal.clone(),
             normal,
             ws: Workspace::default(),
             d: Vec::new(),
             sol: vec![0.0; np],
             off: vec![false; np],
+            fresh: Vec::new(),
         }
     }
 }
@@ -1178,32 +1180,30 @@ fn solve_point(g: &GridBases<'_>, p: &Point<'_>, s: &mut GridScratch) -> Option<
         );
     }
     s.off.fill(false);
+    s.fresh.clear();
     // Whether `s.sol` solves the equations with its zeros held (the last pass removed
     // nothing).
     let mut solved = false;
-    for pass in 0..4 {
-        // The first pass holds nothing: solve the assembled equations themselves.
-        let eqs = if pass == 0 {
-            &s.normal
-        } else {
-            s.held.clone_from(&s.normal);
-            for (i, _) in s.off.iter().enumerate().filter(|(_, o)| **o) {
-                s.held.hold(i);
-            }
-            &s.held
-        };
-        if !solve_linear_into(eqs, &mut s.ws, &mut s.d, &mut s.sol) {
+    for _ in 0..4 {
+        // The columns removed so far are held in place: the set only grows, and
+        // holding neither changes the cost nor, where x is 0, g.x and x^T A x below.
+        for &i in &s.fresh {
+            s.normal.hold(i);
+        }
+        s.fresh.clear();
+        if !solve_linear_into(&s.normal, &mut s.ws, &mut s.d, &mut s.sol) {
             return None;
         }
-        let mut changed = false;
-        for (v, o) in s.sol.iter_mut().zip(s.off.iter_mut()) {
+        for (i, (v, o)) in s.sol.iter_mut().zip(s.off.iter_mut()).enumerate() {
             if *o || *v < 0.0 {
-                changed |= !*o;
+                if !*o {
+                    s.fresh.push(i);
+                }
                 *o = true;
                 *v = 0.0;
             }
         }
-        if !changed {
+        if s.fresh.is_empty() {
             solved = true;
             break;
         }

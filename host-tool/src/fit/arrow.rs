@@ -725,34 +725,15 @@ fn damped_body(
         // inverse and column stay in registers (stack arrays): through the workspace,
         // each 16-byte load of two values just stored one by one stalled on store
         // forwarding (a tenth of this solve's time on the grid).
+        let mut elim = |ws: &mut Workspace, m: &mut [f64], col: &mut [f64]| {
+            eliminate(n, &blk, d, lambda, ws, x, ng, nl, m, col)
+        };
         let ok = if nl <= 2 {
             let (mut m, mut col) = ([0.0; 4], [0.0; 2]);
-            eliminate(
-                n,
-                &blk,
-                d,
-                lambda,
-                ws,
-                x,
-                ng,
-                nl,
-                &mut m[..nl * nl],
-                &mut col[..nl],
-            )
+            elim(ws, &mut m[..nl * nl], &mut col[..nl])
         } else {
             let (mut m, mut col) = (std::mem::take(&mut ws.m), std::mem::take(&mut ws.col));
-            let ok = eliminate(
-                n,
-                &blk,
-                d,
-                lambda,
-                ws,
-                x,
-                ng,
-                nl,
-                &mut m[..nl * nl],
-                &mut col[..nl],
-            );
+            let ok = elim(ws, &mut m[..nl * nl], &mut col[..nl]);
             (ws.m, ws.col) = (m, col);
             ok
         };

@@ -46,6 +46,14 @@ fn two_lobe_rows(core: f64, haze: f64, noise: f64, seed: u32) -> Vec<Row> {
     rows
 }
 
+/// A simulated sweep of the paper's grid (9 incidences x 17 detector angles) of
+/// `preset`, 0.5 % noise.
+fn paper_sweep(preset: &str, seed: u32) -> Dataset {
+    let p = brdf_core::Preset::by_name(preset).unwrap();
+    let rows = crate::fit::data::synthetic_paper_sweep(|ti| p.model(ti).unwrap(), 0.005, seed);
+    Dataset::from_rows(&rows, true).unwrap()
+}
+
 #[test]
 fn layout_places_globals_then_locals() {
     let m = Member::parse("specular+specular-haze:ggx:smooth-ks+directional-diffuse+ideal-diffuse")
@@ -225,9 +233,7 @@ fn aperture_averaging_removes_the_detectors_blur() {
 /// memory) gives the very same fit as keeping the amplitudes.
 #[test]
 fn grid_points_solved_again_give_the_same_fit() {
-    let fe = brdf_core::Preset::by_name("fe-0.115").unwrap();
-    let rows = crate::fit::data::synthetic_paper_sweep(|ti| fe.model(ti).unwrap(), 0.005, 7);
-    let data = Dataset::from_rows(&rows, true).unwrap();
+    let data = paper_sweep("fe-0.115", 7);
     let haze = Member {
         haze: Member::THREE_COMPONENT.core,
         ..Member::THREE_COMPONENT
@@ -256,10 +262,7 @@ fn scipy_start(n_inc: usize) -> Vec<f64> {
 #[test]
 fn one_lm_from_the_scipy_start_reaches_the_default_fit() {
     for (name, seed) in [("fe-0.115", 1), ("cu-0.070", 2), ("al-0.782", 3)] {
-        let preset = brdf_core::Preset::by_name(name).unwrap();
-        let rows =
-            crate::fit::data::synthetic_paper_sweep(|ti| preset.model(ti).unwrap(), 0.005, seed);
-        let data = Dataset::from_rows(&rows, true).unwrap();
+        let data = paper_sweep(name, seed);
         let m = Member::THREE_COMPONENT;
         let grid = fit_member(&data, m, Residual::Log, None).unwrap();
         let x0 = scipy_start(data.incidences.len());
@@ -293,9 +296,7 @@ fn one_lm_from_the_scipy_start_reaches_the_default_fit() {
 
 #[test]
 fn one_lm_refuses_a_start_of_the_wrong_length_or_not_finite() {
-    let fe = brdf_core::Preset::by_name("fe-0.115").unwrap();
-    let rows = crate::fit::data::synthetic_paper_sweep(|ti| fe.model(ti).unwrap(), 0.005, 1);
-    let data = Dataset::from_rows(&rows, true).unwrap();
+    let data = paper_sweep("fe-0.115", 1);
     let m = Member::THREE_COMPONENT;
     let mut x0 = scipy_start(data.incidences.len());
     assert!(fit_member_from(&data, m, Residual::Log, None, &x0[1..]).is_none());
@@ -371,9 +372,7 @@ fn a_row_pass_in_parts_equals_the_whole_pass_on_any_number_of_threads() {
 /// the starts shared are those the variant's own search finds.
 #[test]
 fn a_smooth_ks_variant_shares_its_members_grid_search() {
-    let fe = brdf_core::Preset::by_name("fe-0.115").unwrap();
-    let rows = crate::fit::data::synthetic_paper_sweep(|ti| fe.model(ti).unwrap(), 0.005, 7);
-    let data = Dataset::from_rows(&rows, true).unwrap();
+    let data = paper_sweep("fe-0.115", 7);
     let bases = GridBases::new(&data, None);
     let searches = AtomicUsize::new(0);
     let search = |starts: Vec<usize>| {
@@ -489,9 +488,7 @@ fn a_vanishing_amplitude_pinned_early_reaches_the_crawls_optimum() {
 /// member's is 3.39e-3): the haze is to take up about a sixth of the single lobe's SSR.
 #[test]
 fn the_two_lobe_member_reaches_its_lower_optimum_on_an_aluminium_sweep() {
-    let al = brdf_core::Preset::by_name("al-0.142").unwrap();
-    let rows = crate::fit::data::synthetic_paper_sweep(|ti| al.model(ti).unwrap(), 0.005, 6);
-    let data = Dataset::from_rows(&rows, true).unwrap();
+    let data = paper_sweep("al-0.142", 6);
     let bases = GridBases::new(&data, None);
     let fit = |m: Member| fit_member_with(&bases, m, Residual::Log).unwrap().ssr;
     let two =

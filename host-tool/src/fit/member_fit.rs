@@ -1591,42 +1591,49 @@ fn refine(
         // The basin test after every accepted step too: a path that has come into a
         // known optimum's basin ends there. While probing, so does a step after which
         // a global amplitude is vanishing.
-        let free: Vec<bool> = (0..x.len())
-            .map(|i| probe && i < p.layout.n_global && !p.pinned[i] && p.layout.is_amplitude(i))
+        // Only globals are looked at (the early pin is for k_dd and k_id): at every
+        // accepted step, not a scan of every incidence's k_s.
+        let free: Vec<usize> = (0..p.layout.n_global)
+            .filter(|&i| probe && !p.pinned[i] && p.layout.is_amplitude(i))
             .collect();
         let mut vanishing = false;
         let rep = minimize_until(p, &x, &opts, &mut |x, n| {
             if explored(x, n.cost()) {
                 return true;
             }
-            vanishing = (0..x.len()).any(|i| free[i] && vanishes(n, i));
+            vanishing = free.iter().any(|&i| vanishes(n, i));
             vanishing
         });
         if !rep.cost.is_finite() {
             return None;
         }
-        if vanishing {
-            for i in 0..x.len() {
-                if free[i] && vanishes(&rep.normal, i) {
+        // Amplitudes to pin before another round: those vanishing now, or at the
+        // probe's end those that fell by more than VANISHING.
+        let pin_more = if vanishing {
+            for &i in &free {
+                if vanishes(&rep.normal, i) {
                     p.pinned[i] = true;
                 }
             }
+            true
         } else if rep.termination == Termination::Stopped {
             return None;
-        }
-        if vanishing || (probe && rep.termination == Termination::MaxIterations) {
-            if !vanishing {
-                if explored(&rep.x, rep.cost) {
-                    return None;
-                }
-                probe = false;
-                let l = &p.layout;
-                for i in 0..x.len() {
-                    if !p.pinned[i] && l.is_amplitude(i) && rep.x[i] < x[i] - VANISHING {
-                        p.pinned[i] = true;
-                    }
+        } else if probe && rep.termination == Termination::MaxIterations {
+            if explored(&rep.x, rep.cost) {
+                return None;
+            }
+            probe = false;
+            let l = &p.layout;
+            for i in 0..x.len() {
+                if !p.pinned[i] && l.is_amplitude(i) && rep.x[i] < x[i] - VANISHING {
+                    p.pinned[i] = true;
                 }
             }
+            true
+        } else {
+            false
+        };
+        if pin_more {
             x = rep.x;
             for i in 0..x.len() {
                 if p.pinned[i] {

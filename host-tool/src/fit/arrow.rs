@@ -568,7 +568,7 @@ fn eliminate(
 /// False unless it is positive definite (the same test as [`cholesky`]'s pivots: a > 0
 /// and a c - b^2 > 0, finite).
 #[inline(always)]
-fn invert_small(m: &mut [f64], n: usize) -> bool {
+pub(super) fn invert_small(m: &mut [f64], n: usize) -> bool {
     let a = m[0];
     if !(a > 0.0 && a.is_finite()) {
         return false;
@@ -593,7 +593,7 @@ fn invert_small(m: &mut [f64], n: usize) -> bool {
 
 /// `b = M^-1 b` with the inverse from [`invert_small`].
 #[inline(always)]
-fn apply_small(inv: &[f64], n: usize, b: &mut [f64]) {
+pub(super) fn apply_small(inv: &[f64], n: usize, b: &mut [f64]) {
     if n == 1 {
         b[0] *= inv[0];
     } else {
@@ -606,7 +606,7 @@ fn apply_small(inv: &[f64], n: usize, b: &mut [f64]) {
 /// In-place Cholesky of a row-major `n x n` symmetric positive definite matrix (lower
 /// triangle overwritten by L). False when a pivot is not positive.
 #[inline(always)]
-fn cholesky(a: &mut [f64], n: usize) -> bool {
+pub(super) fn cholesky(a: &mut [f64], n: usize) -> bool {
     for j in 0..n {
         let mut d = a[j * n + j];
         for k in 0..j {
@@ -630,7 +630,7 @@ fn cholesky(a: &mut [f64], n: usize) -> bool {
 
 /// Solves `L L^T x = b` in place with the factor from [`cholesky`].
 #[inline(always)]
-fn cholesky_solve(l: &[f64], n: usize, b: &mut [f64]) {
+pub(super) fn cholesky_solve(l: &[f64], n: usize, b: &mut [f64]) {
     for i in 0..n {
         let mut s = b[i];
         for k in 0..i {

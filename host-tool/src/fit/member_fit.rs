@@ -23,10 +23,11 @@ use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 use std::sync::{Arc, Mutex, OnceLock};
 
-use super::arrow::{ArrowInverse, Normal, RowSink, Shape, Workspace};
+use super::arrow::{ArrowInverse, Normal, RowSink, Shape};
+use super::point_system::PointSystem;
 use super::data::{Dataset, Observation};
 use super::lm::{ArrowProblem, LmOptions, Termination, minimize, minimize_until};
-use super::solve::{Residual, paper_rmse_with, residual_of, solve_linear_into};
+use super::solve::{Residual, paper_rmse_with, residual_of};
 
 /// Core-lobe widths of the grid: log-spaced, sigma 0.002..1.
 pub fn core_grid() -> Vec<f64> {
@@ -1016,7 +1017,7 @@ impl<'b> Grid<'b> {
         let m = &self.member;
         let nl = usize::from(m.core.is_some()) + usize::from(m.haze.is_some());
         let ng = usize::from(m.directional) + usize::from(m.ideal);
-        GridScratch::new(Shape::new(ng, (0..n_inc).map(|_| nl)))
+        GridScratch::new(ng, nl, n_inc)
     }
 }
 
@@ -1096,25 +1097,18 @@ fn best_points(
 /// Reused storage of the grid's solves (a grid point allocates nothing).
 struct GridScratch {
     /// The point's normal equations; the active set's removed columns are held in it.
-    normal: Normal,
-    ws: Workspace,
-    d: Vec<f64>,
-    sol: Vec<f64>,
+    system: PointSystem,
     off: Vec<bool>,
     /// The columns the last pass removed (held before the next).
     fresh: Vec<usize>,
 }
 
 impl GridScratch {
-    fn new(shape: Shape) -> Self {
-        let np = shape.n_params();
-        let normal = Normal::new(shape);
+    fn new(ng: usize, nl: usize, n_inc: usize) -> Self {
+        let system = PointSystem::new(ng, nl, n_inc);
         GridScratch {
-            normal,
-            ws: Workspace::default(),
-            d: Vec::new(),
-            sol: vec![0.0; np],
-            off: vec![false; np],
+            off: vec![false; system.n_params()],
+            system,
             fresh: Vec::new(),
         }
     }
@@ -1124,14 +1118,21 @@ impl GridScratch {
 /// with k_dd, k_id global and each lobe's k_s local to its incidence, the normal
 /// equations assembled from the bases' moments per incidence; columns that come out
 /// negative are removed and the rest solved again (a few passes of an active set).
-/// Leaves the solution in `s.sol` (0 for removed columns) and returns its weighted
+/// Leaves the solution in `s.system` (0 for removed columns) and returns its weighted
 /// cost `sum w^2 (f - y)^2`.
 fn solve_point(g: &GridBases<'_>, p: &Point<'_>, s: &mut GridScratch) -> Option<f64> {
     let n_inc = g.data.incidences.len();
-    s.normal.clear();
+    s.system.clear();
     let ng = usize::from(p.dd.is_some()) + usize::from(p.ideal);
-    let on: Vec<usize> = (0..2).filter(|&r| p.lobes[r].is_some()).collect();
-    let nl = on.len();
+    // The lobes that are on, in order (core, haze).
+    let (mut on, mut nl) = ([0; 2], 0);
+    for r in 0..2 {
+        if p.lobes[r].is_some() {
+            on[nl] = r;
+            nl += 1;
+        }
+    }
+    let on = &on[..nl];
     let (mut u, mut w, mut v, mut gr) = ([0.0; 4], [0.0; 4], [0.0; 4], [0.0; 4]);
     for j in 0..n_inc {
         // Globals: dd (if on), then ideal (if on).
@@ -1176,7 +1177,7 @@ fn solve_point(g: &GridBases<'_>, p: &Point<'_>, s: &mut GridScratch) -> Option<
             v[1] = c;
             v[2] = c;
         }
-        s.normal.add_group(
+        s.system.set_group(
             j,
             &u[..ng * ng],
             &w[..ng * nl],
@@ -1187,20 +1188,21 @@ fn solve_point(g: &GridBases<'_>, p: &Point<'_>, s: &mut GridScratch) -> Option<
     }
     s.off.fill(false);
     s.fresh.clear();
-    // Whether `s.sol` solves the equations with its zeros held (the last pass removed
+    // Whether the solution solves the equations with its zeros held (the last pass removed
     // nothing).
     let mut solved = false;
     for _ in 0..4 {
         // The columns removed so far are held in place: the set only grows, and
         // holding neither changes the cost nor, where x is 0, g.x and x^T A x below.
         for &i in &s.fresh {
-            s.normal.hold(i);
+            s.system.hold(i);
         }
         s.fresh.clear();
-        if !solve_linear_into(&s.normal, &mut s.ws, &mut s.d, &mut s.sol) {
+        if !s.system.solve() {
             return None;
         }
-        for (i, (v, o)) in s.sol.iter_mut().zip(s.off.iter_mut()).enumerate() {
+        let sol = s.system.solution_mut();
+        for (i, (v, o)) in sol.iter_mut().zip(s.off.iter_mut()).enumerate() {
             if *o || *v < 0.0 {
                 if !*o {
                     s.fresh.push(i);
@@ -1218,14 +1220,9 @@ fn solve_point(g: &GridBases<'_>, p: &Point<'_>, s: &mut GridScratch) -> Option<
     // -g, every held column's x is 0), which saves the quadratic form; the two differ
     // in rounding only, and this cost only orders the costing of `best_points`, which
     // cannot change the points chosen.
-    let gx: f64 = s
-        .sol
-        .iter()
-        .zip(s.normal.gradient())
-        .map(|(x, g)| x * g)
-        .sum();
-    let quad = if solved { -gx } else { s.normal.quad(&s.sol) };
-    let cost = (s.normal.cost() + 2.0 * gx + quad).max(0.0);
+    let gx = s.system.gradient_dot_solution();
+    let quad = if solved { -gx } else { s.system.quad() };
+    let cost = (s.system.cost() + 2.0 * gx + quad).max(0.0);
     cost.is_finite().then_some(cost)
 }
 
@@ -1244,12 +1241,13 @@ impl Amplitudes {
     /// point solved again for its costing allocates nothing: 0.8 MB a point at 50,000
     /// incidences).
     fn fill(&mut self, s: &GridScratch, p: &Point<'_>, n_inc: usize) {
+        let sol = s.system.solution();
         let mut c = 0;
         self.kdd = p.dd.map_or(0.0, |_| {
             c += 1;
-            s.sol[c - 1]
+            sol[c - 1]
         });
-        self.kid = if p.ideal { s.sol[c] } else { 0.0 };
+        self.kid = if p.ideal { sol[c] } else { 0.0 };
         let ng = usize::from(p.dd.is_some()) + usize::from(p.ideal);
         let nl = p.lobes.iter().filter(|l| l.is_some()).count();
         self.ks.clear();
@@ -1258,7 +1256,7 @@ impl Amplitudes {
             let mut n = 0;
             for (slot, l) in p.lobes.iter().enumerate() {
                 if l.is_some() {
-                    k[slot] = s.sol[ng + j * nl + n];
+                    k[slot] = sol[ng + j * nl + n];
                     n += 1;
                 }
             }

@@ -23,6 +23,7 @@ pub mod member_fit;
 pub mod paper;
 pub mod peak;
 pub mod physical;
+mod point_system;
 pub mod report;
 pub mod select;
 pub mod solve;

@@ -1,0 +1,414 @@
+//! One grid point's normal equations: at most two global amplitudes (k_dd, k_id) and
+//! at most two local ones (k_s of the core and haze lobes) per incidence, held in
+//! fixed-size blocks and solved with their sizes known at compile time.
+//!
+//! The operations are [`solve_damped`]'s, in the same order (the same bits), without
+//! its general layout: a grid search solves hundreds of these, and the general
+//! [`Normal`](super::arrow::Normal) spent most of each solve finding its blocks.
+//!
+//! [`solve_damped`]: super::arrow::solve_damped
+
+// Small blocks indexed with the formulas' subscripts, as in `arrow`.
+#![allow(clippy::needless_range_loop)]
+
+use super::arrow::{apply_small, cholesky, cholesky_solve, invert_small};
+
+/// The normal equations `A x = -g` of one grid point: globals first, then each
+/// incidence's locals (the order of [`PointSystem::solution`]).
+#[derive(Debug, Clone)]
+pub struct PointSystem {
+    ng: usize,
+    nl: usize,
+    /// Global block, row-major `ng x ng`.
+    u: [f64; 4],
+    /// Globals' gradient.
+    gg: [f64; 2],
+    /// Per incidence: coupling (row-major `ng x nl`), local block (`nl x nl`), locals'
+    /// gradient.
+    w: Vec<[f64; 4]>,
+    v: Vec<[f64; 4]>,
+    gl: Vec<[f64; 2]>,
+    cost: f64,
+    /// Per incidence: `Y = M^-1 W^T` (row-major `nl x ng`) and `M^-1 (-g_l)`.
+    y: Vec<[f64; 4]>,
+    yl: Vec<[f64; 2]>,
+    /// The solution (globals, then each incidence's locals).
+    x: Vec<f64>,
+    /// The ridge's scaling (the diagonal), when one is needed.
+    d: Vec<f64>,
+}
+
+impl PointSystem {
+    /// Zero equations of `ng` globals and `nl` locals per incidence over `n_inc`
+    /// incidences (`ng`, `nl` at most 2).
+    pub fn new(ng: usize, nl: usize, n_inc: usize) -> Self {
+        assert!(ng <= 2 && nl <= 2, "a grid point has at most 2 globals and 2 locals");
+        PointSystem {
+            ng,
+            nl,
+            u: [0.0; 4],
+            gg: [0.0; 2],
+            w: vec![[0.0; 4]; n_inc],
+            v: vec![[0.0; 4]; n_inc],
+            gl: vec![[0.0; 2]; n_inc],
+            cost: 0.0,
+            y: vec![[0.0; 4]; n_inc],
+            yl: vec![[0.0; 2]; n_inc],
+            x: vec![0.0; ng + nl * n_inc],
+            d: Vec::new(),
+        }
+    }
+
+    /// All parameters.
+    pub fn n_params(&self) -> usize {
+        self.x.len()
+    }
+
+    /// Starts the equations again (every incidence is then set once by
+    /// [`PointSystem::set_group`]).
+    pub fn clear(&mut self) {
+        self.u = [0.0; 4];
+        self.gg = [0.0; 2];
+        self.cost = 0.0;
+    }
+
+    /// Incidence `j`'s contribution, as [`Normal::add_group`](super::arrow::Normal::add_group)
+    /// takes it (added to zero, so the same values).
+    pub fn set_group(&mut self, j: usize, u: &[f64], w: &[f64], v: &[f64], g: &[f64], cost: f64) {
+        let (ng, nl) = (self.ng, self.nl);
+        self.cost += cost;
+        for a in 0..ng * ng {
+            self.u[a] += u[a];
+        }
+        let (wj, vj, gj) = (&mut self.w[j], &mut self.v[j], &mut self.gl[j]);
+        *wj = [0.0; 4];
+        *vj = [0.0; 4];
+        *gj = [0.0; 2];
+        for a in 0..ng * nl {
+            wj[a] += w[a];
+        }
+        for a in 0..nl * nl {
+            vj[a] += v[a];
+        }
+        for a in 0..ng {
+            self.gg[a] += g[a];
+        }
+        for l in 0..nl {
+            gj[l] += g[ng + l];
+        }
+    }
+
+    /// Holds parameter `i` at zero, as [`Normal::hold`](super::arrow::Normal::hold).
+    pub fn hold(&mut self, i: usize) {
+        let (ng, nl) = (self.ng, self.nl);
+        if i < ng {
+            self.gg[i] = 0.0;
+            for b in 0..ng {
+                self.u[i * ng + b] = 0.0;
+                self.u[b * ng + i] = 0.0;
+            }
+            self.u[i * ng + i] = 1.0;
+            for w in &mut self.w {
+                w[i * nl..(i + 1) * nl].fill(0.0);
+            }
+            return;
+        }
+        let (j, m) = ((i - ng) / nl, (i - ng) % nl);
+        self.gl[j][m] = 0.0;
+        let v = &mut self.v[j];
+        for l in 0..nl {
+            v[m * nl + l] = 0.0;
+            v[l * nl + m] = 0.0;
+        }
+        v[m * nl + m] = 1.0;
+        for a in 0..ng {
+            self.w[j][a * nl + m] = 0.0;
+        }
+    }
+
+    /// `r^T r`.
+    pub fn cost(&self) -> f64 {
+        self.cost
+    }
+
+    /// The last solution.
+    pub fn solution(&self) -> &[f64] {
+        &self.x
+    }
+
+    /// The solution, to be changed in place (the active set zeroes entries).
+    pub fn solution_mut(&mut self) -> &mut [f64] {
+        &mut self.x
+    }
+
+    /// `g . x` at the last solution, summed in parameter order (from -0, as
+    /// `Iterator::sum` does).
+    pub fn gradient_dot_solution(&self) -> f64 {
+        let (ng, nl) = (self.ng, self.nl);
+        let mut s = -0.0;
+        for a in 0..ng {
+            s += self.x[a] * self.gg[a];
+        }
+        for (j, g) in self.gl.iter().enumerate() {
+            for l in 0..nl {
+                s += self.x[ng + j * nl + l] * g[l];
+            }
+        }
+        s
+    }
+
+    /// `x^T A x` at the last solution, as [`Normal::quad`](super::arrow::Normal::quad).
+    pub fn quad(&self) -> f64 {
+        let (ng, nl) = (self.ng, self.nl);
+        let x = &self.x;
+        let mut q = 0.0;
+        for a in 0..ng {
+            for b in 0..ng {
+                // The upper triangle, as `Normal::u_at` reads it.
+                let u = if a <= b {
+                    self.u[a * ng + b]
+                } else {
+                    self.u[b * ng + a]
+                };
+                q += x[a] * u * x[b];
+            }
+        }
+        if nl == 0 {
+            return q;
+        }
+        for j in 0..self.w.len() {
+            let xl = &x[ng + j * nl..ng + (j + 1) * nl];
+            for a in 0..ng {
+                for l in 0..nl {
+                    q += 2.0 * x[a] * self.w[j][a * nl + l] * xl[l];
+                }
+            }
+            for l in 0..nl {
+                for m in 0..nl {
+                    q += xl[l] * self.v[j][l * nl + m] * xl[m];
+                }
+            }
+        }
+        q
+    }
+
+    /// Solves `A x = -g` into the solution, with a tiny ridge (relative to each
+    /// diagonal element) when `A` is singular: `solve_linear_into`'s steps.
+    pub fn solve(&mut self) -> bool {
+        if self.solve_damped(0.0) {
+            return true;
+        }
+        let (ng, nl) = (self.ng, self.nl);
+        let mut d = std::mem::take(&mut self.d);
+        d.clear();
+        d.extend((0..ng).map(|a| self.u[a * ng + a]));
+        for v in &self.v {
+            d.extend((0..nl).map(|l| v[l * nl + l]));
+        }
+        let mean = d.iter().sum::<f64>() / d.len().max(1) as f64;
+        for v in d.iter_mut() {
+            if *v <= 0.0 {
+                *v = mean.max(1e-300);
+            }
+        }
+        self.d = d;
+        [1e-12, 1e-8].into_iter().any(|ridge| self.solve_damped(ridge))
+    }
+
+    /// `(A + lambda diag(d)) x = -g` (`d` ignored when lambda is 0).
+    fn solve_damped(&mut self, lambda: f64) -> bool {
+        macro_rules! sized {
+            ($(($ng:literal, $nl:literal))*) => {
+                match (self.ng, self.nl) {
+                    $(($ng, $nl) => self.damped::<$ng, $nl>(lambda),)*
+                    _ => unreachable!("at most 2 globals and 2 locals"),
+                }
+            };
+        }
+        sized!((0, 0) (0, 1) (0, 2) (1, 0) (1, 1) (1, 2) (2, 0) (2, 1) (2, 2))
+    }
+
+    /// [`arrow::damped_body`](super::arrow) for `NG` globals and `NL` locals per
+    /// incidence: the same operations in the same order.
+    fn damped<const NG: usize, const NL: usize>(&mut self, lambda: f64) -> bool {
+        let d = |i: usize| if lambda == 0.0 { 0.0 } else { self.d[i] };
+        let mut s = [0.0; 4];
+        s[..NG * NG].copy_from_slice(&self.u[..NG * NG]);
+        for a in 0..NG {
+            for b in 0..a {
+                s[a * NG + b] = s[b * NG + a];
+            }
+        }
+        let mut xg = [0.0; 2];
+        for a in 0..NG {
+            s[a * NG + a] += lambda * d(a);
+            xg[a] = -self.gg[a];
+        }
+        if NL > 0 {
+            for j in 0..self.w.len() {
+                let lo = NG + j * NL;
+                let mut m = [0.0; 4];
+                m[..NL * NL].copy_from_slice(&self.v[j][..NL * NL]);
+                for l in 0..NL {
+                    m[l * NL + l] += lambda * d(lo + l);
+                }
+                if !invert_small(&mut m[..NL * NL], NL) {
+                    return false;
+                }
+                let w = &self.w[j];
+                let y = &mut self.y[j];
+                for a in 0..NG {
+                    let mut col = [0.0; 2];
+                    for l in 0..NL {
+                        col[l] = w[a * NL + l];
+                    }
+                    apply_small(&m[..NL * NL], NL, &mut col[..NL]);
+                    for l in 0..NL {
+                        y[l * NG + a] = col[l];
+                    }
+                }
+                let yl = &mut self.yl[j];
+                for l in 0..NL {
+                    yl[l] = -self.gl[j][l];
+                }
+                apply_small(&m[..NL * NL], NL, &mut yl[..NL]);
+                for a in 0..NG {
+                    let wa = &w[a * NL..a * NL + NL];
+                    for b in 0..NG {
+                        let mut t = 0.0;
+                        for l in 0..NL {
+                            t += wa[l] * y[l * NG + b];
+                        }
+                        s[a * NG + b] -= t;
+                    }
+                    let mut t = 0.0;
+                    for l in 0..NL {
+                        t += wa[l] * yl[l];
+                    }
+                    xg[a] -= t;
+                }
+            }
+        }
+        if !cholesky(&mut s[..NG * NG], NG) {
+            return false;
+        }
+        cholesky_solve(&s[..NG * NG], NG, &mut xg[..NG]);
+        self.x[..NG].copy_from_slice(&xg[..NG]);
+        for j in 0..self.y.len() {
+            for l in 0..NL {
+                let mut t = self.yl[j][l];
+                for a in 0..NG {
+                    t -= self.y[j][l * NG + a] * xg[a];
+                }
+                self.x[NG + j * NL + l] = t;
+            }
+        }
+        self.x.iter().all(|v| v.is_finite())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::arrow::{Normal, Shape};
+    use super::super::solve::solve_linear_into;
+    use super::*;
+
+    /// A deterministic pseudo-random system of `ng` globals, `nl` locals over `n_inc`
+    /// incidences (sums of outer products of rows, so positive semi-definite), given
+    /// to both a `PointSystem` and a general `Normal`.
+    fn both(ng: usize, nl: usize, n_inc: usize, seed: u64) -> (PointSystem, Normal) {
+        let mut state = seed;
+        let mut rnd = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((state >> 11) as f64 / (1u64 << 53) as f64) - 0.3
+        };
+        let mut p = PointSystem::new(ng, nl, n_inc);
+        let mut n = Normal::new(Shape::new(ng, (0..n_inc).map(|_| nl)));
+        p.clear();
+        n.clear();
+        for j in 0..n_inc {
+            let (mut u, mut w, mut v, mut g) = ([0.0; 4], [0.0; 4], [0.0; 4], [0.0; 4]);
+            let mut c = 0.0;
+            for _ in 0..5 {
+                let row: Vec<f64> = (0..ng + nl).map(|_| rnd()).collect();
+                let r = rnd();
+                for a in 0..ng {
+                    for b in 0..ng {
+                        u[a * ng + b] += row[a] * row[b];
+                    }
+                    for l in 0..nl {
+                        w[a * nl + l] += row[a] * row[ng + l];
+                    }
+                }
+                for l in 0..nl {
+                    for m in 0..nl {
+                        v[l * nl + m] += row[ng + l] * row[ng + m];
+                    }
+                }
+                for a in 0..ng + nl {
+                    g[a] += row[a] * r;
+                }
+                c += r * r;
+            }
+            let (u, w, v, g) = (&u[..ng * ng], &w[..ng * nl], &v[..nl * nl], &g[..ng + nl]);
+            p.set_group(j, u, w, v, g, c);
+            n.add_group(j, u, w, v, g, c);
+        }
+        (p, n)
+    }
+
+    fn general(n: &Normal) -> Option<Vec<f64>> {
+        let mut x = vec![0.0; n.shape().n_params()];
+        solve_linear_into(n, &mut Default::default(), &mut Vec::new(), &mut x).then_some(x)
+    }
+
+    #[test]
+    fn solves_bit_for_bit_as_the_general_arrow_solve() {
+        for ng in 0..=2 {
+            for nl in 0..=2 {
+                if ng + nl == 0 {
+                    continue;
+                }
+                for seed in 0..20 {
+                    let (mut p, mut n) = both(ng, nl, 9, seed);
+                    assert!(p.solve());
+                    let x = general(&n).expect("general solve");
+                    assert_eq!(p.solution(), &x[..], "ng {ng} nl {nl} seed {seed}");
+                    let gx: f64 = x.iter().zip(n.gradient()).map(|(a, b)| a * b).sum();
+                    assert_eq!(p.gradient_dot_solution().to_bits(), gx.to_bits());
+                    assert_eq!(p.quad().to_bits(), n.quad(&x).to_bits());
+                    assert_eq!(p.cost(), n.cost());
+                    // Holding a global and a local changes both alike.
+                    for i in [0, ng + nl * 3 + nl.saturating_sub(1)] {
+                        if i < p.n_params() && (i < ng || nl > 0) {
+                            p.hold(i);
+                            n.hold(i);
+                        }
+                    }
+                    assert!(p.solve());
+                    let x = general(&n).expect("general solve after holds");
+                    assert_eq!(p.solution(), &x[..], "held: ng {ng} nl {nl} seed {seed}");
+                    assert_eq!(p.quad().to_bits(), n.quad(&x).to_bits());
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_singular_system_takes_the_same_ridge() {
+        // Two identical local columns at every incidence: singular without the ridge.
+        let mut p = PointSystem::new(1, 2, 3);
+        let mut n = Normal::new(Shape::new(1, [2, 2, 2]));
+        n.clear();
+        p.clear();
+        for j in 0..3 {
+            let (u, w, v, g) = ([2.0], [1.0, 1.0], [1.0, 1.0, 1.0, 1.0], [-1.0, -0.5, -0.5]);
+            p.set_group(j, &u, &w, &v, &g, 1.0);
+            n.add_group(j, &u, &w, &v, &g, 1.0);
+        }
+        assert!(p.solve());
+        let x = general(&n).expect("ridge solve");
+        assert_eq!(p.solution(), &x[..]);
+        assert!(p.solution().iter().all(|v| v.is_finite()));
+    }
+}

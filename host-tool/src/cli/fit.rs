@@ -57,8 +57,9 @@ directional-diffuse+ideal-diffuse and three-component with a haze lobe; then, of
 ideal diffuse and the paper's lobe, each one component from the member selected (its claims compare against \
 it) or that could still beat it (a member fits no better than a larger member it is nested in, which bounds \
 its AICc and BIC), until none is left: so torrance-sparrow with a haze is fitted only when it matters; then, \
-for the component set selected, the variants of its core lobe (Beckmann or GGX, k_s per incidence or smooth); then, if the member \
-selected has a haze, that member with the haze's other distribution. --models fits exactly the members named.\n\n\
+for the component set selected, the variants of its core lobe (Beckmann or GGX, k_s per incidence or smooth), a \
+smooth-k_s variant only when it could be selected (the same member with k_s per incidence bounds it: the notes \
+say so when it is left out); then, if the member selected has a haze, that member with the haze's other distribution. --models fits exactly the members named.\n\n\
 Selection: a component is supported only when the comparison that adds that component alone favours it by AICc \
 (by more than 2) AND its amplitude is determined (not at its bound, standard error under a third of the value; \
 one k_s per incidence counts as one amplitude). The selected model is the lowest-AICc member whose every \

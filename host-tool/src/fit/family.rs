@@ -1,7 +1,7 @@
 //! The model family: the paper's four models and their parameters, and the default
 //! members drawn from brdf-core's lattice.
 
-use brdf_core::member::{Component, LobeSpec, Member};
+use brdf_core::member::{Component, KsForm, LobeSpec, Member};
 use brdf_core::{Components, Model, Params};
 
 use super::member_fit::{Layout, MemberFit};
@@ -404,4 +404,76 @@ pub fn haze_variant_of(selected: Member) -> Option<Member> {
         Distribution::Ggx => Distribution::Beckmann,
     };
     Some(m)
+}
+
+/// The member with `m`'s core k_s per incidence instead of smooth (`None` when `m`'s
+/// core k_s is not smooth). It nests `m`: a smooth k_s (ln k_s quadratic in theta_i)
+/// is one choice of k_s per incidence.
+pub fn per_incidence_of(m: Member) -> Option<Member> {
+    let core = m.core.filter(|c| c.ks == KsForm::Smooth)?;
+    Some(Member {
+        core: Some(LobeSpec {
+            ks: KsForm::PerIncidence,
+            ..core
+        }),
+        ..m
+    })
+}
+
+/// What the fits so far say of a smooth-k_s variant ([`smooth_needed`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum SmoothVariant {
+    /// It could still be selected: fit it.
+    Needed,
+    /// Its member with k_s per incidence (`by`) is not fitted yet: ask again after it.
+    Deferred,
+    /// It cannot be selected: `by`, fitted, bounds its AICc from below at `aicc_above`
+    /// above the selected member's (and its BIC above that member's BIC).
+    Bounded {
+        /// The member with k_s per incidence that nests it.
+        by: Member,
+        /// Its AICc's lower bound minus the selected member's AICc.
+        aicc_above: f64,
+    },
+}
+
+/// Whether the smooth-k_s variant `m` is needed, given the members fitted so far
+/// (`fits`, their `cands`) and those still to be fitted (`pending`). Its member with k_s
+/// per incidence ([`per_incidence_of`]) fits at least as well (as far as that fit
+/// reaches its optimum), so that member's sum of squares with `m`'s parameter count
+/// bounds `m`'s AICc and BIC from below. `m` is left out when, by both criteria, that
+/// bound is above the selected member's by more than [`MARGIN`](super::select::MARGIN):
+/// it could be neither selected nor within the margin of the selected member (the
+/// report's ties).
+pub fn smooth_needed(
+    m: Member,
+    fits: &[MemberFit],
+    cands: &[Candidate],
+    pending: &[Member],
+) -> SmoothVariant {
+    let Some(by) = per_incidence_of(m) else {
+        return SmoothVariant::Needed;
+    };
+    let Some(f) = fits.iter().find(|f| f.member() == by) else {
+        return if pending.contains(&by) {
+            SmoothVariant::Deferred
+        } else {
+            SmoothVariant::Needed
+        };
+    };
+    let k = Layout::new(m, f.incidences.len()).len();
+    let mut aicc_above = f64::INFINITY;
+    for crit in Criterion::ALL {
+        let Some(best) = Selection::new(cands, crit).best() else {
+            return SmoothVariant::Needed;
+        };
+        let above = crit.of_ssr(f.ssr, f.n, k) - crit.of(best);
+        if !(above > super::select::MARGIN) {
+            return SmoothVariant::Needed;
+        }
+        if crit == Criterion::Aicc {
+            aicc_above = above;
+        }
+    }
+    SmoothVariant::Bounded { by, aicc_above }
 }

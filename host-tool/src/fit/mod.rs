@@ -162,6 +162,55 @@ impl Fitted {
     }
 }
 
+/// The family's second stage: the variants `more` of the selected component set. A
+/// smooth-k_s variant is fitted only when it could be selected
+/// ([`family::smooth_needed`]): those whose member with k_s per incidence is among
+/// `more` wait for its fit, the rest are fitted beside the others. The fits are kept
+/// in the order of `more`.
+fn stage_two(
+    fitted: &mut Fitted,
+    bases: &GridBases<'_>,
+    more: &[Member],
+    residual: Residual,
+    notes: &mut Vec<String>,
+) {
+    use family::SmoothVariant;
+    let start = fitted.members.len();
+    let mut later = Vec::new();
+    for pass in 0..2 {
+        let (asked, pending): (&[Member], Vec<Member>) = if pass == 0 {
+            (more, more.to_vec())
+        } else {
+            (&later, Vec::new())
+        };
+        let mut now = Vec::new();
+        let mut deferred = Vec::new();
+        for &m in asked {
+            match family::smooth_needed(m, &fitted.members, &fitted.cands, &pending) {
+                SmoothVariant::Needed => now.push(m),
+                SmoothVariant::Deferred => deferred.push(m),
+                SmoothVariant::Bounded { by, aicc_above } => notes.push(format!(
+                    "{m}: not fitted: a smooth k_s is one choice of k_s per incidence, so it fits no better than {by}, whose fit puts its AICc at least {aicc_above:.1} above the selected member's (and its BIC above too)"
+                )),
+            }
+        }
+        fitted.add(bases, &now, residual, notes);
+        later = deferred;
+    }
+    // In the order of `more`, whichever batch each was fitted in.
+    let order = |f: &MemberFit| more.iter().position(|&m| m == f.member());
+    let mut tail: Vec<(MemberFit, Candidate)> = fitted
+        .members
+        .drain(start..)
+        .zip(fitted.cands.drain(start..))
+        .collect();
+    tail.sort_by_key(|(f, _)| order(f));
+    for (f, c) in tail {
+        fitted.members.push(f);
+        fitted.cands.push(c);
+    }
+}
+
 /// The family's first stage: [`family::default_members`], then the reference members
 /// the decision needs ([`family::needed`]: one component from the selection, or
 /// possibly better than it) until none is. Returns the fits, in the lattice's order,
@@ -214,7 +263,7 @@ pub fn fit_family(data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, String
                     .filter(|m| !tried.contains(m))
                     .collect();
                 bases.retain_for(&more);
-                fitted.add(&bases, &more, opts.residual, &mut notes);
+                stage_two(&mut fitted, &bases, &more, opts.residual, &mut notes);
             }
             // Stage three: the selected member's haze with the other distribution.
             if let Some(m) = fitted.best().and_then(family::haze_variant_of)

@@ -385,6 +385,78 @@ fn stage_one_selects_what_fitting_every_reference_member_would() {
     }
 }
 
+/// Stage two leaves a smooth-k_s variant out only where fitting it would change
+/// nothing: the selection (by AICc and by BIC) is that of fitting every variant, the
+/// variants fitted are the same fits, and a variant left out, fitted anyway, fits no
+/// better than the member that bounded it. On fe-0.115 the smooth GGX variant is left
+/// out; on the Scatterworks metal it is the answer.
+#[test]
+fn stage_two_leaves_out_only_smooth_variants_that_cannot_be_selected() {
+    use brdf_core::Preset;
+    let fe = Preset::by_name("fe-0.115").unwrap();
+    let fe = data::synthetic_paper_sweep(|ti| fe.model(ti).unwrap(), 0.005, 3);
+    let cases = [
+        ("fe-0.115", Dataset::from_rows(&fe, true).unwrap(), true),
+        (
+            "scatterworks",
+            scatterworks_data(&FitOptions::default()),
+            false,
+        ),
+    ];
+    for (name, data, leaves_out) in cases {
+        let bases = GridBases::new(&data, None);
+        let mut notes = Vec::new();
+        let (mut some, tried) = stage_one(&bases, Residual::Log, &mut notes);
+        let more: Vec<Member> = family::variants_of(some.best().unwrap())
+            .into_iter()
+            .filter(|m| !tried.contains(m))
+            .collect();
+        let mut every = Fitted {
+            members: some.members.clone(),
+            cands: some.cands.clone(),
+        };
+        every.add(&bases, &more, Residual::Log, &mut notes);
+        stage_two(&mut some, &bases, &more, Residual::Log, &mut notes);
+        for crit in Criterion::ALL {
+            let best = |c: &[Candidate]| Selection::new(c, crit).best().map(|b| b.member);
+            assert_eq!(
+                best(&some.cands),
+                best(&every.cands),
+                "{name}, {}",
+                crit.name()
+            );
+        }
+        let of = |f: &Fitted, m: Member| f.members.iter().find(|f| f.member() == m).cloned();
+        let mut left_out = 0;
+        for &m in &more {
+            let all = of(&every, m).unwrap();
+            match of(&some, m) {
+                Some(fit) => assert_eq!(fit.ssr, all.ssr, "{name}: {m}"),
+                None => {
+                    left_out += 1;
+                    let by = of(&every, family::per_incidence_of(m).unwrap()).unwrap();
+                    assert!(all.ssr >= by.ssr, "{name}: {m} fits better than its bound");
+                    let said = format!("{m}: not fitted: ");
+                    assert!(notes.iter().any(|n| n.starts_with(&said)), "{notes:?}");
+                }
+            }
+        }
+        assert_eq!(left_out > 0, leaves_out, "{name}: {left_out} left out");
+        // Kept in the order the variants are generated in.
+        let order: Vec<Member> = more
+            .iter()
+            .copied()
+            .filter(|&m| of(&some, m).is_some())
+            .collect();
+        let tail = &some.members[some.members.len() - order.len()..];
+        assert_eq!(
+            tail.iter().map(|f| f.member()).collect::<Vec<_>>(),
+            order,
+            "{name}"
+        );
+    }
+}
+
 #[test]
 fn the_scatterworks_floor_readings_and_its_unresolved_core_are_said() {
     let with = scatterworks(None);

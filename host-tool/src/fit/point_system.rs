@@ -42,7 +42,10 @@ impl PointSystem {
     /// Zero equations of `ng` globals and `nl` locals per incidence over `n_inc`
     /// incidences (`ng`, `nl` at most 2).
     pub fn new(ng: usize, nl: usize, n_inc: usize) -> Self {
-        assert!(ng <= 2 && nl <= 2, "a grid point has at most 2 globals and 2 locals");
+        assert!(
+            ng <= 2 && nl <= 2,
+            "a grid point has at most 2 globals and 2 locals"
+        );
         PointSystem {
             ng,
             nl,
@@ -73,29 +76,38 @@ impl PointSystem {
     }
 
     /// Incidence `j`'s contribution, as [`Normal::add_group`](super::arrow::Normal::add_group)
-    /// takes it (added to zero, so the same values).
-    pub fn set_group(&mut self, j: usize, u: &[f64], w: &[f64], v: &[f64], g: &[f64], cost: f64) {
-        let (ng, nl) = (self.ng, self.nl);
+    /// takes it (added to zero, so the same values): `u` (row-major `NG x NG`), `w`
+    /// (`NG x NL`), `v` (`NL x NL`), `g` (globals then locals), each in the first
+    /// entries of its array. `NG` and `NL` are the system's sizes.
+    #[inline(always)]
+    pub fn set_group<const NG: usize, const NL: usize>(
+        &mut self,
+        j: usize,
+        u: &[f64; 4],
+        w: &[f64; 4],
+        v: &[f64; 4],
+        g: &[f64; 4],
+        cost: f64,
+    ) {
+        debug_assert_eq!((NG, NL), (self.ng, self.nl));
         self.cost += cost;
-        for a in 0..ng * ng {
+        for a in 0..NG * NG {
             self.u[a] += u[a];
         }
-        let (wj, vj, gj) = (&mut self.w[j], &mut self.v[j], &mut self.gl[j]);
-        *wj = [0.0; 4];
-        *vj = [0.0; 4];
-        *gj = [0.0; 2];
-        for a in 0..ng * nl {
+        let (mut wj, mut vj, mut gj) = ([0.0; 4], [0.0; 4], [0.0; 2]);
+        for a in 0..NG * NL {
             wj[a] += w[a];
         }
-        for a in 0..nl * nl {
+        for a in 0..NL * NL {
             vj[a] += v[a];
         }
-        for a in 0..ng {
+        for a in 0..NG {
             self.gg[a] += g[a];
         }
-        for l in 0..nl {
-            gj[l] += g[ng + l];
+        for l in 0..NL {
+            gj[l] += g[NG + l];
         }
+        (self.w[j], self.v[j], self.gl[j]) = (wj, vj, gj);
     }
 
     /// Holds parameter `i` at zero, as [`Normal::hold`](super::arrow::Normal::hold).
@@ -212,7 +224,9 @@ impl PointSystem {
             }
         }
         self.d = d;
-        [1e-12, 1e-8].into_iter().any(|ridge| self.solve_damped(ridge))
+        [1e-12, 1e-8]
+            .into_iter()
+            .any(|ridge| self.solve_damped(ridge))
     }
 
     /// `(A + lambda diag(d)) x = -g` (`d` ignored when lambda is 0).
@@ -225,7 +239,7 @@ impl PointSystem {
                 }
             };
         }
-        sized!((0, 0) (0, 1) (0, 2) (1, 0) (1, 1) (1, 2) (2, 0) (2, 1) (2, 2))
+        sized!((0, 0)(0, 1)(0, 2)(1, 0)(1, 1)(1, 2)(2, 0)(2, 1)(2, 2))
     }
 
     /// [`arrow::damped_body`](super::arrow) for `NG` globals and `NL` locals per
@@ -319,7 +333,9 @@ mod tests {
     fn both(ng: usize, nl: usize, n_inc: usize, seed: u64) -> (PointSystem, Normal) {
         let mut state = seed;
         let mut rnd = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             ((state >> 11) as f64 / (1u64 << 53) as f64) - 0.3
         };
         let mut p = PointSystem::new(ng, nl, n_inc);
@@ -350,11 +366,38 @@ mod tests {
                 }
                 c += r * r;
             }
-            let (u, w, v, g) = (&u[..ng * ng], &w[..ng * nl], &v[..nl * nl], &g[..ng + nl]);
-            p.set_group(j, u, w, v, g, c);
-            n.add_group(j, u, w, v, g, c);
+            set(&mut p, j, &u, &w, &v, &g, c);
+            n.add_group(
+                j,
+                &u[..ng * ng],
+                &w[..ng * nl],
+                &v[..nl * nl],
+                &g[..ng + nl],
+                c,
+            );
         }
         (p, n)
+    }
+
+    /// [`PointSystem::set_group`] at the system's sizes.
+    fn set(
+        p: &mut PointSystem,
+        j: usize,
+        u: &[f64; 4],
+        w: &[f64; 4],
+        v: &[f64; 4],
+        g: &[f64; 4],
+        c: f64,
+    ) {
+        macro_rules! sized {
+            ($(($ng:literal, $nl:literal))*) => {
+                match (p.ng, p.nl) {
+                    $(($ng, $nl) => p.set_group::<$ng, $nl>(j, u, w, v, g, c),)*
+                    _ => unreachable!(),
+                }
+            };
+        }
+        sized!((0, 0)(0, 1)(0, 2)(1, 0)(1, 1)(1, 2)(2, 0)(2, 1)(2, 2))
     }
 
     fn general(n: &Normal) -> Option<Vec<f64>> {
@@ -402,9 +445,14 @@ mod tests {
         n.clear();
         p.clear();
         for j in 0..3 {
-            let (u, w, v, g) = ([2.0], [1.0, 1.0], [1.0, 1.0, 1.0, 1.0], [-1.0, -0.5, -0.5]);
-            p.set_group(j, &u, &w, &v, &g, 1.0);
-            n.add_group(j, &u, &w, &v, &g, 1.0);
+            let (u, w, v, g) = (
+                [2.0, 0.0, 0.0, 0.0],
+                [1.0, 1.0, 0.0, 0.0],
+                [1.0; 4],
+                [-1.0, -0.5, -0.5, 0.0],
+            );
+            p.set_group::<1, 2>(j, &u, &w, &v, &g, 1.0);
+            n.add_group(j, &u[..1], &w[..2], &v, &g[..3], 1.0);
         }
         assert!(p.solve());
         let x = general(&n).expect("ridge solve");

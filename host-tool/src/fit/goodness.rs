@@ -86,18 +86,28 @@ pub fn goodness(
     residual: Residual,
     k: usize,
 ) -> Option<Goodness> {
+    let mut ssr = 0.0;
+    for (o, f) in data.obs.iter().zip(fitted) {
+        let r = residual_of(residual, (*f)?, o.y);
+        ssr += r * r;
+    }
+    goodness_of_ssr(data, ssr, residual, k)
+}
+
+/// [`goodness`] of a fit whose sum of squared residuals (in the residual's kind, over
+/// every reading of `data`) is `ssr`: what a member's fit reports of itself, so its
+/// values need not be evaluated again.
+pub fn goodness_of_ssr(data: &Dataset, ssr: f64, residual: Residual, k: usize) -> Option<Goodness> {
     if data.obs.len() <= k || data.obs.is_empty() {
         return None;
     }
-    let (mut ssr, mut var) = (0.0, 0.0);
-    for (o, f) in data.obs.iter().zip(fitted) {
+    let mut var = 0.0;
+    for o in &data.obs {
         let s = o.sigma_y?;
         let s = match residual {
             Residual::Log | Residual::Relative => s / o.y.abs(),
             Residual::Absolute => s,
         };
-        let r = residual_of(residual, (*f)?, o.y);
-        ssr += r * r;
         var += s * s;
     }
     let var = var / data.obs.len() as f64;

@@ -438,8 +438,9 @@ fn candidates_of_members(
     members
         .iter()
         .map(|f| {
-            let g: Option<Goodness> =
-                goodness::goodness(data, &goodness::member_fitted(f, data), residual, f.k());
+            // The fit's own sum of squares: its residuals are those of its fitted
+            // values (`goodness::member_fitted`), summed by incidence.
+            let g: Option<Goodness> = goodness::goodness_of_ssr(data, f.ssr, residual, f.k());
             Candidate::of_member(f, g)
         })
         .collect()

@@ -468,7 +468,8 @@ pub fn smooth_needed(
             return SmoothVariant::Needed;
         };
         let above = crit.of_ssr(f.ssr, f.n, k) - crit.of(best);
-        if !(above > super::select::MARGIN) {
+        // NaN (a criterion that cannot be computed) proves nothing either.
+        if above.is_nan() || above <= super::select::MARGIN {
             return SmoothVariant::Needed;
         }
         if crit == Criterion::Aicc {

@@ -315,6 +315,31 @@ impl<T: Real> MemberModel<T> {
         })
     }
 
+    /// The same model with the per-incidence k_s of its core lobe and of its haze lobe
+    /// replaced where given (`None` keeps one; a lobe that is off or has a smooth k_s
+    /// keeps its own), each checked as [`MemberModel::new`] checks it: a fit's next
+    /// incidence without building the lobes again. The same model, bit for bit, as
+    /// [`MemberModel::new`] with those k_s.
+    pub fn with_ks(&self, core: Option<T>, haze: Option<T>) -> Result<Self, ModelError> {
+        let mut m = *self;
+        let set = |k: Option<T>,
+                   lobe: &mut Option<WeightedLobe<T>>,
+                   p: &mut Option<LobeParams<T>>,
+                   what: &'static str| {
+            if let (Some(k), Some(l), Some(p)) = (k, lobe.as_mut(), p.as_mut())
+                && matches!(l.ks, Ks::PerIncidence(_))
+            {
+                check_weight(what, k)?;
+                l.ks = Ks::PerIncidence(k);
+                p.ks = Ks::PerIncidence(k);
+            }
+            Ok(())
+        };
+        set(core, &mut m.core, &mut m.params.core, "k_s")?;
+        set(haze, &mut m.haze, &mut m.params.haze, "k_s_haze")?;
+        Ok(m)
+    }
+
     /// The parameters the model was built from.
     pub fn params(&self) -> &MemberParams<T> {
         &self.params

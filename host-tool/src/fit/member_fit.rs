@@ -234,6 +234,20 @@ impl Layout {
     pub fn model(&self, x: &[f64], j: usize) -> Option<MemberModel<f64>> {
         MemberModel::new(&self.params(x, j)).ok()
     }
+
+    /// [`Layout::model`] from `prev`, another incidence's model at the same `x`: only
+    /// the per-incidence k_s differ (the same model; a row pass builds one per
+    /// incidence, and the lobes' widths were most of that).
+    pub fn model_from(
+        &self,
+        prev: &MemberModel<f64>,
+        x: &[f64],
+        j: usize,
+    ) -> Option<MemberModel<f64>> {
+        let ks = |on: bool, haze: bool| on.then(|| x[self.local(j, haze)].exp());
+        prev.with_ks(ks(self.core_local, false), ks(self.haze_local, true))
+            .ok()
+    }
 }
 
 /// The residual of every reading, with ln y computed once (the log residual's
@@ -379,10 +393,16 @@ impl Problem<'_> {
         // Each incidence's model is built as its rows are: holding them all would be
         // the largest allocation of an LM step on a sweep of thousands of incidences.
         // A model that cannot be built fails the call (the sink is then discarded).
+        let mut prev: Option<MemberModel<f64>> = None;
         for j in groups {
-            let Some(model) = l.model(x, j) else {
+            let model = match &prev {
+                Some(m) => l.model_from(m, x, j),
+                None => l.model(x, j),
+            };
+            let Some(model) = model else {
                 return false;
             };
+            prev = Some(model);
             for &k in self.data.rows_of(j) {
                 let o = &self.data.obs[k];
                 let Some((e, g)) = eval_grad_at(&model, o, self.aperture) else {
@@ -1063,7 +1083,14 @@ fn best_points(
     let n_inc = data.incidences.len();
     let floor = amplitude_floor(data);
     let keep = grid.len() * n_inc * std::mem::size_of::<[f64; 2]>() <= kept_bytes;
-    let mut solved: Vec<(usize, f64, Option<Amplitudes>)> = Vec::new();
+    // Each point solved: its index, linear cost and, when kept, its amplitudes (its
+    // k_s in `pool`: one allocation for every point's).
+    let mut solved: Vec<(usize, f64, Option<Kept>)> = Vec::new();
+    let mut pool: Vec<[f64; 2]> = Vec::new();
+    if keep {
+        // At most every point's: within `kept_bytes`, and never grown by doubling.
+        pool.reserve_exact(grid.len() * n_inc);
+    }
     for k in 0..grid.len() {
         let (ci, hi, si) = grid.at(k);
         if !grid.usable(ci, hi) {
@@ -1073,7 +1100,11 @@ fn best_points(
             continue;
         };
         if let Some(linear) = solve_point(grid.bases, &pt, scratch) {
-            let amp = keep.then(|| Amplitudes::of(scratch, &pt, n_inc));
+            let amp = keep.then(|| {
+                let at = pool.len();
+                let (kdd, kid) = Amplitudes::append(scratch, &pt, n_inc, &mut pool);
+                (kdd, kid, at)
+            });
             solved.push((k, linear, amp));
         }
     }
@@ -1090,14 +1121,14 @@ fn best_points(
         let Some(pt) = grid.point(ci, hi, si) else {
             continue;
         };
-        let amp = match kept_amp {
-            Some(a) => a,
+        let (ks, kdd, kid) = match *kept_amp {
+            Some((kdd, kid, at)) => (&pool[at..at + n_inc], kdd, kid),
             None => {
                 if solve_point(grid.bases, &pt, scratch).is_none() {
                     continue;
                 }
                 solved_again.fill(scratch, &pt, n_inc);
-                &solved_again
+                (&solved_again.ks[..], solved_again.kdd, solved_again.kid)
             }
         };
         let bound = if kept.len() == REFINED {
@@ -1105,7 +1136,7 @@ fn best_points(
         } else {
             f64::INFINITY
         };
-        if let Some(c) = point_cost(grid.bases, &pt, amp, resid, floor, bound)
+        if let Some(c) = point_cost(grid.bases, &pt, (ks, kdd, kid), resid, floor, bound)
             && c.is_finite()
         {
             let at = kept.partition_point(|&(v, j)| (v, j) <= (c, *k));
@@ -1115,6 +1146,10 @@ fn best_points(
     }
     kept.into_iter().map(|(_, k)| k).collect()
 }
+
+/// A grid point's amplitudes kept for its costing: k_dd, k_id, and where its k_s per
+/// incidence start in [`best_points`]' pool.
+type Kept = (f64, f64, usize);
 
 /// Reused storage of the grid's solves (a grid point allocates nothing).
 struct GridScratch {
@@ -1267,17 +1302,23 @@ impl Amplitudes {
     /// point solved again for its costing allocates nothing: 0.8 MB a point at 50,000
     /// incidences).
     fn fill(&mut self, s: &GridScratch, p: &Point<'_>, n_inc: usize) {
+        self.ks.clear();
+        (self.kdd, self.kid) = Self::append(s, p, n_inc, &mut self.ks);
+    }
+
+    /// The point just solved: its k_s per incidence appended to `ks`, and its k_dd and
+    /// k_id (0 where off or removed).
+    fn append(s: &GridScratch, p: &Point<'_>, n_inc: usize, ks: &mut Vec<[f64; 2]>) -> (f64, f64) {
         let sol = s.system.solution();
         let mut c = 0;
-        self.kdd = p.dd.map_or(0.0, |_| {
+        let kdd = p.dd.map_or(0.0, |_| {
             c += 1;
             sol[c - 1]
         });
-        self.kid = if p.ideal { sol[c] } else { 0.0 };
+        let kid = if p.ideal { sol[c] } else { 0.0 };
         let ng = usize::from(p.dd.is_some()) + usize::from(p.ideal);
         let nl = p.lobes.iter().filter(|l| l.is_some()).count();
-        self.ks.clear();
-        self.ks.extend((0..n_inc).map(|j| {
+        ks.extend((0..n_inc).map(|j| {
             let mut k = [0.0; 2];
             let mut n = 0;
             for (slot, l) in p.lobes.iter().enumerate() {
@@ -1288,6 +1329,7 @@ impl Amplitudes {
             }
             k
         }));
+        (kdd, kid)
     }
 }
 
@@ -1538,7 +1580,7 @@ fn grid_step(w: &[f64]) -> f64 {
         * (1.0 + 1e-9)
 }
 
-/// The cost of a grid point's solution (amplitudes `amp`) in the fit's own residuals,
+/// The cost of a grid point's solution (its k_s per incidence, k_dd and k_id) in the fit's own residuals,
 /// every amplitude floored at `floor` as the start vector has it: what the starts are
 /// ranked by (the weighted linear cost the solve minimises misranks narrow lobes that
 /// fall between readings). `None` as soon as the partial sum exceeds `bound` (the
@@ -1548,7 +1590,7 @@ fn grid_step(w: &[f64]) -> f64 {
 fn point_cost(
     g: &GridBases<'_>,
     p: &Point<'_>,
-    amp: &Amplitudes,
+    (ks, kdd, kid): (&[[f64; 2]], f64, f64),
     resid: &Residuals,
     floor: f64,
     bound: f64,
@@ -1556,13 +1598,13 @@ fn point_cost(
     let mut cost = 0.0;
     for &k in &g.brightest_first {
         let o = &g.data.obs[k];
-        let mut f = if p.ideal { amp.kid.max(floor) } else { 0.0 };
+        let mut f = if p.ideal { kid.max(floor) } else { 0.0 };
         if let Some(d) = p.dd {
-            f += amp.kdd.max(floor) * d.b[k];
+            f += kdd.max(floor) * d.b[k];
         }
         for (slot, l) in p.lobes.iter().enumerate() {
             if let Some(b) = l {
-                f += amp.ks[o.inc][slot].max(floor) * b.b[k];
+                f += ks[o.inc][slot].max(floor) * b.b[k];
             }
         }
         let r = resid.of(f, k, o.y);

@@ -259,18 +259,26 @@ impl PointSystem {
             xg[a] = -self.gg[a];
         }
         if NL > 0 {
-            for j in 0..self.w.len() {
-                let lo = NG + j * NL;
+            // Each incidence's block on its own first (nothing carries from one to the
+            // next, so the incidences' divisions overlap), then the Schur complement and
+            // right-hand side incidence by incidence: each element's sum in the same
+            // order as one loop would make it.
+            let blocks = self.v.iter().zip(&self.w).zip(&self.gl);
+            for (j, (((v, w), gl), (y, yl))) in blocks
+                .zip(self.y.iter_mut().zip(self.yl.iter_mut()))
+                .enumerate()
+            {
                 let mut m = [0.0; 4];
-                m[..NL * NL].copy_from_slice(&self.v[j][..NL * NL]);
-                for l in 0..NL {
-                    m[l * NL + l] += lambda * d(lo + l);
+                m[..NL * NL].copy_from_slice(&v[..NL * NL]);
+                if lambda != 0.0 {
+                    let lo = NG + j * NL;
+                    for l in 0..NL {
+                        m[l * NL + l] += lambda * self.d[lo + l];
+                    }
                 }
                 if !invert_small(&mut m[..NL * NL], NL) {
                     return false;
                 }
-                let w = &self.w[j];
-                let y = &mut self.y[j];
                 for a in 0..NG {
                     let mut col = [0.0; 2];
                     for l in 0..NL {
@@ -281,11 +289,12 @@ impl PointSystem {
                         y[l * NG + a] = col[l];
                     }
                 }
-                let yl = &mut self.yl[j];
                 for l in 0..NL {
-                    yl[l] = -self.gl[j][l];
+                    yl[l] = -gl[l];
                 }
                 apply_small(&m[..NL * NL], NL, &mut yl[..NL]);
+            }
+            for ((w, y), yl) in self.w.iter().zip(&self.y).zip(&self.yl) {
                 for a in 0..NG {
                     let wa = &w[a * NL..a * NL + NL];
                     for b in 0..NG {
@@ -307,14 +316,17 @@ impl PointSystem {
             return false;
         }
         cholesky_solve(&s[..NG * NG], NG, &mut xg[..NG]);
-        self.x[..NG].copy_from_slice(&xg[..NG]);
-        for j in 0..self.y.len() {
-            for l in 0..NL {
-                let mut t = self.yl[j][l];
-                for a in 0..NG {
-                    t -= self.y[j][l * NG + a] * xg[a];
+        let (x_g, x_l) = self.x.split_at_mut(NG);
+        x_g.copy_from_slice(&xg[..NG]);
+        if NL > 0 {
+            for ((xl, y), yl) in x_l.chunks_exact_mut(NL).zip(&self.y).zip(&self.yl) {
+                for l in 0..NL {
+                    let mut t = yl[l];
+                    for a in 0..NG {
+                        t -= y[l * NG + a] * xg[a];
+                    }
+                    xl[l] = t;
                 }
-                self.x[NG + j * NL + l] = t;
             }
         }
         self.x.iter().all(|v| v.is_finite())

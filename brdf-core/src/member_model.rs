@@ -315,29 +315,31 @@ impl<T: Real> MemberModel<T> {
         })
     }
 
-    /// The same model with the per-incidence k_s of its core lobe and of its haze lobe
-    /// replaced where given (`None` keeps one; a lobe that is off or has a smooth k_s
-    /// keeps its own), each checked as [`MemberModel::new`] checks it: a fit's next
-    /// incidence without building the lobes again. The same model, bit for bit, as
-    /// [`MemberModel::new`] with those k_s.
-    pub fn with_ks(&self, core: Option<T>, haze: Option<T>) -> Result<Self, ModelError> {
-        let mut m = *self;
-        let set = |k: Option<T>,
-                   lobe: &mut Option<WeightedLobe<T>>,
-                   p: &mut Option<LobeParams<T>>,
-                   what: &'static str| {
-            if let (Some(k), Some(l), Some(p)) = (k, lobe.as_mut(), p.as_mut())
-                && matches!(l.ks, Ks::PerIncidence(_))
-            {
-                check_weight(what, k)?;
+    /// Replaces the per-incidence k_s of the core lobe and of the haze lobe where given
+    /// (`None` keeps one; a lobe that is off or has a smooth k_s keeps its own), each
+    /// checked as [`MemberModel::new`] checks it, in place (a fit's next incidence,
+    /// without building the lobes again or copying the model). The model is then, bit
+    /// for bit, [`MemberModel::new`]'s with those k_s; on an error it is unchanged.
+    pub fn set_ks(&mut self, core: Option<T>, haze: Option<T>) -> Result<(), ModelError> {
+        let per =
+            |l: &Option<WeightedLobe<T>>| l.is_some_and(|l| matches!(l.ks, Ks::PerIncidence(_)));
+        let core = core.filter(|_| per(&self.core));
+        let haze = haze.filter(|_| per(&self.haze));
+        if let Some(k) = core {
+            check_weight("k_s", k)?;
+        }
+        if let Some(k) = haze {
+            check_weight("k_s_haze", k)?;
+        }
+        let set = |k: Option<T>, l: &mut Option<WeightedLobe<T>>, p: &mut Option<LobeParams<T>>| {
+            if let (Some(k), Some(l), Some(p)) = (k, l.as_mut(), p.as_mut()) {
                 l.ks = Ks::PerIncidence(k);
                 p.ks = Ks::PerIncidence(k);
             }
-            Ok(())
         };
-        set(core, &mut m.core, &mut m.params.core, "k_s")?;
-        set(haze, &mut m.haze, &mut m.params.haze, "k_s_haze")?;
-        Ok(m)
+        set(core, &mut self.core, &mut self.params.core);
+        set(haze, &mut self.haze, &mut self.params.haze);
+        Ok(())
     }
 
     /// The parameters the model was built from.

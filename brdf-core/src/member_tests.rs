@@ -567,28 +567,38 @@ proptest! {
 }
 
 #[test]
-fn with_ks_is_the_model_built_with_those_ks() {
+fn set_ks_gives_the_model_built_with_those_ks() {
     let mut p = full();
     p.core = lobe(Distribution::Beckmann, Ks::PerIncidence(2.0), 0.05);
     let m = MemberModel::new(&p).unwrap();
     let mut q = p;
     q.core = lobe(Distribution::Beckmann, Ks::PerIncidence(3.5), 0.05);
     q.haze = lobe(Distribution::Beckmann, Ks::PerIncidence(0.0), 0.2);
+    let with = |core, haze| {
+        let mut n = m;
+        n.set_ks(core, haze).map(|()| n)
+    };
     assert_eq!(
-        m.with_ks(Some(3.5), Some(0.0)).unwrap(),
+        with(Some(3.5), Some(0.0)).unwrap(),
         MemberModel::new(&q).unwrap()
     );
     // None keeps a lobe's k_s; a smooth k_s is kept whatever is given.
-    assert_eq!(m.with_ks(None, None).unwrap(), m);
-    let smooth = MemberModel::new(&full()).unwrap();
-    assert_eq!(smooth.with_ks(Some(9.0), None).unwrap(), smooth);
-    // Checked as `new` checks them.
+    assert_eq!(with(None, None).unwrap(), m);
+    let mut smooth = MemberModel::new(&full()).unwrap();
+    smooth.set_ks(Some(9.0), None).unwrap();
+    assert_eq!(smooth, MemberModel::new(&full()).unwrap());
+    // Checked as `new` checks them, and left unchanged on an error.
+    let mut n = m;
     assert!(matches!(
-        m.with_ks(Some(-1.0), None),
-        Err(ModelError::Negative { what: "k_s", .. })
+        n.set_ks(Some(5.0), Some(-1.0)),
+        Err(ModelError::Negative {
+            what: "k_s_haze",
+            ..
+        })
     ));
+    assert_eq!(n, m);
     assert!(matches!(
-        m.with_ks(None, Some(f64::INFINITY)),
-        Err(ModelError::NotFinite { what: "k_s_haze" })
+        n.set_ks(Some(f64::INFINITY), None),
+        Err(ModelError::NotFinite { what: "k_s" })
     ));
 }

@@ -235,18 +235,15 @@ impl Layout {
         MemberModel::new(&self.params(x, j)).ok()
     }
 
-    /// [`Layout::model`] from `prev`, another incidence's model at the same `x`: only
-    /// the per-incidence k_s differ (the same model; a row pass builds one per
-    /// incidence, and the lobes' widths were most of that).
-    pub fn model_from(
-        &self,
-        prev: &MemberModel<f64>,
-        x: &[f64],
-        j: usize,
-    ) -> Option<MemberModel<f64>> {
+    /// Turns `model`, another incidence's model at the same `x`, into incidence `j`'s
+    /// ([`Layout::model`]'s): only the per-incidence k_s differ (a row pass builds one
+    /// model per incidence, and the lobes' widths were most of that). False when it
+    /// cannot be built.
+    pub fn next_model(&self, model: &mut MemberModel<f64>, x: &[f64], j: usize) -> bool {
         let ks = |on: bool, haze: bool| on.then(|| x[self.local(j, haze)].exp());
-        prev.with_ks(ks(self.core_local, false), ks(self.haze_local, true))
-            .ok()
+        model
+            .set_ks(ks(self.core_local, false), ks(self.haze_local, true))
+            .is_ok()
     }
 }
 
@@ -393,19 +390,22 @@ impl Problem<'_> {
         // Each incidence's model is built as its rows are: holding them all would be
         // the largest allocation of an LM step on a sweep of thousands of incidences.
         // A model that cannot be built fails the call (the sink is then discarded).
-        let mut prev: Option<MemberModel<f64>> = None;
+        let mut model: Option<MemberModel<f64>> = None;
         for j in groups {
-            let model = match &prev {
-                Some(m) => l.model_from(m, x, j),
-                None => l.model(x, j),
-            };
-            let Some(model) = model else {
+            match &mut model {
+                Some(m) => {
+                    if !l.next_model(m, x, j) {
+                        return false;
+                    }
+                }
+                None => model = l.model(x, j),
+            }
+            let Some(model) = &model else {
                 return false;
             };
-            prev = Some(model);
             for &k in self.data.rows_of(j) {
                 let o = &self.data.obs[k];
-                let Some((e, g)) = eval_grad_at(&model, o, self.aperture) else {
+                let Some((e, g)) = eval_grad_at(model, o, self.aperture) else {
                     return false;
                 };
                 let scale = match self.residual {

@@ -259,13 +259,29 @@ pub fn minimize_until<P: ArrowProblem>(
     opts: &LmOptions,
     stop: &mut dyn FnMut(&[f64], &Normal) -> bool,
 ) -> LmReport {
+    minimize_from(p, x0, None, opts, stop)
+}
+
+/// [`minimize_until`] given, when the caller has them, the normal equations at `x0`
+/// (`at_x0`, as [`ArrowProblem::normal`] makes them: a run that continues where the
+/// last one ended), which then take the place of the first pass: the same run, one
+/// pass fewer. They are used only where `x0` is feasible (projection leaves it as it
+/// is) and their shape is the problem's.
+pub fn minimize_from<P: ArrowProblem>(
+    p: &mut P,
+    x0: &[f64],
+    at_x0: Option<Normal>,
+    opts: &LmOptions,
+    stop: &mut dyn FnMut(&[f64], &Normal) -> bool,
+) -> LmReport {
     let shape = p.shape().clone();
     let np = shape.n_params();
     let mut x = x0.to_vec();
     p.project(&mut x);
-    let mut normal = Normal::new(shape);
-    let mut evaluations = 1;
-    if !p.normal(&x, &mut normal) || !normal.cost().is_finite() {
+    let known = at_x0.filter(|n| x == x0 && n.shape() == &shape);
+    let mut evaluations = usize::from(known.is_none());
+    let mut normal = known.unwrap_or_else(|| Normal::new(shape.clone()));
+    if (evaluations == 1 && !p.normal(&x, &mut normal)) || !normal.cost().is_finite() {
         return LmReport {
             x,
             cost: f64::INFINITY,
@@ -684,5 +700,33 @@ mod tests {
         assert!(rep.cost < start / 10.0 && rep.cost > 1e-20, "{}", rep.cost);
         assert_eq!(p.cost(&rep.x).unwrap(), rep.cost);
         assert!(seen >= 1 && seen < rep.iterations + 1);
+    }
+
+    #[test]
+    fn a_run_given_its_starts_normal_equations_is_the_same_run_one_pass_shorter() {
+        let (mut p, _) = decay(0.0);
+        let x0 = [3.0, -1.0, 0.1, 0.1, 0.1];
+        let opts = LmOptions::default();
+        // Three steps, then on from where they ended, with and without the last pass.
+        let first = minimize(
+            &mut p,
+            &x0,
+            &LmOptions {
+                max_iterations: 3,
+                ..opts
+            },
+        );
+        let again = minimize_from(&mut p, &first.x, None, &opts, &mut |_, _| false);
+        let given = minimize_from(
+            &mut p,
+            &first.x,
+            Some(first.normal.clone()),
+            &opts,
+            &mut |_, _| false,
+        );
+        assert_eq!(given.x, again.x);
+        assert_eq!(given.cost.to_bits(), again.cost.to_bits());
+        assert_eq!(given.iterations, again.iterations);
+        assert_eq!(given.evaluations + 1, again.evaluations);
     }
 }

@@ -25,7 +25,7 @@ use std::sync::{Arc, Mutex, OnceLock};
 
 use super::arrow::{ArrowInverse, Normal, RowSink, Shape};
 use super::data::{Dataset, Observation};
-use super::lm::{ArrowProblem, LmOptions, Termination, minimize, minimize_until};
+use super::lm::{ArrowProblem, LmOptions, Termination, minimize, minimize_from};
 use super::point_system::PointSystem;
 use super::solve::{Residual, paper_rmse_with, residual_of};
 
@@ -1645,6 +1645,9 @@ fn refine(
 ) -> Option<(f64, Vec<f64>, bool, Option<Normal>)> {
     let mut x = x0;
     let mut probe = true;
+    // The normal equations at `x` when the last round ended there with the same
+    // parameters held (the next round starts from them instead of a pass).
+    let mut at_x: Option<Normal> = None;
     for _ in 0..6 {
         let opts = LmOptions {
             max_iterations: if probe {
@@ -1663,7 +1666,7 @@ fn refine(
             .filter(|&i| probe && !p.pinned[i] && p.layout.is_amplitude(i))
             .collect();
         let mut vanishing = false;
-        let rep = minimize_until(p, &x, &opts, &mut |x, n| {
+        let rep = minimize_from(p, &x, at_x.take(), &opts, &mut |x, n| {
             if explored(x, n.cost()) {
                 return true;
             }
@@ -1690,10 +1693,17 @@ fn refine(
             }
             probe = false;
             let l = &p.layout;
+            let mut more = false;
             for i in 0..x.len() {
                 if !p.pinned[i] && l.is_amplitude(i) && rep.x[i] < x[i] - VANISHING {
                     p.pinned[i] = true;
+                    more = true;
                 }
+            }
+            if !more {
+                // The same point and the same parameters held: the next round starts
+                // from these normal equations.
+                at_x = Some(rep.normal.clone());
             }
             true
         } else {

@@ -289,6 +289,28 @@ fn best_ms(reps: usize, mut f: impl FnMut()) -> f64 {
     best
 }
 
+/// [`best_ms`] over as many repeats as fit in about `budget_ms` (at least one, at
+/// most [`MAX_REPEATS`]): a fit of a millisecond timed ten times was at the mercy of a
+/// slow patch of a shared machine (the same binary measured 1.07 and 1.76 ms for the
+/// paper grid's family in two runs), one of a second is timed once as before.
+fn best_ms_within(budget_ms: f64, mut f: impl FnMut()) -> f64 {
+    let start = Instant::now();
+    let mut best = f64::INFINITY;
+    for _ in 0..MAX_REPEATS {
+        best = best.min(best_ms(1, &mut f));
+        if start.elapsed().as_secs_f64() * 1e3 >= budget_ms {
+            break;
+        }
+    }
+    best
+}
+
+/// The most repeats of one timing in the scale study.
+const MAX_REPEATS: usize = 500;
+
+/// The time the scale study spends on each of its timings (milliseconds).
+pub(crate) const TIMING_BUDGET_MS: f64 = 300.0;
+
 /// A simulated fe-0.115 sweep, 0.5 % noise: `n_inc` incidences in [0, 80] degrees,
 /// `n_det` detector angles in [-85, 85] (9 x 17: the study's paper-grid sweep).
 pub(crate) fn scale_sweep(n_inc: usize, n_det: usize) -> Dataset {
@@ -338,16 +360,9 @@ fn scale_study_here() -> Result<Vec<ScaleRow>> {
     for (n_inc, n_det) in sizes {
         let data = scale_sweep(n_inc, n_det);
         let n = data.obs.len();
-        let reps = if n > 20_000 {
-            1
-        } else if n > 2_000 {
-            3
-        } else {
-            10
-        };
         let opts = FitOptions::default();
         let mut err = None;
-        let family_ms = best_ms(reps, || {
+        let family_ms = best_ms_within(TIMING_BUDGET_MS, || {
             if let Err(e) = crate::fit::fit_family(&data, &opts) {
                 err = Some(e);
             }
@@ -355,13 +370,13 @@ fn scale_study_here() -> Result<Vec<ScaleRow>> {
         if let Some(e) = err {
             return Err(StudyError::Failed(e));
         }
-        let three_ms = best_ms(reps, || {
+        let three_ms = best_ms_within(TIMING_BUDGET_MS, || {
             let _ = fit_member(&data, Member::THREE_COMPONENT, Residual::Log, None);
         });
         // The last of these fits is the one the checks below check.
         let mut fam = Err(String::from("no repeat"));
         let family_all_cores_ms = all_cores.install(|| {
-            best_ms(reps, || {
+            best_ms_within(TIMING_BUDGET_MS, || {
                 fam = crate::fit::fit_family(&data, &opts);
             })
         });

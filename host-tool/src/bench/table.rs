@@ -77,7 +77,7 @@ pub fn scale_table(rows: &[super::ScaleRow]) -> String {
         ));
     }
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    t.push_str(&format!("fe-0.115 simulated, 0.5 % noise; whole default family and the three-component member; best of repeats, one core (a one-thread pool); \"all\": the family on all {cores} cores; \"checks\": the report's physical checks of every fitted member after the fit (albedo at up to {} incidences, reciprocity), all cores, one run\n", crate::fit::physical::MAX_CHECKED_INCIDENCES));
+    t.push_str(&format!("fe-0.115 simulated, 0.5 % noise; whole default family and the three-component member; best of the repeats that fit in {} s (at least one), one core (a one-thread pool); \"all\": the family on all {cores} cores; \"checks\": the report's physical checks of every fitted member after the fit (albedo at up to {} incidences, reciprocity), all cores, one run\n", super::study::TIMING_BUDGET_MS / 1e3, crate::fit::physical::MAX_CHECKED_INCIDENCES));
     t
 }
 

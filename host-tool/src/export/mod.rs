@@ -197,7 +197,7 @@ pub(crate) fn not_fitted(fam: &FamilyFit, member: Member) -> ExportError {
         .map(|c| c.member.to_string())
         .collect();
     ExportError::NotFitted(format!(
-        "model {member} was not fitted; fitted models: {}",
+        "model {member} was not fitted (by default gonio fits only what its selection needs: name it in --models to fit it); fitted models: {}",
         if fitted.is_empty() {
             "none".to_string()
         } else {

@@ -178,15 +178,15 @@ fn stage_two(
     let start = fitted.members.len();
     let mut later = Vec::new();
     for pass in 0..2 {
-        let (asked, pending): (&[Member], Vec<Member>) = if pass == 0 {
-            (more, more.to_vec())
+        let (asked, pending): (&[Member], &[Member]) = if pass == 0 {
+            (more, more)
         } else {
-            (&later, Vec::new())
+            (&later, &[])
         };
         let mut now = Vec::new();
         let mut deferred = Vec::new();
         for &m in asked {
-            match family::smooth_needed(m, &fitted.members, &fitted.cands, &pending) {
+            match family::smooth_needed(m, &fitted.members, &fitted.cands, pending) {
                 SmoothVariant::Needed => now.push(m),
                 SmoothVariant::Deferred => deferred.push(m),
                 SmoothVariant::Bounded { by, aicc_above } => notes.push(format!(

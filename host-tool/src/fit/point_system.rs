@@ -270,11 +270,9 @@ impl PointSystem {
             {
                 let mut m = [0.0; 4];
                 m[..NL * NL].copy_from_slice(&v[..NL * NL]);
-                if lambda != 0.0 {
-                    let lo = NG + j * NL;
-                    for l in 0..NL {
-                        m[l * NL + l] += lambda * self.d[lo + l];
-                    }
+                let lo = NG + j * NL;
+                for l in 0..NL {
+                    m[l * NL + l] += lambda * d(lo + l);
                 }
                 if !invert_small(&mut m[..NL * NL], NL) {
                     return false;

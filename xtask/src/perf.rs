@@ -151,6 +151,18 @@ struct VersusResult {
 }
 
 /// `gonio bench --fit-vs --json` (host-tool's bench/versus.rs).
+/// The repeats of a run of `us` µs that take as long as `repeat` runs of `other_us`
+/// (at least `repeat`, at most `gonio bench --fit-vs`'s 10,000).
+fn same_wall_time(repeat: usize, other_us: f64, us: f64) -> usize {
+    let n = repeat as f64 * other_us / us;
+    if n.is_nan() {
+        repeat
+    } else {
+        // `as` saturates: an immeasurably fast run (us = 0) gets the most.
+        (n.round() as usize).clamp(repeat, 10_000)
+    }
+}
+
 fn versus_result(text: &str) -> Result<VersusResult> {
     let what = "gonio bench --fit-vs --json";
     let v = parse_json(text, what)?;
@@ -261,15 +273,30 @@ pub fn perf_report() -> Result {
         )?;
         let (scipy_s, rmse_s, x0) = scipy_fit_result(&py)?;
         let scipy_us = scipy_s * 1e6;
-        // gonio from scipy's very start, and its default fit, in-process, warm.
-        let vs = output(
-            &root,
-            gonio,
-            &[
-                "bench", "--fit-vs", sweep, "--start", &x0, "--repeat", "15", "--json",
-            ],
-        )?;
-        let v = versus_result(&vs)?;
+        // gonio from scipy's very start, and its default fit, in-process, warm. Each
+        // side is the best of the runs that fill the same wall time: scipy's 15 solves
+        // take ~0.1 s, gonio's 15 ~1 ms, and on a machine whose speed comes in patches
+        // 1 ms can fall entirely in a slow one (the ratio then moved 77-150x between
+        // runs). A first run of 15 sizes the second.
+        let versus = |repeat: usize| {
+            let vs = output(
+                &root,
+                gonio,
+                &[
+                    "bench",
+                    "--fit-vs",
+                    sweep,
+                    "--start",
+                    &x0,
+                    "--repeat",
+                    &repeat.to_string(),
+                    "--json",
+                ],
+            )?;
+            versus_result(&vs)
+        };
+        let first = versus(15)?;
+        let v = versus(same_wall_time(15, scipy_us, first.one_lm_us))?;
         ratios.push(scipy_us / v.one_lm_us);
         scipy.push_str(&format!(
             "| {material} 9x17, 0.5 % noise | {scipy_us:.0} | {:.0} | {:.0} | {all_us:.0} | {:.0}x | {:.0}x | {rmse_s:.6} | {:.6} | {:.6} |\n",
@@ -312,6 +339,17 @@ pub fn perf_report() -> Result {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_faster_side_repeats_for_the_slower_sides_wall_time() {
+        // scipy 15 x 8,000 us against gonio's 80 us: 1,500 runs of gonio.
+        assert_eq!(same_wall_time(15, 8000.0, 80.0), 1500);
+        // Never fewer than the slower side's, never more than --repeat allows.
+        assert_eq!(same_wall_time(15, 50.0, 80.0), 15);
+        assert_eq!(same_wall_time(15, 8000.0, 1.0), 10_000);
+        assert_eq!(same_wall_time(15, 8000.0, 0.0), 10_000);
+        assert_eq!(same_wall_time(15, f64::NAN, 80.0), 15);
+    }
 
     /// The shape of `gonio fit --json` (host-tool's fit/report.rs): the selected model
     /// first would have fooled a scraper taking the first "rmse" in the text.

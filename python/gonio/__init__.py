@@ -276,7 +276,7 @@ def fit(source, theta_r=None, brdf=None, *, residual: str = "log", loss: str = "
         fix: Union[None, Mapping[str, float], Iterable[str]] = None,
         models: Union[None, str, Sequence[str]] = None, aperture: Optional[float] = None,
         instrument: Union[None, str, os.PathLike] = None,
-        floor: Union[None, str, float] = None) -> FitResult:
+        floor: Union[None, str, float] = None, all_starts: bool = False) -> FitResult:
     """Fits the model family like ``gonio fit`` fits one sweep.
 
     ``source`` is a sweep file path, or the theta_i array with ``theta_r`` and ``brdf``.
@@ -287,7 +287,9 @@ def fit(source, theta_r=None, brdf=None, *, residual: str = "log", loss: str = "
     degrees (0 turns off the sweep's ``# aperture:`` line); ``instrument`` an instrument
     file of ``gonio calibrate`` (the readings are fitted in 1/sr); ``floor`` ``"auto"``
     or a value in the data's units: readings at or below a detection floor are left out
-    (``"auto"``: the smallest value when at least 3 readings repeat it exactly).
+    (``"auto"``: the smallest value when at least 3 readings repeat it exactly);
+    ``all_starts`` refines every one of each member's best grid starts to its end
+    (``--all-starts``: slower, but no start is stopped near an optimum already found).
     """
     if isinstance(fix, Mapping):
         fix = [f"{k}={v!r}" for k, v in fix.items()]
@@ -297,7 +299,8 @@ def fit(source, theta_r=None, brdf=None, *, residual: str = "log", loss: str = "
     models = list(models or [])
     extra = {"aperture": None if aperture is None else float(aperture),
              "instrument": None if instrument is None else os.fspath(instrument),
-             "floor": None if floor is None else (floor if isinstance(floor, str) else repr(float(floor)))}
+             "floor": None if floor is None else (floor if isinstance(floor, str) else repr(float(floor))),
+             "all_starts": bool(all_starts)}
     if theta_r is None and brdf is None:
         raw = _gonio._fit(os.fspath(source), [], [], [], residual, loss, fix, models, **extra)
     else:

@@ -99,6 +99,8 @@ pub struct FitRequest<'a> {
     /// `--floor`: `auto` or a value in the data's units; readings at or below it are
     /// left out of the fit.
     pub floor: Option<&'a str>,
+    /// `--all-starts`: refine every one of each member's best grid starts to its end.
+    pub all_starts: bool,
 }
 
 /// `gonio fit`'s own argument parser, so options, defaults and messages are the CLI's.
@@ -127,6 +129,9 @@ fn fit_args(path: Option<&Path>, req: &FitRequest) -> Result<FitArgs, String> {
     }
     if let Some(f) = req.floor {
         argv.push(format!("--floor={f}"));
+    }
+    if req.all_starts {
+        argv.push("--all-starts".into());
     }
     FitCommand::try_parse_from(argv)
         .map(|c| c.args)

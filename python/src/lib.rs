@@ -607,9 +607,9 @@ impl PyFit {
 /// Fits the model family with `gonio fit`'s options: a sweep file path, or rows
 /// (theta_i, theta_r, brdf arrays) when path is None; aperture in degrees (None: the
 /// file's line), instrument an instrument file (None: relative units), floor `auto` or
-/// a value (None: every reading fitted).
+/// a value (None: every reading fitted), all_starts `--all-starts`.
 #[pyfunction]
-#[pyo3(signature = (path, theta_i, theta_r, brdf, residual, loss, fix, models, aperture=None, instrument=None, floor=None))]
+#[pyo3(signature = (path, theta_i, theta_r, brdf, residual, loss, fix, models, aperture=None, instrument=None, floor=None, all_starts=false))]
 #[allow(clippy::too_many_arguments)]
 fn _fit(
     py: Python<'_>,
@@ -624,6 +624,7 @@ fn _fit(
     aperture: Option<f64>,
     instrument: Option<PathBuf>,
     floor: Option<String>,
+    all_starts: bool,
 ) -> PyResult<PyFit> {
     if theta_i.len() != theta_r.len() || theta_i.len() != brdf.len() {
         return Err(err("theta_i, theta_r and brdf must have the same length"));
@@ -639,6 +640,7 @@ fn _fit(
         aperture,
         instrument: instrument.as_deref(),
         floor: floor.as_deref(),
+        all_starts,
     };
     let outcome = py
         .detach(|| bind::fit(path.as_deref(), &rows, &req))

@@ -251,6 +251,7 @@ pub fn fit_family(data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, String
     let mut fits = Vec::new();
     if grid {
         let mut bases = GridBases::new(data, aperture);
+        bases.refine_all_starts(opts.all_starts);
         if let Some(listed) = &requested {
             fitted.add(&bases, listed, opts.residual, &mut notes);
         } else {

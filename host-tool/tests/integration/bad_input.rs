@@ -494,6 +494,17 @@ const CASES: &[Case] = &[
         "floor 'often': expected auto",
     ),
     case(
+        &[
+            "fit",
+            "{d}/fe-0.115.csv",
+            "--all-starts",
+            "--fix",
+            "sigma_m=0.7",
+        ],
+        2,
+        "--all-starts cannot be combined with --fix",
+    ),
+    case(
         &["fit", "{d}/fe-0.115.csv", "--checks", "some"],
         2,
         "[possible values: all, selected, none]",

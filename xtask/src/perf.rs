@@ -150,7 +150,6 @@ struct VersusResult {
     default_rmse: f64,
 }
 
-/// `gonio bench --fit-vs --json` (host-tool's bench/versus.rs).
 /// The repeats of a run of `us` µs that take as long as `repeat` runs of `other_us`
 /// (at least `repeat`, at most `gonio bench --fit-vs`'s 10,000).
 fn same_wall_time(repeat: usize, other_us: f64, us: f64) -> usize {
@@ -163,6 +162,7 @@ fn same_wall_time(repeat: usize, other_us: f64, us: f64) -> usize {
     }
 }
 
+/// `gonio bench --fit-vs --json` (host-tool's bench/versus.rs).
 fn versus_result(text: &str) -> Result<VersusResult> {
     let what = "gonio bench --fit-vs --json";
     let v = parse_json(text, what)?;

@@ -179,8 +179,8 @@ pub struct FitArgs {
     /// fit takes about half the time, but now and then misses a lower optimum (on 97
     /// test sweeps, simulated two-lobe and GGX surfaces among them, 12 of 886 member
     /// fits ended 0.1-30 % higher in SSR, mostly two-lobe members, and one sweep's
-    /// selection changed). Not with --fix or a robust --loss, which
-    /// use no width grid (their multi-start stops no start early).
+    /// selection changed). Not with --fix or a robust --loss, which use no width grid
+    /// (their multi-start stops no start early).
     #[arg(long)]
     pub all_starts: bool,
 }

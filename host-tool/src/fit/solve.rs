@@ -74,8 +74,9 @@ pub struct FitOptions {
     /// [`super::member_fit::BASIN`] grid steps (in every width) of an optimum already
     /// reached, at no lower cost, is stopped there: the default family fits in about
     /// half the time, but on 97 test sweeps (simulated two-lobe and GGX truths among
-    /// them) 12 of 886 member fits missed a lower optimum that way. Only the width grid's starts are stopped early (the
-    /// multi-start of `--fix` or a robust loss stops none).
+    /// them) 12 of 886 member fits missed a lower optimum that way. Only the width
+    /// grid's starts are stopped early (the multi-start of `--fix` or a robust loss
+    /// stops none).
     pub all_starts: bool,
 }
 

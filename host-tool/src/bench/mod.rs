@@ -1,15 +1,18 @@
 //! Benchmarks behind `gonio bench` and docs/PERFORMANCE.md: the evaluation
 //! [`variants`] (speed against error), the slower [`study`] runs (readings against fit
 //! error, fit time against error), the three-component fit timed for the comparison
-//! with scipy ([`versus`]), their text [`table`]s and the speed-against-error [`chart`].
+//! with scipy ([`versus`]), the multi-start's speed against its accuracy ([`starts`]),
+//! their text [`table`]s and the speed-against-error [`chart`].
 
 pub mod chart;
+pub mod starts;
 pub mod study;
 pub mod table;
 pub mod variants;
 pub mod versus;
 
 pub use chart::speed_vs_error;
+pub use starts::{StartsRow, starts_study};
 pub use study::{
     FitResultRow, MemberRow, PlanResult, ScaleRow, StudyError, fit_study, member_study, plan_study,
     scale_study,

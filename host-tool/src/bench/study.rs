@@ -279,7 +279,8 @@ pub fn on_one_thread<R: Send>(f: impl FnOnce() -> R + Send) -> std::result::Resu
     Ok(pool.install(f))
 }
 
-fn best_ms(reps: usize, mut f: impl FnMut()) -> f64 {
+/// The best of `reps` timings of `f`, milliseconds.
+pub(crate) fn best_ms(reps: usize, mut f: impl FnMut()) -> f64 {
     let mut best = f64::INFINITY;
     for _ in 0..reps {
         let t = Instant::now();

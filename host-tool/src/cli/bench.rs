@@ -24,9 +24,11 @@ pub struct BenchArgs {
     pub seconds: f64,
     /// Also run the slower studies: readings against fit error for uniform and
     /// adaptive plans, fit time against error across tolerances and start counts, fit
-    /// time against readings (153 to 10^5) and incidences, and speed against error per
-    /// member on the Scatterworks test data (a minute or two; run with
-    /// RAYON_NUM_THREADS=1 for per-core figures).
+    /// time against readings (153 to 10^5) and incidences, speed against error per
+    /// member on the Scatterworks test data, and the multi-start's default against
+    /// --all-starts on simulated paper-grid sweeps (time, and member fits that missed
+    /// a lower optimum) (a minute or two; run with RAYON_NUM_THREADS=1 for per-core
+    /// figures).
     #[arg(long)]
     pub study: bool,
     /// Write the speed-against-error chart of the variants as a PNG.
@@ -79,15 +81,19 @@ pub fn run(args: &BenchArgs) -> CliResult {
     } else {
         (None, None)
     };
-    let (scale, members) = if args.study {
-        (Some(bench::scale_study()?), Some(bench::member_study()?))
+    let (scale, members, starts) = if args.study {
+        (
+            Some(bench::scale_study()?),
+            Some(bench::member_study()?),
+            Some(bench::starts_study()?),
+        )
     } else {
-        (None, None)
+        (None, None, None)
     };
     let text = if args.json {
         let v = serde_json::json!({"variants": rows, "plans": plans, "fits": fits,
             "scale": scale, "members": members.as_ref().map(|m| &m.0),
-            "family_ms_scatterworks": members.as_ref().map(|m| m.1)});
+            "family_ms_scatterworks": members.as_ref().map(|m| m.1), "starts": starts});
         serde_json::to_string_pretty(&v).expect("JSON of numbers") + "\n"
     } else {
         let mut t = table::variants_table(&rows);
@@ -102,6 +108,9 @@ pub fn run(args: &BenchArgs) -> CliResult {
         }
         if let Some((m, ms)) = &members {
             t.push_str(&table::members_table(m, *ms));
+        }
+        if let Some(starts) = &starts {
+            t.push_str(&table::starts_table(starts));
         }
         t
     };

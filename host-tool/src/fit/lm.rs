@@ -80,7 +80,7 @@ pub enum Termination {
     NoProgress,
     /// The model cannot be evaluated at the start.
     Failed,
-    /// The caller's test stopped it ([`minimize_until`]).
+    /// The caller's test stopped it ([`minimize_from`]).
     Stopped,
 }
 
@@ -247,22 +247,12 @@ fn bounded_step<P: ArrowProblem>(
 
 /// Minimises the sum of squared residuals of `p` from `x0`.
 pub fn minimize<P: ArrowProblem>(p: &mut P, x0: &[f64], opts: &LmOptions) -> LmReport {
-    minimize_until(p, x0, opts, &mut |_, _| false)
+    minimize_from(p, x0, None, opts, &mut |_, _| false)
 }
 
 /// [`minimize`], stopped ([`Termination::Stopped`]) as soon as `stop` says so of the
 /// point an accepted step reached and the normal equations there (its cost, gradient
-/// and diagonal).
-pub fn minimize_until<P: ArrowProblem>(
-    p: &mut P,
-    x0: &[f64],
-    opts: &LmOptions,
-    stop: &mut dyn FnMut(&[f64], &Normal) -> bool,
-) -> LmReport {
-    minimize_from(p, x0, None, opts, stop)
-}
-
-/// [`minimize_until`] given, when the caller has them, the normal equations at `x0`
+/// and diagonal); and given, when the caller has them, the normal equations at `x0`
 /// (`at_x0`, as [`ArrowProblem::normal`] makes them: a run that continues where the
 /// last one ended), which then take the place of the first pass: the same run, one
 /// pass fewer. They are used only where `x0` is feasible (projection leaves it as it
@@ -690,7 +680,7 @@ mod tests {
         let x0 = [3.0, -1.0, 0.1, 0.1, 0.1];
         let start = p.cost(&x0).unwrap();
         let mut seen = 0;
-        let rep = minimize_until(&mut p, &x0, &LmOptions::default(), &mut |_, n| {
+        let rep = minimize_from(&mut p, &x0, None, &LmOptions::default(), &mut |_, n| {
             let c = n.cost();
             seen += 1;
             c < start / 10.0

@@ -1602,10 +1602,10 @@ fn grid_step(w: &[f64]) -> f64 {
         * (1.0 + 1e-9)
 }
 
-/// The cost of a grid point's solution (its k_s per incidence, k_dd and k_id) in the fit's own residuals,
-/// every amplitude floored at `floor` as the start vector has it: what the starts are
-/// ranked by (the weighted linear cost the solve minimises misranks narrow lobes that
-/// fall between readings). `None` as soon as the partial sum exceeds `bound` (the
+/// The cost of a grid point's solution (its k_s per incidence, k_dd and k_id) in the
+/// fit's own residuals, every amplitude floored at `floor` as the start vector has it:
+/// what the starts are ranked by (the weighted linear cost the solve minimises
+/// misranks narrow lobes that fall between readings). `None` as soon as the partial sum exceeds `bound` (the
 /// cost would too: every term is a square). Summed brightest reading first: a point
 /// whose lobes miss the peaks is out after a few readings (on the study's sweep the
 /// family's costing read 2.5 times fewer readings than in file order).

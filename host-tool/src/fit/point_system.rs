@@ -12,6 +12,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::arrow::{apply_small, cholesky, cholesky_solve, invert_small};
+use super::solve::{RIDGES, ridge_scale};
 
 /// The normal equations `A x = -g` of one grid point: globals first, then each
 /// incidence's locals (the order of [`PointSystem::solution`]).
@@ -217,16 +218,9 @@ impl PointSystem {
         for v in &self.v {
             d.extend((0..nl).map(|l| v[l * nl + l]));
         }
-        let mean = d.iter().sum::<f64>() / d.len().max(1) as f64;
-        for v in d.iter_mut() {
-            if *v <= 0.0 {
-                *v = mean.max(1e-300);
-            }
-        }
+        ridge_scale(&mut d);
         self.d = d;
-        [1e-12, 1e-8]
-            .into_iter()
-            .any(|ridge| self.solve_damped(ridge))
+        RIDGES.into_iter().any(|ridge| self.solve_damped(ridge))
     }
 
     /// `(A + lambda diag(d)) x = -g` (`d` ignored when lambda is 0).

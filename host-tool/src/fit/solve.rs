@@ -486,17 +486,27 @@ pub(super) fn solve_linear_into(
         return true;
     }
     normal.diagonal_into(d);
-    let mean = d.iter().sum::<f64>() / np.max(1) as f64;
+    ridge_scale(d);
+    let ok = RIDGES
+        .into_iter()
+        .any(|ridge| solve_damped(normal, d, ridge, ws, x));
+    d.clear();
+    ok
+}
+
+/// The ridges a singular linear solve tries in turn, relative to each diagonal element
+/// (see [`ridge_scale`]).
+pub(super) const RIDGES: [f64; 2] = [1e-12, 1e-8];
+
+/// The diagonal `d` of singular normal equations made the ridge's scaling, in place:
+/// an element that is not positive (a weight no point constrains) takes the mean.
+pub(super) fn ridge_scale(d: &mut [f64]) {
+    let mean = d.iter().sum::<f64>() / d.len().max(1) as f64;
     for v in d.iter_mut() {
         if *v <= 0.0 {
             *v = mean.max(1e-300);
         }
     }
-    let ok = [1e-12, 1e-8]
-        .into_iter()
-        .any(|ridge| solve_damped(normal, d, ridge, ws, x));
-    d.clear();
-    ok
 }
 
 /// Fits one model. `None` when the data cannot support it (fewer points than

@@ -300,7 +300,7 @@ def fit(source, theta_r=None, brdf=None, *, residual: str = "log", loss: str = "
     extra = {"aperture": None if aperture is None else float(aperture),
              "instrument": None if instrument is None else os.fspath(instrument),
              "floor": None if floor is None else (floor if isinstance(floor, str) else repr(float(floor))),
-             "all_starts": bool(all_starts)}
+             "all_starts": all_starts}
     if theta_r is None and brdf is None:
         raw = _gonio._fit(os.fspath(source), [], [], [], residual, loss, fix, models, **extra)
     else:

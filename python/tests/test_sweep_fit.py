@@ -179,3 +179,6 @@ def test_fit_all_starts_as_on_the_command_line(gonio_bin, tmp_path):
     two = "specular:beckmann+specular-haze:beckmann+directional-diffuse+ideal-diffuse"
     assert ssr(ours)[two] < 0.95 * default[two]
     assert all(ssr(ours)[m] <= s for m, s in default.items())
+    # A flag, as on the command line: "no" is not read as true.
+    with pytest.raises(TypeError):
+        gonio.fit(path, all_starts="no")

@@ -92,11 +92,12 @@ pub(crate) fn beckmann_blinn<T: Real>(g: &Geometry<T>, inv_2s2: T, norm: T) -> (
     (norm * p * p * g.g_term, x)
 }
 
-/// Eq. 5, unweighted, and its exponent y = theta_r^2/(2 sigma_m^2). `inv_2s2` =
-/// 1/(2 sigma_m^2), `norm` = 1/(sqrt(2 pi) sigma_m). Shared with [`crate::model::Model`].
+/// Eq. 5, unweighted, and its exponent y = theta_r^2/(2 sigma_m^2), at |theta_r|
+/// (radians, [`Geometry::theta_r`]). `inv_2s2` = 1/(2 sigma_m^2), `norm` =
+/// 1/(sqrt(2 pi) sigma_m). Shared with [`crate::model::Model`].
 #[inline(always)]
-pub(crate) fn directional_gauss<T: Real>(g: &Geometry<T>, inv_2s2: T, norm: T) -> (T, T) {
-    let y = g.theta_r * g.theta_r * inv_2s2;
+pub(crate) fn directional_gauss<T: Real>(theta_r: T, inv_2s2: T, norm: T) -> (T, T) {
+    let y = theta_r * theta_r * inv_2s2;
     if y > T::EXP_UNDERFLOW {
         return (T::zero(), y);
     }

@@ -201,13 +201,24 @@ impl<T: Real> WeightedLobe<T> {
         })
     }
 
-    /// (basis, weighted term, d ln f_s / d ln sigma) at t = theta_i / 90.
+    /// The smooth k_s's (shape, value) at t = theta_i / 90; (1, 0), unused, for a
+    /// per-incidence k_s.
     #[inline(always)]
-    fn eval(&self, g: &Geometry<T>, t: T) -> (T, T, T) {
+    fn smooth_at(&self, t: T) -> (T, T) {
+        match self.ks {
+            Ks::PerIncidence(_) => (T::one(), T::zero()),
+            Ks::Smooth(s) => (s.shape_at_t(t), s.ks_at_t(t)),
+        }
+    }
+
+    /// (basis, weighted term, d ln f_s / d ln sigma), `smooth` being
+    /// [`WeightedLobe::smooth_at`] at the reading's incidence.
+    #[inline(always)]
+    fn eval(&self, g: &Geometry<T>, smooth: (T, T)) -> (T, T, T) {
         let (fs, dlog) = self.lobe.value_dlog(g);
         match self.ks {
             Ks::PerIncidence(k) => (fs, if k > T::zero() { k * fs } else { T::zero() }, dlog),
-            Ks::Smooth(s) => (s.shape_at_t(t) * fs, s.ks_at_t(t) * fs, dlog),
+            Ks::Smooth(_) => (smooth.0 * fs, smooth.1 * fs, dlog),
         }
     }
 
@@ -227,6 +238,14 @@ impl<T: Real> WeightedLobe<T> {
             c2: if smooth { term * t * t } else { T::zero() },
         }
     }
+}
+
+/// A member's factors at one incidence (see [`MemberModel::at_incidence`]):
+/// t = theta_i / 90 and each lobe's smooth k_s (shape, value) there.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AtIncidence<T> {
+    t: T,
+    smooth: [(T, T); 2],
 }
 
 /// The directional diffuse term, validated.
@@ -419,6 +438,50 @@ impl<T: Real> MemberModel<T> {
         self.eval(theta_i_deg, &Geometry::in_plane(theta_i_deg, theta_r_deg)?)
     }
 
+    /// The factors of the value that depend on the incidence alone (`theta_i_deg` in
+    /// [0, 90] degrees): what [`MemberModel::eval_with_gradient_given`] takes instead of
+    /// computing them at each reading (two exponentials per smooth k_s).
+    pub fn at_incidence(&self, theta_i_deg: T) -> Result<AtIncidence<T>, ModelError> {
+        let t = SmoothKs::t(theta_i_deg)?;
+        let one = (T::one(), T::zero());
+        Ok(AtIncidence {
+            t,
+            smooth: [
+                self.core.map_or(one, |l| l.smooth_at(t)),
+                self.haze.map_or(one, |l| l.smooth_at(t)),
+            ],
+        })
+    }
+
+    /// The directional-diffuse basis f_dd (unweighted, eq. 5) and its exponent
+    /// y = theta_r^2/(2 sigma_m^2) at |theta_r| (radians, as [`Geometry::theta_r`]);
+    /// `None` when the member has no directional-diffuse term. It depends on the
+    /// detector angle alone: what [`MemberModel::eval_with_gradient_given`] takes
+    /// instead of computing it (an exponential) at each reading.
+    pub fn directional_at(&self, theta_r: T) -> Option<(T, T)> {
+        self.directional
+            .map(|d| directional_gauss(theta_r, d.inv_2s2, d.norm))
+    }
+
+    /// [`MemberModel::eval_with_gradient`] with the factors that do not depend on both
+    /// angles given: `inc` = [`MemberModel::at_incidence`] at the reading's incidence,
+    /// `dd` = [`MemberModel::directional_at`] at `g.theta_r`. The same values, bit for
+    /// bit; a caller evaluating many readings at few incidences or detector angles
+    /// computes each factor once (a fit's row pass: the paper's 153 readings have 9
+    /// incidences and 9 values of |theta_r|).
+    #[inline(always)]
+    pub fn eval_with_gradient_given(
+        &self,
+        inc: &AtIncidence<T>,
+        dd: Option<(T, T)>,
+        g: &Geometry<T>,
+    ) -> Result<(MemberEval<T>, MemberGradient<T>), ModelError> {
+        debug_assert_eq!(dd, self.directional_at(g.theta_r));
+        let mut grad = MemberGradient::default();
+        let e = self.eval_given(inc, dd, g, Some(&mut grad))?;
+        Ok((e, grad))
+    }
+
     /// [`MemberModel::eval_in_plane`] with the gradient.
     pub fn eval_in_plane_with_gradient(
         &self,
@@ -435,19 +498,32 @@ impl<T: Real> MemberModel<T> {
         g: &Geometry<T>,
         grad: Option<&mut MemberGradient<T>>,
     ) -> Result<MemberEval<T>, ModelError> {
+        let inc = self.at_incidence(theta_i_deg)?;
+        self.eval_given(&inc, self.directional_at(g.theta_r), g, grad)
+    }
+
+    /// The one evaluation: `inc` and `dd` as [`MemberModel::eval_with_gradient_given`]
+    /// takes them.
+    #[inline(always)]
+    fn eval_given(
+        &self,
+        inc: &AtIncidence<T>,
+        dd: Option<(T, T)>,
+        g: &Geometry<T>,
+        grad: Option<&mut MemberGradient<T>>,
+    ) -> Result<MemberEval<T>, ModelError> {
         let z = T::zero();
-        let t = SmoothKs::t(theta_i_deg)?;
+        let t = inc.t;
         let mut basis = Parts::default();
         let (mut s, mut h, mut d, mut i) = (z, z, z, z);
         let (mut ds, mut dh, mut y) = (z, z, z);
         if let Some(l) = &self.core {
-            (basis.core, s, ds) = l.eval(g, t);
+            (basis.core, s, ds) = l.eval(g, inc.smooth[0]);
         }
         if let Some(l) = &self.haze {
-            (basis.haze, h, dh) = l.eval(g, t);
+            (basis.haze, h, dh) = l.eval(g, inc.smooth[1]);
         }
-        if let Some(dd) = &self.directional {
-            let (fdd, yy) = directional_gauss(g, dd.inv_2s2, dd.norm);
+        if let (Some(dd), Some((fdd, yy))) = (&self.directional, dd) {
             basis.directional = fdd;
             y = yy;
             d = if dd.kdd > z { dd.kdd * fdd } else { z };

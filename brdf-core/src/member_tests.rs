@@ -602,3 +602,59 @@ fn set_ks_gives_the_model_built_with_those_ks() {
         Err(ModelError::NotFinite { what: "k_s" })
     ));
 }
+
+#[test]
+fn factors_given_once_per_angle_equal_the_evaluation_bit_for_bit() {
+    // What a fit's row pass does: the incidence's factors made once per theta_i, the
+    // directional term once per detector angle, reused over the paper's grid.
+    let mut smooth_haze = full();
+    smooth_haze.haze = lobe(
+        Distribution::Beckmann,
+        Ks::Smooth(SmoothKs {
+            c: [0.1, -0.3, 0.2],
+        }),
+        0.2,
+    );
+    let mut no_dd = full();
+    no_dd.directional = None;
+    for p in [
+        full(),
+        smooth_haze,
+        no_dd,
+        three(
+            Preset::by_name("fe-0.115")
+                .unwrap()
+                .model(30.0)
+                .unwrap()
+                .params(),
+        ),
+    ] {
+        let m = MemberModel::new(&p).unwrap();
+        let detectors: Vec<(f64, Option<(f64, f64)>)> = (0..=16)
+            .map(|k| {
+                let t = Geometry::in_plane(0.0, 10.0 * k as f64 - 80.0)
+                    .unwrap()
+                    .theta_r;
+                (t, m.directional_at(t))
+            })
+            .collect();
+        for ti in [0.0, 10.0, 30.0, 45.0, 60.0, 89.0] {
+            let inc = m.at_incidence(ti).unwrap();
+            for (k, &(t, dd)) in detectors.iter().enumerate() {
+                let tr = 10.0 * k as f64 - 80.0;
+                let g = Geometry::in_plane(ti, tr).unwrap();
+                assert_eq!(t, g.theta_r);
+                let given = m.eval_with_gradient_given(&inc, dd, &g).unwrap();
+                assert_eq!(given, m.eval_with_gradient(ti, &g).unwrap(), "{ti} {tr}");
+                assert_eq!(given.0, m.eval(ti, &g).unwrap());
+            }
+        }
+        assert_eq!(p.directional.is_some(), m.directional_at(0.3).is_some());
+    }
+    assert!(
+        MemberModel::new(&full())
+            .unwrap()
+            .at_incidence(91.0)
+            .is_err()
+    );
+}

@@ -194,7 +194,7 @@ impl<T: Real> Model<T> {
     /// f_dd and its exponent `y = theta_r^2 / (2 sigma_m^2)`.
     #[inline]
     fn directional_y(&self, g: &Geometry<T>) -> (T, T) {
-        directional_gauss(g, self.dd_inv_2s2, self.dd_norm)
+        directional_gauss(g.theta_r, self.dd_inv_2s2, self.dd_norm)
     }
 
     /// Evaluates every component that is on, and their weighted sum, for a geometry.

@@ -83,6 +83,12 @@ pub struct Dataset {
     /// Per incidence: the point nearest to theta_r = theta_i (the first of equals),
     /// the reference of the paper's normalised RMSE when there is no exact one.
     nearest: Vec<Option<usize>>,
+    /// Distinct |theta_r| of the readings ([`Geometry::theta_r`], radians), ascending:
+    /// what the model's directional-diffuse term depends on (the paper's 153 readings
+    /// have 9: 17 signed angles, -80 to 80 degrees).
+    detectors: Vec<f64>,
+    /// Per reading: its |theta_r|'s index into `detectors`.
+    detector_of: Vec<usize>,
     /// The detector's acceptance half-angle (degrees) the sweep declares in its
     /// `# aperture:` header line, if any.
     pub aperture: Option<f64>,
@@ -317,11 +323,20 @@ impl Dataset {
                 nearest[o.inc] = Some(k);
             }
         }
+        let mut detectors: Vec<f64> = obs.iter().map(|o| o.geom.theta_r).collect();
+        detectors.sort_by(f64::total_cmp);
+        detectors.dedup();
+        let detector_of = obs
+            .iter()
+            .map(|o| detectors.partition_point(|&t| t < o.geom.theta_r))
+            .collect();
         Ok(Dataset {
             obs,
             incidences,
             order,
             group_start,
+            detectors,
+            detector_of,
             specular,
             nearest,
             aperture: None,
@@ -338,6 +353,17 @@ impl Dataset {
     /// Indices into `obs` of incidence `j`'s points, in file order.
     pub fn rows_of(&self, j: usize) -> &[usize] {
         &self.order[self.group_start[j]..self.group_start[j + 1]]
+    }
+
+    /// The distinct |theta_r| of the readings (radians, as [`Geometry::theta_r`]),
+    /// ascending.
+    pub fn detectors(&self) -> &[f64] {
+        &self.detectors
+    }
+
+    /// Reading `k`'s |theta_r| as an index into [`Dataset::detectors`].
+    pub fn detector_of(&self, k: usize) -> usize {
+        self.detector_of[k]
     }
 
     /// The measured value at the specular angle (theta_r = theta_i) of incidence `j`.

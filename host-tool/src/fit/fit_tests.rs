@@ -677,3 +677,19 @@ fn streamed_json_is_the_tree_written_whole() {
         String::from_utf8(whole).unwrap()
     );
 }
+
+#[test]
+fn readings_share_a_detector_angle_by_its_magnitude() {
+    // The paper grid: 153 readings at 17 signed detector angles, -80..80 by 10, so 9
+    // magnitudes; a reading's index gives back its own |theta_r|.
+    let mut rows = preset_sweep("fe-0.115", 0.0, 1);
+    rows[0].theta_r = 12.5;
+    let data = Dataset::from_rows(&rows, true).unwrap();
+    let d = data.detectors();
+    assert_eq!(d.len(), 10);
+    assert!(d.windows(2).all(|w| w[0] < w[1]));
+    for (k, o) in data.obs.iter().enumerate() {
+        assert_eq!(d[data.detector_of(k)], o.geom.theta_r);
+    }
+    assert_eq!(d[data.detector_of(0)], 12.5f64.to_radians());
+}

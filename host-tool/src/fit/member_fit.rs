@@ -16,7 +16,7 @@ use brdf_core::aperture::Aperture;
 use brdf_core::lobe::{Distribution, Lobe, SmoothKs};
 use brdf_core::member::{KsForm, LobeSpec, Member};
 use brdf_core::member_model::{
-    DirectionalParams, Ks, LobeParams, MemberEval, MemberGradient, MemberModel, MemberParams,
+    AtIncidence, DirectionalParams, Ks, LobeParams, MemberEval, MemberModel, MemberParams,
 };
 use nalgebra::{DMatrix, DVector};
 
@@ -287,6 +287,11 @@ struct Problem<'a> {
     /// The row pass's parts (see [`PART_ROWS`]): each part's incidences and its
     /// normal equations; empty when the sweep is one part.
     parts: Vec<(std::ops::Range<usize>, Normal)>,
+    /// The directional-diffuse factor at each of the sweep's detector angles
+    /// ([`Dataset::detectors`]) for the row pass being made, computed once for all its
+    /// readings ([`MemberModel::eval_with_gradient_given`]); empty without the term or
+    /// with an aperture.
+    directional: Vec<Option<(f64, f64)>>,
 }
 
 /// Least readings per part of an LM row pass: a sweep of two parts or more (at least
@@ -336,6 +341,7 @@ impl<'a> Problem<'a> {
             resid,
             aperture,
             parts,
+            directional: Vec::new(),
         }
     }
 }
@@ -356,26 +362,24 @@ pub fn eval_at(
     }
 }
 
-/// [`eval_at`] with the gradient. Inlined into the row pass (with the model's gradient,
-/// see [`MemberModel::eval_with_gradient`]): 5 % of an LM pass.
-#[inline(always)]
-fn eval_grad_at(
-    m: &MemberModel<f64>,
-    o: &Observation,
-    aperture: Option<f64>,
-) -> Option<(MemberEval<f64>, MemberGradient<f64>)> {
-    match aperture {
-        None => m.eval_with_gradient(o.theta_i, &o.geom).ok(),
-        Some(a) => Aperture::for_model(a, m)
-            .ok()?
-            .average_with_gradient(m, o.theta_i, o.theta_r)
-            .ok(),
-    }
-}
-
 impl Problem<'_> {
     fn value(&self, m: &MemberModel<f64>, o: &Observation) -> Option<f64> {
         eval_at(m, o, self.aperture).map(|e| e.f)
+    }
+
+    /// Makes [`Problem::directional`] for a row pass at `x`; false when the model
+    /// cannot be built there (the pass would fail at its first incidence too).
+    fn directional_at(&mut self, x: &[f64]) -> bool {
+        self.directional.clear();
+        if self.aperture.is_some() || !self.layout.member.directional {
+            return true;
+        }
+        let Some(m) = self.layout.model(x, 0) else {
+            return false;
+        };
+        let d = self.data.detectors().iter().map(|&t| m.directional_at(t));
+        self.directional.extend(d);
+        true
     }
 }
 
@@ -403,9 +407,36 @@ impl Problem<'_> {
             let Some(model) = &model else {
                 return false;
             };
+            // The factors of the incidence's rows, made again only where a row's theta_i
+            // differs (within SAME_ANGLE of the incidence's) from the last row's.
+            let mut inc: Option<(f64, AtIncidence<f64>)> = None;
             for &k in self.data.rows_of(j) {
                 let o = &self.data.obs[k];
-                let Some((e, g)) = eval_grad_at(model, o, self.aperture) else {
+                // Inlined, with the model's gradient, so the gradient stays in registers.
+                let at = match self.aperture {
+                    None => {
+                        let fresh = match inc {
+                            Some((ti, f)) if ti == o.theta_i => f,
+                            _ => match model.at_incidence(o.theta_i) {
+                                Ok(f) => {
+                                    inc = Some((o.theta_i, f));
+                                    f
+                                }
+                                Err(_) => return false,
+                            },
+                        };
+                        let dd = self
+                            .directional
+                            .get(self.data.detector_of(k))
+                            .copied()
+                            .flatten();
+                        model.eval_with_gradient_given(&fresh, dd, &o.geom).ok()
+                    }
+                    Some(a) => Aperture::for_model(a, model)
+                        .ok()
+                        .and_then(|ap| ap.average_with_gradient(model, o.theta_i, o.theta_r).ok()),
+                };
+                let Some((e, g)) = at else {
                     return false;
                 };
                 let scale = match self.residual {
@@ -491,11 +522,14 @@ impl ArrowProblem for Problem<'_> {
     }
 
     fn rows<S: RowSink>(&mut self, x: &[f64], sink: &mut S) -> bool {
-        self.rows_in(x, 0..self.layout.n_inc, sink)
+        self.directional_at(x) && self.rows_in(x, 0..self.layout.n_inc, sink)
     }
 
     fn normal(&mut self, x: &[f64], out: &mut Normal) -> bool {
         out.clear();
+        if !self.directional_at(x) {
+            return false;
+        }
         if self.parts.is_empty() {
             return self.rows_in(x, 0..self.layout.n_inc, out);
         }
@@ -656,6 +690,23 @@ fn unit_lobe_values(data: &Dataset, dist: Distribution, sigma: f64) -> Option<Ve
         b.push(v);
     }
     Some(b)
+}
+
+/// The unit directional-diffuse basis of `params` at every reading (file order), the
+/// same bits as [`basis_of`] gives: it depends on theta_r alone, so it is computed
+/// once per detector angle ([`Dataset::detectors`]).
+fn directional_values(data: &Dataset, params: &MemberParams<f64>) -> Option<Vec<f64>> {
+    let m = MemberModel::new(params).ok()?;
+    let at = data
+        .detectors()
+        .iter()
+        .map(|&t| m.directional_at(t).map(|(b, _)| b))
+        .collect::<Option<Vec<f64>>>()?;
+    Some(
+        (0..data.obs.len())
+            .map(|k| at[data.detector_of(k)])
+            .collect(),
+    )
 }
 
 type Parts = brdf_core::member_model::Parts<f64>;
@@ -900,7 +951,11 @@ impl<'a> GridBases<'a> {
                         }),
                         ideal: None,
                     };
-                    basis_of(self.data, p, self.aperture, |b| b.directional).map(|b| self.basis(b))
+                    match self.aperture {
+                        None => directional_values(self.data, &p),
+                        Some(_) => basis_of(self.data, p, self.aperture, |b| b.directional),
+                    }
+                    .map(|b| self.basis(b))
                 })
                 .collect()
         })

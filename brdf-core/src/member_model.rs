@@ -478,8 +478,21 @@ impl<T: Real> MemberModel<T> {
     ) -> Result<(MemberEval<T>, MemberGradient<T>), ModelError> {
         debug_assert_eq!(dd, self.directional_at(g.theta_r));
         let mut grad = MemberGradient::default();
-        let e = self.eval_given(inc, dd, g, Some(&mut grad))?;
+        let e = self.eval_parts(inc, dd, g, Some(&mut grad))?;
         Ok((e, grad))
+    }
+
+    /// [`MemberModel::eval`] with the factors given as
+    /// [`MemberModel::eval_with_gradient_given`] takes them: the same values, bit for bit.
+    #[inline(never)]
+    pub fn eval_given(
+        &self,
+        inc: &AtIncidence<T>,
+        dd: Option<(T, T)>,
+        g: &Geometry<T>,
+    ) -> Result<MemberEval<T>, ModelError> {
+        debug_assert_eq!(dd, self.directional_at(g.theta_r));
+        self.eval_parts(inc, dd, g, None)
     }
 
     /// [`MemberModel::eval_in_plane`] with the gradient.
@@ -499,13 +512,13 @@ impl<T: Real> MemberModel<T> {
         grad: Option<&mut MemberGradient<T>>,
     ) -> Result<MemberEval<T>, ModelError> {
         let inc = self.at_incidence(theta_i_deg)?;
-        self.eval_given(&inc, self.directional_at(g.theta_r), g, grad)
+        self.eval_parts(&inc, self.directional_at(g.theta_r), g, grad)
     }
 
     /// The one evaluation: `inc` and `dd` as [`MemberModel::eval_with_gradient_given`]
     /// takes them.
     #[inline(always)]
-    fn eval_given(
+    fn eval_parts(
         &self,
         inc: &AtIncidence<T>,
         dd: Option<(T, T)>,

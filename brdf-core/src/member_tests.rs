@@ -647,6 +647,7 @@ fn factors_given_once_per_angle_equal_the_evaluation_bit_for_bit() {
                 let given = m.eval_with_gradient_given(&inc, dd, &g).unwrap();
                 assert_eq!(given, m.eval_with_gradient(ti, &g).unwrap(), "{ti} {tr}");
                 assert_eq!(given.0, m.eval(ti, &g).unwrap());
+                assert_eq!(m.eval_given(&inc, dd, &g).unwrap(), given.0);
             }
         }
         assert_eq!(p.directional.is_some(), m.directional_at(0.3).is_some());

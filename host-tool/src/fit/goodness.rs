@@ -5,6 +5,7 @@ use brdf_core::member::Member;
 
 use super::FamilyFit;
 use super::data::Dataset;
+use super::factors::{Detectors, Incidence, point_value};
 use super::member_fit::{MemberFit, eval_at};
 use super::solve::{Fit, Residual, residual_of};
 
@@ -13,14 +14,25 @@ use super::solve::{Fit, Residual, residual_of};
 /// detector aperture the fit used. `None` where the model cannot be evaluated.
 pub fn member_fitted(fit: &MemberFit, data: &Dataset) -> Vec<Option<f64>> {
     let mut out = vec![None; data.obs.len()];
+    let Some(first) = fit.layout.model(&fit.x, 0) else {
+        return out;
+    };
+    // Point values share the directional-diffuse term per detector angle.
+    let dd = Detectors::of(data, &first);
     // Incidence by incidence, one model at a time (all of them would be 16 MB for
     // 50,000 incidences, held beside the fit's bases).
     for j in 0..data.incidences.len() {
         let Some(model) = fit.layout.model(&fit.x, j) else {
             return vec![None; data.obs.len()];
         };
+        let mut inc = Incidence::default();
         for &k in data.rows_of(j) {
-            out[k] = eval_at(&model, &data.obs[k], fit.aperture).map(|e| e.f);
+            let o = &data.obs[k];
+            out[k] = match fit.aperture {
+                None => point_value(&model, &mut inc, &dd, data, k, o.theta_i),
+                Some(_) => eval_at(&model, o, fit.aperture),
+            }
+            .map(|e| e.f);
         }
     }
     out

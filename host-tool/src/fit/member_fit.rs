@@ -11,12 +11,11 @@
 //!
 //! [`MemberEval::basis`]: brdf_core::member_model::MemberEval
 
-use brdf_core::Geometry;
 use brdf_core::aperture::Aperture;
 use brdf_core::lobe::{Distribution, Lobe, SmoothKs};
 use brdf_core::member::{KsForm, LobeSpec, Member};
 use brdf_core::member_model::{
-    AtIncidence, DirectionalParams, Ks, LobeParams, MemberEval, MemberModel, MemberParams,
+    DirectionalParams, Ks, LobeParams, MemberEval, MemberModel, MemberParams,
 };
 use nalgebra::{DMatrix, DVector};
 
@@ -25,6 +24,7 @@ use std::sync::{Arc, Mutex, OnceLock};
 
 use super::arrow::{ArrowInverse, Normal, RowSink, Shape};
 use super::data::{Dataset, Observation};
+use super::factors::{Detectors, Incidence};
 use super::lm::{ArrowProblem, LmOptions, Termination, minimize, minimize_from};
 use super::point_system::PointSystem;
 use super::solve::{Residual, paper_rmse_with, residual_of};
@@ -287,11 +287,11 @@ struct Problem<'a> {
     /// The row pass's parts (see [`PART_ROWS`]): each part's incidences and its
     /// normal equations; empty when the sweep is one part.
     parts: Vec<(std::ops::Range<usize>, Normal)>,
-    /// The directional-diffuse factor at each of the sweep's detector angles
-    /// ([`Dataset::detectors`]) for the row pass being made, computed once for all its
-    /// readings ([`MemberModel::eval_with_gradient_given`]); empty without the term or
-    /// with an aperture.
-    directional: Vec<Option<(f64, f64)>>,
+    /// The directional-diffuse factor at each of the sweep's detector angles for the
+    /// row pass being made, computed once for all its readings
+    /// ([`MemberModel::eval_with_gradient_given`]); empty without the term or with an
+    /// aperture.
+    directional: Detectors,
 }
 
 /// Least readings per part of an LM row pass: a sweep of two parts or more (at least
@@ -341,7 +341,7 @@ impl<'a> Problem<'a> {
             resid,
             aperture,
             parts,
-            directional: Vec::new(),
+            directional: Detectors::default(),
         }
     }
 }
@@ -377,8 +377,7 @@ impl Problem<'_> {
         let Some(m) = self.layout.model(x, 0) else {
             return false;
         };
-        let d = self.data.detectors().iter().map(|&t| m.directional_at(t));
-        self.directional.extend(d);
+        self.directional.fill(self.data, &m);
         true
     }
 }
@@ -407,30 +406,17 @@ impl Problem<'_> {
             let Some(model) = &model else {
                 return false;
             };
-            // The factors of the incidence's rows, made again only where a row's theta_i
-            // differs (within SAME_ANGLE of the incidence's) from the last row's.
-            let mut inc: Option<(f64, AtIncidence<f64>)> = None;
+            let mut inc = Incidence::default();
             for &k in self.data.rows_of(j) {
                 let o = &self.data.obs[k];
                 // Inlined, with the model's gradient, so the gradient stays in registers.
                 let at = match self.aperture {
                     None => {
-                        let fresh = match inc {
-                            Some((ti, f)) if ti == o.theta_i => f,
-                            _ => match model.at_incidence(o.theta_i) {
-                                Ok(f) => {
-                                    inc = Some((o.theta_i, f));
-                                    f
-                                }
-                                Err(_) => return false,
-                            },
+                        let Some(f) = inc.at(model, o.theta_i) else {
+                            return false;
                         };
-                        let dd = self
-                            .directional
-                            .get(self.data.detector_of(k))
-                            .copied()
-                            .flatten();
-                        model.eval_with_gradient_given(&fresh, dd, &o.geom).ok()
+                        let dd = self.directional.at(self.data, k);
+                        model.eval_with_gradient_given(&f, dd, &o.geom).ok()
                     }
                     Some(a) => Aperture::for_model(a, model)
                         .ok()
@@ -697,16 +683,10 @@ fn unit_lobe_values(data: &Dataset, dist: Distribution, sigma: f64) -> Option<Ve
 /// once per detector angle ([`Dataset::detectors`]).
 fn directional_values(data: &Dataset, params: &MemberParams<f64>) -> Option<Vec<f64>> {
     let m = MemberModel::new(params).ok()?;
-    let at = data
-        .detectors()
-        .iter()
-        .map(|&t| m.directional_at(t).map(|(b, _)| b))
-        .collect::<Option<Vec<f64>>>()?;
-    Some(
-        (0..data.obs.len())
-            .map(|k| at[data.detector_of(k)])
-            .collect(),
-    )
+    let at = Detectors::of(data, &m);
+    (0..data.obs.len())
+        .map(|k| at.at(data, k).map(|(b, _)| b))
+        .collect()
 }
 
 type Parts = brdf_core::member_model::Parts<f64>;
@@ -1565,9 +1545,16 @@ fn finish(
     // The paper's RMSE compares the surface's model (point values) with the readings,
     // one incidence's model at a time (the list of all was the largest allocation of a
     // fit of 50,000 incidences, 16 MB); the row pass above built every one of them.
+    // The directional-diffuse term is made once per detector angle.
+    let dd = Detectors::of(data, &layout.model(&x, 0)?);
     let (rmse_by_inc, rmse) = paper_rmse_with(data, |j| {
         let (ti, m) = (data.incidences[j], layout.model(&x, j)?);
-        Some(move |g: &Geometry<f64>| m.eval(ti, g).ok().map(|e| e.f))
+        let f = m.at_incidence(ti).ok()?;
+        let dd = &dd;
+        Some(move |k: usize| {
+            let g = &data.obs[k].geom;
+            m.eval_given(&f, dd.at(data, k), g).ok().map(|e| e.f)
+        })
     });
     Some(MemberFit {
         layout,

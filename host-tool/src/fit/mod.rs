@@ -16,6 +16,7 @@
 pub mod arrow;
 pub mod campaign;
 pub mod data;
+pub mod factors;
 pub mod family;
 pub mod goodness;
 pub mod lm;

@@ -5,7 +5,7 @@
 //! covariance at the optimum from the same structured `J^T J`. Every pass is linear in
 //! the readings; memory is linear in readings plus incidences.
 
-use brdf_core::{Geometry, Model, Params};
+use brdf_core::{Model, Params};
 use nalgebra::{DMatrix, DVector};
 
 use super::arrow::{ArrowInverse, Normal, RowSink, Shape, Workspace, solve_damped};
@@ -692,14 +692,15 @@ fn finish(
 pub fn paper_rmse(data: &Dataset, kind: Kind, v: &Values) -> (Vec<Option<f64>>, Option<f64>) {
     paper_rmse_with(data, |j| {
         let m = v.model(kind, j)?;
-        Some(move |g: &Geometry<f64>| m.eval(g).ok().map(|e| e.f))
+        Some(move |k: usize| m.eval(&data.obs[k].geom).ok().map(|e| e.f))
     })
 }
 
 /// [`paper_rmse`] for any model: `model_at(j)` gives incidence `j`'s model as its value
-/// at a geometry (None when it cannot be built or evaluated); it is asked once per
-/// incidence, so one model is held at a time.
-pub fn paper_rmse_with<F: Fn(&Geometry<f64>) -> Option<f64>>(
+/// at a reading of that incidence, by the reading's index in `data.obs` (None when it
+/// cannot be built or evaluated); it is asked once per incidence, so one model is held
+/// at a time.
+pub fn paper_rmse_with<F: Fn(usize) -> Option<f64>>(
     data: &Dataset,
     mut model_at: impl FnMut(usize) -> Option<F>,
 ) -> (Vec<Option<f64>>, Option<f64>) {
@@ -715,14 +716,14 @@ pub fn paper_rmse_with<F: Fn(&Geometry<f64>) -> Option<f64>>(
             per.push(None);
             continue;
         };
-        let Some(f_ref) = f(&data.obs[r].geom) else {
+        let Some(f_ref) = f(r) else {
             per.push(None);
             continue;
         };
         let (mut s, mut c) = (0.0, 0usize);
         for &k in data.rows_of(j) {
             let o = &data.obs[k];
-            let fk = f(&o.geom).unwrap_or(f64::NAN);
+            let fk = f(k).unwrap_or(f64::NAN);
             let d = o.y / y_ref - fk / f_ref;
             s += d * d;
             c += 1;

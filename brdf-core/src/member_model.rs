@@ -484,6 +484,7 @@ impl<T: Real> MemberModel<T> {
 
     /// [`MemberModel::eval`] with the factors given as
     /// [`MemberModel::eval_with_gradient_given`] takes them: the same values, bit for bit.
+    // Out of line, as `eval`: the gradient path is the one inlined into a row pass.
     #[inline(never)]
     pub fn eval_given(
         &self,

@@ -24,7 +24,7 @@ use std::sync::{Arc, Mutex, OnceLock};
 
 use super::arrow::{ArrowInverse, Normal, RowSink, Shape};
 use super::data::{Dataset, Observation};
-use super::factors::{Detectors, Incidence};
+use super::factors::{Detectors, Incidence, point_value};
 use super::lm::{ArrowProblem, LmOptions, Termination, minimize, minimize_from};
 use super::point_system::PointSystem;
 use super::solve::{Residual, paper_rmse_with, residual_of};
@@ -1549,12 +1549,8 @@ fn finish(
     let dd = Detectors::of(data, &layout.model(&x, 0)?);
     let (rmse_by_inc, rmse) = paper_rmse_with(data, |j| {
         let (ti, m) = (data.incidences[j], layout.model(&x, j)?);
-        let f = m.at_incidence(ti).ok()?;
-        let dd = &dd;
-        Some(move |k: usize| {
-            let g = &data.obs[k].geom;
-            m.eval_given(&f, dd.at(data, k), g).ok().map(|e| e.f)
-        })
+        let (dd, mut inc) = (&dd, Incidence::default());
+        Some(move |k| point_value(&m, &mut inc, dd, data, k, ti).map(|e| e.f))
     });
     Some(MemberFit {
         layout,

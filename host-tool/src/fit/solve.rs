@@ -700,7 +700,7 @@ pub fn paper_rmse(data: &Dataset, kind: Kind, v: &Values) -> (Vec<Option<f64>>, 
 /// at a reading of that incidence, by the reading's index in `data.obs` (None when it
 /// cannot be built or evaluated); it is asked once per incidence, so one model is held
 /// at a time.
-pub fn paper_rmse_with<F: Fn(usize) -> Option<f64>>(
+pub fn paper_rmse_with<F: FnMut(usize) -> Option<f64>>(
     data: &Dataset,
     mut model_at: impl FnMut(usize) -> Option<F>,
 ) -> (Vec<Option<f64>>, Option<f64>) {
@@ -712,7 +712,7 @@ pub fn paper_rmse_with<F: Fn(usize) -> Option<f64>>(
             continue;
         };
         let y_ref = data.obs[r].y;
-        let Some(f) = model_at(j) else {
+        let Some(mut f) = model_at(j) else {
             per.push(None);
             continue;
         };

@@ -106,6 +106,19 @@ impl Shape {
         self.n_global + self.local_start[k]
     }
 
+    /// The number of locals of every group, if all have the same (`Some(0)` with no
+    /// groups).
+    pub fn uniform_local(&self) -> Option<usize> {
+        let first = self
+            .local_start
+            .get(1)
+            .map_or(0, |s| s - self.local_start[0]);
+        self.local_start
+            .windows(2)
+            .all(|w| w[1] - w[0] == first)
+            .then_some(first)
+    }
+
     /// Largest local block.
     fn max_local(&self) -> usize {
         self.blocks().map(|b| b.nl).max().unwrap_or(0)
@@ -491,6 +504,56 @@ impl RowSink for Normal {
     }
 }
 
+/// A row pass: something that streams its rows into whichever sink it is given.
+pub trait RowPass {
+    /// Streams every row into `sink`; false when a row cannot be made (the sink's sums
+    /// are then to be discarded).
+    fn rows_into<S: RowSink>(self, sink: &mut S) -> bool;
+}
+
+/// [`Normal`]'s kernel for `NG` globals and `NL` locals in every group.
+struct Fixed<'a, const NG: usize, const NL: usize>(&'a mut Normal);
+
+impl<const NG: usize, const NL: usize> RowSink for Fixed<'_, NG, NL> {
+    #[inline(always)]
+    fn row(&mut self, group: usize, r: f64, jg: &[f64], jl: &[f64]) {
+        self.0.row_fixed::<NG, NL>(group, r, jg, jl);
+    }
+}
+
+/// [`Normal`]'s general kernel.
+struct Dyn<'a>(&'a mut Normal);
+
+impl RowSink for Dyn<'_> {
+    #[inline(always)]
+    fn row(&mut self, group: usize, r: f64, jg: &[f64], jl: &[f64]) {
+        self.0.row_dyn(group, r, jg, jl);
+    }
+}
+
+impl Normal {
+    /// Adds the rows of `pass` (as [`RowSink::row`] does one by one), with the kernel
+    /// for this shape's sizes chosen once for the pass rather than per row: the pass's
+    /// loop is compiled once per kernel with the accumulation inline (about a fifth
+    /// fewer instructions per reading in the fit's row pass).
+    pub fn accumulate(&mut self, pass: impl RowPass) -> bool {
+        // The same kernels as `row`'s, for every group of one size.
+        macro_rules! fixed {
+            ($($ng:literal)*) => {
+                match (self.shape.n_global, self.shape.uniform_local()) {
+                    $(
+                        ($ng, Some(0)) => pass.rows_into(&mut Fixed::<$ng, 0>(self)),
+                        ($ng, Some(1)) => pass.rows_into(&mut Fixed::<$ng, 1>(self)),
+                        ($ng, Some(2)) => pass.rows_into(&mut Fixed::<$ng, 2>(self)),
+                    )*
+                    _ => pass.rows_into(&mut Dyn(self)),
+                }
+            };
+        }
+        fixed!(0 1 2 3 4 5 6 7 8 9 10 11)
+    }
+}
+
 /// One group's elimination in [`damped_body`]: its damped local block `m` (`nl x nl`,
 /// from `n.v`) inverted, `Y = M^-1 W^T` and `M^-1 (-g)` into the workspace, and the
 /// Schur complement and right-hand side updated. `col` holds one column (`nl`). False
@@ -794,6 +857,27 @@ pub struct ArrowInverse {
 /// Symmetric pseudo-inverse of a row-major `n x n` matrix: eigenvalues below
 /// `NULL_EIGEN` of the largest are dropped; returns the inverse and the null vectors.
 fn pseudo_inverse(a: &[f64], n: usize) -> (Vec<f64>, Vec<Vec<f64>>) {
+    if n == 1 {
+        // What the decomposition below gives for one parameter (the common local
+        // block, one k_s per incidence), bit for bit, without its allocations: it
+        // scales by the largest magnitude and back, its eigenvector is [1].
+        let amax = a[0].abs();
+        let ev = if amax == 0.0 {
+            a[0]
+        } else {
+            a[0] / amax * amax
+        };
+        return if ev.is_nan() || ev <= NULL_EIGEN * ev.max(0.0) {
+            (vec![0.0], vec![vec![1.0]])
+        } else {
+            (vec![1.0 / ev], Vec::new())
+        };
+    }
+    pseudo_inverse_eigen(a, n)
+}
+
+/// [`pseudo_inverse`] by nalgebra's symmetric eigen decomposition, for any `n`.
+fn pseudo_inverse_eigen(a: &[f64], n: usize) -> (Vec<f64>, Vec<Vec<f64>>) {
     if n == 0 {
         return (Vec::new(), Vec::new());
     }
@@ -1008,6 +1092,28 @@ mod tests {
         r: DVector<f64>,
     }
 
+    #[test]
+    fn one_parameter_pseudo_inverse_is_the_eigen_decompositions_bit_for_bit() {
+        let odd = [
+            1.0,
+            0.999_999_999_7,
+            3.7,
+            1e-300,
+            5e-324,
+            0.0,
+            -0.0,
+            -2.5,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+        ];
+        for a in odd {
+            let (fast, eig) = (pseudo_inverse(&[a], 1), pseudo_inverse_eigen(&[a], 1));
+            assert_eq!(fast.0[0].to_bits(), eig.0[0].to_bits(), "inverse of {a}");
+            assert_eq!(fast.1, eig.1, "null vectors of {a}");
+        }
+    }
+
     fn random_problem(seed: u32, ng: usize, locals: &[usize]) -> Random {
         let mut rng = XorShift32::new(seed);
         let shape = Shape::new(ng, locals.iter().copied());
@@ -1036,18 +1142,48 @@ mod tests {
         }
     }
 
+    impl RowPass for &Random {
+        fn rows_into<S: RowSink>(self, sink: &mut S) -> bool {
+            let ng = self.shape.n_global();
+            for (row, &g) in self.group_of.iter().enumerate() {
+                let jg: Vec<f64> = (0..ng).map(|a| self.j[(row, a)]).collect();
+                let lo = self.shape.local_offset(g);
+                let jl: Vec<f64> = (0..self.shape.n_local(g))
+                    .map(|l| self.j[(row, lo + l)])
+                    .collect();
+                sink.row(g, self.r[row], &jg, &jl);
+            }
+            true
+        }
+    }
+
+    /// `p`'s normal equations, row by row.
     fn accumulate(p: &Random) -> Normal {
         let mut n = Normal::new(p.shape.clone());
-        let ng = p.shape.n_global();
-        for (row, &g) in p.group_of.iter().enumerate() {
-            let jg: Vec<f64> = (0..ng).map(|a| p.j[(row, a)]).collect();
-            let lo = p.shape.local_offset(g);
-            let jl: Vec<f64> = (0..p.shape.n_local(g))
-                .map(|l| p.j[(row, lo + l)])
-                .collect();
-            n.row(g, p.r[row], &jg, &jl);
-        }
+        p.rows_into(&mut n);
         n
+    }
+
+    #[test]
+    fn a_pass_through_its_kernel_sums_as_row_by_row_bit_for_bit() {
+        let mut cases = CASES.to_vec();
+        // Sizes beyond the kernels' (the general loop) and no groups at all.
+        cases.extend([(6, 12, &[1, 1][..]), (7, 3, &[3, 3]), (8, 2, &[])]);
+        for (seed, ng, locals) in cases {
+            let p = random_problem(seed, ng, locals);
+            let one = accumulate(&p);
+            let mut pass = Normal::new(p.shape.clone());
+            assert!(pass.accumulate(&p));
+            let bits = |n: &Normal| {
+                let all = [&n.u[..], &n.w, &n.v, &n.g, &[n.cost]].concat();
+                all.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+            };
+            assert_eq!(bits(&pass), bits(&one), "seed {seed}");
+        }
+        let uniform = |locals: &[usize]| Shape::new(2, locals.iter().copied()).uniform_local();
+        assert_eq!(uniform(&[1, 1, 1]), Some(1));
+        assert_eq!(uniform(&[2, 1]), None);
+        assert_eq!(uniform(&[]), Some(0));
     }
 
     const CASES: [(u32, usize, &[usize]); 5] = [

@@ -22,7 +22,7 @@ use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 use std::sync::{Arc, Mutex, OnceLock};
 
-use super::arrow::{ArrowInverse, Normal, RowSink, Shape};
+use super::arrow::{ArrowInverse, Normal, RowPass, RowSink, Shape};
 use super::data::{Dataset, Observation};
 use super::factors::{Detectors, Incidence, point_value};
 use super::lm::{ArrowProblem, LmOptions, Termination, minimize, minimize_from};
@@ -482,11 +482,24 @@ impl Problem<'_> {
     }
 }
 
-/// A sink whose groups are numbered from `.1` (a part of [`Normal::part`]).
-struct Offset<'a>(&'a mut Normal, usize);
+/// The row pass of a problem at `.1` over its incidences `.2`, into a sink whose
+/// groups are numbered from the first of them (the whole problem's, or a part of
+/// [`Normal::part`]).
+struct Pass<'a>(&'a Problem<'a>, &'a [f64], std::ops::Range<usize>);
 
-impl RowSink for Offset<'_> {
+impl RowPass for Pass<'_> {
     #[inline]
+    fn rows_into<S: RowSink>(self, sink: &mut S) -> bool {
+        let Pass(p, x, groups) = self;
+        p.rows_in(x, groups.clone(), &mut Offset(sink, groups.start))
+    }
+}
+
+/// A sink whose groups are numbered from `.1`.
+struct Offset<'a, S>(&'a mut S, usize);
+
+impl<S: RowSink> RowSink for Offset<'_, S> {
+    #[inline(always)]
     fn row(&mut self, group: usize, r: f64, jg: &[f64], jl: &[f64]) {
         self.0.row(group - self.1, r, jg, jl);
     }
@@ -517,13 +530,13 @@ impl ArrowProblem for Problem<'_> {
             return false;
         }
         if self.parts.is_empty() {
-            return self.rows_in(x, 0..self.layout.n_inc, out);
+            return out.accumulate(Pass(self, x, 0..self.layout.n_inc));
         }
         let mut parts = std::mem::take(&mut self.parts);
         let this = &*self;
         let ok = parts.par_iter_mut().all(|(groups, part)| {
             part.clear();
-            this.rows_in(x, groups.clone(), &mut Offset(part, groups.start))
+            part.accumulate(Pass(this, x, groups.clone()))
         });
         if ok {
             for (groups, part) in &parts {

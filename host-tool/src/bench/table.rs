@@ -155,6 +155,12 @@ pub fn versus_table(v: &Versus) -> String {
             f.ssr,
             if f.converged { "yes" } else { "no" }
         ));
+        if let Some(us) = f.solve_microseconds {
+            t.push_str(&format!(
+                "{:<34} {:>12.1}\n",
+                "  its solve (no covariance, RMSE)", us
+            ));
+        }
     }
     t.push_str(&format!(
         "{} readings at {} incidences; best of {} warm runs each, one thread; one LM: {} steps, \

@@ -41,8 +41,9 @@ pub struct BenchArgs {
     /// against `bench/fit_scipy.py` like for like. Two fits, each warm, best of
     /// --repeat, on one thread: exactly one Levenberg–Marquardt run from --start
     /// (scipy's own start, no grid) and the default fit (`gonio fit --models three`:
-    /// the width grid, then LM from its best points); their times (µs), Table-3 RMSEs
-    /// and SSRs (log residuals; the sweep's aperture, if it declares one, applies to
+    /// the width grid, then LM from its best points); their times (µs; the one LM's
+    /// also for its solve alone, without the covariance and RMSE, which is what
+    /// scipy's timed call does), Table-3 RMSEs and SSRs (log residuals; the sweep's aperture, if it declares one, applies to
     /// both, the scipy script ignores it).
     #[arg(long, value_name = "SWEEP.csv", requires = "start", conflicts_with_all = ["study", "plot"])]
     pub fit_vs: Option<std::path::PathBuf>,

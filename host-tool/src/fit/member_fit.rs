@@ -1589,6 +1589,9 @@ pub struct LocalFit {
     pub iterations: usize,
     /// Passes over the readings (each gives the cost and the Jacobian).
     pub evaluations: usize,
+    /// Wall time of the solve alone (seconds): from the call to LM's answer, before
+    /// the covariance and the paper RMSE (what scipy's `least_squares` call does).
+    pub solve_seconds: f64,
 }
 
 /// Exactly one Levenberg–Marquardt run (default [`LmOptions`], nothing held, no grid)
@@ -1605,6 +1608,7 @@ pub fn fit_member_from(
     aperture: Option<f64>,
     x0: &[f64],
 ) -> Option<LocalFit> {
+    let t0 = std::time::Instant::now();
     let layout = Layout::new(member, data.incidences.len());
     if x0.len() != layout.len() || x0.iter().any(|u| !u.is_finite()) {
         return None;
@@ -1615,6 +1619,7 @@ pub fn fit_member_from(
     let resid = Residuals::new(data, residual);
     let mut p = Problem::new(data, layout, residual, &resid, aperture);
     let rep = minimize(&mut p, x0, &LmOptions::default());
+    let solve_seconds = t0.elapsed().as_secs_f64();
     if !rep.cost.is_finite() {
         return None;
     }
@@ -1623,6 +1628,7 @@ pub fn fit_member_from(
         fit: finish(&mut p, rep.x, rep.cost, converged, Some(rep.normal))?,
         iterations: rep.iterations,
         evaluations: rep.evaluations,
+        solve_seconds,
     })
 }
 

@@ -360,11 +360,21 @@ fn bench_fit_vs_times_both_fits_to_the_same_optimum() {
     let (s1, s2) = (one["ssr"].as_f64().unwrap(), grid["ssr"].as_f64().unwrap());
     assert!(((s1 - s2) / s2).abs() < 1e-8, "{s1} against {s2}");
     assert!(one["iterations"].as_u64().unwrap() > 0);
+    // The solve alone is part of the one LM's time (best of the same runs); the
+    // default fit has no such split.
+    let solve = one["solve_microseconds"].as_f64().unwrap();
+    assert!(
+        solve > 0.0 && solve <= one["microseconds"].as_f64().unwrap(),
+        "{one}"
+    );
+    assert!(grid["solve_microseconds"].is_null(), "{grid}");
     // The table names both fits.
     let t = gonio(&["bench", "--fit-vs", f, "--start", SCIPY_X0, "--repeat", "1"]);
     assert!(t.ok(), "{}", t.stderr);
     assert!(
-        t.stdout.contains("one LM from --start") && t.stdout.contains("default"),
+        t.stdout.contains("one LM from --start")
+            && t.stdout.contains("its solve")
+            && t.stdout.contains("default"),
         "{}",
         t.stdout
     );

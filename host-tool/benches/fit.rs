@@ -11,7 +11,7 @@ use brdf_core::member::Member;
 use criterion::{Criterion, criterion_group, criterion_main};
 use gonio::fit::data::{synthetic_paper_sweep, synthetic_sweep};
 use gonio::fit::member_fit::fit_member;
-use gonio::fit::{Dataset, FitOptions, Kind, Residual, fit_family, fit_kind};
+use gonio::fit::{Dataset, FitOptions, Residual, fit_family};
 use gonio::sweep_file::Row;
 
 fn paper_sweep(name: &str, noise: f64) -> Vec<Row> {
@@ -56,9 +56,6 @@ fn bench(c: &mut Criterion) {
         g.bench_function(format!("{name} all four models"), |b| {
             b.iter(|| fit_family(black_box(&data), &opts).unwrap())
         });
-        g.bench_function(format!("{name} three-component"), |b| {
-            b.iter(|| fit_kind(black_box(&data), Kind::ThreeComponent, &opts).unwrap())
-        });
         // The lattice members (width grid + NNLS + LM), as the family fits them.
         g.bench_function(format!("{name} member three-component"), |b| {
             b.iter(|| {
@@ -82,9 +79,6 @@ fn bench(c: &mut Criterion) {
     g.bench_function("fe-0.115 all four models", |b| {
         b.iter(|| fit_family(black_box(&data), &opts).unwrap())
     });
-    g.bench_function("fe-0.115 three-component", |b| {
-        b.iter(|| fit_kind(black_box(&data), Kind::ThreeComponent, &opts).unwrap())
-    });
     g.bench_function("fe-0.115 member three-component", |b| {
         b.iter(|| {
             fit_member(
@@ -107,7 +101,16 @@ fn bench(c: &mut Criterion) {
         let data = Dataset::from_rows(&rows, true).unwrap();
         g.bench_function(
             format!("{n_inc} incidences x {per}: three-component"),
-            |b| b.iter(|| fit_kind(black_box(&data), Kind::ThreeComponent, &opts).unwrap()),
+            |b| {
+                b.iter(|| {
+                    fit_member(
+                        black_box(&data),
+                        Member::THREE_COMPONENT,
+                        Residual::Log,
+                        None,
+                    )
+                })
+            },
         );
     }
     g.finish();

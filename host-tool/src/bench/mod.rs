@@ -14,8 +14,7 @@ pub mod versus;
 pub use chart::speed_vs_error;
 pub use starts::{StartsRow, starts_study};
 pub use study::{
-    FitResultRow, MemberRow, PlanResult, ScaleRow, StudyError, fit_study, member_study, plan_study,
-    scale_study,
+    MemberRow, PlanResult, ScaleRow, StudyError, member_study, plan_study, scale_study,
 };
 pub use variants::{VariantResult, bench_params, dense_grid, eval_grid, eval_pairs, naive, run};
 pub use versus::{Versus, VersusFit, check_start, fit_versus, parse_start};

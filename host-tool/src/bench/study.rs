@@ -15,7 +15,7 @@ use crate::capture::{
 };
 use crate::device::{InProcessConnector, InProcessDevice, SimConfig};
 use crate::fit::member_fit::fit_member;
-use crate::fit::{Dataset, FitOptions, Kind, Residual, fit_kind};
+use crate::fit::{Dataset, FitOptions, Residual};
 use crate::sweep_file::{SweepFileError, read_sweep};
 
 /// Why a study could not run: its capture, its files or its fits failed.
@@ -160,75 +160,6 @@ fn private_dir() -> Result<tempfile::TempDir> {
         .prefix("gonio-study-")
         .tempdir()
         .map_err(|e| StudyError::Failed(format!("cannot create a temporary directory: {e}")))
-}
-
-/// One fit configuration's time and error.
-#[derive(Debug, Clone, Serialize)]
-pub struct FitResultRow {
-    /// LM tolerance.
-    pub tol: f64,
-    /// Starting points on the (sigma, sigma_m) grid.
-    pub starts: usize,
-    /// Microseconds per three-component fit (best of several).
-    pub micros: f64,
-    /// The paper's normalised RMSE of the fit.
-    pub rmse: f64,
-    /// Sum of squared log residuals.
-    pub ssr: f64,
-}
-
-/// Three-component fits of a simulated fe-0.115 paper sweep (0.5 % noise) across LM
-/// tolerances and start grids: the paper-form path (`fit_kind`, what `--fix` and a
-/// robust `--loss` use), the one fitted from multi-start LM, so the one with starts.
-pub fn fit_study() -> Result<Vec<FitResultRow>> {
-    let tmp = private_dir()?;
-    let out = tmp.path().join("fe.csv");
-    let mut setup = CaptureSetup::new(
-        Some(HostPlan::paper(&SettingsOverride::default())?),
-        out.clone(),
-    );
-    setup.force = true;
-    let preset = Preset::by_name("fe-0.115").expect("preset");
-    let mut conn = InProcessConnector::new(InProcessDevice::new(&SimConfig::new(preset, 0.005, 1)));
-    capture(&mut conn, &setup, &mut Quiet, &AtomicBool::new(false))?;
-    let rows = read_sweep(&out)?.rows;
-    drop(tmp);
-    let data = Dataset::from_rows(&rows, true).map_err(|e| StudyError::Failed(e.0))?;
-    let mut table = Vec::new();
-    let grids: [(Vec<f64>, Vec<f64>); 3] = [
-        (vec![0.1], vec![0.7]),
-        (vec![0.05, 0.2, 0.8], vec![0.3, 1.5]),
-        (
-            FitOptions::default().sigma_starts,
-            FitOptions::default().sigma_m_starts,
-        ),
-    ];
-    for tol in [1e-4, 1e-6, 1e-8, 1e-10, 1e-12] {
-        for (sigma_starts, sigma_m_starts) in &grids {
-            let opts = FitOptions {
-                tol,
-                sigma_starts: sigma_starts.clone(),
-                sigma_m_starts: sigma_m_starts.clone(),
-                ..FitOptions::default()
-            };
-            let mut best = f64::INFINITY;
-            let mut last = None;
-            for _ in 0..20 {
-                let t = Instant::now();
-                last = fit_kind(&data, Kind::ThreeComponent, &opts);
-                best = best.min(t.elapsed().as_secs_f64() * 1e6);
-            }
-            let fit = last.ok_or_else(|| StudyError::Failed("fit failed".into()))?;
-            table.push(FitResultRow {
-                tol,
-                starts: sigma_starts.len() * sigma_m_starts.len(),
-                micros: best,
-                rmse: fit.rmse.unwrap_or(f64::NAN),
-                ssr: fit.ssr,
-            });
-        }
-    }
-    Ok(table)
 }
 
 /// One sweep size: the whole default family's fit time and the three-component

@@ -1,7 +1,7 @@
 //! The text tables `gonio bench` prints: variants, the studies when run, and the
 //! comparison fits of `--fit-vs`.
 
-use super::{FitResultRow, PlanResult, VariantResult, Versus};
+use super::{PlanResult, VariantResult, Versus};
 
 /// The variants table `gonio bench` prints.
 pub fn variants_table(rows: &[VariantResult]) -> String {
@@ -32,21 +32,6 @@ pub fn plans_table(plans: &[PlanResult]) -> String {
         t.push_str(&format!(
             "{:<10} {:<40} {:>9} {:>10.5}\n",
             p.material, p.plan, p.readings, p.fit_error
-        ));
-    }
-    t
-}
-
-/// The fit study's table (time against error across tolerances and starts).
-pub fn fits_table(fits: &[FitResultRow]) -> String {
-    let mut t = format!(
-        "\n{:>8} {:>7} {:>10} {:>12} {:>12}\n",
-        "tol", "starts", "us/fit", "RMSE", "SSR(log)"
-    );
-    for f in fits {
-        t.push_str(&format!(
-            "{:>8.0e} {:>7} {:>10.1} {:>12.6} {:>12.6e}\n",
-            f.tol, f.starts, f.micros, f.rmse, f.ssr
         ));
     }
     t

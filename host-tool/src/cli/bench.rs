@@ -77,10 +77,10 @@ pub fn run(args: &BenchArgs) -> CliResult {
     if let Some(png) = &args.plot {
         bench::speed_vs_error(png, &rows, args.force)?;
     }
-    let (plans, fits) = if args.study {
-        (Some(bench::plan_study(3)?), Some(bench::fit_study()?))
+    let plans = if args.study {
+        Some(bench::plan_study(3)?)
     } else {
-        (None, None)
+        None
     };
     let (scale, members, starts) = if args.study {
         (
@@ -92,7 +92,7 @@ pub fn run(args: &BenchArgs) -> CliResult {
         (None, None, None)
     };
     let text = if args.json {
-        let v = serde_json::json!({"variants": rows, "plans": plans, "fits": fits,
+        let v = serde_json::json!({"variants": rows, "plans": plans,
             "scale": scale, "members": members.as_ref().map(|m| &m.0),
             "family_ms_scatterworks": members.as_ref().map(|m| m.1), "starts": starts});
         serde_json::to_string_pretty(&v).expect("JSON of numbers") + "\n"
@@ -100,9 +100,6 @@ pub fn run(args: &BenchArgs) -> CliResult {
         let mut t = table::variants_table(&rows);
         if let Some(plans) = &plans {
             t.push_str(&table::plans_table(plans));
-        }
-        if let Some(fits) = &fits {
-            t.push_str(&table::fits_table(fits));
         }
         if let Some(scale) = &scale {
             t.push_str(&table::scale_table(scale));

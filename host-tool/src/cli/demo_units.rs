@@ -121,7 +121,14 @@ pub fn absolute_chain(
             row(&mut s, &format!("k_s({ti})"), fit.values.ks[j], truth / k);
         }
     }
-    let check = physical::check_fit(&fam, fit);
+    let check = match fam.member(Kind::ThreeComponent.member()) {
+        Some(member) => physical::check_member(member),
+        None => {
+            return Err(CliError::failed(
+                "the three-component member was not fitted",
+            ));
+        }
+    };
     if let Some((ti, rho, _)) = check
         .albedo
         .iter()

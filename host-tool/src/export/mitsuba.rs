@@ -26,7 +26,6 @@ use brdf_core::member_model::{DirectionalParams, Ks, LobeParams, MemberModel, Me
 use serde_json::{Map, Value, json};
 
 use super::{ExportError, write_atomic};
-use crate::fit::Fit;
 use crate::fit::member_fit::MemberFit;
 use crate::outfile::Target;
 
@@ -53,36 +52,6 @@ pub struct MemberTable {
 }
 
 impl MemberTable {
-    /// A fit of the paper's family (`fit::Kind`), in relative units.
-    pub fn of_fit(fit: &Fit, incidences: &[f64]) -> Self {
-        let member = fit.kind.member();
-        let v = &fit.values;
-        let params = (0..incidences.len())
-            .map(|j| MemberParams {
-                core: member.core.map(|s| LobeParams {
-                    dist: s.dist,
-                    ks: match v.poly {
-                        Some(c) => Ks::Smooth(SmoothKs { c }),
-                        None => Ks::PerIncidence(v.ks[j]),
-                    },
-                    sigma: v.sigma,
-                }),
-                haze: None,
-                directional: member.directional.then_some(DirectionalParams {
-                    kdd: v.kdd,
-                    sigma_m: v.sigma_m,
-                }),
-                ideal: member.ideal.then_some(v.kid),
-            })
-            .collect();
-        MemberTable {
-            member,
-            incidences: incidences.to_vec(),
-            params,
-            to_per_sr: None,
-        }
-    }
-
     /// Any fitted member of the lattice, in relative units.
     pub fn of_member_fit(f: &MemberFit) -> Self {
         MemberTable {

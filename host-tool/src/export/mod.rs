@@ -171,19 +171,15 @@ pub fn write_merl_export(
     ))
 }
 
-/// The fitted member `member` as brdf-core's parameters at each fitted incidence: from
-/// its fit on the width grid, or (on the paper-form path of `--fix` and robust losses)
-/// from its paper fit. The one path from a fit to a model every export takes;
+/// The fitted member `member` as brdf-core's parameters at each fitted incidence, from
+/// its fit. The one path from a fit to a model every export takes;
 /// [`ExportError::NotFitted`] naming the fitted members when `member` is not one.
 /// The table is in the fit's units: `to_per_sr` is 1 for data in 1/sr (the sweep's
 /// `# brdf:` line or `--instrument`), `None` for relative units.
 pub fn fitted_table(fam: &FamilyFit, member: Member) -> Result<MemberTable, ExportError> {
-    let mut table = if let Some(f) = fam.member(member) {
-        MemberTable::of_member_fit(f)
-    } else if let Some(f) = crate::fit::paper::kind_of(member).and_then(|k| fam.get(k)) {
-        MemberTable::of_fit(f, &fam.incidences)
-    } else {
-        return Err(not_fitted(fam, member));
+    let mut table = match fam.member(member) {
+        Some(f) => MemberTable::of_member_fit(f),
+        None => return Err(not_fitted(fam, member)),
     };
     table.to_per_sr = (fam.units == crate::sweep_file::BrdfUnits::PerSr).then_some(1.0);
     Ok(table)

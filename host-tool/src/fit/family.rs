@@ -200,6 +200,18 @@ impl Values {
         }
     }
 
+    /// The natural value of a scalar coordinate (sigma, sigma_m, k_dd, k_id); the
+    /// log coordinate's exp otherwise.
+    pub fn natural(&self, c: Coord) -> f64 {
+        match c {
+            Coord::Sigma => self.sigma,
+            Coord::SigmaM => self.sigma_m,
+            Coord::Kdd => self.kdd,
+            Coord::Kid => self.kid,
+            _ => self.get(c).exp(),
+        }
+    }
+
     /// The value of coordinate `c`.
     pub fn get(&self, c: Coord) -> f64 {
         match c {
@@ -209,63 +221,6 @@ impl Values {
             Coord::Kid => self.kid.ln(),
             Coord::Ks(j) => self.ks[j].ln(),
             Coord::KsPoly(k) => self.poly.map_or(0.0, |p| p[k]),
-        }
-    }
-}
-
-/// Parameters held fixed (`--fix name=value`), in natural units.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct Fixed {
-    /// sigma.
-    pub sigma: Option<f64>,
-    /// sigma_m.
-    pub sigma_m: Option<f64>,
-    /// k_dd.
-    pub kdd: Option<f64>,
-    /// k_id.
-    pub kid: Option<f64>,
-    /// k_d (the Torrance–Sparrow constant).
-    pub kd: Option<f64>,
-}
-
-impl Fixed {
-    /// Parses `name=value` (names: sigma, sigma_m, kdd, kid, kd; also k_dd, k_id, k_d).
-    pub fn set(&mut self, spec: &str) -> Result<(), String> {
-        let (name, value) = spec
-            .split_once('=')
-            .ok_or_else(|| format!("--fix '{spec}': expected NAME=VALUE"))?;
-        let v: f64 = value
-            .trim()
-            .parse()
-            .map_err(|_| format!("--fix '{spec}': '{value}' is not a number"))?;
-        if !(v.is_finite() && v > 0.0) {
-            return Err(format!("--fix '{spec}': the value must be finite and > 0"));
-        }
-        let slot = match name.trim() {
-            "sigma" => &mut self.sigma,
-            "sigma_m" | "sigma-m" => &mut self.sigma_m,
-            "kdd" | "k_dd" => &mut self.kdd,
-            "kid" | "k_id" => &mut self.kid,
-            "kd" | "k_d" => &mut self.kd,
-            other => {
-                return Err(format!(
-                    "--fix: unknown parameter '{other}' (sigma, sigma_m, kdd, kid, kd)"
-                ));
-            }
-        };
-        *slot = Some(v);
-        Ok(())
-    }
-
-    /// The fixed value of a coordinate for a kind, if any.
-    pub fn of(&self, kind: Kind, c: Coord) -> Option<f64> {
-        match c {
-            Coord::Sigma => self.sigma,
-            Coord::SigmaM => self.sigma_m,
-            Coord::Kdd => self.kdd,
-            Coord::Kid if kind == Kind::TorranceSparrow => self.kd,
-            Coord::Kid => self.kid,
-            Coord::Ks(_) | Coord::KsPoly(_) => None,
         }
     }
 }

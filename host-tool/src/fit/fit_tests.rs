@@ -1,8 +1,6 @@
 //! Tests of the fitter on synthetic sweeps with known parameters.
 
-use super::family::{Coord, Values, coords};
-use super::lm::{dense_jacobian, numeric_jacobian};
-use super::solve::Problem;
+use super::family::Coord;
 use super::*;
 use crate::sweep_file::Row;
 use brdf_core::{Geometry, Model, Params, Preset};
@@ -27,46 +25,6 @@ fn z(fit: &Fit, c: Coord, truth: f64) -> f64 {
     let i = fit.free.iter().position(|&x| x == c).unwrap();
     let se = fit.se_coord(i).expect("identifiable");
     (fit.values.get(c) - truth.ln()).abs() / se
-}
-
-#[test]
-fn analytic_jacobian_matches_numeric() {
-    let rows = preset_sweep("cu-0.070", 0.01, 4);
-    let data = Dataset::from_rows(&rows, true).unwrap();
-    for kind in Kind::ALL {
-        for residual in [Residual::Log, Residual::Relative, Residual::Absolute] {
-            let free = coords(kind, data.incidences.len());
-            let mut values = Values {
-                sigma: 0.09,
-                sigma_m: 0.6,
-                kdd: 800.0,
-                kid: 30.0,
-                ks: (0..9).map(|j| 120.0 + 20.0 * j as f64).collect(),
-                poly: None,
-            };
-            if kind == Kind::ThreeSmooth {
-                for (k, c) in [4.9, 0.8, -0.2].into_iter().enumerate() {
-                    values.set(Coord::KsPoly(k), c, &data.incidences);
-                }
-            }
-            let mut p = Problem::new(&data, kind, free, values, residual);
-            let x = p.params();
-            let (_, analytic) = dense_jacobian(&mut p, &x).unwrap();
-            let numeric = numeric_jacobian(&mut p, &x).unwrap();
-            let max_abs = |m: &[Vec<f64>]| m.iter().flatten().fold(0.0f64, |a, v| a.max(v.abs()));
-            let scale = max_abs(&numeric).max(1e-12);
-            let diff: Vec<Vec<f64>> = analytic
-                .iter()
-                .zip(&numeric)
-                .map(|(a, n)| a.iter().zip(n).map(|(x, y)| x - y).collect())
-                .collect();
-            let err = max_abs(&diff) / scale;
-            assert!(
-                err < 1e-5,
-                "{kind:?} {residual:?}: max relative difference {err:e}"
-            );
-        }
-    }
 }
 
 #[test]
@@ -235,14 +193,31 @@ fn fixed_parameters_stay_fixed() {
     let mut opts = FitOptions::default();
     opts.fixed.set("sigma=0.115").unwrap();
     opts.fixed.set("kid=25").unwrap();
-    let fit = fit_kind(&data, Kind::ThreeComponent, &opts).unwrap();
+    // The default family, fitted with them held: every member that has them.
+    let f = fit_family(&data, &opts).unwrap();
+    let fit = f.get(Kind::ThreeComponent).unwrap();
     assert_eq!((fit.values.sigma, fit.values.kid), (0.115, 25.0));
-    assert!(!fit.free.contains(&Coord::Sigma) && !fit.free.contains(&Coord::Kid));
+    assert_eq!(fit.k(), 11, "sigma_m, k_dd and 9 k_s are free");
+    for (c, fixed) in fit.free.iter().zip(&fit.fixed) {
+        assert_eq!(*fixed, matches!(c, Coord::Sigma | Coord::Kid), "{c:?}");
+    }
+    let m = f.member(Member::THREE_COMPONENT).unwrap();
+    let l = &m.layout;
+    assert_eq!(m.natural(l.sigma.unwrap()), (0.115, None));
+    assert_eq!(m.natural(l.kid.unwrap()), (25.0, None));
+    assert!(m.natural(l.kdd.unwrap()).1.is_some());
+    // Held where it was asked in every member that has the parameter.
+    for m in &f.members {
+        if let Some(i) = m.layout.sigma {
+            assert_eq!(m.natural(i).0, 0.115, "{}", m.member());
+        }
+    }
     let mut fx = Fixed::default();
     for (spec, msg) in [
         ("sigma", "NAME=VALUE"),
         ("sigma=x", "not a number"),
         ("sigma=-1", "> 0"),
+        ("sigma=50", "bounds"),
         ("rho=1", "unknown parameter"),
     ] {
         assert!(fx.set(spec).unwrap_err().contains(msg), "{spec}");
@@ -256,12 +231,19 @@ fn robust_loss_resists_outliers() {
         rows[k].brdf *= 3.0; // a bumped table, a reflection off a screw...
     }
     let data = Dataset::from_rows(&rows, true).unwrap();
-    let l2 = fit_kind(&data, Kind::ThreeComponent, &FitOptions::default()).unwrap();
-    let opts = FitOptions {
-        loss: Loss::Cauchy(0.02),
-        ..FitOptions::default()
+    let three = |loss| {
+        let opts = FitOptions {
+            loss,
+            members: Some(vec![Member::THREE_COMPONENT]),
+            ..FitOptions::default()
+        };
+        fit_family(&data, &opts)
+            .unwrap()
+            .get(Kind::ThreeComponent)
+            .unwrap()
+            .clone()
     };
-    let robust = fit_kind(&data, Kind::ThreeComponent, &opts).unwrap();
+    let (l2, robust) = (three(Loss::L2), three(Loss::Cauchy(0.02)));
     let err = |f: &Fit| (f.values.sigma / 0.115 - 1.0).abs() + (f.values.kdd / 900.0 - 1.0).abs();
     assert!(err(&robust) < 0.02, "robust fit error {}", err(&robust));
     assert!(

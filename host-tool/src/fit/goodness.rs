@@ -7,7 +7,7 @@ use super::FamilyFit;
 use super::data::Dataset;
 use super::factors::{Detectors, Incidence, point_value};
 use super::member_fit::{MemberFit, eval_at};
-use super::solve::{Fit, Residual, residual_of};
+use super::options::{Residual, residual_of};
 
 /// The fitted value at every reading of `data`, in file order, as the fit compared it
 /// with the reading: the reading's own incidence's parameters, averaged over the
@@ -38,24 +38,11 @@ pub fn member_fitted(fit: &MemberFit, data: &Dataset) -> Vec<Option<f64>> {
     out
 }
 
-/// The fitted value at every reading of `data` for `member` of `fam`: its grid fit's
-/// ([`member_fitted`]), else its paper-form fit's ([`kind_fitted`], `--fix` and robust
-/// losses); `None` when the family did not fit it. The one source of "fitted" for the
-/// residuals export and the Python bind.
+/// The fitted value at every reading of `data` for `member` of `fam`
+/// ([`member_fitted`]); `None` when the family did not fit it. The one source of
+/// "fitted" for the residuals export and the Python bind.
 pub fn fitted_of(fam: &FamilyFit, data: &Dataset, member: Member) -> Option<Vec<Option<f64>>> {
-    if let Some(m) = fam.member(member) {
-        return Some(member_fitted(m, data));
-    }
-    let paper = super::paper::kind_of(member).and_then(|k| fam.get(k))?;
-    Some(kind_fitted(paper, data))
-}
-
-/// [`member_fitted`] for a paper-form fit (no aperture).
-pub fn kind_fitted(fit: &Fit, data: &Dataset) -> Vec<Option<f64>> {
-    data.obs
-        .iter()
-        .map(|o| fit.predict(&data.incidences, o.theta_i, o.theta_r))
-        .collect()
+    fam.member(member).map(|m| member_fitted(m, data))
 }
 
 /// A fit's residuals against the readings' noise.

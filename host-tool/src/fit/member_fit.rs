@@ -26,8 +26,9 @@ use super::arrow::{ArrowInverse, Normal, RowPass, RowSink, Shape};
 use super::data::{Dataset, Observation};
 use super::factors::{Detectors, Incidence, point_value};
 use super::lm::{ArrowProblem, LmOptions, Termination, minimize, minimize_from};
+use super::options::{Fixed, Loss, Residual, residual_of};
+use super::paper_rmse::paper_rmse_with;
 use super::point_system::PointSystem;
-use super::solve::{Residual, paper_rmse_with, residual_of};
 
 /// Core-lobe widths of the grid: log-spaced, sigma 0.002..1.
 pub fn core_grid() -> Vec<f64> {
@@ -230,6 +231,29 @@ impl Layout {
         Some(out)
     }
 
+    /// Per parameter: the natural value `fixed` holds it at (`--fix`), if any. `sigma`
+    /// is the core lobe's width, `kd` the ideal diffuse of the paper's Torrance–Sparrow
+    /// member (named k_d there), `kid` that of every other member.
+    pub fn held(&self, fixed: &Fixed) -> Vec<Option<f64>> {
+        let mut out = vec![None; self.len()];
+        let kid = if self.member == Member::TORRANCE_SPARROW {
+            fixed.kd
+        } else {
+            fixed.kid
+        };
+        for (slot, v) in [
+            (self.sigma, fixed.sigma),
+            (self.sigma_m, fixed.sigma_m),
+            (self.kdd, fixed.kdd),
+            (self.kid, kid),
+        ] {
+            if let (Some(i), Some(v)) = (slot, v) {
+                out[i] = Some(v);
+            }
+        }
+        out
+    }
+
     /// The model of incidence `j` at `x`; `None` when it cannot be built.
     pub fn model(&self, x: &[f64], j: usize) -> Option<MemberModel<f64>> {
         MemberModel::new(&self.params(x, j)).ok()
@@ -253,6 +277,9 @@ struct Residuals {
     kind: Residual,
     /// ln y per reading (log residuals only).
     ln_y: Vec<f64>,
+    /// Per reading: the square root of its IRLS weight under a robust loss (empty:
+    /// least squares, every weight 1).
+    sqrt_w: Vec<f64>,
 }
 
 impl Residuals {
@@ -261,15 +288,41 @@ impl Residuals {
             Residual::Log => data.obs.iter().map(|o| o.y.ln()).collect(),
             _ => Vec::new(),
         };
-        Residuals { kind, ln_y }
+        Residuals {
+            kind,
+            ln_y,
+            sqrt_w: Vec::new(),
+        }
+    }
+
+    /// These residuals, each reading's weighted by `sqrt_w` (IRLS).
+    fn weighted(mut self, sqrt_w: Vec<f64>) -> Self {
+        self.sqrt_w = sqrt_w;
+        self
+    }
+
+    /// The factor reading `k`'s residual and its row of J are scaled by (1 without
+    /// weights).
+    #[inline]
+    fn scale(&self, k: usize) -> f64 {
+        if self.sqrt_w.is_empty() {
+            1.0
+        } else {
+            self.sqrt_w[k]
+        }
     }
 
     /// The residual of model value `f` at reading `k` (value `y`).
     #[inline]
     fn of(&self, f: f64, k: usize, y: f64) -> f64 {
-        match self.kind {
+        let r = match self.kind {
             Residual::Log => f.max(1e-300).ln() - self.ln_y[k],
             kind => residual_of(kind, f, y),
+        };
+        if self.sqrt_w.is_empty() {
+            r
+        } else {
+            r * self.sqrt_w[k]
         }
     }
 }
@@ -282,8 +335,11 @@ struct Problem<'a> {
     residual: Residual,
     resid: &'a Residuals,
     aperture: Option<f64>,
-    /// Parameters held where they are (their Jacobian columns zeroed).
+    /// Parameters held where they are (their Jacobian columns zeroed): those held
+    /// fixed, and amplitudes [`refine`] holds at their bound.
     pinned: Vec<bool>,
+    /// Parameters held fixed for the whole fit (`--fix`): pinned, never released.
+    fixed: Vec<bool>,
     /// The row pass's parts (see [`PART_ROWS`]): each part's incidences and its
     /// normal equations; empty when the sweep is one part.
     parts: Vec<(std::ops::Range<usize>, Normal)>,
@@ -335,6 +391,7 @@ impl<'a> Problem<'a> {
         Problem {
             data,
             pinned: vec![false; layout.len()],
+            fixed: vec![false; layout.len()],
             shape,
             layout,
             residual,
@@ -365,6 +422,14 @@ pub fn eval_at(
 impl Problem<'_> {
     fn value(&self, m: &MemberModel<f64>, o: &Observation) -> Option<f64> {
         eval_at(m, o, self.aperture).map(|e| e.f)
+    }
+
+    /// Every reading's residual at `x` (weighted when the residuals are).
+    fn residuals_at(&self, x: &[f64]) -> Option<Vec<f64>> {
+        let models = self.layout.models(x)?;
+        let obs = self.data.obs.iter().enumerate();
+        obs.map(|(k, o)| Some(self.resid.of(self.value(&models[o.inc], o)?, k, o.y)))
+            .collect()
     }
 
     /// Makes [`Problem::directional`] for a row pass at `x`; false when the model
@@ -429,7 +494,7 @@ impl Problem<'_> {
                     Residual::Log => 1.0 / e.f.max(1e-300),
                     Residual::Relative => 1.0 / o.y,
                     Residual::Absolute => 1.0,
-                };
+                } * self.resid.scale(k);
                 let mut set = |slot: Option<usize>, v: f64| {
                     if let Some(i) = slot {
                         jg[i] = scale * v;
@@ -566,9 +631,11 @@ pub struct MemberFit {
     pub incidences: Vec<f64>,
     /// Covariance of `x` (factored arrow form).
     pub cov: ArrowInverse,
-    /// Per parameter: determined by the data.
+    /// Per parameter: determined by the data (never one held fixed).
     pub identifiable: Vec<bool>,
-    /// Sum of squared residuals.
+    /// Per parameter: the natural value it was held fixed at (`--fix`), not fitted.
+    pub held: Vec<Option<f64>>,
+    /// Sum of squared residuals (unweighted, under a robust loss too).
     pub ssr: f64,
     /// Readings.
     pub n: usize,
@@ -588,9 +655,14 @@ impl MemberFit {
         self.layout.member
     }
 
-    /// Free parameters.
+    /// Free parameters (those held fixed are not).
     pub fn k(&self) -> usize {
-        self.x.len()
+        self.held.iter().filter(|h| h.is_none()).count()
+    }
+
+    /// Parameter `i` was held fixed.
+    pub fn is_fixed(&self, i: usize) -> bool {
+        self.held[i].is_some()
     }
 
     /// AICc (infinite when n <= k + 1).
@@ -601,6 +673,10 @@ impl MemberFit {
     /// A parameter's value in natural units (exp of its log coordinate) and its standard
     /// error by the delta method, if determined.
     pub fn natural(&self, i: usize) -> (f64, Option<f64>) {
+        // A parameter held fixed is reported at the value asked for, to the last bit.
+        if let Some(v) = self.held[i] {
+            return (v, None);
+        }
         let v = self.x[i].exp();
         let se = self.identifiable[i].then(|| v * self.cov.get(i, i).max(0.0).sqrt());
         (v, se)
@@ -761,6 +837,15 @@ pub struct GridBases<'a> {
     /// Every start refined to its end, none stopped in a known optimum's basin (see
     /// [`GridBases::refine_all_starts`]).
     all_starts: bool,
+    /// The grid's core and haze widths and its sigma_m (radians): [`core_grid`],
+    /// [`haze_grid`] and [`SIGMA_M_GRID`], or the one value a width is held at.
+    core_w: Vec<f64>,
+    haze_w: Vec<f64>,
+    sigma_m_w: Vec<f64>,
+    /// Parameters held fixed ([`GridBases::hold`]).
+    fixed: Fixed,
+    /// The loss the members are fitted under ([`GridBases::set_loss`]).
+    loss: Loss,
 }
 
 /// A grid searched once and shared: its member (k_s per incidence), the residual, and
@@ -807,7 +892,31 @@ impl<'a> GridBases<'a> {
             lobe_dd: Default::default(),
             starts: Mutex::default(),
             all_starts: false,
+            core_w: core_grid(),
+            haze_w: haze_grid(),
+            sigma_m_w: SIGMA_M_GRID.to_vec(),
+            fixed: Fixed::default(),
+            loss: Loss::L2,
         }
+    }
+
+    /// Members fitted with these bases hold `fixed`'s parameters at their values: a
+    /// width held fixed is the grid's one width (before any basis is computed), an
+    /// amplitude held fixed enters every start at its value and LM leaves it there.
+    pub fn hold(&mut self, fixed: Fixed) {
+        if let Some(s) = fixed.sigma {
+            self.core_w = vec![s];
+        }
+        if let Some(s) = fixed.sigma_m {
+            self.sigma_m_w = vec![s];
+        }
+        self.fixed = fixed;
+    }
+
+    /// Members fitted with these bases minimise `loss`: least squares from the grid's
+    /// starts, then [`IRLS_PASSES`] passes reweighted by the loss from that optimum.
+    pub fn set_loss(&mut self, loss: Loss) {
+        self.loss = loss;
     }
 
     /// Members fitted with these bases refine every one of their best grid starts to
@@ -914,10 +1023,14 @@ impl<'a> GridBases<'a> {
     fn lobes(&self, role: usize, dist: Distribution) -> &[Option<Basis>] {
         let d = usize::from(dist == Distribution::Ggx);
         self.lobes[role][d].get_or_init(|| {
-            let widths = if role == 0 { core_grid() } else { haze_grid() };
+            let widths = if role == 0 {
+                &self.core_w
+            } else {
+                &self.haze_w
+            };
             widths
-                .into_iter()
-                .map(|w| {
+                .iter()
+                .map(|&w| {
                     match self.aperture {
                         None => unit_lobe_values(self.data, dist, w),
                         Some(_) => {
@@ -932,7 +1045,7 @@ impl<'a> GridBases<'a> {
 
     fn dd(&self) -> &[Option<Basis>] {
         self.dd.get_or_init(|| {
-            SIGMA_M_GRID
+            self.sigma_m_w
                 .iter()
                 .map(|&sm| {
                     let p = MemberParams {
@@ -959,7 +1072,7 @@ impl<'a> GridBases<'a> {
     /// combined): computed once per data and shared by the members with both lobes.
     fn core_haze(&self, core: Distribution, haze: Distribution) -> &[Option<Vec<f64>>] {
         self.core_haze[dist_index(core)][dist_index(haze)].get_or_init(|| {
-            let (cw, hw) = (core_grid(), haze_grid());
+            let (cw, hw) = (&self.core_w, &self.haze_w);
             let (cores, hazes) = (self.lobes(0, core), self.lobes(1, haze));
             let nh = hazes.len();
             (0..cores.len() * nh)
@@ -1058,8 +1171,8 @@ impl<'b> Grid<'b> {
         };
         Grid {
             member,
-            core_w: core_grid(),
-            haze_w: haze_grid(),
+            core_w: bases.core_w.clone(),
+            haze_w: bases.haze_w.clone(),
             cores: lobes(0, member.core),
             hazes: lobes(1, member.haze),
             dds,
@@ -1137,6 +1250,7 @@ fn best_points(
     grid: &Grid<'_>,
     resid: &Residuals,
     kept_bytes: usize,
+    (held_kdd, held_kid): (Option<f64>, Option<f64>),
     scratch: &mut GridScratch,
 ) -> Vec<usize> {
     let data = grid.bases.data;
@@ -1191,6 +1305,7 @@ fn best_points(
                 (&solved_again.ks[..], solved_again.kdd, solved_again.kid)
             }
         };
+        let (kdd, kid) = (held_kdd.unwrap_or(kdd), held_kid.unwrap_or(kid));
         let bound = if kept.len() == REFINED {
             kept[REFINED - 1].0
         } else {
@@ -1426,9 +1541,10 @@ pub fn fit_member_with(
 
 /// The data cannot determine the member: no parameters, too few readings for them
 /// (and for a residual degree of freedom), or a smooth k_s over fewer than 3 incidences.
-fn undetermined(data: &Dataset, layout: &Layout) -> bool {
-    layout.is_empty()
-        || data.obs.len() <= layout.len() + 1
+fn undetermined(data: &Dataset, layout: &Layout, fixed: &[bool]) -> bool {
+    let free = fixed.iter().filter(|&&f| !f).count();
+    free == 0
+        || data.obs.len() <= free + 1
         || ((layout.core_poly.is_some() || layout.haze_poly.is_some()) && data.incidences.len() < 3)
 }
 
@@ -1444,15 +1560,22 @@ fn fit_member_keeping(
     let aperture = bases.aperture;
     let n_inc = data.incidences.len();
     let layout = Layout::new(member, n_inc);
-    if undetermined(data, &layout) {
+    let held = layout.held(&bases.fixed);
+    let fixed: Vec<bool> = held.iter().map(Option::is_some).collect();
+    if undetermined(data, &layout, &fixed) {
         return None;
     }
     let grid = Grid::new(bases, member);
     let (core_w, haze_w) = (&grid.core_w, &grid.haze_w);
     let resid = Residuals::new(data, residual);
     let mut scratch = grid.scratch(n_inc);
+    // A held k_dd or k_id ranks the starts at its value.
+    let held_amps = (
+        layout.kdd.and_then(|i| held[i]),
+        layout.kid.and_then(|i| held[i]),
+    );
     let starts = bases.starts(member, residual, || {
-        best_points(&grid, &resid, kept_bytes, &mut scratch)
+        best_points(&grid, &resid, kept_bytes, held_amps, &mut scratch)
     });
     let width = |spec: Option<LobeSpec>, w: &[f64], i: usize| spec.map_or(1.0, |_| w[i]);
     let lm = LmOptions::default();
@@ -1463,7 +1586,7 @@ fn fit_member_keeping(
     let steps = [
         grid_step(core_w),
         grid_step(haze_w),
-        grid_step(&SIGMA_M_GRID),
+        grid_step(&bases.sigma_m_w),
     ];
     let on = [
         member.core.is_some(),
@@ -1489,7 +1612,7 @@ fn fit_member_keeping(
     };
     for k in starts {
         let (ci, hi, si) = grid.at(k);
-        let at = [core_w[ci].ln(), haze_w[hi].ln(), SIGMA_M_GRID[si].ln()];
+        let at = [core_w[ci].ln(), haze_w[hi].ln(), bases.sigma_m_w[si].ln()];
         if in_basin(&optima, at, f64::INFINITY) {
             continue;
         }
@@ -1505,14 +1628,15 @@ fn fit_member_keeping(
             width(member.haze, haze_w, hi),
         ];
         let sm = if member.directional {
-            SIGMA_M_GRID[si]
+            bases.sigma_m_w[si]
         } else {
             1.0
         };
-        let Some((x0, pinned)) = start_vector(data, &layout, sigmas, sm, &amp) else {
+        let Some((x0, pinned)) = start_vector(data, &layout, sigmas, sm, &amp, &held) else {
             continue;
         };
         p.pinned = pinned;
+        p.fixed.clone_from(&fixed);
         // The same test after each accepted LM step and between rounds: a start whose
         // path has come into the basin of an optimum already reached, no lower than
         // it, is left there.
@@ -1526,7 +1650,48 @@ fn fit_member_keeping(
         }
     }
     let (ssr, x, converged, normal) = best?;
-    finish(&mut p, x, ssr, converged, normal)
+    if bases.loss != Loss::L2 {
+        return reweighted(&p, bases.loss, x, &lm, held);
+    }
+    finish(&mut p, x, ssr, converged, normal, held)
+}
+
+/// IRLS passes of a robust loss after the least-squares optimum: each pass weights
+/// every reading by the loss at its residual from the last (Huber: 1 within c, c/|r|
+/// beyond; Cauchy: 1/(1 + (r/c)^2)) and runs LM again from there.
+pub const IRLS_PASSES: usize = 5;
+
+/// The fit under a robust loss from the least-squares optimum `x` of `ls` (its
+/// parameters held fixed kept): [`IRLS_PASSES`] reweighted LM runs, then the
+/// covariance from the normal equations at the last weights, scaled by the unweighted
+/// sum of squares (which is reported, as under least squares).
+fn reweighted(
+    ls: &Problem<'_>,
+    loss: Loss,
+    mut x: Vec<f64>,
+    lm: &LmOptions,
+    held: Vec<Option<f64>>,
+) -> Option<MemberFit> {
+    let mut converged = false;
+    for pass in 0..=IRLS_PASSES {
+        let r = ls.residuals_at(&x)?;
+        let sqrt_w = r.iter().map(|&r| loss.weight(r).sqrt()).collect();
+        let resid = Residuals::new(ls.data, ls.residual).weighted(sqrt_w);
+        let mut p = Problem::new(ls.data, ls.layout.clone(), ls.residual, &resid, ls.aperture);
+        p.fixed.clone_from(&ls.fixed);
+        p.pinned.clone_from(&ls.fixed);
+        if pass == IRLS_PASSES {
+            let ssr = r.iter().map(|r| r * r).sum();
+            return finish(&mut p, x, ssr, converged, None, held);
+        }
+        let rep = minimize(&mut p, &x, lm);
+        if !rep.cost.is_finite() {
+            return None;
+        }
+        converged = rep.termination.converged();
+        x = rep.x;
+    }
+    None
 }
 
 /// The fit at LM's optimum `x` (cost `ssr`): the covariance from the full Jacobian
@@ -1538,9 +1703,10 @@ fn finish(
     ssr: f64,
     converged: bool,
     normal: Option<Normal>,
+    held: Vec<Option<f64>>,
 ) -> Option<MemberFit> {
     let (data, layout, aperture) = (p.data, p.layout.clone(), p.aperture);
-    p.pinned.fill(false);
+    p.pinned.clone_from(&p.fixed);
     // LM's last pass, when nothing was held in it, is this pass already.
     let normal = match normal {
         Some(n) => n,
@@ -1553,8 +1719,16 @@ fn finish(
         }
     };
     let n = data.obs.len();
-    let cov = ArrowInverse::new(&normal).scaled(ssr / (n - layout.len()) as f64);
-    let identifiable = cov.identifiable().to_vec();
+    let fixed = p.fixed.clone();
+    let free = fixed.iter().filter(|&&f| !f).count();
+    debug_assert_eq!(held.len(), fixed.len());
+    let cov = ArrowInverse::new(&normal).scaled(ssr / (n - free) as f64);
+    let identifiable: Vec<bool> = cov
+        .identifiable()
+        .iter()
+        .zip(&fixed)
+        .map(|(&ok, &held)| ok && !held)
+        .collect();
     // The paper's RMSE compares the surface's model (point values) with the readings,
     // one incidence's model at a time (the list of all was the largest allocation of a
     // fit of 50,000 incidences, 16 MB); the row pass above built every one of them.
@@ -1571,6 +1745,7 @@ fn finish(
         incidences: data.incidences.clone(),
         cov,
         identifiable,
+        held,
         ssr,
         n,
         converged,
@@ -1613,10 +1788,11 @@ pub fn fit_member_from(
     if x0.len() != layout.len() || x0.iter().any(|u| !u.is_finite()) {
         return None;
     }
-    if undetermined(data, &layout) {
+    if undetermined(data, &layout, &vec![false; layout.len()]) {
         return None;
     }
     let resid = Residuals::new(data, residual);
+    let n_params = layout.len();
     let mut p = Problem::new(data, layout, residual, &resid, aperture);
     let rep = minimize(&mut p, x0, &LmOptions::default());
     let solve_seconds = t0.elapsed().as_secs_f64();
@@ -1625,7 +1801,14 @@ pub fn fit_member_from(
     }
     let converged = rep.termination.converged();
     Some(LocalFit {
-        fit: finish(&mut p, rep.x, rep.cost, converged, Some(rep.normal))?,
+        fit: finish(
+            &mut p,
+            rep.x,
+            rep.cost,
+            converged,
+            Some(rep.normal),
+            vec![None; n_params],
+        )?,
         iterations: rep.iterations,
         evaluations: rep.evaluations,
         solve_seconds,
@@ -1791,17 +1974,17 @@ fn refine(
         if pin_more {
             x = rep.x;
             for i in 0..x.len() {
-                if p.pinned[i] {
+                if p.pinned[i] && !p.fixed[i] {
                     x[i] = p.layout.bounds(i).0;
                 }
             }
             continue;
         }
         x = rep.x;
-        if !p.pinned.iter().any(|&b| b) {
+        if p.pinned == p.fixed {
             return Some((rep.cost, x, rep.termination.converged(), Some(rep.normal)));
         }
-        let pinned = std::mem::replace(&mut p.pinned, vec![false; x.len()]);
+        let pinned = std::mem::replace(&mut p.pinned, p.fixed.clone());
         let mut full = Normal::new(p.shape.clone());
         let ok = p.normal(&x, &mut full);
         p.pinned = pinned;
@@ -1809,7 +1992,12 @@ fn refine(
         if ok {
             for i in 0..x.len() {
                 let (g, d) = (full.gradient()[i], full.diag(i));
-                if p.pinned[i] && g < 0.0 && d > 0.0 && g * g / d > RELEASE_GAIN * rep.cost {
+                if p.pinned[i]
+                    && !p.fixed[i]
+                    && g < 0.0
+                    && d > 0.0
+                    && g * g / d > RELEASE_GAIN * rep.cost
+                {
                     p.pinned[i] = false;
                     let (lo, hi) = p.layout.bounds(i);
                     x[i] = (x[i] + (1.0 - g / d).ln()).clamp(lo, hi);
@@ -1826,7 +2014,7 @@ fn refine(
         probe = false;
     }
     let rep = minimize(p, &x, lm);
-    let held = p.pinned.iter().any(|&b| b);
+    let held = p.pinned != p.fixed;
     rep.cost.is_finite().then(|| {
         let normal = (!held).then_some(rep.normal);
         (rep.cost, rep.x, rep.termination.converged(), normal)
@@ -1859,6 +2047,7 @@ fn start_vector(
     sigmas: [f64; 2],
     sigma_m: f64,
     amp: &Amplitudes,
+    held: &[Option<f64>],
 ) -> Option<(Vec<f64>, Vec<bool>)> {
     let floor = amplitude_floor(data);
     let mut x = vec![0.0; l.len()];
@@ -1907,6 +2096,14 @@ fn start_vector(
     for (i, u) in x.iter_mut().enumerate() {
         let (lo, hi) = l.bounds(i);
         *u = u.clamp(lo, hi);
+    }
+    // Parameters held fixed start, and stay, at their values (within the bounds:
+    // `Fixed::set` refuses others).
+    for (i, v) in held.iter().enumerate() {
+        if let Some(v) = v {
+            x[i] = v.ln();
+            pinned[i] = true;
+        }
     }
     Some((x, pinned))
 }

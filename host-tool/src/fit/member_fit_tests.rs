@@ -406,6 +406,7 @@ fn a_smooth_ks_variant_shares_its_members_grid_search() {
             &grid,
             &resid,
             usize::MAX,
+            (None, None),
             &mut grid.scratch(data.incidences.len()),
         )
     };
@@ -531,6 +532,75 @@ fn refining_every_start_finds_the_lower_optimum_a_stopped_start_misses() {
                 e.ssr,
                 p.ssr
             );
+        }
+    }
+}
+
+#[test]
+fn analytic_jacobian_matches_numeric() {
+    use super::super::lm::{dense_jacobian, numeric_jacobian};
+    let fe = brdf_core::Preset::by_name("cu-0.070").unwrap();
+    let rows = super::super::data::synthetic_paper_sweep(|ti| fe.model(ti).unwrap(), 0.01, 4);
+    let data = Dataset::from_rows(&rows, true).unwrap();
+    let members = [
+        Member::IDEAL_DIFFUSE,
+        Member::TORRANCE_SPARROW,
+        Member::THREE_COMPONENT,
+        Member::THREE_COMPONENT_SMOOTH_KS,
+        Member::parse("specular:ggx+specular-haze+directional-diffuse+ideal-diffuse").unwrap(),
+    ];
+    for member in members {
+        for residual in [Residual::Log, Residual::Relative, Residual::Absolute] {
+            let layout = Layout::new(member, data.incidences.len());
+            let mut x = vec![0.0; layout.len()];
+            for (slot, v) in [
+                (layout.sigma, 0.09f64.ln()),
+                (layout.sigma_haze, 4f64.ln()),
+                (layout.sigma_m, 0.6f64.ln()),
+                (layout.kdd, 800f64.ln()),
+                (layout.kid, 30f64.ln()),
+            ] {
+                if let Some(i) = slot {
+                    x[i] = v;
+                }
+            }
+            if let Some(p) = layout.core_poly {
+                x[p..p + 3].copy_from_slice(&[4.9, 0.8, -0.2]);
+            }
+            for j in 0..data.incidences.len() {
+                for haze in [false, true] {
+                    if (haze && layout.haze_local) || (!haze && layout.core_local) {
+                        x[layout.local(j, haze)] = (120.0 + 20.0 * j as f64).ln();
+                    }
+                }
+            }
+            // Under a robust loss's weights too: each reading's row scaled alike.
+            for weighted in [false, true] {
+                let mut resid = Residuals::new(&data, residual);
+                if weighted {
+                    resid = resid.weighted(
+                        (0..data.obs.len())
+                            .map(|k| 0.5 + (k % 3) as f64 * 0.25)
+                            .collect(),
+                    );
+                }
+                let mut p = Problem::new(&data, layout.clone(), residual, &resid, None);
+                let (_, analytic) = dense_jacobian(&mut p, &x).unwrap();
+                let numeric = numeric_jacobian(&mut p, &x).unwrap();
+                let max_abs =
+                    |m: &[Vec<f64>]| m.iter().flatten().fold(0.0f64, |a, v| a.max(v.abs()));
+                let scale = max_abs(&numeric).max(1e-12);
+                let diff: Vec<Vec<f64>> = analytic
+                    .iter()
+                    .zip(&numeric)
+                    .map(|(a, n)| a.iter().zip(n).map(|(x, y)| x - y).collect())
+                    .collect();
+                let err = max_abs(&diff) / scale;
+                assert!(
+                    err < 1e-5,
+                    "{member} {residual:?} weighted {weighted}: max relative difference {err:e}"
+                );
+            }
         }
     }
 }

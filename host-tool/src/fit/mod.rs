@@ -21,13 +21,14 @@ pub mod family;
 pub mod goodness;
 pub mod lm;
 pub mod member_fit;
+pub mod options;
 pub mod paper;
+pub mod paper_rmse;
 pub mod peak;
 pub mod physical;
 mod point_system;
 pub mod report;
 pub mod select;
-pub mod solve;
 
 use std::time::Instant;
 
@@ -37,8 +38,9 @@ use rayon::prelude::*;
 use crate::sweep_file::BrdfUnits;
 
 pub use data::{Dataset, Floor};
-pub use family::{Fixed, Kind, Names};
-pub use solve::{Fit, FitOptions, Loss, Residual, fit_kind};
+pub use family::{Kind, Names};
+pub use options::{FitOptions, Fixed, Loss, Residual};
+pub use paper::Fit;
 
 use goodness::Goodness;
 use member_fit::{GridBases, MemberFit};
@@ -246,83 +248,45 @@ pub fn fit_family(data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, String
     let t0 = Instant::now();
     let aperture = opts.aperture.or(data.aperture);
     let requested: Option<Vec<Member>> = opts.members.clone();
-    let grid = opts.loss == Loss::L2 && opts.fixed == Fixed::default();
     let mut notes = Vec::new();
-    let mut fitted = Fitted::default();
-    let mut fits = Vec::new();
-    if grid {
-        let mut bases = GridBases::new(data, aperture);
-        bases.refine_all_starts(opts.all_starts);
-        if let Some(listed) = &requested {
-            fitted.add(&bases, listed, opts.residual, &mut notes);
-        } else {
-            let tried;
-            (fitted, tried) = stage_one(&bases, opts.residual, &mut notes);
-            // Stage two: the selected component set's lobe variants (GGX, smooth k_s).
-            if let Some(best) = fitted.best() {
-                let more: Vec<Member> = family::variants_of(best)
-                    .into_iter()
-                    .filter(|m| !tried.contains(m))
-                    .collect();
-                bases.retain_for(&more);
-                stage_two(&mut fitted, &bases, &more, opts.residual, &mut notes);
-            }
-            // Stage three: the selected member's haze with the other distribution.
-            if let Some(m) = fitted.best().and_then(family::haze_variant_of)
-                && !fitted.members.iter().any(|f| f.member() == m)
-            {
-                bases.retain_for(&[m]);
-                fitted.add(&bases, &[m], opts.residual, &mut notes);
-            }
-        }
-        fits = Kind::ALL
-            .iter()
-            .filter_map(|k| fitted.members.iter().find(|f| f.member() == k.member()))
-            .filter_map(paper::to_fit)
-            .collect();
+    let mut bases = GridBases::new(data, aperture);
+    bases.refine_all_starts(opts.all_starts);
+    bases.hold(opts.fixed);
+    bases.set_loss(opts.loss);
+    let mut fitted = if let Some(listed) = &requested {
+        let mut fitted = Fitted::default();
+        fitted.add(&bases, listed, opts.residual, &mut notes);
+        fitted
     } else {
-        if aperture.is_some() {
-            return Err("--aperture cannot be combined with --fix or a robust --loss".into());
+        let (mut fitted, tried) = stage_one(&bases, opts.residual, &mut notes);
+        // Stage two: the selected component set's lobe variants (GGX, smooth k_s).
+        if let Some(best) = fitted.best() {
+            let more: Vec<Member> = family::variants_of(best)
+                .into_iter()
+                .filter(|m| !tried.contains(m))
+                .collect();
+            bases.retain_for(&more);
+            stage_two(&mut fitted, &bases, &more, opts.residual, &mut notes);
         }
-        let kinds: Vec<Kind> = match &requested {
-            None => Kind::ALL.to_vec(),
-            Some(ms) => ms
-                .iter()
-                .map(|&m| {
-                    paper::kind_of(m).ok_or_else(|| {
-                        format!("{m}: with --fix or a robust --loss only the paper's four models can be fitted")
-                    })
-                })
-                .collect::<Result<_, _>>()?,
-        };
-        for kind in kinds {
-            match fit_kind(data, kind, opts) {
-                Some(f) => fits.push(f),
-                None => notes.push(format!(
-                    "{}: not fitted ({} readings at {} incidence(s) cannot determine its parameters)",
-                    kind.name(),
-                    data.obs.len(),
-                    data.incidences.len()
-                )),
-            }
+        // Stage three: the selected member's haze with the other distribution.
+        if let Some(m) = fitted.best().and_then(family::haze_variant_of)
+            && !fitted.members.iter().any(|f| f.member() == m)
+        {
+            bases.retain_for(&[m]);
+            fitted.add(&bases, &[m], opts.residual, &mut notes);
         }
-    }
+        fitted
+    };
+    let fits: Vec<Fit> = Kind::ALL
+        .iter()
+        .filter_map(|k| fitted.members.iter().find(|f| f.member() == k.member()))
+        .filter_map(paper::to_fit)
+        .collect();
     let fit_seconds = t0.elapsed().as_secs_f64();
     let Fitted {
         members,
-        cands: member_cands,
-    } = fitted;
-    let candidates: Vec<Candidate> = if members.is_empty() {
-        fits.iter()
-            .map(|f| {
-                let g =
-                    goodness::goodness(data, &goodness::kind_fitted(f, data), opts.residual, f.k());
-                Candidate::of_fit(f, &data.incidences, g)
-            })
-            .collect()
-    } else {
-        member_cands
-    };
+        cands: candidates,
+    } = std::mem::take(&mut fitted);
     let sel = Selection::new(&candidates, Criterion::Aicc);
     let selected_member = sel
         .best()
@@ -341,12 +305,10 @@ pub fn fit_family(data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, String
     }
     summary.push(goodness_note(data, &candidates, selected_member));
     summary.extend(data.floor.notes());
-    let fitted = match members.iter().find(|f| f.member() == selected_member) {
-        Some(f) => Some(goodness::member_fitted(f, data)),
-        None => paper::kind_of(selected_member)
-            .and_then(|k| fits.iter().find(|f| f.kind == k))
-            .map(|f| goodness::kind_fitted(f, data)),
-    };
+    let fitted = members
+        .iter()
+        .find(|f| f.member() == selected_member)
+        .map(|f| goodness::member_fitted(f, data));
     if let Some(note) =
         fitted.and_then(|v| peak::offset_note(data, &v, &selected_member.to_string()))
     {
@@ -360,7 +322,7 @@ pub fn fit_family(data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, String
     summary.append(&mut notes);
     let mut notes = summary;
     for f in &members {
-        if f.identifiable.iter().any(|ok| !ok) {
+        if (0..f.x.len()).any(|i| !f.identifiable[i] && !f.is_fixed(i)) {
             notes.push(format!(
                 "{}: some parameters are not determined by these data (flagged)",
                 f.member()
@@ -371,22 +333,6 @@ pub fn fit_family(data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, String
                 "{}: the optimiser stopped before its tolerances were met",
                 f.member()
             ));
-        }
-    }
-    if members.is_empty() {
-        for f in &fits {
-            if f.identifiable.iter().any(|ok| !ok) {
-                notes.push(format!(
-                    "{}: some parameters are not determined by these data (flagged)",
-                    f.kind.name()
-                ));
-            }
-            if !f.converged {
-                notes.push(format!(
-                    "{}: the optimiser stopped before its tolerances were met",
-                    f.kind.name()
-                ));
-            }
         }
     }
     let nearest: Vec<String> = (0..data.incidences.len())

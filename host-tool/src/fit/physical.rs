@@ -15,14 +15,14 @@
 use std::fmt::Write;
 
 use brdf_core::albedo::{
-    Grid, Reciprocity, Rule, albedo_within, member_brdf, model_brdf, polar_deg, reciprocity,
+    Grid, Reciprocity, Rule, albedo_within, member_brdf, polar_deg, reciprocity,
 };
 use brdf_core::geometry::Geometry;
 use rayon::prelude::*;
 use serde_json::{Value, json};
 
+use super::FamilyFit;
 use super::member_fit::MemberFit;
-use super::{FamilyFit, Fit};
 use crate::sweep_file::BrdfUnits;
 
 /// The relative error the checks' albedo quadrature aims at: the stated bound itself
@@ -110,21 +110,6 @@ pub fn checked_incidences(n: usize, amplitude: impl Fn(usize) -> f64) -> Vec<usi
     out
 }
 
-/// A paper fit at any incidence as a 3-D BRDF closure (k_s at w_i's polar angle).
-pub fn fit_brdf<'a>(
-    fam: &'a FamilyFit,
-    fit: &'a Fit,
-) -> impl Fn(&[f64; 3], &[f64; 3]) -> Result<f64, brdf_core::ModelError> + 'a {
-    move |wi, wo| {
-        let m = fit.model_at(&fam.incidences, polar_deg(wi)).ok_or(
-            brdf_core::ModelError::NotFinite {
-                what: "fitted model",
-            },
-        )?;
-        m.eval_vectors(*wi, *wo).map(|e| e.f)
-    }
-}
-
 /// A fitted member at any incidence as a 3-D BRDF closure (per-incidence k_s
 /// interpolated in theta_i as [`MemberFit::model_at`], smooth k_s at w_i's polar angle);
 /// the model of each incidence angle met is built once (a grid has few polar angles).
@@ -147,31 +132,6 @@ pub fn member_fit_brdf(
         })?;
         m.eval(t, &Geometry::from_vectors(*wi, *wo)?).map(|e| e.f)
     }
-}
-
-/// Checks one paper fit: albedo per incidence on [`Rule::DEFAULT`]'s panels with the
-/// fewest nodes that reach [`CHECK_REL_ERROR`], reciprocity on [`Grid::DEFAULT`].
-pub fn check_fit(fam: &FamilyFit, fit: &Fit) -> ModelCheck {
-    let n = fam.incidences.len();
-    let ks = |j: usize| fit.values.ks.get(j).copied().unwrap_or(0.0);
-    let albedo: Vec<_> = checked_incidences(n, ks)
-        .into_par_iter()
-        .filter_map(|j| {
-            let ti = fam.incidences[j];
-            let m = fit.values.model(fit.kind, j)?;
-            let a = albedo_within(
-                ti.clamp(0.0, 90.0),
-                0.0,
-                CHECK_REL_ERROR,
-                Rule::DEFAULT.panels,
-                model_brdf(&m),
-            )
-            .ok()?;
-            Some((ti, a))
-        })
-        .collect();
-    let reciprocity = reciprocity(&Grid::DEFAULT, fit_brdf(fam, fit)).ok();
-    finish(fit.kind.name().to_string(), albedo, n, reciprocity)
 }
 
 /// Checks one fitted member: albedo at each fitted incidence (the model with that
@@ -231,27 +191,18 @@ fn finish(
 }
 
 /// The fitted models [`FamilyFit::checks`] names checked, in the order reported
-/// (members and incidences in parallel): the family's members, or the paper fits when
-/// no member was fitted on the grid (`--fix`, robust losses); with
+/// (members and incidences in parallel): the family's members; with
 /// [`CheckScope::Selected`] only the selected one.
 pub fn check_family(fam: &FamilyFit) -> Vec<ModelCheck> {
     if fam.checks == CheckScope::None {
         return Vec::new();
     }
     let all = fam.checks == CheckScope::All;
-    if fam.members.is_empty() {
-        fam.fits
-            .par_iter()
-            .filter(|f| all || f.kind == fam.selected)
-            .map(|f| check_fit(fam, f))
-            .collect()
-    } else {
-        fam.members
-            .par_iter()
-            .filter(|f| all || f.member() == fam.selected_member)
-            .map(check_member)
-            .collect()
-    }
+    fam.members
+        .par_iter()
+        .filter(|f| all || f.member() == fam.selected_member)
+        .map(check_member)
+        .collect()
 }
 
 /// The report section: for every model (the selected one marked) rho per incidence,
@@ -518,7 +469,7 @@ mod tests {
     }
 
     #[test]
-    fn the_paper_fits_are_checked_on_the_fixed_path() {
+    fn every_member_is_checked_with_a_parameter_held_fixed() {
         let data = fe_per_sr();
         let opts = FitOptions {
             fixed: Fixed {
@@ -529,9 +480,9 @@ mod tests {
             ..FitOptions::default()
         };
         let fam = fit_family(&data, &opts).unwrap();
-        assert!(fam.members.is_empty());
+        assert_eq!(fam.members.len(), 2);
         let checks = check_family(&fam);
-        assert_eq!(checks.len(), fam.fits.len());
+        assert_eq!(checks.len(), 2);
         for c in &checks {
             assert_eq!(c.albedo.len(), 9);
             assert!(

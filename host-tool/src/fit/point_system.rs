@@ -12,7 +12,21 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::arrow::{apply_small, cholesky, cholesky_solve, invert_small};
-use super::solve::{RIDGES, ridge_scale};
+
+/// The ridges a singular linear solve tries in turn, relative to each diagonal element
+/// (see [`ridge_scale`]).
+pub(super) const RIDGES: [f64; 2] = [1e-12, 1e-8];
+
+/// The diagonal `d` of singular normal equations made the ridge's scaling, in place:
+/// an element that is not positive (a weight no point constrains) takes the mean.
+pub(super) fn ridge_scale(d: &mut [f64]) {
+    let mean = d.iter().sum::<f64>() / d.len().max(1) as f64;
+    for v in d.iter_mut() {
+        if *v <= 0.0 {
+            *v = mean.max(1e-300);
+        }
+    }
+}
 
 /// The normal equations `A x = -g` of one grid point: globals first, then each
 /// incidence's locals (the order of [`PointSystem::solution`]).
@@ -206,7 +220,8 @@ impl PointSystem {
     }
 
     /// Solves `A x = -g` into the solution, with a tiny ridge (relative to each
-    /// diagonal element) when `A` is singular: `solve_linear_into`'s steps.
+    /// diagonal element) when `A` is singular: the steps of the arrow solve's linear
+    /// reference in the tests (`solve_linear_into`).
     pub fn solve(&mut self) -> bool {
         if self.solve_damped(0.0) {
             return true;
@@ -328,7 +343,34 @@ impl PointSystem {
 #[cfg(test)]
 mod tests {
     use super::super::arrow::{Normal, Shape};
-    use super::super::solve::solve_linear_into;
+    use super::super::arrow::{Workspace, solve_damped};
+    use super::{RIDGES, ridge_scale};
+
+    /// The arrow solve of a linear problem `J^T J x = -J^T r`, with a tiny ridge
+    /// (relative to each diagonal element) when it is singular: what the point
+    /// system's solve must equal bit for bit.
+    fn solve_linear_into(
+        normal: &Normal,
+        ws: &mut Workspace,
+        d: &mut Vec<f64>,
+        x: &mut [f64],
+    ) -> bool {
+        let np = normal.shape().n_params();
+        if d.len() != np {
+            d.clear();
+            d.resize(np, 1.0);
+        }
+        if solve_damped(normal, d, 0.0, ws, x) {
+            return true;
+        }
+        normal.diagonal_into(d);
+        ridge_scale(d);
+        let ok = RIDGES
+            .into_iter()
+            .any(|ridge| solve_damped(normal, d, ridge, ws, x));
+        d.clear();
+        ok
+    }
     use super::*;
 
     /// A deterministic pseudo-random system of `ng` globals, `nl` locals over `n_inc`

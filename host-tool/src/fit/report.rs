@@ -25,13 +25,13 @@ pub fn coord_name(kind: Kind, c: Coord, incidences: &[f64]) -> String {
 /// Natural value and standard error (None: fixed or not identifiable) of a scalar
 /// parameter coordinate.
 pub fn scalar(fit: &Fit, c: Coord) -> (f64, Option<f64>) {
+    let at = fit.free.iter().position(|&x| x == c);
+    if at.is_some_and(|i| fit.fixed[i]) {
+        // Held fixed: the value asked for, to the last bit.
+        return (fit.values.natural(c), None);
+    }
     let v = fit.values.get(c).exp();
-    let se = fit
-        .free
-        .iter()
-        .position(|&x| x == c)
-        .and_then(|i| fit.se_coord(i))
-        .map(|s| v * s);
+    let se = at.and_then(|i| fit.se_coord(i)).map(|s| v * s);
     (v, se)
 }
 
@@ -122,14 +122,14 @@ pub fn model_json(fit: &Fit, incidences: &[f64]) -> Value {
             params.insert("ln_ks_poly".into(), json!(p));
         }
     }
-    let k = fit.free.len();
-    // The full matrix up to CORRELATION_LIMIT free parameters; beyond, the scalar
-    // parameters' block (a matrix over thousands of k_s would dwarf the fit).
+    let k = fit.k();
+    // The full matrix of the free parameters up to CORRELATION_LIMIT of them; beyond,
+    // the scalar parameters' block (a matrix over thousands of k_s would dwarf the fit).
+    let free = (0..fit.free.len()).filter(|&i| !fit.fixed[i]);
     let shown: Vec<usize> = if k <= CORRELATION_LIMIT {
-        (0..k).collect()
+        free.collect()
     } else {
-        (0..k)
-            .filter(|&i| !matches!(fit.free[i], Coord::Ks(_)))
+        free.filter(|&i| !matches!(fit.free[i], Coord::Ks(_)))
             .collect()
     };
     let names: Vec<String> = shown
@@ -476,11 +476,8 @@ fn kind_block(out: &mut String, f: &FamilyFit, fit: &Fit, residual: &str) {
     );
     for c in scalar_coords(fit.kind) {
         let (v, se) = scalar(fit, c);
-        let fixed = if fit.free.contains(&c) {
-            ""
-        } else {
-            " (fixed)"
-        };
+        let held = fit.free.iter().zip(&fit.fixed).any(|(&x, &f)| x == c && f);
+        let fixed = if held { " (fixed)" } else { "" };
         let _ = writeln!(
             out,
             "  {:<12} {}{fixed}",

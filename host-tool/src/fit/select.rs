@@ -13,11 +13,9 @@
 
 use brdf_core::member::{Component, LobeSpec, Member};
 
-use super::family::{Coord, Kind};
+use super::family::Kind;
 use super::goodness::Goodness;
 use super::member_fit::MemberFit;
-use super::report::{ks_table, scalar};
-use super::solve::Fit;
 
 /// A difference in the criterion below this is not evidence for the larger model.
 pub const MARGIN: f64 = 2.0;
@@ -33,12 +31,16 @@ pub struct Amplitude {
     pub se: Option<f64>,
     /// At (within a factor e of) its lower bound.
     pub at_bound: bool,
+    /// Held fixed at its value (`--fix`): given, not determined by the data.
+    pub held: bool,
 }
 
 impl Amplitude {
-    /// Determined: not at a bound, standard error under a third of the value.
+    /// Determined: not at a bound, standard error under a third of the value; or held
+    /// fixed at a value the user gave (the component is then asserted, not tested:
+    /// its gain in the criterion still decides).
     pub fn determined(&self) -> bool {
-        !self.at_bound && self.se.is_some_and(|s| s < self.value / 3.0)
+        self.held || (!self.at_bound && self.se.is_some_and(|s| s < self.value / 3.0))
     }
 
     /// One amplitude from one k_s per incidence: the inverse-variance combination of
@@ -62,6 +64,7 @@ impl Amplitude {
             value,
             se,
             at_bound,
+            held: parts.iter().all(|a| a.held),
         })
     }
 }
@@ -99,6 +102,7 @@ impl Candidate {
                 value,
                 se,
                 at_bound: fit.x[i] <= l.bounds(i).0 + 1.0,
+                held: fit.is_fixed(i),
             }
         };
         let lobe = |local: bool, poly: Option<usize>, haze: bool| -> Option<Amplitude> {
@@ -122,6 +126,7 @@ impl Candidate {
                             value,
                             se: ident.then(|| value * var.max(0.0).sqrt()),
                             at_bound: ln <= l.bounds(p).0 + 1.0,
+                            held: false,
                         }
                     })
                     .min_by(|a, b| {
@@ -149,53 +154,6 @@ impl Candidate {
             member: m,
             aicc: fit.aicc(),
             bic: bic(fit.ssr, fit.n, fit.k()),
-            k: fit.k(),
-            rmse: fit.rmse,
-            amplitude,
-            goodness,
-        }
-    }
-
-    /// From a paper-form fit (`--fix`, robust losses).
-    pub fn of_fit(fit: &Fit, incidences: &[f64], goodness: Option<Goodness>) -> Self {
-        let scalar_amp = |c: Coord| {
-            let (value, se) = scalar(fit, c);
-            Amplitude {
-                value,
-                se,
-                at_bound: fit.values.get(c) <= c.bounds().0 + 1.0,
-            }
-        };
-        let kind = fit.kind;
-        let mut amplitude = [None; 4];
-        if kind.specular() {
-            let parts: Vec<Amplitude> = ks_table(fit, incidences)
-                .into_iter()
-                .map(|(_, v, se)| Amplitude {
-                    value: v,
-                    se,
-                    at_bound: v.ln() <= Coord::Ks(0).bounds().0 + 1.0,
-                })
-                .collect();
-            amplitude[0] = if fit.values.poly.is_some() {
-                // A smooth k_s: its level c0 is one coefficient; the table's values
-                // share it, so take the best-determined one rather than combining.
-                parts.into_iter().min_by(|a, b| {
-                    let r = |x: &Amplitude| x.se.map_or(f64::INFINITY, |s| s / x.value);
-                    r(a).total_cmp(&r(b))
-                })
-            } else {
-                Amplitude::combine(&parts)
-            };
-        }
-        if kind.directional() {
-            amplitude[2] = Some(scalar_amp(Coord::Kdd));
-        }
-        amplitude[3] = Some(scalar_amp(Coord::Kid));
-        Candidate {
-            member: kind.member(),
-            aicc: fit.aicc(),
-            bic: fit.bic(),
             k: fit.k(),
             rmse: fit.rmse,
             amplitude,
@@ -390,6 +348,7 @@ fn amp_text(c: Component, a: Option<Amplitude>) -> String {
     };
     match a {
         None => format!("{name} unknown"),
+        Some(a) if a.held => format!("{name} = {:.3e} held fixed", a.value),
         Some(a) if a.at_bound => format!("{name} = {:.3e} is at its lower bound", a.value),
         Some(a) => match a.se {
             Some(se) => format!("{name} = {:.3e} ± {:.1e}", a.value, se),
@@ -408,11 +367,16 @@ pub fn component_notes(s: &Selection<'_>, sel: Member) -> Vec<String> {
         let line = if sel.has(c) {
             match s.test(sel, c) {
                 Some(t) if t.supports() => format!(
-                    "{}: supported ({crit} {:.1} lower than {}, {} determined)",
+                    "{}: supported ({crit} {:.1} lower than {}, {}{})",
                     c.name(),
                     t.gain,
                     t.without,
-                    amp_text(c, t.amplitude)
+                    amp_text(c, t.amplitude),
+                    if t.amplitude.is_some_and(|a| a.held) {
+                        ""
+                    } else {
+                        " determined"
+                    }
                 ),
                 Some(t) => format!(
                     "{}: kept but NOT supported ({crit} {:+.1} against {}, {}): no admissible member is without it",

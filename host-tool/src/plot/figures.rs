@@ -3,13 +3,12 @@
 
 use plotters::style::RGBColor;
 
-use brdf_core::lobe::Distribution;
-use brdf_core::member_model::{DirectionalParams, Ks, LobeParams, MemberModel, MemberParams};
+use brdf_core::member_model::MemberModel;
 
 use brdf_core::member::Member;
 
 use crate::fit::member_fit::MemberFit;
-use crate::fit::{Dataset, FamilyFit, Fit, Kind};
+use crate::fit::{Dataset, FamilyFit, Kind};
 
 /// Label of the y axis of the normalised figures.
 pub(super) const Y_DESC_NORMALISED: &str = "BRDF / BRDF(theta_r = theta_i)";
@@ -107,45 +106,14 @@ pub(super) struct Figure {
     pub(super) residuals: Vec<(f64, f64)>,
 }
 
-/// A paper-form fit at incidence `ti` as a member of the family, for drawing its
-/// components one by one from the member's basis and amplitudes.
-pub(super) fn member_at(fit: &Fit, incidences: &[f64], ti: f64) -> Option<MemberModel<f64>> {
-    let v = &fit.values;
-    let core = fit.kind.specular().then(|| LobeParams {
-        dist: Distribution::Beckmann,
-        ks: Ks::PerIncidence(fit.ks_at(incidences, ti)),
-        sigma: v.sigma,
-    });
-    let directional = fit.kind.directional().then_some(DirectionalParams {
-        kdd: v.kdd,
-        sigma_m: v.sigma_m,
-    });
-    MemberModel::new(&MemberParams {
-        core,
-        haze: None,
-        directional,
-        ideal: Some(v.kid),
-    })
-    .ok()
-}
-
-/// A fitted model as the figures draw it: a member fit on the width grid, or a
-/// paper-form fit (`--fix`, robust losses).
+/// A fitted member as the figures draw it.
 #[derive(Clone, Copy)]
-pub(super) enum Shown<'a> {
-    /// A member fit.
-    Member(&'a MemberFit),
-    /// A paper-form fit.
-    Paper(&'a Fit),
-}
+pub(super) struct Shown<'a>(&'a MemberFit);
 
 impl Shown<'_> {
     /// The member drawn.
     pub(super) fn member(&self) -> Member {
-        match self {
-            Shown::Member(f) => f.member(),
-            Shown::Paper(f) => f.kind.member(),
-        }
+        self.0.member()
     }
 
     /// Its name in figures: the paper's words for a paper member, else the member name.
@@ -163,44 +131,28 @@ impl Shown<'_> {
 
     /// Per incidence: the paper's RMSE.
     pub(super) fn rmse_by_inc(&self) -> &[Option<f64>] {
-        match self {
-            Shown::Member(f) => &f.rmse_by_inc,
-            Shown::Paper(f) => &f.rmse_by_inc,
-        }
+        &self.0.rmse_by_inc
     }
 
     /// The paper's RMSE over all readings.
     pub(super) fn rmse(&self) -> Option<f64> {
-        match self {
-            Shown::Member(f) => f.rmse,
-            Shown::Paper(f) => f.rmse,
-        }
+        self.0.rmse
     }
 
     /// The surface's model at incidence `ti` (degrees).
-    pub(super) fn model_at(&self, fam: &FamilyFit, ti: f64) -> Option<MemberModel<f64>> {
-        match self {
-            Shown::Member(f) => f.model_at(ti),
-            Shown::Paper(f) => member_at(f, &fam.incidences, ti),
-        }
+    pub(super) fn model_at(&self, _fam: &FamilyFit, ti: f64) -> Option<MemberModel<f64>> {
+        self.0.model_at(ti)
     }
 
     /// The fitted value at every reading, as the fit compared it (file order).
     pub(super) fn fitted(&self, data: &Dataset) -> Vec<Option<f64>> {
-        match self {
-            Shown::Member(f) => crate::fit::goodness::member_fitted(f, data),
-            Shown::Paper(f) => crate::fit::goodness::kind_fitted(f, data),
-        }
+        crate::fit::goodness::member_fitted(self.0, data)
     }
 }
 
-/// The fit of member `m`, in whichever form the family holds it.
+/// The fit of member `m`, if the family fitted it.
 pub(super) fn shown(fam: &FamilyFit, m: Member) -> Option<Shown<'_>> {
-    fam.member(m).map(Shown::Member).or_else(|| {
-        crate::fit::paper::kind_of(m)
-            .and_then(|k| fam.get(k))
-            .map(Shown::Paper)
-    })
+    fam.member(m).map(Shown)
 }
 
 /// The detector angles curves are drawn at (degrees): every 0.5 degree, and every 0.02

@@ -6,12 +6,15 @@ use std::path::{Path, PathBuf};
 use brdf_core::member::Member;
 use clap::Parser;
 use gonio::calibrate::Instrument;
+use gonio::cli::convert::read_instrument;
 use gonio::cli::fit::{self as fit_cmd, FitArgs};
 use gonio::cli::fit_units;
 use gonio::export::mitsuba::{self, MemberTable};
 use gonio::fit::{self, Dataset, FamilyFit, Residual, campaign};
 use gonio::outfile::Target;
-use gonio::sweep_file::{self, Header, Row, SweepData, SweepStatus as Status, SweepWriter};
+use gonio::sweep_file::{
+    self, BrdfUnits, Header, Row, SweepData, SweepStatus as Status, SweepWriter,
+};
 
 /// A sweep file's contents as plain vectors.
 pub struct Sweep {
@@ -163,7 +166,12 @@ pub struct FitOutcome {
 /// file's line, `--instrument`'s conversion to 1/sr, and fitter.
 pub fn fit(path: Option<&Path>, rows: &[Row], req: &FitRequest) -> Result<FitOutcome, String> {
     let args = fit_args(path, req)?;
-    let opts = fit_cmd::options(&args).map_err(|e| e.to_string())?;
+    let mut opts = fit_cmd::options(&args).map_err(|e| e.to_string())?;
+    let instrument = match &args.instrument {
+        Some(p) => Some((read_instrument(p).map_err(|e| e.to_string())?, p.clone())),
+        None => None,
+    };
+    opts.instrument = instrument.as_ref().map(|(i, _)| i.clone());
     let source = path.unwrap_or(Path::new("the arrays"));
     let mut data = match path {
         Some(p) => {
@@ -173,19 +181,11 @@ pub fn fit(path: Option<&Path>, rows: &[Row], req: &FitRequest) -> Result<FitOut
             }
             data
         }
-        None => Dataset::from_rows_floor(rows, opts.residual != Residual::Absolute, opts.floor)
-            .map_err(|e| e.0)?,
+        None => campaign::prepare(rows, BrdfUnits::Relative, &opts, "the arrays")?,
     };
     if let Some(a) = args.aperture {
         data.aperture = a.0;
     }
-    let instrument = match &args.instrument {
-        Some(p) => Some((
-            fit_units::apply_instrument(source, p, &mut data).map_err(|e| e.to_string())?,
-            p.clone(),
-        )),
-        None => None,
-    };
     let family = campaign::fit_data(source, &data, &opts).map_err(|e| e.to_string())?;
     Ok(FitOutcome {
         family,

@@ -119,10 +119,30 @@ def test_fit_aperture_and_instrument_as_on_the_command_line(gonio_bin, tmp_path)
     assert r.model().to_per_sr == 1.0
     aperture = json.loads(gonio.fit(FE_SWEEP, models="three", aperture=0.5).to_json())
     assert aperture["models"][0]["aperture_deg"] == 0.5
-    with pytest.raises(gonio.GonioError, match="--aperture cannot be combined with --fix or a robust --loss"):
-        gonio.fit(FE_SWEEP, aperture=0.5, loss="cauchy:0.05")
+    # One pipeline: an aperture combines with a robust loss (it was refused).
+    robust = json.loads(gonio.fit(FE_SWEEP, models="three", aperture=0.5, loss="cauchy:0.05").to_json())
+    assert robust["models"][0]["aperture_deg"] == 0.5
     with pytest.raises(gonio.GonioError, match="no-such.toml"):
         gonio.fit(FE_SWEEP, instrument=tmp_path / "no-such.toml")
+
+
+def test_fit_with_an_instrument_is_fitting_the_converted_file(gonio_bin, tmp_path):
+    # The readings and their noise both in 1/sr: chi2/dof as the converted file's, to
+    # 1e-9 (the noise was once left in relative units: ideal-diffuse "within noise").
+    inst = tmp_path / "inst.toml"
+    inst.write_text('k = 2000.0\nu_k = 4.0\nstandard = "lambertian:0.99"\nreference_file = "ref.csv"\n'
+                    'date = "2026-12-02T00:00:00Z"\nreadings = 150\n')
+    conv = tmp_path / "fe-abs.csv"
+    subprocess.run([gonio_bin, "convert", str(FE_SWEEP), "--instrument", str(inst), "--out", str(conv)],
+                   check=True, capture_output=True)
+    with_inst = json.loads(gonio.fit(FE_SWEEP, instrument=inst).to_json())
+    converted = json.loads(gonio.fit(conv).to_json())
+    assert [m["name"] for m in with_inst["models"]] == [m["name"] for m in converted["models"]]
+    for a, b in zip(with_inst["models"], converted["models"]):
+        for key in ("reduced_chi2", "ssr"):
+            assert a[key] == pytest.approx(b[key], rel=1e-9, abs=0), (a["name"], key)
+    ideal = next(m for m in with_inst["models"] if m["name"] == "ideal-diffuse")
+    assert ideal["reduced_chi2"] > 1e4
 
 
 def test_fit_arrays_and_errors():

@@ -223,18 +223,8 @@ pub fn options(args: &FitArgs) -> CliResult<FitOptions> {
         all_starts: args.all_starts,
         ..FitOptions::default()
     };
-    if args.all_starts && (opts.loss != Loss::L2 || opts.fixed != Fixed::default()) {
-        return Err(CliError::usage(
-            "--all-starts cannot be combined with --fix or a robust --loss: it is for the width grid's starts, which they do not use (their multi-start stops no start early)",
-        ));
-    }
     if let Some(a) = args.aperture {
         opts.aperture = a.0;
-    }
-    if args.aperture.is_some() && (opts.loss != Loss::L2 || opts.fixed != Fixed::default()) {
-        return Err(CliError::usage(
-            "--aperture cannot be combined with --fix or a robust --loss",
-        ));
     }
     if !args.models.is_empty() {
         let mut m = args.models.clone();
@@ -296,15 +286,9 @@ fn run_campaign(args: &FitArgs, opts: &FitOptions) -> CliResult {
         )
         .expect("valid template"),
     );
-    let results = match &inst {
-        Some((i, _)) => campaign::fit_files_with(
-            &files,
-            opts,
-            &super::fit_units::campaign_prepare(i),
-            &|_, _| bar.inc(1),
-        ),
-        None => campaign::fit_files(&files, opts, &|_, _| bar.inc(1)),
-    };
+    let mut opts = opts.clone();
+    opts.instrument = inst.as_ref().map(|(i, _)| i.clone());
+    let results = campaign::fit_files(&files, &opts, &|_, _| bar.inc(1));
     bar.finish_and_clear();
     // Each file's report as a single-file fit's (its u(K) table and physical checks).
     let inst_ref = inst.as_ref().map(|(i, p)| (i, p.as_path()));
@@ -377,6 +361,11 @@ pub fn run(args: &FitArgs) -> CliResult {
         return run_campaign(args, &opts);
     }
     let sweep = args.sweeps[0].as_path();
+    let inst = match &args.instrument {
+        Some(p) => Some((super::convert::read_instrument(p)?, p.as_path())),
+        None => None,
+    };
+    opts.instrument = inst.as_ref().map(|(i, _)| i.clone());
     let (mut data, warnings) = campaign::read_data(sweep, &opts).map_err(file_error)?;
     if let Some(a) = args.aperture {
         // --aperture wins over the file's line; 0 turns it off.
@@ -385,13 +374,6 @@ pub fn run(args: &FitArgs) -> CliResult {
     for w in &warnings {
         eprintln!("gonio: warning: {w}");
     }
-    let inst = match &args.instrument {
-        Some(p) => Some((
-            super::fit_units::apply_instrument(sweep, p, &mut data)?,
-            p.as_path(),
-        )),
-        None => None,
-    };
     let inst = inst.as_ref().map(|(i, p)| (i, *p));
     // Every output is checked before the fit: nothing is computed for a refused one.
     let inputs = [sweep];

@@ -9,10 +9,10 @@ use serde_json::{Value, json};
 
 use super::convert::read_instrument;
 use super::error::{CliError, CliResult};
-use crate::calibrate::{FittedParam, Instrument, ParamKind, Quantity, combine_uncertainty};
+use crate::calibrate::{FittedParam, Instrument, ParamKind, combine_uncertainty};
 use crate::fit::family::{Coord, scalar_coords};
 use crate::fit::report::{coord_name, ks_table, scalar};
-use crate::fit::{Dataset, FamilyFit, physical};
+use crate::fit::{FamilyFit, physical};
 use crate::sweep_file::{BrdfUnits, read_sweep};
 
 /// The units a sweep file declares (relative when it has no `# brdf:` line).
@@ -37,45 +37,6 @@ pub fn check_campaign_units(files: &[PathBuf]) -> CliResult {
     Ok(())
 }
 
-/// `fit --instrument FILE`: refuses a sweep already in 1/sr, then divides every
-/// reading by K (and cos(theta_r) for detector signals); the data are then in 1/sr.
-/// Returns the instrument.
-pub fn apply_instrument(
-    sweep: &Path,
-    instrument: &Path,
-    data: &mut Dataset,
-) -> CliResult<Instrument> {
-    let units = data.units;
-    if units != BrdfUnits::Relative {
-        return Err(CliError::usage(format!(
-            "fit --instrument: {} already holds brdf in {units} (its '# brdf:' line): the instrument converts relative readings only (fit it without --instrument)",
-            sweep.display()
-        )));
-    }
-    let inst = read_instrument(instrument)?;
-    convert_dataset(&inst, data).map_err(CliError::usage)?;
-    if inst.quantity == Quantity::DetectorSignal {
-        eprintln!("gonio: note: readings are detector signals: divided by K cos(theta_r)");
-    }
-    Ok(inst)
-}
-
-/// Divides every reading by K (and cos(theta_r) for detector signals): the data in 1/sr
-/// (and say so, for every report and export made of them).
-pub fn convert_dataset(inst: &Instrument, data: &mut Dataset) -> Result<(), String> {
-    data.units = BrdfUnits::PerSr;
-    for o in &mut data.obs {
-        o.y /= inst.k * inst.quantity.factor(o.theta_r);
-        if !o.y.is_finite() {
-            return Err(format!(
-                "fit --instrument: the reading at theta_i {}, theta_r {} cannot be converted (grazing detector)",
-                o.theta_i, o.theta_r
-            ));
-        }
-    }
-    Ok(())
-}
-
 /// `fit A.csv B.csv --instrument I.toml`: the instrument, once every readable file of
 /// the campaign is known to be in relative units (a file in 1/sr is refused, naming it).
 pub fn campaign_instrument(instrument: &Path, files: &[PathBuf]) -> CliResult<Instrument> {
@@ -90,17 +51,6 @@ pub fn campaign_instrument(instrument: &Path, files: &[PathBuf]) -> CliResult<In
         }
     }
     read_instrument(instrument)
-}
-
-/// The campaign's data converted to 1/sr with `inst` (for [`crate::fit::campaign::fit_files_with`]).
-pub fn campaign_prepare(
-    inst: &Instrument,
-) -> impl Fn(&Path, &mut Dataset) -> Result<(), crate::fit::campaign::FileError> + Sync + use<> {
-    let inst = inst.clone();
-    move |path, data| {
-        convert_dataset(&inst, data)
-            .map_err(|e| crate::fit::campaign::FileError::Input(format!("{}: {e}", path.display())))
-    }
 }
 
 /// The line a campaign's summary ends with under `--instrument`: the fit is in 1/sr and
@@ -295,6 +245,8 @@ pub fn report_text(fam: &FamilyFit, inst: Option<(&Instrument, &Path)>) -> Strin
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::calibrate::Quantity;
+    use crate::fit::Dataset;
     use crate::fit::data::synthetic_paper_sweep;
     use crate::fit::{FitOptions, fit_family};
     use brdf_core::member::Member;

@@ -63,15 +63,56 @@ pub fn read_data(path: &Path, opts: &FitOptions) -> Result<(Dataset, Vec<String>
             path.display()
         ));
     }
-    let mut data =
-        Dataset::from_rows_floor(&sweep.rows, opts.residual != Residual::Absolute, opts.floor)
-            .map_err(|e| FileError::Input(format!("{}: {}", path.display(), e.0)))?;
+    let name = path.display().to_string();
+    let mut data = prepare(&sweep.rows, sweep.brdf_units(), opts, &name)
+        .map_err(|e| FileError::Input(format!("{name}: {e}")))?;
     if let Some(a) = sweep.meta.get("aperture") {
         data.aperture = super::data::parse_aperture(a)
-            .map_err(|e| FileError::Input(format!("{}: # aperture: {e}", path.display())))?;
+            .map_err(|e| FileError::Input(format!("{name}: # aperture: {e}")))?;
     }
-    data.units = sweep.brdf_units();
+    if opts
+        .instrument
+        .as_ref()
+        .is_some_and(|i| i.quantity == crate::calibrate::Quantity::DetectorSignal)
+    {
+        warnings.push(format!(
+            "{name}: readings are detector signals: divided by K cos(theta_r)"
+        ));
+    }
     Ok((data, warnings))
+}
+
+/// The data to fit from a sweep's rows in `units` (named `name` in messages): the
+/// detection floor left out ([`FitOptions::floor`], in the rows' units), then with
+/// [`FitOptions::instrument`] every reading and its std converted to 1/sr by
+/// [`crate::calibrate::sweep::absolute_rows`], the conversion `gonio convert` writes
+/// with, so that fitting with the instrument and fitting the converted file are one
+/// fit. Refuses an instrument for rows already in 1/sr.
+pub fn prepare(
+    rows: &[crate::sweep_file::Row],
+    units: crate::sweep_file::BrdfUnits,
+    opts: &FitOptions,
+    name: &str,
+) -> Result<Dataset, String> {
+    let positive = opts.residual != Residual::Absolute;
+    let Some(inst) = &opts.instrument else {
+        let mut data = Dataset::from_rows_floor(rows, positive, opts.floor).map_err(|e| e.0)?;
+        data.units = units;
+        return Ok(data);
+    };
+    if units != crate::sweep_file::BrdfUnits::Relative {
+        return Err(format!(
+            "already holds brdf in {units} (its '# brdf:' line): the instrument converts relative readings only (fit it without --instrument)"
+        ));
+    }
+    let convert = |rows: &[crate::sweep_file::Row]| {
+        crate::calibrate::sweep::absolute_rows(rows, inst)
+            .map_err(|e| format!("--instrument {name}: {e}"))
+    };
+    let mut data = Dataset::from_rows_converted(rows, positive, opts.floor, Some(&convert))
+        .map_err(|e| e.0)?;
+    data.units = crate::sweep_file::BrdfUnits::PerSr;
+    Ok(data)
 }
 
 /// Fits the family to data read from `path` (named in the message of a failure).
@@ -134,23 +175,8 @@ pub fn fit_files(
     opts: &FitOptions,
     done: &(dyn Fn(&Path, bool) + Sync),
 ) -> Vec<CampaignFile> {
-    fit_files_with(files, opts, &|_, _| Ok(()), done)
-}
-
-/// What [`fit_files_with`] does to each file's data before fitting it (e.g. converting
-/// it to 1/sr with an instrument); an error is that file's failure.
-pub type Prepare = dyn Fn(&Path, &mut Dataset) -> Result<(), FileError> + Sync;
-
-/// [`fit_files`], with `prepare` applied to each file's data between reading and fitting.
-pub fn fit_files_with(
-    files: &[PathBuf],
-    opts: &FitOptions,
-    prepare: &Prepare,
-    done: &(dyn Fn(&Path, bool) + Sync),
-) -> Vec<CampaignFile> {
     let one = |path: &Path| -> Result<SweepFit, FileError> {
-        let (mut data, warnings) = read_data(path, opts)?;
-        prepare(path, &mut data)?;
+        let (data, warnings) = read_data(path, opts)?;
         let family = fit_data(path, &data, opts)?;
         Ok(SweepFit {
             data,

@@ -215,6 +215,18 @@ impl Dataset {
         positive: bool,
         floor: Option<Floor>,
     ) -> Result<Self, DataError> {
+        Self::from_rows_converted(rows, positive, floor, None)
+    }
+
+    /// [`Dataset::from_rows_floor`] with the rows kept converted by `convert` before
+    /// they are checked (`--instrument`: to 1/sr). The floor is in the rows' own units,
+    /// as the file states them.
+    pub fn from_rows_converted(
+        rows: &[Row],
+        positive: bool,
+        floor: Option<Floor>,
+        convert: Option<&dyn Fn(&[Row]) -> Result<Vec<Row>, String>>,
+    ) -> Result<Self, DataError> {
         let repeated = repeated_minimum(rows);
         let level = match floor {
             Some(Floor::Value(v)) => Some(v),
@@ -232,6 +244,14 @@ impl Dataset {
                 (kept.as_slice(), Some((f, rows.len() - kept.len())))
             }
             None => (rows, None),
+        };
+        let converted;
+        let rows = match convert {
+            Some(f) => {
+                converted = f(rows).map_err(DataError)?;
+                converted.as_slice()
+            }
+            None => rows,
         };
         let mut data = Self::checked(rows, positive)?;
         data.floor = FloorReport {

@@ -53,6 +53,10 @@ pub struct FitOptions {
     /// them) 12 of 886 member fits missed a lower optimum that way. Only the width
     /// grid's starts are stopped early.
     pub all_starts: bool,
+    /// Convert the readings (relative units) to 1/sr with this instrument before the
+    /// fit (`gonio fit --instrument`), by calibrate's conversion, the one `gonio
+    /// convert` writes with: the readings and their standard errors alike.
+    pub instrument: Option<crate::calibrate::Instrument>,
 }
 
 impl Default for FitOptions {
@@ -66,6 +70,7 @@ impl Default for FitOptions {
             checks: super::physical::CheckScope::All,
             floor: None,
             all_starts: false,
+            instrument: None,
         }
     }
 }

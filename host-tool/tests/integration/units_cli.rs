@@ -198,3 +198,51 @@ fn a_reference_that_cannot_determine_k_is_refused_with_one_line() {
     assert_eq!(out.code, 2);
     assert!(one_line(&out.stderr).contains("lambertian:R or table:FILE"));
 }
+
+/// `fit --instrument` is `convert` then `fit`: the readings and their noise both in
+/// 1/sr, so every model's SSR and chi2/dof agree to 1e-9 relative (they once differed
+/// by 10^6: the noise was left in relative units).
+#[test]
+fn fitting_with_an_instrument_is_fitting_the_converted_file() {
+    let inputs = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden/inputs");
+    let (sweep, inst) = (
+        inputs.join("fe-0.115-abs.csv"),
+        inputs.join("instrument.toml"),
+    );
+    let dir = scratch("instrument-is-convert");
+    let converted = dir.join("fe-abs.csv");
+    assert!(convert(&sweep, &inst, &converted).ok());
+    let json = |args: &[&str]| -> serde_json::Value {
+        let run = gonio(&[&["fit", "--json"], args].concat());
+        assert!(run.ok(), "{}", run.stderr);
+        serde_json::from_str(&run.stdout).unwrap()
+    };
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    for extra in [&[][..], &["--loss", "huber:0.02", "--fix", "sigma_m=0.7"]] {
+        let with = json(&[&[s(&sweep).as_str(), "--instrument", &s(&inst)], extra].concat());
+        let conv = json(&[&[s(&converted).as_str()], extra].concat());
+        assert_eq!(with["selected"], conv["selected"]);
+        assert_eq!(with["brdf_units"], "1/sr");
+        let models = |v: &serde_json::Value| v["models"].as_array().unwrap().clone();
+        let (a, b) = (models(&with), models(&conv));
+        assert_eq!(a.len(), b.len());
+        for (x, y) in a.iter().zip(&b) {
+            assert_eq!(x["name"], y["name"]);
+            for key in ["reduced_chi2", "ssr", "aicc"] {
+                let (u, v) = (x[key].as_f64().unwrap(), y[key].as_f64().unwrap());
+                assert!(
+                    (u - v).abs() <= 1e-9 * v.abs().max(1e-300),
+                    "{} {key}: {u} with --instrument, {v} converted ({extra:?})",
+                    x["name"]
+                );
+            }
+        }
+        // Within noise, as the converted file says: not 0.03 for ideal-diffuse.
+        let chi = |v: &serde_json::Value, name: &str| {
+            models(v).iter().find(|m| m["name"] == name).unwrap()["reduced_chi2"]
+                .as_f64()
+                .unwrap()
+        };
+        assert!(chi(&with, "ideal-diffuse") > 1e4, "{extra:?}");
+    }
+}

@@ -67,6 +67,9 @@ pub struct Observation {
     pub sigma_y: Option<f64>,
 }
 
+/// A conversion of a sweep's rows before they are fitted (to 1/sr with an instrument).
+pub type ConvertRows<'a> = dyn Fn(&[Row]) -> Result<Vec<Row>, String> + 'a;
+
 /// A sweep ready to fit.
 #[derive(Debug, Clone)]
 pub struct Dataset {
@@ -225,7 +228,7 @@ impl Dataset {
         rows: &[Row],
         positive: bool,
         floor: Option<Floor>,
-        convert: Option<&dyn Fn(&[Row]) -> Result<Vec<Row>, String>>,
+        convert: Option<&ConvertRows<'_>>,
     ) -> Result<Self, DataError> {
         let repeated = repeated_minimum(rows);
         let level = match floor {

@@ -1,12 +1,19 @@
 use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use brdf_core::lobe::Distribution;
-use brdf_core::member::Member;
-use brdf_core::member_model::{DirectionalParams, Ks, LobeParams, MemberModel, MemberParams};
 use brdf_core::sim::XorShift32;
 
 use super::*;
+use brdf_core::lobe::Distribution;
+use brdf_core::member::Member;
+use brdf_core::member_model::{DirectionalParams, Ks, LobeParams, MemberModel, MemberParams};
+
+
+use super::super::arrow::{Normal, RowSink, Shape};
+use super::super::data::Dataset;
+use super::super::lm::{ArrowProblem, LmOptions, minimize};
+use super::super::options::Residual;
+use super::grid::*;
 use crate::sweep_file::{Row, read_sweep};
 
 fn lobe(sigma: f64, ks: f64) -> Option<LobeParams<f64>> {

@@ -1,0 +1,224 @@
+//! Where each parameter of a member lives in the LM vector, its bounds, and the models it gives.
+
+use brdf_core::lobe::SmoothKs;
+use brdf_core::member::{KsForm, LobeSpec, Member};
+use brdf_core::member_model::{DirectionalParams, Ks, LobeParams, MemberModel, MemberParams};
+
+use super::super::arrow::Shape;
+
+use super::super::options::Fixed;
+
+use super::bases::*;
+
+/// Where each parameter lives in the LM vector: globals first, then per incidence the
+/// local k_s of the core lobe, then of the haze lobe (per-incidence lobes only).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Layout {
+    /// The member.
+    pub member: Member,
+    /// ln sigma of the core lobe.
+    pub sigma: Option<usize>,
+    /// ln sigma of the haze lobe; with a core lobe, ln(sigma_haze / sigma), at least
+    /// ln [`HAZE_OVER_CORE`] (a box bound that keeps the lobes' roles: without it the
+    /// two lobes can merge on data with one lobe, a flat valley LM crawls along).
+    pub sigma_haze: Option<usize>,
+    /// ln sigma_m.
+    pub sigma_m: Option<usize>,
+    /// ln k_dd.
+    pub kdd: Option<usize>,
+    /// ln k_id.
+    pub kid: Option<usize>,
+    /// c0..c2 of the core's smooth k_s.
+    pub core_poly: Option<usize>,
+    /// c0..c2 of the haze's smooth k_s.
+    pub haze_poly: Option<usize>,
+    /// Number of globals.
+    pub n_global: usize,
+    /// Per incidence: the core's k_s is local (slot 0).
+    pub core_local: bool,
+    /// Per incidence: the haze's k_s is local (after the core's).
+    pub haze_local: bool,
+    /// Incidences.
+    pub n_inc: usize,
+}
+
+impl Layout {
+    /// The layout of `member` over `n_inc` incidences.
+    pub fn new(member: Member, n_inc: usize) -> Self {
+        let mut n = 0;
+        let mut take = |on: bool, w: usize| {
+            on.then(|| {
+                n += w;
+                n - w
+            })
+        };
+        let sigma = take(member.core.is_some(), 1);
+        let sigma_haze = take(member.haze.is_some(), 1);
+        let sigma_m = take(member.directional, 1);
+        let kdd = take(member.directional, 1);
+        let kid = take(member.ideal, 1);
+        let smooth = |l: Option<LobeSpec>| l.is_some_and(|l| l.ks == KsForm::Smooth);
+        let core_poly = take(smooth(member.core), 3);
+        let haze_poly = take(smooth(member.haze), 3);
+        let per = |l: Option<LobeSpec>| l.is_some_and(|l| l.ks == KsForm::PerIncidence);
+        Layout {
+            member,
+            sigma,
+            sigma_haze,
+            sigma_m,
+            kdd,
+            kid,
+            core_poly,
+            haze_poly,
+            n_global: n,
+            core_local: per(member.core),
+            haze_local: per(member.haze),
+            n_inc,
+        }
+    }
+
+    /// Locals per incidence.
+    pub fn n_local(&self) -> usize {
+        usize::from(self.core_local) + usize::from(self.haze_local)
+    }
+
+    /// Total parameters.
+    pub fn len(&self) -> usize {
+        self.n_global + self.n_inc * self.n_local()
+    }
+
+    /// No parameters.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The arrow shape.
+    pub fn shape(&self) -> Shape {
+        Shape::new(self.n_global, (0..self.n_inc).map(|_| self.n_local()))
+    }
+
+    /// Index of incidence `j`'s local k_s of the core (or the haze) lobe.
+    pub fn local(&self, j: usize, haze: bool) -> usize {
+        self.n_global + j * self.n_local() + usize::from(haze && self.core_local)
+    }
+
+    /// Parameter `i` is a linear amplitude (k_dd, k_id or a per-incidence k_s) in its
+    /// log coordinate.
+    pub fn is_amplitude(&self, i: usize) -> bool {
+        Some(i) == self.kdd || Some(i) == self.kid || i >= self.n_global
+    }
+
+    /// The haze width is a ratio to the core's (see [`Layout::sigma_haze`]).
+    pub fn haze_ratio(&self) -> bool {
+        self.sigma.is_some() && self.sigma_haze.is_some()
+    }
+
+    /// ln sigma_haze at `x`.
+    pub fn ln_sigma_haze(&self, x: &[f64]) -> Option<f64> {
+        let h = x[self.sigma_haze?];
+        Some(if self.haze_ratio() {
+            h + x[self.sigma.unwrap_or(0)]
+        } else {
+            h
+        })
+    }
+
+    /// Box bounds of parameter `i` (log coordinates; smooth c1, c2 plain).
+    pub fn bounds(&self, i: usize) -> (f64, f64) {
+        let poly = |p: Option<usize>| p.is_some_and(|p| i > p && i < p + 3);
+        if Some(i) == self.sigma_haze && self.haze_ratio() {
+            (HAZE_OVER_CORE.ln(), (20.0f64 / 1e-4).ln())
+        } else if Some(i) == self.sigma || Some(i) == self.sigma_haze {
+            (1e-4f64.ln(), 20f64.ln())
+        } else if Some(i) == self.sigma_m {
+            (1e-3f64.ln(), 20f64.ln())
+        } else if poly(self.core_poly) || poly(self.haze_poly) {
+            (-60.0, 60.0)
+        } else {
+            (1e-12f64.ln(), 1e12f64.ln())
+        }
+    }
+
+    /// The member's parameters at incidence `j` from the vector `x`.
+    pub fn params(&self, x: &[f64], j: usize) -> MemberParams<f64> {
+        let lobe = |spec: LobeSpec, ln_sigma: f64, poly: Option<usize>, haze: bool| LobeParams {
+            dist: spec.dist,
+            ks: match poly {
+                Some(p) => Ks::Smooth(SmoothKs {
+                    c: [x[p], x[p + 1], x[p + 2]],
+                }),
+                None => Ks::PerIncidence(x[self.local(j, haze)].exp()),
+            },
+            sigma: ln_sigma.exp(),
+        };
+        MemberParams {
+            core: self
+                .member
+                .core
+                .map(|s| lobe(s, x[self.sigma.unwrap_or(0)], self.core_poly, false)),
+            haze: self.member.haze.map(|s| {
+                lobe(
+                    s,
+                    self.ln_sigma_haze(x).unwrap_or(0.0),
+                    self.haze_poly,
+                    true,
+                )
+            }),
+            directional: self.member.directional.then(|| DirectionalParams {
+                kdd: x[self.kdd.unwrap_or(0)].exp(),
+                sigma_m: x[self.sigma_m.unwrap_or(0)].exp(),
+            }),
+            ideal: self.kid.map(|i| x[i].exp()),
+        }
+    }
+
+    /// The models of every incidence at `x`; `None` when one cannot be built.
+    pub fn models(&self, x: &[f64]) -> Option<Vec<MemberModel<f64>>> {
+        // Allocated once at its size: collecting Options grows the vector by doubling
+        // (a model is some 300 bytes; 50,000 incidences held 21 MB for 15).
+        let mut out = Vec::with_capacity(self.n_inc);
+        for j in 0..self.n_inc {
+            out.push(self.model(x, j)?);
+        }
+        Some(out)
+    }
+
+    /// Per parameter: the natural value `fixed` holds it at (`--fix`), if any. `sigma`
+    /// is the core lobe's width, `kd` the ideal diffuse of the paper's Torrance–Sparrow
+    /// member (named k_d there), `kid` that of every other member.
+    pub fn held(&self, fixed: &Fixed) -> Vec<Option<f64>> {
+        let mut out = vec![None; self.len()];
+        let kid = if self.member == Member::TORRANCE_SPARROW {
+            fixed.kd
+        } else {
+            fixed.kid
+        };
+        for (slot, v) in [
+            (self.sigma, fixed.sigma),
+            (self.sigma_m, fixed.sigma_m),
+            (self.kdd, fixed.kdd),
+            (self.kid, kid),
+        ] {
+            if let (Some(i), Some(v)) = (slot, v) {
+                out[i] = Some(v);
+            }
+        }
+        out
+    }
+
+    /// The model of incidence `j` at `x`; `None` when it cannot be built.
+    pub fn model(&self, x: &[f64], j: usize) -> Option<MemberModel<f64>> {
+        MemberModel::new(&self.params(x, j)).ok()
+    }
+
+    /// Turns `model`, another incidence's model at the same `x`, into incidence `j`'s
+    /// ([`Layout::model`]'s): only the per-incidence k_s differ (a row pass builds one
+    /// model per incidence, and the lobes' widths were most of that). False when it
+    /// cannot be built.
+    pub fn next_model(&self, model: &mut MemberModel<f64>, x: &[f64], j: usize) -> bool {
+        let ks = |on: bool, haze: bool| on.then(|| x[self.local(j, haze)].exp());
+        model
+            .set_ks(ks(self.core_local, false), ks(self.haze_local, true))
+            .is_ok()
+    }
+}

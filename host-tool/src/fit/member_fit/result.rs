@@ -1,0 +1,122 @@
+//! One fitted member: its parameters, covariance, held parameters, and the model it predicts.
+
+use brdf_core::member::Member;
+use brdf_core::member_model::{Ks, LobeParams, MemberModel};
+
+use super::super::arrow::ArrowInverse;
+
+use super::layout::*;
+
+/// One fitted member.
+#[derive(Debug, Clone)]
+pub struct MemberFit {
+    /// The parameter layout (and the member).
+    pub layout: Layout,
+    /// Every parameter at the optimum (see [`Layout`]).
+    pub x: Vec<f64>,
+    /// The data's incidences (degrees).
+    pub incidences: Vec<f64>,
+    /// Covariance of `x` (factored arrow form).
+    pub cov: ArrowInverse,
+    /// Per parameter: determined by the data (never one held fixed).
+    pub identifiable: Vec<bool>,
+    /// Per parameter: the natural value it was held fixed at (`--fix`), not fitted.
+    pub held: Vec<Option<f64>>,
+    /// Sum of squared residuals (unweighted, under a robust loss too).
+    pub ssr: f64,
+    /// Readings.
+    pub n: usize,
+    /// LM met a convergence test.
+    pub converged: bool,
+    /// The detector half-angle the model was averaged over (degrees).
+    pub aperture: Option<f64>,
+    /// Per incidence: the paper's normalised RMSE.
+    pub rmse_by_inc: Vec<Option<f64>>,
+    /// The paper's normalised RMSE over all readings.
+    pub rmse: Option<f64>,
+}
+
+impl MemberFit {
+    /// The member.
+    pub fn member(&self) -> Member {
+        self.layout.member
+    }
+
+    /// Free parameters (those held fixed are not).
+    pub fn k(&self) -> usize {
+        self.held.iter().filter(|h| h.is_none()).count()
+    }
+
+    /// Parameter `i` was held fixed.
+    pub fn is_fixed(&self, i: usize) -> bool {
+        self.held[i].is_some()
+    }
+
+    /// AICc (infinite when n <= k + 1).
+    pub fn aicc(&self) -> f64 {
+        super::super::select::aicc(self.ssr, self.n, self.k())
+    }
+
+    /// A parameter's value in natural units (exp of its log coordinate) and its standard
+    /// error by the delta method, if determined.
+    pub fn natural(&self, i: usize) -> (f64, Option<f64>) {
+        // A parameter held fixed is reported at the value asked for, to the last bit.
+        if let Some(v) = self.held[i] {
+            return (v, None);
+        }
+        let v = self.x[i].exp();
+        let se = self.identifiable[i].then(|| v * self.cov.get(i, i).max(0.0).sqrt());
+        (v, se)
+    }
+
+    /// The core lobe's sigma and its standard error.
+    pub fn sigma(&self) -> Option<(f64, Option<f64>)> {
+        self.layout.sigma.map(|i| self.natural(i))
+    }
+
+    /// The haze lobe's sigma and its standard error (delta method; with a core lobe
+    /// from the variances of ln sigma and the log ratio and their covariance).
+    pub fn sigma_haze(&self) -> Option<(f64, Option<f64>)> {
+        let h = self.layout.sigma_haze?;
+        let v = self.layout.ln_sigma_haze(&self.x)?.exp();
+        let se = match self.layout.sigma.filter(|_| self.layout.haze_ratio()) {
+            None => self.identifiable[h].then(|| self.cov.get(h, h)),
+            Some(c) => (self.identifiable[h] && self.identifiable[c])
+                .then(|| self.cov.get(h, h) + self.cov.get(c, c) + 2.0 * self.cov.get(h, c)),
+        };
+        Some((v, se.map(|var| v * var.max(0.0).sqrt())))
+    }
+
+    /// The fitted model at any incidence (degrees): per-incidence k_s interpolated
+    /// linearly in theta_i between the fitted incidences (clamped outside them).
+    pub fn model_at(&self, theta_i: f64) -> Option<MemberModel<f64>> {
+        let inc = &self.incidences;
+        let (j0, j1, w) = match inc.iter().position(|&t| t >= theta_i) {
+            None => (inc.len() - 1, inc.len() - 1, 0.0),
+            Some(0) => (0, 0, 0.0),
+            Some(j) => (j - 1, j, (theta_i - inc[j - 1]) / (inc[j] - inc[j - 1])),
+        };
+        let mut p = self.layout.params(&self.x, j0);
+        let p1 = self.layout.params(&self.x, j1);
+        let mix = |a: &mut Option<LobeParams<f64>>, b: &Option<LobeParams<f64>>| {
+            if let (Some(a), Some(b)) = (a.as_mut(), b) {
+                if let (Ks::PerIncidence(ka), Ks::PerIncidence(kb)) = (&mut a.ks, b.ks) {
+                    *ka += w * (kb - *ka);
+                }
+            }
+        };
+        mix(&mut p.core, &p1.core);
+        mix(&mut p.haze, &p1.haze);
+        MemberModel::new(&p).ok()
+    }
+
+    /// The fitted BRDF in the plane of incidence (degrees; theta_r signed, positive on
+    /// the specular side), in the data's units: the surface's value, not averaged over
+    /// the detector.
+    pub fn predict(&self, theta_i: f64, theta_r: f64) -> Option<f64> {
+        self.model_at(theta_i)?
+            .eval_in_plane(theta_i, theta_r)
+            .ok()
+            .map(|e| e.f)
+    }
+}

@@ -163,8 +163,7 @@ pub fn run(args: &CaptureArgs) -> CliResult {
     setup.reconnect_for = Duration::from_secs(args.reconnect);
     if let Some(spec) = &args.reference {
         // The standard as calibrate will read it (a table file must exist).
-        super::calibrate::standard(spec, 0.0)
-            .map_err(|e| CliError::usage(e.message.replacen("--standard", "--reference", 1)))?;
+        super::args::standard("--reference", spec, 0.0)?;
         let resume = format!(
             "gonio capture --port {} --reference {spec} --resume --out {}",
             args.port,

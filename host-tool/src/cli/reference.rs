@@ -62,25 +62,12 @@ pub fn resumed_specimen(setup: &CaptureSetup) -> CliResult<Specimen> {
 /// (the device reads K times the table's stated BRDF, interpolated as `gonio calibrate`
 /// does; host-side simulated device only).
 pub fn simulated_standard(spec: &str, cfg: &mut crate::device::SimConfig) -> CliResult {
-    let bad = |m: String| CliError::usage(format!("--reference {spec}: {m}"));
-    match spec.split_once(':') {
-        Some(("lambertian", r)) => {
-            let r: f64 = r
-                .trim()
-                .parse()
-                .map_err(|_| bad(format!("'{r}' is not a number")))?;
-            crate::calibrate::Standard::lambertian(r).map_err(|e| bad(e.to_string()))?;
-            cfg.reference = Some(r as f32);
-            Ok(())
-        }
-        Some(("table", _)) => {
-            let std = super::calibrate::standard(spec, 0.0)
-                .map_err(|e| CliError::usage(e.message.replacen("--standard", "--reference", 1)))?;
-            cfg.reference_table = Some(std::sync::Arc::new(std));
-            Ok(())
-        }
-        _ => Err(bad("use lambertian:R or table:FILE".into())),
+    let std = super::args::standard("--reference", spec, 0.0)?;
+    match std.lambertian_factor() {
+        Some(r) => cfg.reference = Some(r as f32),
+        None => cfg.reference_table = Some(std::sync::Arc::new(std)),
     }
+    Ok(())
 }
 
 /// What `--reference --resume` does with each of the session's two files: continue

@@ -18,6 +18,7 @@ pub mod check;
 pub mod liveness;
 pub mod plan;
 pub mod progress;
+pub mod reference;
 mod sweep;
 
 use sweep::{Outcome, Step, SweepState};

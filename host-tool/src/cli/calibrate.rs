@@ -9,6 +9,7 @@ use super::args::standard;
 use super::error::{CliError, CliResult};
 use super::output::write_stdout;
 use crate::calibrate::{self, Instrument, Quantity, now_utc};
+use crate::capture::reference::recorded_standard;
 use crate::outfile::{self, Target};
 use crate::sweep_file::read_sweep;
 
@@ -97,7 +98,7 @@ pub fn run(args: &CalibrateArgs) -> CliResult {
     for w in data.warnings() {
         eprintln!("gonio: warning: {name}: {w}");
     }
-    let recorded = super::reference::recorded_standard(&data);
+    let recorded = recorded_standard(&data);
     let spec = match (&args.standard, recorded) {
         (Some(given), Some(r)) if given != r => {
             eprintln!(

@@ -6,6 +6,7 @@ pub mod args;
 pub mod bench;
 pub mod calibrate;
 pub mod capture;
+pub mod capture_steps;
 pub mod convert;
 pub mod demo;
 pub mod demo_units;
@@ -18,7 +19,6 @@ pub mod import;
 pub mod info;
 pub mod output;
 pub mod ports;
-pub mod reference;
 pub mod simulate;
 
 pub use error::{CliError, CliResult, EXIT_FAILED, EXIT_USAGE};

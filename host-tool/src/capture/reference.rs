@@ -7,8 +7,11 @@ use std::sync::atomic::AtomicBool;
 
 use brdf_core::protocol::Specimen;
 
-use super::{CaptureError, CaptureReport, CaptureSetup, ProgressSink, capture};
-use crate::capture::plan::{HostPlan, PlanError};
+use super::error::CaptureError;
+use super::plan::{HostPlan, PlanError};
+use super::progress::ProgressSink;
+use super::run::capture;
+use super::setup::{CaptureReport, CaptureSetup};
 use crate::device::Connector;
 use crate::sweep_file::{SweepData, SweepFileError, SweepWriter, read_sweep};
 

@@ -1,6 +1,7 @@
 //! The command line: one file per command, each only its clap arguments and a `run`
 //! that calls the engines; [`args`] holds the argument groups and value parsers several
-//! commands share. Exit codes and [`CliError`] exist only here.
+//! commands share, [`capture_steps`] the capture steps `capture` and `simulate` share.
+//! Exit codes and [`CliError`] exist only here.
 
 pub mod args;
 pub mod bench;

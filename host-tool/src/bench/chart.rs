@@ -4,7 +4,7 @@ use std::path::Path;
 
 use plotters::prelude::*;
 
-use super::VariantResult;
+use super::variants::VariantResult;
 use crate::plot::{CrispText, FONT, PlotError, ensure_font, one_line};
 
 /// The speed-against-error chart of `gonio bench --plot`: every evaluation variant as a

@@ -1,7 +1,10 @@
 //! The text tables `gonio bench` prints: variants, the studies when run, and the
 //! comparison fits of `--fit-vs`.
 
-use super::{PlanResult, VariantResult, Versus};
+use super::starts::StartsRow;
+use super::study::{MemberRow, PlanResult, ScaleRow};
+use super::variants::VariantResult;
+use super::versus::Versus;
 
 /// The variants table `gonio bench` prints.
 pub fn variants_table(rows: &[VariantResult]) -> String {
@@ -38,7 +41,7 @@ pub fn plans_table(plans: &[PlanResult]) -> String {
 }
 
 /// The scale study's table (fit time against readings and incidences).
-pub fn scale_table(rows: &[super::ScaleRow]) -> String {
+pub fn scale_table(rows: &[ScaleRow]) -> String {
     let mut t = format!(
         "\n{:>9} {:>10} {:>12} {:>14} {:>12} {:>16} {:>16}\n",
         "readings",
@@ -67,7 +70,7 @@ pub fn scale_table(rows: &[super::ScaleRow]) -> String {
 }
 
 /// Speed against error per member on the Scatterworks test data.
-pub fn members_table(rows: &[super::MemberRow], family_ms: f64) -> String {
+pub fn members_table(rows: &[MemberRow], family_ms: f64) -> String {
     let mut t = format!(
         "\n{:<86} {:>9} {:>10}\n",
         "member (Scatterworks 532 nm, 716 readings)", "ms", "RMSE"
@@ -88,7 +91,7 @@ pub fn members_table(rows: &[super::MemberRow], family_ms: f64) -> String {
 }
 
 /// The multi-start's speed against its accuracy: the basin rule against every start.
-pub fn starts_table(rows: &[super::StartsRow]) -> String {
+pub fn starts_table(rows: &[StartsRow]) -> String {
     let mut t = format!(
         "\n{:<10} {:>7} {:>13} {:>17} {:>12} {:>8} {:>9} {:>10}\n",
         "preset",

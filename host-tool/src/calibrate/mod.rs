@@ -27,7 +27,7 @@ pub use instrument::{
     AbsoluteParam, FittedParam, Instrument, ParamKind, absolute_parameters, combine_uncertainty,
     now_utc, to_absolute,
 };
-pub use standard::{ReflectanceTable, Standard};
+pub use standard::{ReflectanceTable, SpecError, Standard};
 
 #[cfg(test)]
 mod sim_tests;

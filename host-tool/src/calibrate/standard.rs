@@ -17,10 +17,37 @@
 //! range (or a theta_i between groups that do not both cover its theta_r) is refused,
 //! never extrapolated.
 
+use std::fmt;
+use std::path::Path;
+
 use super::error::CalibrationError;
 
 /// Two angles closer than this (degrees) are the same table angle.
 pub const ANGLE_TOL_DEG: f64 = 1e-9;
+
+/// Largest certified table read (bytes).
+pub const MAX_TABLE_BYTES: u64 = 16 << 20;
+
+/// Why a standard's spec (`lambertian:R`, `table:FILE`) was refused. `Display` is one
+/// line without the spec itself, which the caller names with its own option.
+#[derive(Debug, Clone, PartialEq)]
+pub enum SpecError {
+    /// The spec: its form, its number, its file or its table.
+    Spec(String),
+    /// The relative uncertainty given with it.
+    Uncertainty(CalibrationError),
+}
+
+impl fmt::Display for SpecError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            SpecError::Spec(m) => f.write_str(m),
+            SpecError::Uncertainty(e) => e.fmt(f),
+        }
+    }
+}
+
+impl std::error::Error for SpecError {}
 
 /// A reference standard and the relative standard uncertainty of its stated
 /// reflectance factor (a scale error common to all readings: it adds to u(K)/K).
@@ -65,6 +92,48 @@ impl Standard {
             kind: Kind::Table(ReflectanceTable::parse(name, text)?),
             relative_uncertainty: 0.0,
         })
+    }
+
+    /// Parses `lambertian:R` (R in (0, 1]) or `table:FILE` (reading FILE, at most
+    /// [`MAX_TABLE_BYTES`]), with the relative uncertainty `uncertainty` of its
+    /// reflectance factor: the one spelling of a standard every command takes.
+    pub fn from_spec(spec: &str, uncertainty: f64) -> Result<Self, SpecError> {
+        let bad = |m: String| SpecError::Spec(m);
+        let s = match spec.split_once(':') {
+            Some(("lambertian", r)) => {
+                let r: f64 = r
+                    .trim()
+                    .parse()
+                    .map_err(|_| bad(format!("'{r}' is not a number")))?;
+                Standard::lambertian(r).map_err(|e| bad(e.to_string()))?
+            }
+            Some(("table", file)) if !file.is_empty() => {
+                let path = Path::new(file);
+                let len = std::fs::metadata(path)
+                    .map_err(|e| bad(format!("cannot read {file}: {e}")))?
+                    .len();
+                if len > MAX_TABLE_BYTES {
+                    return Err(bad(format!(
+                        "{file} is larger than {} MiB: not a certificate table",
+                        MAX_TABLE_BYTES >> 20
+                    )));
+                }
+                let text = std::fs::read_to_string(path)
+                    .map_err(|e| bad(format!("cannot read {file}: {e}")))?;
+                Standard::table(file, &text).map_err(|e| bad(e.to_string()))?
+            }
+            _ => return Err(bad("use lambertian:R or table:FILE".into())),
+        };
+        s.with_relative_uncertainty(uncertainty)
+            .map_err(SpecError::Uncertainty)
+    }
+
+    /// The reflectance factor R of a Lambertian standard; `None` for a table.
+    pub fn lambertian_factor(&self) -> Option<f64> {
+        match &self.kind {
+            Kind::Lambertian(r) => Some(*r),
+            Kind::Table(_) => None,
+        }
     }
 
     /// Sets the relative standard uncertainty of the stated reflectance factor (e.g.
@@ -358,5 +427,33 @@ mod tests {
             Standard::lambertian(0.99).unwrap().describe(),
             "lambertian:0.99"
         );
+    }
+
+    #[test]
+    fn a_spec_names_a_lambertian_or_a_table_file() {
+        let s = Standard::from_spec("lambertian: 0.98", 0.005).unwrap();
+        assert_eq!(s.lambertian_factor(), Some(0.98));
+        assert_eq!(s.relative_uncertainty(), 0.005);
+        let dir = std::env::temp_dir().join(format!("gonio-spec-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("ptfe.csv");
+        std::fs::write(&file, PTFE).unwrap();
+        let t = Standard::from_spec(&format!("table:{}", file.display()), 0.0).unwrap();
+        assert_eq!(t.lambertian_factor(), None);
+        assert_eq!(t.reflectance_factor(1, 0.0, 0.0).unwrap(), 1.0);
+        let _ = std::fs::remove_dir_all(&dir);
+        for (spec, want) in [
+            ("lambertian:x", "'x' is not a number"),
+            ("lambertian:1.5", "must be in (0, 1]"),
+            ("table:", "use lambertian:R or table:FILE"),
+            ("ptfe", "use lambertian:R or table:FILE"),
+            ("table:/nonexistent/t.csv", "cannot read /nonexistent/t.csv"),
+        ] {
+            let e = Standard::from_spec(spec, 0.0).unwrap_err();
+            assert!(matches!(e, SpecError::Spec(_)), "{spec}: {e:?}");
+            assert!(e.to_string().contains(want), "{spec}: {e}");
+        }
+        let e = Standard::from_spec("lambertian:0.9", 1.5).unwrap_err();
+        assert!(matches!(e, SpecError::Uncertainty(_)), "{e:?}");
     }
 }

@@ -8,7 +8,8 @@ use std::time::{Duration, Instant};
 
 use brdf_core::protocol::{ErrorCode, Event, Reading, SweepPlan};
 
-use super::DeviceSweep;
+use super::connect::DEVICE_TEXT_MAX;
+use super::plan::DeviceSweep;
 
 /// How long to listen after a SweepDone for readings that come late.
 pub(super) const LINGER: Duration = Duration::from_millis(200);
@@ -270,14 +271,14 @@ impl SweepState {
                     why: format!(
                         "the link corrupted the sweep command {} times in a row ({}); check the cable, then continue with --resume",
                         self.restarts,
-                        crate::text::escape_line(&e.detail, super::DEVICE_TEXT_MAX)
+                        crate::text::escape_line(&e.detail, DEVICE_TEXT_MAX)
                     ),
                     mark_failed: true,
                 },
                 _ => Step::Fail {
                     why: format!(
                         "device refused the sweep: {}",
-                        crate::text::escape_line(&e.detail, super::DEVICE_TEXT_MAX)
+                        crate::text::escape_line(&e.detail, DEVICE_TEXT_MAX)
                     ),
                     mark_failed: true,
                 },
@@ -291,7 +292,7 @@ impl SweepState {
                 Step::Fail {
                     why: format!(
                         "device error during the sweep: {}",
-                        crate::text::escape_line(&e.detail, super::DEVICE_TEXT_MAX)
+                        crate::text::escape_line(&e.detail, DEVICE_TEXT_MAX)
                     ),
                     mark_failed: true,
                 }

@@ -1,8 +1,16 @@
 //! Tests of the capture engine against the in-process simulated device.
 
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+use brdf_core::protocol::{Command, Event, Reading};
+
 use super::*;
-use crate::device::{InProcessConnector, InProcessDevice, SimConfig};
-use crate::sweep_file::{SweepFileError, read_sweep};
+use crate::device::{
+    Connector, FramedLink, InProcessConnector, InProcessDevice, LinkError, SimConfig, Transport,
+};
+use crate::sweep_file::{Counters, SweepFileError, SweepStatus, read_sweep};
 use brdf_core::Preset;
 
 fn sim(noise: f32) -> InProcessConnector {

@@ -1,6 +1,6 @@
 //! Argument groups shared by several commands (`--plan ...`, `--out ...`) and the
 //! parsers of structured values (`--theta-r` angle lists, `--loss`, `--export`,
-//! `--material/--noise`).
+//! `--material/--noise`, a reference standard's `lambertian:R|table:FILE`).
 
 use std::path::PathBuf;
 
@@ -9,6 +9,7 @@ use brdf_core::protocol::MAX_PLAN_POINTS;
 use clap::Args;
 
 use super::error::{CliError, CliResult};
+use crate::calibrate::{SpecError, Standard};
 use crate::capture::{DEFAULT_ADAPTIVE_BUDGET, HostPlan, SettingsOverride};
 use crate::device::SimConfig;
 use crate::export::ExportFormat;
@@ -178,6 +179,15 @@ pub fn sim_config(material: &str, noise: f32, seed: u32) -> CliResult<SimConfig>
         )));
     }
     Ok(SimConfig::new(preset, noise, seed))
+}
+
+/// The reference standard `SPEC` of `option` (`--standard`, `--reference`):
+/// [`Standard::from_spec`], its refusal one line naming the option and the spec.
+pub fn standard(option: &str, spec: &str, uncertainty: f64) -> CliResult<Standard> {
+    Standard::from_spec(spec, uncertainty).map_err(|e| match e {
+        SpecError::Spec(m) => CliError::usage(format!("{option} {spec}: {m}")),
+        SpecError::Uncertainty(e) => CliError::usage(format!("--standard-uncertainty: {e}")),
+    })
 }
 
 /// Longest timeout a command accepts (`info --timeout`, `capture --event-timeout`), s.

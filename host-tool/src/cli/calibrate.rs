@@ -1,18 +1,17 @@
 //! `gonio calibrate`: the instrument constant K from a sweep of a reference standard,
 //! written to an instrument file, with the per-reading departure table (and plot).
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
 
+use super::args::standard;
 use super::error::{CliError, CliResult};
 use super::output::write_stdout;
-use crate::calibrate::{self, Instrument, Quantity, Standard, now_utc};
+use crate::calibrate::{self, Instrument, Quantity, now_utc};
+use crate::capture::reference::recorded_standard;
 use crate::outfile::{self, Target};
 use crate::sweep_file::read_sweep;
-
-/// Largest certified table read (bytes).
-const MAX_TABLE_BYTES: u64 = 16 << 20;
 
 /// What the sweep's brdf column holds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -84,42 +83,10 @@ pub struct CalibrateArgs {
     pub json: bool,
 }
 
-/// Parses `lambertian:R` or `table:FILE` (reading FILE) with its uncertainty.
-pub fn standard(spec: &str, uncertainty: f64) -> CliResult<Standard> {
-    let bad = |m: String| CliError::usage(format!("--standard {spec}: {m}"));
-    let s = match spec.split_once(':') {
-        Some(("lambertian", r)) => {
-            let r: f64 = r
-                .trim()
-                .parse()
-                .map_err(|_| bad(format!("'{r}' is not a number")))?;
-            Standard::lambertian(r).map_err(|e| bad(e.to_string()))?
-        }
-        Some(("table", file)) if !file.is_empty() => {
-            let path = Path::new(file);
-            let len = std::fs::metadata(path)
-                .map_err(|e| bad(format!("cannot read {file}: {e}")))?
-                .len();
-            if len > MAX_TABLE_BYTES {
-                return Err(bad(format!(
-                    "{file} is larger than {} MiB: not a certificate table",
-                    MAX_TABLE_BYTES >> 20
-                )));
-            }
-            let text = std::fs::read_to_string(path)
-                .map_err(|e| bad(format!("cannot read {file}: {e}")))?;
-            Standard::table(file, &text).map_err(|e| bad(e.to_string()))?
-        }
-        _ => return Err(bad("use lambertian:R or table:FILE".into())),
-    };
-    s.with_relative_uncertainty(uncertainty)
-        .map_err(|e| CliError::usage(format!("--standard-uncertainty: {e}")))
-}
-
 /// Runs `gonio calibrate`.
 pub fn run(args: &CalibrateArgs) -> CliResult {
     if let Some(spec) = &args.standard {
-        standard(spec, args.standard_uncertainty)?;
+        standard("--standard", spec, args.standard_uncertainty)?;
     }
     let inputs = [args.reference.as_path()];
     outfile::check(Target::new(&args.out, args.force).inputs(&inputs))?;
@@ -131,7 +98,7 @@ pub fn run(args: &CalibrateArgs) -> CliResult {
     for w in data.warnings() {
         eprintln!("gonio: warning: {name}: {w}");
     }
-    let recorded = super::reference::recorded_standard(&data);
+    let recorded = recorded_standard(&data);
     let spec = match (&args.standard, recorded) {
         (Some(given), Some(r)) if given != r => {
             eprintln!(
@@ -148,7 +115,7 @@ pub fn run(args: &CalibrateArgs) -> CliResult {
             )));
         }
     };
-    let std = standard(spec, args.standard_uncertainty)?;
+    let std = standard("--standard", spec, args.standard_uncertainty)?;
     calibrate::sweep::require_relative(&name, &data, "calibrate")
         .map_err(|e| CliError::usage(e.to_string()))?;
     let (readings, _) = calibrate::sweep::readings(&data.rows);

@@ -1,18 +1,15 @@
 //! `gonio capture`: measures a sweep on a goniometer into a sweep file; Ctrl-C and a
-//! lost device leave a valid file that `--resume` continues. Also the capture steps
-//! `gonio simulate` shares.
+//! lost device leave a valid file that `--resume` continues.
 
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use clap::Args;
 
 use super::args::{OutArgs, PlanArgs};
-use super::error::{CliError, CliResult};
-use crate::capture::{CaptureReport, CaptureSetup, capture, progress};
-use crate::device::{Connector, SerialConnector};
-use crate::sweep_file::SweepStatus;
+use super::capture_steps::{run_session, run_with, setup_from};
+use super::error::CliResult;
+use crate::capture::reference::resumed_specimen;
+use crate::device::SerialConnector;
 
 /// `gonio capture`.
 #[derive(Debug, Args)]
@@ -66,96 +63,6 @@ pub struct CaptureArgs {
     pub reference: Option<String>,
 }
 
-/// The flag Ctrl-C sets.
-pub(super) fn interrupt_flag() -> Arc<AtomicBool> {
-    let flag = Arc::new(AtomicBool::new(false));
-    let f = flag.clone();
-    // A second Ctrl-C while the arms are being stopped ends the program at once (the
-    // file stays valid: every row is already on disk).
-    let _ = ctrlc::set_handler(move || {
-        if f.swap(true, Ordering::Relaxed) {
-            eprintln!("gonio: interrupted again, exiting now");
-            std::process::exit(1);
-        }
-    });
-    flag
-}
-
-/// The capture setup of `--plan ...` and `--out ...`. With `session` (`--reference`)
-/// and `--resume` the sample's file need not exist yet (the session may have stopped
-/// in its reference sweep): the plan options are checked against whichever of the
-/// session's two files exist.
-pub(super) fn setup_from(plan: &PlanArgs, out: &OutArgs, session: bool) -> CliResult<CaptureSetup> {
-    let path = out
-        .out
-        .clone()
-        .ok_or_else(|| CliError::usage("--out SWEEP.csv is required"))?;
-    let plan_args = plan;
-    let plan = if out.resume { None } else { Some(plan.plan()?) };
-    if out.resume && !session && !path.exists() {
-        return Err(CliError::usage(format!(
-            "--resume: {} does not exist",
-            path.display()
-        )));
-    }
-    if out.resume {
-        let mut files = vec![path.clone()];
-        if session {
-            files.push(super::reference::reference_path(&path));
-        }
-        for f in files.iter().filter(|f| f.exists()) {
-            plan_args.check_resume(f, &crate::sweep_file::read_sweep(f)?)?;
-        }
-    }
-    let mut setup = CaptureSetup::new(plan, path);
-    setup.resume = out.resume;
-    setup.force = out.force;
-    setup.raw = out.raw.clone();
-    Ok(setup)
-}
-
-pub(super) fn finish(report: &CaptureReport, out: &std::path::Path, resume: &str) -> CliResult {
-    let c = &report.counters;
-    let links = format!(
-        "{} gaps, {} dropped frames, {} timeouts{}{}",
-        c.gaps,
-        c.dropped,
-        c.timeouts,
-        if c.rejected > 0 {
-            format!(", {} rejected readings (measured again)", c.rejected)
-        } else {
-            String::new()
-        },
-        if report.reconnects > 0 {
-            format!(", {} reconnects", report.reconnects)
-        } else {
-            String::new()
-        }
-    );
-    let done = report.total - report.missing.len();
-    match report.status {
-        SweepStatus::Complete => {
-            eprintln!(
-                "gonio: {done}/{} readings in {} ({links})",
-                report.total,
-                out.display()
-            );
-            Ok(())
-        }
-        SweepStatus::Interrupted => Err(CliError::failed(format!(
-            "interrupted: {done}/{} readings in {}; continue with: {resume}",
-            report.total,
-            out.display()
-        ))),
-        _ => Err(CliError::failed(format!(
-            "{} of {} readings still missing in {} ({links}); continue with: {resume}",
-            report.missing.len(),
-            report.total,
-            out.display()
-        ))),
-    }
-}
-
 /// Runs `gonio capture`.
 pub fn run(args: &CaptureArgs) -> CliResult {
     let mut setup = setup_from(&args.plan, &args.out, args.reference.is_some())?;
@@ -163,14 +70,13 @@ pub fn run(args: &CaptureArgs) -> CliResult {
     setup.reconnect_for = Duration::from_secs(args.reconnect);
     if let Some(spec) = &args.reference {
         // The standard as calibrate will read it (a table file must exist).
-        super::calibrate::standard(spec, 0.0)
-            .map_err(|e| CliError::usage(e.message.replacen("--standard", "--reference", 1)))?;
+        super::args::standard("--reference", spec, 0.0)?;
         let resume = format!(
             "gonio capture --port {} --reference {spec} --resume --out {}",
             args.port,
             setup.out.display()
         );
-        return super::reference::run_session(
+        return run_session(
             &mut SerialConnector::new(&args.port),
             &setup,
             spec,
@@ -178,7 +84,7 @@ pub fn run(args: &CaptureArgs) -> CliResult {
             &resume,
         );
     }
-    setup.specimen = Some(super::reference::resumed_specimen(&setup)?);
+    setup.specimen = Some(resumed_specimen(&setup)?);
     let resume = format!(
         "gonio capture --port {} --resume --out {}",
         args.port,
@@ -190,21 +96,4 @@ pub fn run(args: &CaptureArgs) -> CliResult {
         args.out.quiet,
         &resume,
     )
-}
-
-/// Captures through `conn` with Ctrl-C handling and progress, then reports.
-pub(super) fn run_with<C: Connector>(
-    mut conn: C,
-    setup: &CaptureSetup,
-    quiet: bool,
-    resume: &str,
-) -> CliResult {
-    let flag = interrupt_flag();
-    let report = capture(
-        &mut conn,
-        setup,
-        progress::for_stderr(quiet).as_mut(),
-        &flag,
-    )?;
-    finish(&report, &setup.out, resume)
 }

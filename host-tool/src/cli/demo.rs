@@ -15,6 +15,7 @@ use super::args::sim_config;
 use super::error::{CliError, CliResult};
 use super::fit::fit_file;
 use super::output::write_stdout;
+use crate::capture::reference::{capture_pair, reference_path};
 use crate::capture::{CaptureSetup, HostPlan, SettingsOverride, progress};
 use crate::device::{InProcessDevice, SharedInProcessConnector};
 use crate::fit::{Dataset, FamilyFit, FitOptions, report};
@@ -76,7 +77,7 @@ pub fn run(args: &DemoArgs) -> CliResult {
     let mut prog = progress::for_stderr(args.quiet);
     // The standard first, then the sample (its readings do not depend on it).
     let standard = format!("lambertian:{}", super::demo_units::DEMO_REFERENCE);
-    let [_, report] = super::reference::capture_pair(&mut conn, &setup, &standard, prog.as_mut())?;
+    let [_, report] = capture_pair(&mut conn, &setup, &standard, prog.as_mut())?;
     drop(prog);
     let (data, fam) = fit_file(&sweep, &FitOptions::default())?;
     let mut out = format!(
@@ -94,12 +95,12 @@ pub fn run(args: &DemoArgs) -> CliResult {
     let chain = super::demo_units::absolute_chain(
         &args.dir,
         &sweep,
-        &super::reference::reference_path(&sweep),
+        &reference_path(&sweep),
         super::demo_units::DEMO_REFERENCE,
         cfg.preset,
     )?;
     out.push_str(&chain.text);
-    written.push(super::reference::reference_path(&sweep));
+    written.push(reference_path(&sweep));
     written.extend(chain.written);
     if !written.is_empty() {
         out.push_str("\nwritten:\n");

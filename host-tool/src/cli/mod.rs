@@ -1,11 +1,13 @@
 //! The command line: one file per command, each only its clap arguments and a `run`
 //! that calls the engines; [`args`] holds the argument groups and value parsers several
-//! commands share. Exit codes and [`CliError`] exist only here.
+//! commands share, [`capture_steps`] the capture steps `capture` and `simulate` share.
+//! Exit codes and [`CliError`] exist only here.
 
 pub mod args;
 pub mod bench;
 pub mod calibrate;
 pub mod capture;
+pub mod capture_steps;
 pub mod convert;
 pub mod demo;
 pub mod demo_units;
@@ -18,7 +20,6 @@ pub mod import;
 pub mod info;
 pub mod output;
 pub mod ports;
-pub mod reference;
 pub mod simulate;
 
 pub use error::{CliError, CliResult, EXIT_FAILED, EXIT_USAGE};

@@ -7,10 +7,13 @@ use std::time::Duration;
 use clap::Args;
 
 use super::args::{OutArgs, PlanArgs, sim_config};
-use super::capture::{interrupt_flag, run_with, setup_from};
+use super::capture_steps::{interrupt_flag, run_session, run_with, setup_from};
 use super::error::{CliError, CliResult};
 use super::output::write_stdout;
-use crate::device::{InProcessConnector, InProcessDevice, PtyDevice, SharedInProcessConnector};
+use crate::capture::reference::{recorded_standard, resumed_specimen};
+use crate::device::{
+    InProcessConnector, InProcessDevice, PtyDevice, SharedInProcessConnector, SimConfig,
+};
 
 /// `gonio simulate`.
 #[derive(Debug, Args)]
@@ -74,7 +77,7 @@ pub fn run(args: &SimulateArgs) -> CliResult {
         cfg.speed = Some(speed);
     }
     if let Some(spec) = &args.reference {
-        super::reference::simulated_standard(spec, &mut cfg)?;
+        simulated_standard(spec, &mut cfg)?;
     }
     if args.pty {
         let dev = PtyDevice::start(&cfg)
@@ -105,14 +108,14 @@ pub fn run(args: &SimulateArgs) -> CliResult {
             args.material,
             setup.out.display()
         );
-        return super::reference::run_session(conn, &setup, spec, args.out.quiet, &resume);
+        return run_session(conn, &setup, spec, args.out.quiet, &resume);
     }
-    setup.specimen = Some(super::reference::resumed_specimen(&setup)?);
+    setup.specimen = Some(resumed_specimen(&setup)?);
     if setup.specimen == Some(brdf_core::protocol::Specimen::Reference) {
         // Resuming a reference sweep: the device carries the standard the file names.
         let data = crate::sweep_file::read_sweep(&setup.out)?;
-        let spec = super::reference::recorded_standard(&data).unwrap_or_default();
-        super::reference::simulated_standard(spec, &mut cfg)?;
+        let spec = recorded_standard(&data).unwrap_or_default();
+        simulated_standard(spec, &mut cfg)?;
         sample = data.meta["sample"].clone();
     } else if setup.resume {
         check_sample(&setup.out, &sample)?;
@@ -157,5 +160,49 @@ fn check_sample(path: &std::path::Path, sample: &str) -> CliResult {
             crate::text::escape_line(recorded, 80)
         ))),
         _ => Ok(()),
+    }
+}
+
+/// Gives the simulated device `cfg` the standard of `--reference SPEC`: a Lambertian
+/// diffuser `lambertian:R` (as the QEMU board's), or a certified table `table:FILE`
+/// (the device reads K times the table's stated BRDF, interpolated as `gonio calibrate`
+/// does; host-side simulated device only).
+fn simulated_standard(spec: &str, cfg: &mut SimConfig) -> CliResult {
+    let std = super::args::standard("--reference", spec, 0.0)?;
+    match std.lambertian_factor() {
+        Some(r) => cfg.reference = Some(r as f32),
+        None => cfg.reference_table = Some(std::sync::Arc::new(std)),
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_simulated_standard_is_lambertian_or_a_table() {
+        let fe = brdf_core::Preset::by_name("fe-0.115").unwrap();
+        let mut cfg = SimConfig::new(fe, 0.0, 1);
+        simulated_standard("lambertian:0.985", &mut cfg).unwrap();
+        assert_eq!(cfg.reference, Some(0.985));
+        let dir = crate::outfile::test_dir("sim-standard");
+        std::fs::create_dir_all(&dir).unwrap();
+        let table = dir.join("ptfe.csv");
+        std::fs::write(&table, "0,-80,0.9\n0,80,0.9\n80,-80,0.8\n80,80,1.1\n").unwrap();
+        let spec = format!("table:{}", table.display());
+        simulated_standard(&spec, &mut cfg).unwrap();
+        let t = cfg.reference_table.as_ref().unwrap();
+        assert!((t.factor_within(40.0, 0.0, 0.0).unwrap() - 0.925).abs() < 1e-12);
+        for bad in [
+            "lambertian:1.5",
+            "lambertian:x",
+            "table:/nonexistent",
+            "ptfe",
+        ] {
+            let e = simulated_standard(bad, &mut cfg).unwrap_err().to_string();
+            assert!(e.contains("--reference"), "{bad}: {e}");
+        }
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -285,6 +285,17 @@ pub fn check_info(info: &Info) -> Result<(), String> {
     Ok(())
 }
 
+/// Opens (and re-opens) the link to a device.
+pub trait Connector {
+    /// The transport it yields.
+    type T: Transport;
+    /// Opens the link; does not handshake.
+    fn connect(&mut self) -> Result<FramedLink<Self::T>, LinkError>;
+    /// Whether trying again after a lost link can help (a serial device may come back;
+    /// an in-process one cannot get lost).
+    fn can_reconnect(&self) -> bool;
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -5,8 +5,8 @@ use std::io::{self, Read, Write};
 use std::path::Path;
 use std::time::Duration;
 
-use super::link::{FramedLink, LinkError, Transport};
-use super::{Connector, ports};
+use super::link::{Connector, FramedLink, LinkError, Transport};
+use super::ports;
 
 /// A serial port (USB CDC device or pseudo-terminal).
 pub struct SerialTransport {

@@ -21,8 +21,7 @@ use brdf_core::protocol::Specimen;
 use brdf_core::service::{Link, Service};
 use brdf_core::sim::{SIM_K, SimArm, SimPin, VirtualSample, simulated_controller};
 
-use super::Connector;
-use super::link::{FramedLink, LinkError, Transport};
+use super::link::{Connector, FramedLink, LinkError, Transport};
 
 /// The simulated controller type.
 pub type SimService = Service<SimArm, SimArm, SimPin, SimDetector>;

@@ -2,7 +2,7 @@
 
 use std::io::{self, Write};
 
-use super::MemberTable;
+use super::mitsuba::MemberTable;
 
 /// The in-plane grid: `theta_i` 0..90 and `theta_r` -90..90 in 1-degree steps, without
 /// the singular point theta_i = theta_r = 90 (no half vector), evaluated by brdf-core's

@@ -5,7 +5,7 @@
 use brdf_core::member::KsForm;
 use serde_json::{Value, json};
 
-use super::MemberTable;
+use super::mitsuba::MemberTable;
 use crate::fit::{FamilyFit, report};
 
 /// The JSON export of the member of `table`: `report::member_json` (the object `gonio

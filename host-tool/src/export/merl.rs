@@ -7,7 +7,7 @@ use std::path::Path;
 
 use brdf_core::Geometry;
 
-use super::MemberTable;
+use super::mitsuba::MemberTable;
 
 /// Table dimensions as the file header gives them: theta_half, theta_diff, phi_diff.
 pub const MERL_DIMS: [usize; 3] = [90, 90, 180];

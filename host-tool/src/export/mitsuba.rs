@@ -25,7 +25,7 @@ use brdf_core::member::Member;
 use brdf_core::member_model::{DirectionalParams, Ks, LobeParams, MemberModel, MemberParams};
 use serde_json::{Map, Value, json};
 
-use super::{ExportError, write_atomic};
+use super::error::{ExportError, write_atomic};
 use crate::fit::member_fit::MemberFit;
 use crate::outfile::Target;
 

@@ -34,15 +34,13 @@
 //!   value * 1500 / 1.66 so that the reference reader's scales ([`MERL_SCALE`]) give the
 //!   value back.
 
-use std::fmt;
-use std::io::{self, Write};
-
 use brdf_core::member::Member;
 
 use crate::fit::FamilyFit;
-use crate::outfile::{self, OutError, Target};
+use crate::outfile::{self, Target};
 
 mod csv;
+mod error;
 mod json;
 mod merl;
 pub mod mitsuba;
@@ -52,38 +50,8 @@ pub use merl::{MERL_DIMS, MERL_INVALID, MERL_LEN, MERL_MAX_RATIO, MERL_SCALE, Me
 pub use mitsuba::MemberTable;
 pub use residuals::{residual_value, write_residuals};
 
-/// Why an export failed.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum ExportError {
-    /// The model asked for was not fitted (bad input); the message names those that were.
-    NotFitted(String),
-    /// The target may not be written (not a regular file, the input, or existing
-    /// without `--force`): bad input, nothing written.
-    Refused(String),
-    /// The file could not be written (the message names it); nothing is left under its name.
-    Write(String),
-}
-
-impl From<OutError> for ExportError {
-    fn from(e: OutError) -> Self {
-        match e {
-            OutError::Refused(m) => ExportError::Refused(m),
-            OutError::Io(m) => ExportError::Write(m),
-        }
-    }
-}
-
-impl fmt::Display for ExportError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            ExportError::NotFitted(m) | ExportError::Refused(m) | ExportError::Write(m) => {
-                f.write_str(m)
-            }
-        }
-    }
-}
-
-impl std::error::Error for ExportError {}
+pub use error::ExportError;
+pub(crate) use error::{not_fitted, write_atomic};
 
 /// What to export.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -185,23 +153,6 @@ pub fn fitted_table(fam: &FamilyFit, member: Member) -> Result<MemberTable, Expo
     Ok(table)
 }
 
-/// [`ExportError::NotFitted`] for `member`, naming the fitted members.
-pub(crate) fn not_fitted(fam: &FamilyFit, member: Member) -> ExportError {
-    let fitted: Vec<String> = fam
-        .candidates
-        .iter()
-        .map(|c| c.member.to_string())
-        .collect();
-    ExportError::NotFitted(format!(
-        "model {member} was not fitted (by default gonio fits only what its selection needs: name it in --models to fit it); fitted models: {}",
-        if fitted.is_empty() {
-            "none".to_string()
-        } else {
-            fitted.join(", ")
-        }
-    ))
-}
-
 /// The files an export to `path` writes: `path` itself, or for a Mitsuba export the
 /// files inside the directory `path` (for checking every target before any work).
 pub fn targets(format: ExportFormat, path: &std::path::Path) -> Vec<std::path::PathBuf> {
@@ -209,14 +160,6 @@ pub fn targets(format: ExportFormat, path: &std::path::Path) -> Vec<std::path::P
         ExportFormat::Mitsuba => mitsuba::files(path),
         _ => vec![path.to_path_buf()],
     }
-}
-
-/// Writes through [`outfile::write`]: checked target, temporary file, sync, rename.
-pub(crate) fn write_atomic(
-    target: Target<'_>,
-    body: impl FnOnce(&mut dyn Write) -> io::Result<()>,
-) -> Result<(), ExportError> {
-    Ok(outfile::write(target, body)?)
 }
 
 #[cfg(test)]

@@ -3,7 +3,7 @@
 
 use std::io::{self, Write};
 
-use super::{ExportError, write_atomic};
+use super::error::{ExportError, write_atomic};
 use brdf_core::member::Member;
 
 use crate::fit::{Dataset, FamilyFit, Residual, goodness};
@@ -41,8 +41,8 @@ pub fn write_residuals(
     member: Member,
     residual: Residual,
 ) -> Result<(), ExportError> {
-    let fitted =
-        goodness::fitted_of(fam, data, member).ok_or_else(|| super::not_fitted(fam, member))?;
+    let fitted = goodness::fitted_of(fam, data, member)
+        .ok_or_else(|| super::error::not_fitted(fam, member))?;
     write_atomic(target, |mut w| {
         write_rows(&mut w, data, member, &fitted, residual)
     })

@@ -13,7 +13,8 @@ use probe_rs::probe::list::{Accessibility, Lister};
 use probe_rs::probe::{DebugProbeError, DebugProbeInfo, DebugProbeSelector, Probe};
 use probe_rs::{Permissions, Session};
 
-use super::{FlashError, NO_PROBE, ProbeSelector};
+use super::error::FlashError;
+use super::select::{DEFAULT_CHIP, NO_PROBE, ProbeSelector};
 
 /// An error and its sources on one line, without repeats.
 fn chain(e: &dyn StdError) -> String {
@@ -174,7 +175,7 @@ pub(super) fn flash(
         .map_err(|e| match e {
             RegistryError::ChipNotFound(_) => FlashError::Input(format!(
                 "--chip '{chip}': probe-rs knows no such chip (the board's is {})",
-                super::DEFAULT_CHIP
+                DEFAULT_CHIP
             )),
             other => FlashError::Input(format!("--chip '{chip}': {}", chain(&other))),
         })?;

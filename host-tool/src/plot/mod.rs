@@ -10,7 +10,6 @@
 //! PNGs the glyphs are drawn by [`CrispText`] (ab_glyph with correct glyph placement);
 //! the SVGs name the family `sans-serif` and leave the glyphs to the viewer.
 
-use std::fmt;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
@@ -18,6 +17,7 @@ use plotters::style::{FontStyle, register_font};
 
 use crate::fit::{Dataset, FamilyFit};
 
+mod error;
 mod figures;
 mod render;
 mod text;
@@ -32,17 +32,7 @@ use figures::{
 #[cfg(test)]
 use render::{log_ticks, tick_text};
 
-/// A figure that could not be written (one line naming the path); the job failed.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct PlotError(pub String);
-
-impl fmt::Display for PlotError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-impl std::error::Error for PlotError {}
+pub use error::PlotError;
 
 /// Writes the figures of `fam` (fitted to `data`) into `dir`, creating it if needed, and
 /// returns the files written, in order:

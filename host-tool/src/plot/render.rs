@@ -7,7 +7,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters_backend::text_anchor::{HPos, Pos, VPos};
 
-use super::PlotError;
+use super::error::PlotError;
 use super::figures::{Figure, Swatch, angle_text, wrap};
 use super::text::CrispText;
 

@@ -24,8 +24,7 @@
 //! rewritten in place when the capture ends; `points` lists the whole plan (after the
 //! exclusion zone) so `--resume` knows what is missing; `seq` indexes it.
 
-use std::fmt;
-
+mod format;
 mod read;
 mod units;
 mod write;
@@ -37,129 +36,7 @@ pub use read::{
 pub use units::{BRDF_KEY, BrdfUnits, refuse_mixed};
 pub use write::SweepWriter;
 
-/// Why a sweep file could not be read or written.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum SweepFileError {
-    /// The file (or the request) is wrong: unreadable, malformed, not a capture file,
-    /// or already there without `force`. One line, naming the file.
-    Invalid(String),
-    /// Writing or syncing failed (disk full, unplugged...). One line, naming the file.
-    Io(String),
-}
-
-impl fmt::Display for SweepFileError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            SweepFileError::Invalid(m) | SweepFileError::Io(m) => f.write_str(m),
-        }
-    }
-}
-
-impl std::error::Error for SweepFileError {}
-
-/// Columns the capture writes, in order.
-pub const COLUMNS: [&str; 7] = ["theta_i", "theta_r", "brdf", "std", "n", "seq", "t_ms"];
-
-/// One row of a sweep file. Optional columns are `None` when the file lacks them.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Row {
-    /// Incidence angle (degrees).
-    pub theta_i: f64,
-    /// Signed detector angle (degrees).
-    pub theta_r: f64,
-    /// BRDF, in the file's [`BrdfUnits`].
-    pub brdf: f64,
-    /// Standard deviation of one sample.
-    pub std: Option<f64>,
-    /// Samples averaged.
-    pub n: Option<u32>,
-    /// Index in the plan.
-    pub seq: Option<u32>,
-    /// Milliseconds since the sweep started.
-    pub t_ms: Option<u64>,
-}
-
-/// How a capture ended, as the status line says.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum SweepStatus {
-    /// Still running, or the process died.
-    Running,
-    /// Every point measured.
-    Complete,
-    /// Stopped by the user (Ctrl-C); `--resume` continues.
-    Interrupted,
-    /// Stopped by an error; `--resume` continues.
-    Failed,
-}
-
-impl SweepStatus {
-    /// The word in the status line.
-    pub fn word(self) -> &'static str {
-        match self {
-            SweepStatus::Running => "running",
-            SweepStatus::Complete => "complete",
-            SweepStatus::Interrupted => "interrupted",
-            SweepStatus::Failed => "failed",
-        }
-    }
-}
-
-/// The counters in the status line.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct Counters {
-    /// Rows in the file.
-    pub readings: u64,
-    /// Plan points without a row.
-    pub missing: u64,
-    /// Readings the device sent that never arrived (sequence gaps seen live).
-    pub gaps: u64,
-    /// Frames dropped on the way in (CRC, COBS, length, undecodable).
-    pub dropped: u64,
-    /// Times the device went quiet for longer than the event timeout.
-    pub timeouts: u64,
-    /// Readings that arrived and failed the capture's checks (a value or std not
-    /// finite, angles away from their plan point, a seq outside the sweep): not
-    /// written, their points measured again.
-    pub rejected: u64,
-}
-
-pub(crate) const STATUS_PREFIX: &str = "# status: ";
-
-/// The status line; `with_rejected` false keeps the width of files written before the
-/// `rejected` counter existed (a resumed old file is rewritten in place).
-pub(crate) fn status_line(status: SweepStatus, c: &Counters, with_rejected: bool) -> String {
-    // Fixed width: 7 digits per counter, so the line can be rewritten in place.
-    let rejected = if with_rejected {
-        format!(" rejected={:07}", c.rejected.min(9_999_999))
-    } else {
-        String::new()
-    };
-    format!(
-        "{STATUS_PREFIX}{:<12} readings={:07} missing={:07} gaps={:07} dropped={:07} timeouts={:07}{rejected}\n",
-        status.word(),
-        c.readings.min(9_999_999),
-        c.missing.min(9_999_999),
-        c.gaps.min(9_999_999),
-        c.dropped.min(9_999_999),
-        c.timeouts.min(9_999_999)
-    )
-}
-
-/// Metadata of a new sweep file.
-#[derive(Debug, Clone)]
-pub struct Header {
-    /// Device description (board, firmware, protocol).
-    pub device: String,
-    /// Plan description (`paper`, `custom ...`, `adaptive ...`, `file.toml`).
-    pub plan: String,
-    /// Per-point settings, `key=value` words.
-    pub settings: String,
-    /// What is measured, where the capture knows it (a simulated device's material):
-    /// the `# sample:` line; `--resume` refuses another sample.
-    pub sample: Option<String>,
-    /// Every plan point (theta_i, theta_r) in degrees, in plan order.
-    pub points: Vec<(f32, f32)>,
-}
+pub use format::{COLUMNS, Counters, Header, Row, SweepFileError, SweepStatus};
 
 #[cfg(test)]
 mod tests;

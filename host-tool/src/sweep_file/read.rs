@@ -5,7 +5,8 @@ use std::collections::BTreeMap;
 use std::io::Read;
 use std::path::Path;
 
-use super::{COLUMNS, Counters, Row, STATUS_PREFIX, SweepFileError};
+use super::format::{COLUMNS, Counters, Row, STATUS_PREFIX, SweepFileError};
+use super::units::{BRDF_KEY, BrdfUnits};
 use crate::text::escape_line;
 
 /// Largest sweep file read (bytes): a 240-point capture is about 10 kB, a dense
@@ -554,4 +555,20 @@ fn parse_counters(line: &str) -> Counters {
         }
     }
     c
+}
+
+impl SweepData {
+    /// The units the file declares on its `# brdf:` line, `None` without one.
+    /// (The reader has already refused a line it cannot parse.)
+    pub fn declared_brdf_units(&self) -> Option<BrdfUnits> {
+        self.meta
+            .get(BRDF_KEY)
+            .map(|v| BrdfUnits::parse(v).unwrap_or_default())
+    }
+
+    /// The units of the brdf column: as declared, else relative (the default of a
+    /// capture file written before the line existed, and of files from other tools).
+    pub fn brdf_units(&self) -> BrdfUnits {
+        self.declared_brdf_units().unwrap_or_default()
+    }
 }

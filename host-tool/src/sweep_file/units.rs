@@ -3,8 +3,6 @@
 
 use std::fmt;
 
-use super::SweepData;
-
 /// The metadata key of the line (`# brdf: 1/sr`).
 pub const BRDF_KEY: &str = "brdf";
 
@@ -58,22 +56,6 @@ impl BrdfUnits {
 impl fmt::Display for BrdfUnits {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.word())
-    }
-}
-
-impl SweepData {
-    /// The units the file declares on its `# brdf:` line, `None` without one.
-    /// (The reader has already refused a line it cannot parse.)
-    pub fn declared_brdf_units(&self) -> Option<BrdfUnits> {
-        self.meta
-            .get(BRDF_KEY)
-            .map(|v| BrdfUnits::parse(v).unwrap_or_default())
-    }
-
-    /// The units of the brdf column: as declared, else relative (the default of a
-    /// capture file written before the line existed, and of files from other tools).
-    pub fn brdf_units(&self) -> BrdfUnits {
-        self.declared_brdf_units().unwrap_or_default()
     }
 }
 

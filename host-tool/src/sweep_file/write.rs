@@ -10,7 +10,9 @@ use std::path::{Path, PathBuf};
 use std::os::unix::fs::OpenOptionsExt;
 use std::os::unix::io::AsRawFd;
 
-use super::{COLUMNS, Counters, Header, Row, SweepData, SweepFileError, SweepStatus, status_line};
+use super::format::{COLUMNS, Counters, Header, Row, SweepFileError, SweepStatus, status_line};
+use super::read::SweepData;
+use super::units::BrdfUnits;
 use crate::outfile::{self, OutError, Target};
 
 /// Takes the exclusive lock of a sweep file, or says who holds it.
@@ -87,7 +89,7 @@ impl SweepWriter {
         }
         text.push_str("# units: degrees\n");
         // A capture records the instrument's readings: relative until `gonio convert`.
-        text.push_str(&super::BrdfUnits::Relative.header_line());
+        text.push_str(&BrdfUnits::Relative.header_line());
         text.push_str(&format!("# plan: {}\n", header.plan));
         text.push_str(&format!("# settings: {}\n", header.settings));
         text.push_str(&format!(
@@ -143,7 +145,7 @@ impl SweepWriter {
                 data.columns
             )));
         }
-        if data.brdf_units() != super::BrdfUnits::Relative {
+        if data.brdf_units() != BrdfUnits::Relative {
             return Err(SweepFileError::Invalid(format!(
                 "{}: its brdf is in {} (a converted file): resume the relative capture it came from, then convert again",
                 path.display(),

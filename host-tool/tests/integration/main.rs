@@ -11,6 +11,7 @@ mod fault_injection;
 mod fit_cli;
 mod golden;
 mod hostile;
+mod module_graph;
 mod ports_flash;
 mod units_chain;
 mod units_cli;

@@ -1,17 +1,19 @@
-//! `capture --reference` / `simulate --reference`: the reference standard measured in
-//! the same session as the sample, into a file beside the sample's whose `# sample:`
-//! line names the standard, so `gonio calibrate` needs nothing but that file.
+//! A reference session: the reference standard measured in the same session as the
+//! sample, into a file beside the sample's whose `# sample:` line names the standard
+//! (so `gonio calibrate` needs nothing but that file); resuming such a session.
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
 use brdf_core::protocol::Specimen;
 
-use super::capture::{finish, interrupt_flag};
-use super::error::{CliError, CliResult};
-use crate::capture::{CaptureSetup, capture, progress};
+use super::error::CaptureError;
+use super::plan::{HostPlan, PlanError};
+use super::progress::ProgressSink;
+use super::run::capture;
+use super::setup::{CaptureReport, CaptureSetup};
 use crate::device::Connector;
-use crate::sweep_file::{SweepData, SweepWriter};
+use crate::sweep_file::{SweepData, SweepFileError, SweepWriter, read_sweep};
 
 /// How a reference sweep's `# sample:` line starts; the standard follows.
 pub const SAMPLE_PREFIX: &str = "reference standard ";
@@ -46,41 +48,15 @@ pub fn recorded_standard(data: &SweepData) -> Option<&str> {
 
 /// What `--resume` puts on the stage: the reference standard for a file that records
 /// one, else the sample.
-pub fn resumed_specimen(setup: &CaptureSetup) -> CliResult<Specimen> {
+pub fn resumed_specimen(setup: &CaptureSetup) -> Result<Specimen, SweepFileError> {
     if !setup.resume {
         return Ok(Specimen::Sample);
     }
-    let data = crate::sweep_file::read_sweep(&setup.out)?;
+    let data = read_sweep(&setup.out)?;
     Ok(match recorded_standard(&data) {
         Some(_) => Specimen::Reference,
         None => Specimen::Sample,
     })
-}
-
-/// Gives the simulated device `cfg` the standard of `--reference SPEC`: a Lambertian
-/// diffuser `lambertian:R` (as the QEMU board's), or a certified table `table:FILE`
-/// (the device reads K times the table's stated BRDF, interpolated as `gonio calibrate`
-/// does; host-side simulated device only).
-pub fn simulated_standard(spec: &str, cfg: &mut crate::device::SimConfig) -> CliResult {
-    let bad = |m: String| CliError::usage(format!("--reference {spec}: {m}"));
-    match spec.split_once(':') {
-        Some(("lambertian", r)) => {
-            let r: f64 = r
-                .trim()
-                .parse()
-                .map_err(|_| bad(format!("'{r}' is not a number")))?;
-            crate::calibrate::Standard::lambertian(r).map_err(|e| bad(e.to_string()))?;
-            cfg.reference = Some(r as f32);
-            Ok(())
-        }
-        Some(("table", _)) => {
-            let std = super::calibrate::standard(spec, 0.0)
-                .map_err(|e| CliError::usage(e.message.replacen("--standard", "--reference", 1)))?;
-            cfg.reference_table = Some(std::sync::Arc::new(std));
-            Ok(())
-        }
-        _ => Err(bad("use lambertian:R or table:FILE".into())),
-    }
 }
 
 /// What `--reference --resume` does with each of the session's two files: continue
@@ -93,7 +69,7 @@ pub struct SessionResume {
     /// The sample sweep exists: continue it.
     pub sample: bool,
     /// The plan of a file still to start (the other file's recorded plan).
-    pub plan: Option<crate::capture::HostPlan>,
+    pub plan: Option<HostPlan>,
 }
 
 /// Plans `--reference STANDARD --resume` of the session writing `sample` (and its
@@ -101,20 +77,20 @@ pub struct SessionResume {
 /// must be a sweep of this standard, the sample file not a reference sweep, and when
 /// both exist they must hold the same plan (points and settings), or the session is
 /// refused with one line before the device is touched.
-pub fn plan_session_resume(sample: &Path, standard: &str) -> CliResult<SessionResume> {
+pub fn plan_session_resume(sample: &Path, standard: &str) -> Result<SessionResume, CaptureError> {
     let ref_out = reference_path(sample);
-    let read = |p: &Path| -> CliResult<Option<SweepData>> {
+    let read = |p: &Path| -> Result<Option<SweepData>, SweepFileError> {
         if p.exists() {
-            Ok(Some(crate::sweep_file::read_sweep(p)?))
+            Ok(Some(read_sweep(p)?))
         } else {
             Ok(None)
         }
     };
     let (r, s) = (read(&ref_out)?, read(sample)?);
     let refuse = |m: String| {
-        Err(CliError::usage(format!(
+        Err(CaptureError::Plan(PlanError(format!(
             "--resume --reference {standard}: {m}"
-        )))
+        ))))
     };
     if let Some(r) = &r {
         match recorded_standard(r) {
@@ -167,8 +143,8 @@ pub fn plan_session_resume(sample: &Path, standard: &str) -> CliResult<SessionRe
         (Some(d), None) | (None, Some(d)) => {
             let (desc, points, settings) = plan_of(d);
             Some(
-                crate::capture::HostPlan::from_recorded(&desc, &points, &settings)
-                    .map_err(|e| CliError::usage(format!("--resume: {e}")))?,
+                HostPlan::from_recorded(&desc, &points, &settings)
+                    .map_err(|e| PlanError(format!("--resume: {e}")))?,
             )
         }
     };
@@ -179,56 +155,29 @@ pub fn plan_session_resume(sample: &Path, standard: &str) -> CliResult<SessionRe
     })
 }
 
-/// Measures the reference standard `standard` (into [`reference_path`] of the sample's
-/// file), then the sample, through `conn` in one session: the device is told which is
-/// on the stage (`Mount`). Both files are checked before the device is touched; a
-/// reference sweep that does not complete stops the session before the sample.
-/// With `setup.resume` the session is continued ([`plan_session_resume`]): each file
-/// that exists is resumed (nothing already measured is measured again or lost), a file
-/// not yet started gets the other's plan. `resume` is the command that continues the
-/// session.
-pub fn run_session<C: Connector>(
-    conn: &mut C,
-    setup: &CaptureSetup,
-    standard: &str,
-    quiet: bool,
-    resume: &str,
-) -> CliResult {
-    let [reference, sample] = session_setups(setup, standard)?;
-    let flag = interrupt_flag();
-    for (i, s) in [reference, sample].iter().enumerate() {
-        if !quiet {
-            eprintln!(
-                "gonio: {} of 2: {} into {}{}",
-                i + 1,
-                if i == 0 {
-                    format!("reference standard {standard}")
-                } else {
-                    "sample".to_string()
-                },
-                s.out.display(),
-                if s.resume { " (continued)" } else { "" }
-            );
-        }
-        let report = capture(conn, s, progress::for_stderr(quiet).as_mut(), &flag)?;
-        finish(&report, &s.out, resume)?;
-        if flag.load(std::sync::atomic::Ordering::Relaxed) {
-            return Err(CliError::failed("interrupted"));
-        }
-    }
-    Ok(())
-}
-
-/// The two captures of a session: the reference standard's, then the sample's
-/// (checked, or planned for `--resume`, before the device is touched).
-fn session_setups(setup: &CaptureSetup, standard: &str) -> CliResult<[CaptureSetup; 2]> {
-    let ref_out = reference_path(&setup.out);
+/// The two captures of a session of `standard` around `setup` (the sample's): the
+/// reference standard's into [`reference_path`], then the sample's, each telling the
+/// device which is on the stage (`Mount`). Nothing is checked.
+fn pair(setup: &CaptureSetup, standard: &str) -> [CaptureSetup; 2] {
     let mut reference = setup.clone();
-    reference.out = ref_out.clone();
+    reference.out = reference_path(&setup.out);
     reference.sample = Some(sample_line(standard, &setup.out));
     reference.specimen = Some(Specimen::Reference);
     let mut sample = setup.clone();
     sample.specimen = Some(Specimen::Sample);
+    [reference, sample]
+}
+
+/// The two captures of a session: the reference standard's, then the sample's. Both
+/// files are checked before the device is touched; with `setup.resume` the session is
+/// continued ([`plan_session_resume`]): each file that exists is resumed (nothing
+/// already measured is measured again or lost), a file not yet started gets the
+/// other's plan.
+pub fn session_setups(
+    setup: &CaptureSetup,
+    standard: &str,
+) -> Result<[CaptureSetup; 2], CaptureError> {
+    let [mut reference, mut sample] = pair(setup, standard);
     if setup.resume {
         let plan = plan_session_resume(&setup.out, standard)?;
         reference.resume = plan.reference;
@@ -242,24 +191,20 @@ fn session_setups(setup: &CaptureSetup, standard: &str) -> CliResult<[CaptureSet
         }
     } else {
         SweepWriter::check_new(&setup.out, setup.force)?;
-        SweepWriter::check_new(&ref_out, setup.force)?;
+        SweepWriter::check_new(&reference.out, setup.force)?;
     }
     Ok([reference, sample])
 }
 
-/// [`run_session`] without Ctrl-C handling or a resume hint (the demo's own files).
+/// Captures the reference standard `standard`, then the sample, through `conn`, with
+/// no interruption and no file checks beyond the captures' own (the demo's files).
 pub fn capture_pair<C: Connector>(
     conn: &mut C,
     setup: &CaptureSetup,
     standard: &str,
-    prog: &mut dyn crate::capture::ProgressSink,
-) -> CliResult<[crate::capture::CaptureReport; 2]> {
-    let mut reference = setup.clone();
-    reference.out = reference_path(&setup.out);
-    reference.sample = Some(sample_line(standard, &setup.out));
-    reference.specimen = Some(Specimen::Reference);
-    let mut sample = setup.clone();
-    sample.specimen = Some(Specimen::Sample);
+    prog: &mut dyn ProgressSink,
+) -> Result<[CaptureReport; 2], CaptureError> {
+    let [reference, sample] = pair(setup, standard);
     let stop = AtomicBool::new(false);
     let r = capture(conn, &reference, prog, &stop)?;
     let s = capture(conn, &sample, prog, &stop)?;
@@ -285,31 +230,5 @@ mod tests {
         let other =
             crate::sweep_file::parse_sweep(b"# sample: fe\ntheta_i,theta_r,brdf\n0,1,1\n").unwrap();
         assert_eq!(recorded_standard(&other), None);
-    }
-
-    #[test]
-    fn a_simulated_standard_is_lambertian_or_a_table() {
-        let fe = brdf_core::Preset::by_name("fe-0.115").unwrap();
-        let mut cfg = crate::device::SimConfig::new(fe, 0.0, 1);
-        simulated_standard("lambertian:0.985", &mut cfg).unwrap();
-        assert_eq!(cfg.reference, Some(0.985));
-        let dir = crate::outfile::test_dir("sim-standard");
-        std::fs::create_dir_all(&dir).unwrap();
-        let table = dir.join("ptfe.csv");
-        std::fs::write(&table, "0,-80,0.9\n0,80,0.9\n80,-80,0.8\n80,80,1.1\n").unwrap();
-        let spec = format!("table:{}", table.display());
-        simulated_standard(&spec, &mut cfg).unwrap();
-        let t = cfg.reference_table.as_ref().unwrap();
-        assert!((t.factor_within(40.0, 0.0, 0.0).unwrap() - 0.925).abs() < 1e-12);
-        for bad in [
-            "lambertian:1.5",
-            "lambertian:x",
-            "table:/nonexistent",
-            "ptfe",
-        ] {
-            let e = simulated_standard(bad, &mut cfg).unwrap_err().to_string();
-            assert!(e.contains("--reference"), "{bad}: {e}");
-        }
-        let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -1,0 +1,190 @@
+//! A device made ready for a sweep: the link opened (with its raw log), the handshake,
+//! anything still running stopped, the arms homed, the specimen mounted.
+
+use std::time::{Duration, Instant};
+
+use brdf_core::protocol::{Command, ErrorCode, Event, Info, Specimen};
+
+use super::error::{CaptureError, Result};
+use super::setup::CaptureSetup;
+use crate::device::{Connector, FramedLink, Transport};
+use crate::sweep_file::SweepFileError;
+
+/// Longest device text (board name, error detail) printed or written, in characters.
+pub const DEVICE_TEXT_MAX: usize = 64;
+
+/// The header's device line; the board name is the device's text, escaped.
+pub(super) fn device_line(info: &Info) -> String {
+    let [a, b, c] = info.firmware;
+    format!(
+        "{} firmware {a}.{b}.{c} protocol {}",
+        crate::text::escape_line(&info.board, DEVICE_TEXT_MAX),
+        info.protocol
+    )
+}
+
+/// Opens the link, handshakes, stops anything the device was still doing and homes it
+/// if needed.
+pub(super) fn prepare<C: Connector>(
+    conn: &mut C,
+    setup: &CaptureSetup,
+) -> Result<(FramedLink<C::T>, Info)> {
+    let mut link = conn.connect()?;
+    if let Some(raw) = &setup.raw {
+        use std::os::unix::fs::OpenOptionsExt;
+        let f = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .custom_flags(nix::libc::O_NOFOLLOW)
+            .open(raw)
+            .map_err(|e| CaptureError::Device(format!("{}: {e}", raw.display())))?;
+        link.set_raw_log(Box::new(f));
+    }
+    let mut info = link.handshake(setup.handshake_timeout)?;
+    let send =
+        |link: &mut FramedLink<C::T>, cmd: &Command| link.send(cmd).map_err(CaptureError::from);
+    // A device that survived a lost link may still be sweeping: stop it. On a noisy
+    // link the Abort or its answer may be lost: ask again.
+    let mut stopped = false;
+    for _ in 0..5 {
+        send(&mut link, &Command::Abort)?;
+        if recv_until(&mut link, Duration::from_secs(1), |e| {
+            matches!(e, Event::Status(_) | Event::SweepDone(_))
+        })?
+        .is_some()
+        {
+            stopped = true;
+            break;
+        }
+    }
+    if !stopped {
+        return Err(CaptureError::Device(
+            "device did not answer Abort within 5 s".into(),
+        ));
+    }
+    if !info.homed {
+        send(&mut link, &Command::Home)?;
+        let deadline = Instant::now() + setup.home_timeout;
+        // The Status that ends homing may be lost: every 2 s of silence ask with
+        // GetInfo (served while homing); a Home that never arrived is sent again
+        // (while homing, a second Home is only answered Busy).
+        loop {
+            if Instant::now() >= deadline {
+                return Err(CaptureError::Device(format!(
+                    "homing failed: not homed within {} s",
+                    setup.home_timeout.as_secs()
+                )));
+            }
+            match recv_until(&mut link, Duration::from_secs(2), |e| {
+                matches!(e, Event::Status(_) | Event::Error(_) | Event::Info(_))
+            })? {
+                Some(Event::Status(s)) if s.homed => break,
+                Some(Event::Info(i)) if i.homed => break,
+                Some(Event::Info(_)) => send(&mut link, &Command::Home)?,
+                Some(Event::Error(e))
+                    if matches!(
+                        e.code,
+                        ErrorCode::CorruptFrame | ErrorCode::UnknownCommand | ErrorCode::Busy
+                    ) => {}
+                Some(Event::Error(e)) => {
+                    return Err(CaptureError::Device(format!(
+                        "homing failed: {}",
+                        crate::text::escape_line(&e.detail, DEVICE_TEXT_MAX)
+                    )));
+                }
+                Some(_) => {}
+                None => send(&mut link, &Command::GetInfo)?,
+            }
+        }
+        info.homed = true;
+    }
+    if let Some(specimen) = setup.specimen {
+        mount(&mut link, specimen)?;
+    }
+    Ok((link, info))
+}
+
+/// Puts `specimen` on the stage. A device that does not know `Mount` (older firmware)
+/// has only its sample: fine for the sample, an error for the reference standard.
+fn mount<T: Transport>(link: &mut FramedLink<T>, specimen: Specimen) -> Result {
+    let mut unknown = 0;
+    // Lost frames are asked again, like Abort; the answer is Status or an Error.
+    for _ in 0..5 {
+        link.send(&Command::Mount(specimen))?;
+        match recv_until(link, Duration::from_secs(1), |e| {
+            matches!(e, Event::Status(_) | Event::Error(_))
+        })? {
+            Some(Event::Status(_)) => return Ok(()),
+            Some(Event::Error(e)) if e.code == ErrorCode::Unsupported => {
+                return Err(CaptureError::Device(format!(
+                    "the device has no {} to put on the stage (Mount refused: {})",
+                    match specimen {
+                        Specimen::Reference => "reference standard",
+                        Specimen::Sample => "sample",
+                    },
+                    crate::text::escape_line(&e.detail, DEVICE_TEXT_MAX)
+                )));
+            }
+            Some(Event::Error(e)) if e.code == ErrorCode::UnknownCommand => unknown += 1,
+            _ => {}
+        }
+    }
+    match specimen {
+        Specimen::Sample if unknown > 0 => Ok(()),
+        Specimen::Reference if unknown > 0 => Err(CaptureError::Device(
+            "the device's firmware does not know Mount: it cannot put a reference standard on the stage".into(),
+        )),
+        _ => Err(CaptureError::Device(
+            "device did not answer Mount within 5 s".into(),
+        )),
+    }
+}
+
+/// The raw log is appended to: it must be a regular file (or new), and not the sweep
+/// file itself.
+pub(super) fn check_raw(raw: &std::path::Path, out: &std::path::Path) -> Result {
+    use std::os::unix::fs::MetadataExt;
+    let refuse = |m: String| CaptureError::File(SweepFileError::Invalid(m));
+    let Ok(meta) = std::fs::symlink_metadata(raw) else {
+        return if raw == out {
+            Err(refuse(format!(
+                "--raw {} is the sweep file --out",
+                raw.display()
+            )))
+        } else {
+            Ok(())
+        };
+    };
+    if !meta.file_type().is_file() {
+        return Err(refuse(format!(
+            "--raw {} exists and is not a regular file (a device, symlink or directory)",
+            raw.display()
+        )));
+    }
+    let same = raw == out
+        || std::fs::metadata(out).is_ok_and(|o| o.dev() == meta.dev() && o.ino() == meta.ino());
+    if same {
+        return Err(refuse(format!(
+            "--raw {} is the sweep file --out",
+            raw.display()
+        )));
+    }
+    Ok(())
+}
+
+/// The first wanted event within `limit`, `None` if none came; a broken link is an error.
+fn recv_until<T: Transport>(
+    link: &mut FramedLink<T>,
+    limit: Duration,
+    want: impl Fn(&Event) -> bool,
+) -> Result<Option<Event>> {
+    let deadline = Instant::now() + limit;
+    while Instant::now() < deadline {
+        match link.recv(Duration::from_millis(100)) {
+            Ok(Some(ev)) if want(&ev) => return Ok(Some(ev)),
+            Ok(_) => {}
+            Err(e) => return Err(e.into()),
+        }
+    }
+    Ok(None)
+}

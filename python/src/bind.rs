@@ -275,7 +275,7 @@ pub fn load_table(path: &Path) -> Result<MemberTable, String> {
 /// fit minimised (ln f - ln y, f/y - 1 or f - y): the rows of `gonio fit --export
 /// residuals=`.
 pub fn residuals(o: &FitOutcome, member: Member) -> Vec<[f64; 5]> {
-    let fitted = fit::goodness::fitted_of(&o.family, &o.data, member)
+    let fitted = o.family.fitted(&o.data, member)
         .unwrap_or_else(|| vec![None; o.data.obs.len()]);
     o.data
         .obs

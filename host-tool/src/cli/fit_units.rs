@@ -10,7 +10,7 @@ use serde_json::{Value, json};
 use super::convert::read_instrument;
 use super::error::{CliError, CliResult};
 use crate::calibrate::{FittedParam, Instrument, ParamKind, combine_uncertainty};
-use crate::fit::family::{Coord, scalar_coords};
+use crate::fit::paper::{Coord, scalar_coords};
 use crate::fit::report::{coord_name, ks_table, scalar};
 use crate::fit::{FamilyFit, physical};
 use crate::sweep_file::{BrdfUnits, read_sweep};

@@ -6,7 +6,7 @@ use std::io::{self, Write};
 use super::error::{ExportError, write_atomic};
 use brdf_core::member::Member;
 
-use crate::fit::{Dataset, FamilyFit, Residual, goodness};
+use crate::fit::{Dataset, FamilyFit, Residual};
 use crate::outfile::Target;
 
 /// The residual of a reading in the fit's kind (as [`Residual`] defines it: ln f - ln y,
@@ -41,7 +41,8 @@ pub fn write_residuals(
     member: Member,
     residual: Residual,
 ) -> Result<(), ExportError> {
-    let fitted = goodness::fitted_of(fam, data, member)
+    let fitted = fam
+        .fitted(data, member)
         .ok_or_else(|| super::error::not_fitted(fam, member))?;
     write_atomic(target, |mut w| {
         write_rows(&mut w, data, member, &fitted, residual)

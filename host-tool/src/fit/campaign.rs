@@ -10,9 +10,12 @@ use std::path::{Path, PathBuf};
 use rayon::prelude::*;
 use serde_json::{Value, json};
 
-use super::family::{Coord, Kind, scalar_coords};
+use super::data::Dataset;
+use super::family_fit::FamilyFit;
+use super::options::{FitOptions, Residual};
+use super::paper::{Coord, Kind, scalar_coords};
 use super::report::{family_json_text, family_table, scalar};
-use super::{Dataset, FamilyFit, FitOptions, Residual, fit_family};
+use super::stages::fit_family;
 use crate::outfile::{self, Target};
 use crate::sweep_file::{looks_like_radians, read_sweep};
 

@@ -1,8 +1,9 @@
 //! Tests of the fitter on synthetic sweeps with known parameters.
 
-use super::family::Coord;
+use super::paper::Coord;
 use super::*;
 use crate::sweep_file::Row;
+use brdf_core::member::Member;
 use brdf_core::{Geometry, Model, Params, Preset};
 
 /// The paper grid from a model per incidence, times (1 + noise N(0,1)).

@@ -1,9 +1,6 @@
 //! How well a fitted model follows the readings against their own noise: the fitted
 //! value at every reading (as the fit compared it) and the reduced chi-square.
 
-use brdf_core::member::Member;
-
-use super::FamilyFit;
 use super::data::Dataset;
 use super::factors::{Detectors, Incidence, point_value};
 use super::member_fit::{MemberFit, eval_at};
@@ -36,13 +33,6 @@ pub fn member_fitted(fit: &MemberFit, data: &Dataset) -> Vec<Option<f64>> {
         }
     }
     out
-}
-
-/// The fitted value at every reading of `data` for `member` of `fam`
-/// ([`member_fitted`]); `None` when the family did not fit it. The one source of
-/// "fitted" for the residuals export and the Python bind.
-pub fn fitted_of(fam: &FamilyFit, data: &Dataset, member: Member) -> Option<Vec<Option<f64>>> {
-    fam.member(member).map(|m| member_fitted(m, data))
 }
 
 /// A fit's residuals against the readings' noise.

@@ -1,8 +1,6 @@
 //! What a fit is asked to do: the residual kind, the loss, parameters held fixed, and
 //! the options of one fit ([`FitOptions`]); the one residual and robust weight of each.
 
-use super::family::{Coord, Kind};
-
 /// What the residuals measure.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Residual {
@@ -41,7 +39,7 @@ pub struct FitOptions {
     /// before it is compared with the readings (`gonio fit --aperture`).
     pub aperture: Option<f64>,
     /// Which fitted models the reports' physical checks cover (`gonio fit --checks`).
-    pub checks: super::physical::CheckScope,
+    pub checks: CheckScope,
     /// A detection floor: readings at or below it are left out of the data before the
     /// fit (`gonio fit --floor`; see [`super::data::Floor`]).
     pub floor: Option<super::data::Floor>,
@@ -67,7 +65,7 @@ impl Default for FitOptions {
             fixed: Fixed::default(),
             members: None,
             aperture: None,
-            checks: super::physical::CheckScope::All,
+            checks: CheckScope::All,
             floor: None,
             all_starts: false,
             instrument: None,
@@ -160,16 +158,28 @@ impl Fixed {
         *slot = Some(v);
         Ok(())
     }
+}
 
-    /// The fixed value of a coordinate for a kind, if any.
-    pub fn of(&self, kind: Kind, c: Coord) -> Option<f64> {
-        match c {
-            Coord::Sigma => self.sigma,
-            Coord::SigmaM => self.sigma_m,
-            Coord::Kdd => self.kdd,
-            Coord::Kid if kind == Kind::TorranceSparrow => self.kd,
-            Coord::Kid => self.kid,
-            Coord::Ks(_) | Coord::KsPoly(_) => None,
+/// Which fitted models the physical checks cover (`gonio fit --checks`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum CheckScope {
+    /// Every fitted model (the default for one sweep file).
+    #[default]
+    All,
+    /// The selected model only.
+    Selected,
+    /// None (a campaign's default: checking even one model costs several times the fits
+    /// of a small sweep, mostly the albedo quadrature).
+    None,
+}
+
+impl CheckScope {
+    /// The word in reports and JSON: `all` or `selected`.
+    pub fn word(self) -> &'static str {
+        match self {
+            CheckScope::All => "all",
+            CheckScope::Selected => "selected",
+            CheckScope::None => "none",
         }
     }
 }

@@ -3,11 +3,254 @@
 //! paper-only consumers (exports, tables, Python) read the same numbers the family
 //! selected from: there is no second fit.
 
-use brdf_core::member::KsForm;
+use brdf_core::member::{KsForm, Member};
+use brdf_core::{Components, Model, Params};
 
 use super::arrow::ArrowInverse;
-use super::family::{Coord, Kind, Values};
 use super::member_fit::MemberFit;
+
+/// The models fitted, from the simplest up.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Kind {
+    /// Ideal diffuse only: f = k_id.
+    IdealDiffuse,
+    /// Torrance–Sparrow: f = k_s(theta_i) f_s + k_d, one k_s per incidence.
+    TorranceSparrow,
+    /// Three components, one k_s per incidence (as the paper fits it).
+    ThreeComponent,
+    /// Three components with ln k_s a quadratic in theta_i/90 (3 parameters).
+    ThreeSmooth,
+}
+
+impl Kind {
+    /// All kinds, simplest first.
+    pub const ALL: [Kind; 4] = [
+        Kind::IdealDiffuse,
+        Kind::TorranceSparrow,
+        Kind::ThreeComponent,
+        Kind::ThreeSmooth,
+    ];
+
+    /// Every name of this model (its row of the vocabulary table).
+    pub const fn names(self) -> Names {
+        match self {
+            Kind::IdealDiffuse => Names {
+                cli: "ideal",
+                report: "ideal-diffuse",
+                figure: "ideal diffuse",
+                help: "f = k_id.",
+            },
+            Kind::TorranceSparrow => Names {
+                cli: "ts",
+                report: "torrance-sparrow",
+                figure: "Torrance–Sparrow",
+                help: "Torrance–Sparrow: k_s(theta_i) f_s + k_d.",
+            },
+            Kind::ThreeComponent => Names {
+                cli: "three",
+                report: "three-component",
+                figure: "three-component",
+                help: "Three components: k_s f_s + k_dd f_dd + k_id (eq. 2), one k_s per incidence.",
+            },
+            Kind::ThreeSmooth => Names {
+                cli: "three-smooth",
+                report: "three-component-smooth-ks",
+                figure: "three-component, smooth k_s",
+                help: "Three components, ln k_s quadratic in theta_i.",
+            },
+        }
+    }
+
+    /// The member of brdf-core's component lattice this kind is (its report name is the
+    /// member's paper name).
+    pub const fn member(self) -> Member {
+        match self {
+            Kind::IdealDiffuse => Member::IDEAL_DIFFUSE,
+            Kind::TorranceSparrow => Member::TORRANCE_SPARROW,
+            Kind::ThreeComponent => Member::THREE_COMPONENT,
+            Kind::ThreeSmooth => Member::THREE_COMPONENT_SMOOTH_KS,
+        }
+    }
+
+    /// The canonical name, used in reports, JSON and messages.
+    pub const fn name(self) -> &'static str {
+        self.names().report
+    }
+
+    /// The kind whose command-line name is `cli`.
+    pub fn from_cli_name(cli: &str) -> Option<Kind> {
+        Kind::ALL.into_iter().find(|k| k.names().cli == cli)
+    }
+
+    /// The components it switches on.
+    pub fn components(self) -> Components {
+        match self {
+            Kind::IdealDiffuse => Components {
+                specular: false,
+                directional: false,
+                ideal: true,
+            },
+            Kind::TorranceSparrow => Components::TORRANCE_SPARROW,
+            Kind::ThreeComponent | Kind::ThreeSmooth => Components::ALL,
+        }
+    }
+
+    /// Has a specular lobe.
+    pub fn specular(self) -> bool {
+        self.components().specular
+    }
+
+    /// Has the directional-diffuse lobe.
+    pub fn directional(self) -> bool {
+        self.components().directional
+    }
+}
+
+/// The names of one model: what the user types, what reports, JSON and messages say,
+/// what figures say, and its one-line description. Every one of them comes from
+/// [`Kind::names`], the single table of this vocabulary.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Names {
+    /// On the command line (`fit --models`, `fit --export-model`, `eval --model`).
+    pub cli: &'static str,
+    /// Canonical: reports, JSON, messages.
+    pub report: &'static str,
+    /// Figure titles and legends.
+    pub figure: &'static str,
+    /// One line for `--help`.
+    pub help: &'static str,
+}
+
+/// One fitted coordinate (all are natural logarithms of positive parameters, except
+/// the smooth k_s coefficients, which are the coefficients of ln k_s).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Coord {
+    /// ln sigma.
+    Sigma,
+    /// ln sigma_m.
+    SigmaM,
+    /// ln k_dd.
+    Kdd,
+    /// ln k_id (k_d in the Torrance–Sparrow model).
+    Kid,
+    /// ln k_s of incidence j.
+    Ks(usize),
+    /// Coefficient c of ln k_s = c0 + c1 t + c2 t^2, t = theta_i / 90.
+    KsPoly(usize),
+}
+
+impl Coord {
+    /// Box bounds in the fitted coordinate (keeps every parameter representable).
+    pub fn bounds(self) -> (f64, f64) {
+        match self {
+            Coord::Sigma => (1e-4f64.ln(), 20f64.ln()),
+            Coord::SigmaM => (1e-3f64.ln(), 20f64.ln()),
+            Coord::Kdd | Coord::Kid | Coord::Ks(_) => (1e-12f64.ln(), 1e12f64.ln()),
+            Coord::KsPoly(0) => (1e-12f64.ln(), 1e12f64.ln()),
+            Coord::KsPoly(_) => (-60.0, 60.0),
+        }
+    }
+}
+
+/// Values of every parameter of a kind (fixed or free), in natural units.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Values {
+    /// sigma.
+    pub sigma: f64,
+    /// sigma_m (radians).
+    pub sigma_m: f64,
+    /// k_dd.
+    pub kdd: f64,
+    /// k_id (k_d for Torrance–Sparrow).
+    pub kid: f64,
+    /// k_s per incidence (per-angle kinds) or evaluated from the polynomial (smooth).
+    pub ks: Vec<f64>,
+    /// ln k_s polynomial coefficients (smooth kind only).
+    pub poly: Option<[f64; 3]>,
+}
+
+impl Values {
+    /// The brdf-core model at incidence `j` for `kind`.
+    pub fn model(&self, kind: Kind, j: usize) -> Option<Model<f64>> {
+        let p = Params {
+            ks: if kind.specular() { self.ks[j] } else { 0.0 },
+            sigma: self.sigma,
+            kdd: if kind.directional() { self.kdd } else { 0.0 },
+            sigma_m: self.sigma_m,
+            kid: self.kid,
+        };
+        Model::new(p, kind.components()).ok()
+    }
+
+    /// Sets the coordinate `c` to `u`.
+    pub fn set(&mut self, c: Coord, u: f64, incidences: &[f64]) {
+        match c {
+            Coord::Sigma => self.sigma = u.exp(),
+            Coord::SigmaM => self.sigma_m = u.exp(),
+            Coord::Kdd => self.kdd = u.exp(),
+            Coord::Kid => self.kid = u.exp(),
+            Coord::Ks(j) => self.ks[j] = u.exp(),
+            Coord::KsPoly(k) => {
+                let mut p = self.poly.unwrap_or([0.0; 3]);
+                p[k] = u;
+                self.poly = Some(p);
+                for (j, &ti) in incidences.iter().enumerate() {
+                    let t = ti / 90.0;
+                    self.ks[j] = (p[0] + p[1] * t + p[2] * t * t).exp();
+                }
+            }
+        }
+    }
+
+    /// The natural value of a scalar coordinate (sigma, sigma_m, k_dd, k_id); the
+    /// log coordinate's exp otherwise.
+    pub fn natural(&self, c: Coord) -> f64 {
+        match c {
+            Coord::Sigma => self.sigma,
+            Coord::SigmaM => self.sigma_m,
+            Coord::Kdd => self.kdd,
+            Coord::Kid => self.kid,
+            _ => self.get(c).exp(),
+        }
+    }
+
+    /// The value of coordinate `c`.
+    pub fn get(&self, c: Coord) -> f64 {
+        match c {
+            Coord::Sigma => self.sigma.ln(),
+            Coord::SigmaM => self.sigma_m.ln(),
+            Coord::Kdd => self.kdd.ln(),
+            Coord::Kid => self.kid.ln(),
+            Coord::Ks(j) => self.ks[j].ln(),
+            Coord::KsPoly(k) => self.poly.map_or(0.0, |p| p[k]),
+        }
+    }
+}
+
+/// The scalar coordinates of a kind (sigma, sigma_m, k_dd, k_id as it has them), in
+/// report order.
+pub fn scalar_coords(kind: Kind) -> Vec<Coord> {
+    let mut c = Vec::new();
+    if kind.specular() {
+        c.push(Coord::Sigma);
+    }
+    if kind.directional() {
+        c.extend([Coord::SigmaM, Coord::Kdd]);
+    }
+    c.push(Coord::Kid);
+    c
+}
+
+/// Every coordinate of a kind, fixed or free.
+pub fn coords(kind: Kind, n_inc: usize) -> Vec<Coord> {
+    let mut c = scalar_coords(kind);
+    match kind {
+        Kind::TorranceSparrow | Kind::ThreeComponent => c.extend((0..n_inc).map(Coord::Ks)),
+        Kind::ThreeSmooth => c.extend((0..3).map(Coord::KsPoly)),
+        Kind::IdealDiffuse => {}
+    }
+    c
+}
 
 /// The [`Kind`] of a paper member.
 pub fn kind_of(m: brdf_core::member::Member) -> Option<Kind> {
@@ -117,12 +360,12 @@ impl Fit {
 
     /// Akaike's criterion with the small-sample correction (infinite when n <= k + 1).
     pub fn aicc(&self) -> f64 {
-        super::select::aicc(self.ssr, self.n, self.k())
+        super::criteria::aicc(self.ssr, self.n, self.k())
     }
 
     /// Bayesian information criterion.
     pub fn bic(&self) -> f64 {
-        super::select::bic(self.ssr, self.n, self.k())
+        super::criteria::bic(self.ssr, self.n, self.k())
     }
 
     /// k_s at any incidence (degrees): the smooth model's curve, or for per-angle

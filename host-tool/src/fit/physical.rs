@@ -21,37 +21,14 @@ use brdf_core::geometry::Geometry;
 use rayon::prelude::*;
 use serde_json::{Value, json};
 
-use super::FamilyFit;
+use super::family_fit::FamilyFit;
 use super::member_fit::MemberFit;
+pub use super::options::CheckScope;
 use crate::sweep_file::BrdfUnits;
 
 /// The relative error the checks' albedo quadrature aims at: the stated bound itself
 /// (each model's estimate is reported; a finer target costs evaluations nobody reads).
 pub const CHECK_REL_ERROR: f64 = brdf_core::albedo::DEFAULT_REL_ERROR;
-
-/// Which fitted models the physical checks cover (`gonio fit --checks`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum CheckScope {
-    /// Every fitted model (the default for one sweep file).
-    #[default]
-    All,
-    /// The selected model only.
-    Selected,
-    /// None (a campaign's default: checking even one model costs several times the fits
-    /// of a small sweep, mostly the albedo quadrature).
-    None,
-}
-
-impl CheckScope {
-    /// The word in reports and JSON: `all` or `selected`.
-    pub fn word(self) -> &'static str {
-        match self {
-            CheckScope::All => "all",
-            CheckScope::Selected => "selected",
-            CheckScope::None => "none",
-        }
-    }
-}
 
 /// The checks of one fitted model.
 #[derive(Debug, Clone)]

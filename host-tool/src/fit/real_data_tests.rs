@@ -7,9 +7,13 @@ use brdf_core::lobe::Distribution;
 use brdf_core::member::{Component, KsForm};
 use brdf_core::member_model::{Ks, LobeParams, MemberModel, MemberParams};
 
+use super::member_fit::GridBases;
+use super::select::{Candidate, Criterion, Selection};
+use super::stages::{Fitted, candidates_of_members, fit_members, stage_one, stage_two};
 use super::tests::{family, lobe};
 use super::*;
 use crate::sweep_file::Row;
+use brdf_core::member::Member;
 
 /// A sharp core on a wide haze, Beckmann lobes (core sigma 0.01, haze 0.15).
 fn two_lobes(ti: f64) -> MemberParams<f64> {

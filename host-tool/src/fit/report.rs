@@ -3,10 +3,11 @@
 
 use serde_json::{Value, json};
 
-use super::family::{Coord, Kind, scalar_coords};
+use super::family_fit::FamilyFit;
 use super::member_fit::MemberFit;
+use super::paper::Fit;
+use super::paper::{Coord, Kind, scalar_coords};
 use super::select::Candidate;
-use super::{FamilyFit, Fit};
 use brdf_core::member::Member;
 
 /// A parameter's name in reports.

@@ -11,6 +11,7 @@ use super::super::factors::Detectors;
 
 use super::super::options::{Fixed, Loss, Residual};
 
+use super::layout::HAZE_OVER_CORE;
 use super::problem::*;
 
 /// Core-lobe widths of the grid: log-spaced, sigma 0.002..1.
@@ -25,10 +26,6 @@ pub fn haze_grid() -> Vec<f64> {
 
 /// sigma_m (radians) of the grid.
 pub const SIGMA_M_GRID: [f64; 3] = [0.3, 0.7, 1.5];
-
-/// A haze grid point is used only when at least this many times the core's width
-/// (the two lobes then keep their roles: core narrow, haze wide).
-pub const HAZE_OVER_CORE: f64 = 3.0;
 
 pub(super) fn log_grid(lo: f64, hi: f64, n: usize) -> Vec<f64> {
     let (a, b) = (lo.ln(), hi.ln());

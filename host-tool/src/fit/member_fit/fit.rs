@@ -11,10 +11,6 @@ use super::super::paper_rmse::paper_rmse_with;
 
 use super::{bases::*, grid::*, layout::*, problem::*, refine::*, result::*};
 
-/// LM refines at most this many of the best grid points (those in a basin not yet
-/// explored, see [`fit_member_with`]).
-pub const REFINED: usize = 3;
-
 /// Fits `member` to `data`: the width grid with linear amplitudes, then LM from the
 /// [`REFINED`] best grid points. `None` when the data cannot determine it (fewer readings than parameters, a
 /// smooth k_s over fewer than 3 incidences) or every start failed. `aperture`: the

@@ -4,7 +4,11 @@ use brdf_core::member::{LobeSpec, Member};
 
 use super::super::point_system::PointSystem;
 
-use super::{bases::*, fit::*, problem::*};
+use super::{bases::*, layout::HAZE_OVER_CORE, problem::*};
+
+/// LM refines at most this many of the best grid points (those in a basin not yet
+/// explored, see [`fit_member_with`]).
+pub const REFINED: usize = 3;
 
 /// The non-negative amplitudes of one grid point: per incidence `[k_s core, k_s haze]`,
 /// k_dd, k_id (0 where the active set removed the column).

@@ -8,7 +8,9 @@ use super::super::arrow::Shape;
 
 use super::super::options::Fixed;
 
-use super::bases::*;
+/// A haze grid point is used only when at least this many times the core's width
+/// (the two lobes then keep their roles: core narrow, haze wide).
+pub const HAZE_OVER_CORE: f64 = 3.0;
 
 /// Where each parameter lives in the LM vector: globals first, then per incidence the
 /// local k_s of the core lobe, then of the haze lobe (per-incidence lobes only).

@@ -54,7 +54,7 @@ impl MemberFit {
 
     /// AICc (infinite when n <= k + 1).
     pub fn aicc(&self) -> f64 {
-        super::super::select::aicc(self.ssr, self.n, self.k())
+        super::super::criteria::aicc(self.ssr, self.n, self.k())
     }
 
     /// A parameter's value in natural units (exp of its log coordinate) and its standard

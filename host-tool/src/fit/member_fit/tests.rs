@@ -8,7 +8,6 @@ use brdf_core::lobe::Distribution;
 use brdf_core::member::Member;
 use brdf_core::member_model::{DirectionalParams, Ks, LobeParams, MemberModel, MemberParams};
 
-
 use super::super::arrow::{Normal, RowSink, Shape};
 use super::super::data::Dataset;
 use super::super::lm::{ArrowProblem, LmOptions, minimize};

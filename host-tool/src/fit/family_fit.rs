@@ -1,0 +1,79 @@
+//! The result of fitting the family to one dataset: every member fitted, the
+//! candidates selection used, the selection, and the notes.
+
+use brdf_core::member::Member;
+
+use super::data::Dataset;
+use super::goodness::member_fitted;
+use super::member_fit::MemberFit;
+use super::options::CheckScope;
+use super::paper::{Fit, Kind};
+use super::select::Candidate;
+use crate::sweep_file::BrdfUnits;
+
+/// Every model of the family fitted to one dataset.
+#[derive(Debug, Clone)]
+pub struct FamilyFit {
+    /// The data's incidence angles (degrees).
+    pub incidences: Vec<f64>,
+    /// The paper's members among the fitted ones, in the paper's form, simplest first.
+    pub fits: Vec<Fit>,
+    /// Every member fitted on the width grid, in the order fitted (empty when the
+    /// paper's models were fitted by [`fit_kind`]: `--fix`, robust losses).
+    pub members: Vec<MemberFit>,
+    /// What selection used of every fitted model (members, or the paper fits).
+    pub candidates: Vec<Candidate>,
+    /// The member selected (see [`select`]).
+    pub selected_member: Member,
+    /// The best of the paper's members by the same rule, for consumers that know only
+    /// those (equal to `selected_member` when that is a paper member).
+    pub selected: Kind,
+    /// The member BIC would select by the same rule.
+    pub selected_bic: Member,
+    /// Plain statements: which components the data supports, what could not be fitted.
+    pub notes: Vec<String>,
+    /// Wall time of all fitting (seconds).
+    pub fit_seconds: f64,
+    /// Per incidence: the detector angle (degrees) the paper's RMSE is normalised at
+    /// when there is no reading exactly at theta_r = theta_i (`None` when there is).
+    pub rmse_nearest: Vec<Option<f64>>,
+    /// The detector half-angle the models were averaged over (degrees).
+    pub aperture: Option<f64>,
+    /// The sweep carries std and n: goodness of fit against the noise is known.
+    pub has_noise: bool,
+    /// The units of the data's brdf values, and so of every fitted amplitude.
+    pub units: BrdfUnits,
+    /// Which fitted models the reports' physical checks cover ([`FitOptions::checks`]).
+    pub checks: CheckScope,
+}
+
+impl FamilyFit {
+    /// The paper-form fit of one kind, if it was fitted.
+    pub fn get(&self, kind: Kind) -> Option<&Fit> {
+        self.fits.iter().find(|f| f.kind == kind)
+    }
+
+    /// The grid fit of a member, if it was fitted.
+    pub fn member(&self, m: Member) -> Option<&MemberFit> {
+        self.members.iter().find(|f| f.member() == m)
+    }
+
+    /// What selection knows of a member, if it was fitted.
+    pub fn candidate(&self, m: Member) -> Option<&Candidate> {
+        self.candidates.iter().find(|c| c.member == m)
+    }
+
+    /// The selected member's grid fit (`None` on the paper-form path).
+    pub fn selected_fit(&self) -> Option<&MemberFit> {
+        self.member(self.selected_member)
+    }
+}
+
+impl FamilyFit {
+    /// The fitted value at every reading of `data` for `member` (as the fit compared
+    /// it, [`member_fitted`]); `None` when the family did not fit it. The one source
+    /// of "fitted" for the residuals export, the plots and the Python bind.
+    pub fn fitted(&self, data: &Dataset, member: Member) -> Option<Vec<Option<f64>>> {
+        self.member(member).map(|m| member_fitted(m, data))
+    }
+}

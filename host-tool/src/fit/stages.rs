@@ -1,0 +1,403 @@
+//! Fitting the family to one dataset ([`fit_family`]): the lattice's stages of
+//! [`super::family`], members in parallel, the selection and the notes that say it.
+
+use std::time::Instant;
+
+use brdf_core::member::Member;
+use rayon::prelude::*;
+
+use super::data::Dataset;
+use super::family;
+use super::family_fit::FamilyFit;
+use super::goodness::{self, Goodness};
+use super::member_fit::{self, GridBases, MemberFit};
+use super::options::{FitOptions, Residual};
+use super::paper::{self, Fit, Kind};
+use super::peak;
+use super::select::{self, Candidate, Criterion, Selection};
+
+/// A difference in AICc below this is not evidence for the larger model.
+pub const AICC_MARGIN: f64 = select::MARGIN;
+
+/// Fits every member in `members` (in parallel), noting those that cannot be fitted.
+/// The grid's unit bases are evaluated once and shared by the members ([`GridBases`]).
+pub(super) fn fit_members(
+    bases: &GridBases<'_>,
+    members: &[Member],
+    residual: Residual,
+    notes: &mut Vec<String>,
+) -> Vec<MemberFit> {
+    let data = bases.data();
+    let fitted: Vec<Option<MemberFit>> = members
+        .par_iter()
+        .map(|&m| member_fit::fit_member_with(bases, m, residual))
+        .collect();
+    let mut out = Vec::new();
+    for (m, f) in members.iter().zip(fitted) {
+        match f {
+            Some(f) => out.push(f),
+            None => notes.push(format!(
+                "{m}: not fitted ({} readings at {} incidence(s) cannot determine its parameters)",
+                data.obs.len(),
+                data.incidences.len()
+            )),
+        }
+    }
+    out
+}
+
+/// The members fitted so far, each with its candidate (its goodness computed once,
+/// however often the stages select).
+#[derive(Default)]
+pub(super) struct Fitted {
+    pub(super) members: Vec<MemberFit>,
+    pub(super) cands: Vec<Candidate>,
+}
+
+impl Fitted {
+    /// Fits `members` (in parallel) and adds those that could be fitted.
+    pub(super) fn add(
+        &mut self,
+        bases: &GridBases<'_>,
+        members: &[Member],
+        residual: Residual,
+        notes: &mut Vec<String>,
+    ) {
+        let new = fit_members(bases, members, residual, notes);
+        self.cands
+            .extend(candidates_of_members(bases.data(), &new, residual));
+        self.members.extend(new);
+    }
+
+    /// The member selected by AICc so far.
+    pub(super) fn best(&self) -> Option<Member> {
+        Selection::new(&self.cands, Criterion::Aicc)
+            .best()
+            .map(|c| c.member)
+    }
+}
+
+/// The family's second stage: the variants `more` of the selected component set. A
+/// smooth-k_s variant is fitted only when it could be selected
+/// ([`family::smooth_needed`]): those whose member with k_s per incidence is among
+/// `more` wait for its fit, the rest are fitted beside the others. The fits are kept
+/// in the order of `more`.
+pub(super) fn stage_two(
+    fitted: &mut Fitted,
+    bases: &GridBases<'_>,
+    more: &[Member],
+    residual: Residual,
+    notes: &mut Vec<String>,
+) {
+    use family::SmoothVariant;
+    let start = fitted.members.len();
+    let mut later = Vec::new();
+    for pass in 0..2 {
+        let (asked, pending): (&[Member], &[Member]) = if pass == 0 {
+            (more, more)
+        } else {
+            (&later, &[])
+        };
+        let mut now = Vec::new();
+        let mut deferred = Vec::new();
+        for &m in asked {
+            match family::smooth_needed(m, &fitted.members, &fitted.cands, pending) {
+                SmoothVariant::Needed => now.push(m),
+                SmoothVariant::Deferred => deferred.push(m),
+                SmoothVariant::Bounded { by, aicc_above } => notes.push(format!(
+                    "{m}: not fitted: a smooth k_s is one choice of k_s per incidence, so it fits no better than {by}, whose fit puts its AICc at least {aicc_above:.1} above the selected member's (and its BIC above too)"
+                )),
+            }
+        }
+        fitted.add(bases, &now, residual, notes);
+        later = deferred;
+    }
+    // In the order of `more`, whichever batch each was fitted in.
+    let order = |f: &MemberFit| more.iter().position(|&m| m == f.member());
+    let mut tail: Vec<(MemberFit, Candidate)> = fitted
+        .members
+        .drain(start..)
+        .zip(fitted.cands.drain(start..))
+        .collect();
+    tail.sort_by_key(|(f, _)| order(f));
+    for (f, c) in tail {
+        fitted.members.push(f);
+        fitted.cands.push(c);
+    }
+}
+
+/// The family's first stage: [`family::default_members`], then the reference members
+/// the decision needs ([`family::needed`]: one component from the selection, or
+/// possibly better than it) until none is. Returns the fits, in the lattice's order,
+/// and every member tried (fitted or not).
+pub(super) fn stage_one(
+    bases: &GridBases<'_>,
+    residual: Residual,
+    notes: &mut Vec<String>,
+) -> (Fitted, Vec<Member>) {
+    let mut tried = family::default_members();
+    let mut fitted = Fitted::default();
+    fitted.add(bases, &tried, residual, notes);
+    loop {
+        let more = family::needed(&fitted.members, &fitted.cands, &tried);
+        if more.is_empty() {
+            break;
+        }
+        tried.extend(&more);
+        fitted.add(bases, &more, residual, notes);
+    }
+    let order = family::reference_members();
+    let mut both: Vec<(MemberFit, Candidate)> =
+        fitted.members.into_iter().zip(fitted.cands).collect();
+    both.sort_by_key(|(f, _)| order.iter().position(|&m| m == f.member()));
+    let (members, cands) = both.into_iter().unzip();
+    (Fitted { members, cands }, tried)
+}
+
+/// Fits the family and selects a member: the default family (three stages, see
+/// [`family`]) unless [`FitOptions::members`] names exactly the members to fit.
+pub fn fit_family(data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, String> {
+    let t0 = Instant::now();
+    let aperture = opts.aperture.or(data.aperture);
+    let requested: Option<Vec<Member>> = opts.members.clone();
+    let mut notes = Vec::new();
+    let mut bases = GridBases::new(data, aperture);
+    bases.refine_all_starts(opts.all_starts);
+    bases.hold(opts.fixed);
+    bases.set_loss(opts.loss);
+    let mut fitted = if let Some(listed) = &requested {
+        let mut fitted = Fitted::default();
+        fitted.add(&bases, listed, opts.residual, &mut notes);
+        fitted
+    } else {
+        let (mut fitted, tried) = stage_one(&bases, opts.residual, &mut notes);
+        // Stage two: the selected component set's lobe variants (GGX, smooth k_s).
+        if let Some(best) = fitted.best() {
+            let more: Vec<Member> = family::variants_of(best)
+                .into_iter()
+                .filter(|m| !tried.contains(m))
+                .collect();
+            bases.retain_for(&more);
+            stage_two(&mut fitted, &bases, &more, opts.residual, &mut notes);
+        }
+        // Stage three: the selected member's haze with the other distribution.
+        if let Some(m) = fitted.best().and_then(family::haze_variant_of)
+            && !fitted.members.iter().any(|f| f.member() == m)
+        {
+            bases.retain_for(&[m]);
+            fitted.add(&bases, &[m], opts.residual, &mut notes);
+        }
+        fitted
+    };
+    let fits: Vec<Fit> = Kind::ALL
+        .iter()
+        .filter_map(|k| fitted.members.iter().find(|f| f.member() == k.member()))
+        .filter_map(paper::to_fit)
+        .collect();
+    let fit_seconds = t0.elapsed().as_secs_f64();
+    let Fitted {
+        members,
+        cands: candidates,
+    } = std::mem::take(&mut fitted);
+    let sel = Selection::new(&candidates, Criterion::Aicc);
+    let selected_member = sel
+        .best()
+        .map(|c| c.member)
+        .ok_or("no model could be fitted to these data")?;
+    let selected = sel.best_paper().unwrap_or(Kind::IdealDiffuse);
+    let selected_bic = Selection::new(&candidates, Criterion::Bic)
+        .best()
+        .map_or(selected_member, |c| c.member);
+    let mut summary = select::component_notes(&sel, selected_member);
+    summary.extend(variant_notes(&candidates, selected_member));
+    if selected_bic != selected_member {
+        summary.push(format!(
+            "BIC (stricter with many readings) would select {selected_bic} by the same rule"
+        ));
+    }
+    summary.push(goodness_note(data, &candidates, selected_member));
+    summary.extend(data.floor.notes());
+    let fitted = members
+        .iter()
+        .find(|f| f.member() == selected_member)
+        .map(|f| goodness::member_fitted(f, data));
+    if let Some(note) =
+        fitted.and_then(|v| peak::offset_note(data, &v, &selected_member.to_string()))
+    {
+        summary.push(note);
+    }
+    if let Some(f) = members.iter().find(|f| f.member() == selected_member)
+        && let (Some(core), Some((sigma, _))) = (selected_member.core, f.sigma())
+    {
+        summary.extend(peak::unresolved_core_note(data, core.dist, sigma));
+    }
+    summary.append(&mut notes);
+    let mut notes = summary;
+    for f in &members {
+        if (0..f.x.len()).any(|i| !f.identifiable[i] && !f.is_fixed(i)) {
+            notes.push(format!(
+                "{}: some parameters are not determined by these data (flagged)",
+                f.member()
+            ));
+        }
+        if !f.converged {
+            notes.push(format!(
+                "{}: the optimiser stopped before its tolerances were met",
+                f.member()
+            ));
+        }
+    }
+    let nearest: Vec<String> = (0..data.incidences.len())
+        .filter_map(|j| match data.specular_reference(j) {
+            Some((k, false)) => Some(format!(
+                "{} (at {})",
+                data.incidences[j], data.obs[k].theta_r
+            )),
+            _ => None,
+        })
+        .collect();
+    if !nearest.is_empty() {
+        notes.push(format!(
+            "no reading at theta_r = theta_i for theta_i {}: their paper RMSE is normalised at the nearest reading",
+            nearest.join(", ")
+        ));
+    }
+    if let Some(a) = aperture {
+        notes.push(format!(
+            "every model was averaged over the detector's aperture (half-angle {a} deg) before comparison; parameters are the surface's"
+        ));
+    }
+    Ok(FamilyFit {
+        incidences: data.incidences.clone(),
+        fits,
+        members,
+        candidates,
+        selected_member,
+        selected,
+        selected_bic,
+        notes,
+        fit_seconds,
+        rmse_nearest: (0..data.incidences.len())
+            .map(|j| match data.specular_reference(j) {
+                Some((k, false)) => Some(data.obs[k].theta_r),
+                _ => None,
+            })
+            .collect(),
+        aperture,
+        has_noise: data.has_noise(),
+        units: data.units,
+        checks: opts.checks,
+    })
+}
+
+pub(super) fn candidates_of_members(
+    data: &Dataset,
+    members: &[MemberFit],
+    residual: Residual,
+) -> Vec<Candidate> {
+    members
+        .iter()
+        .map(|f| {
+            // The fit's own sum of squares: its residuals are those of its fitted
+            // values (`goodness::member_fitted`), summed by incidence.
+            let g: Option<Goodness> = goodness::goodness_of_ssr(data, f.ssr, residual, f.k());
+            Candidate::of_member(f, g)
+        })
+        .collect()
+}
+
+/// The lobe shape of the selected component set: how its fitted variants compare.
+fn variant_notes(cands: &[Candidate], sel: Member) -> Vec<String> {
+    let Some(core) = sel.core else {
+        return Vec::new();
+    };
+    let same = |m: Member| {
+        m.core.is_some()
+            && m.haze.is_some() == sel.haze.is_some()
+            && m.directional == sel.directional
+            && m.ideal == sel.ideal
+    };
+    let Some(best) = cands.iter().find(|c| c.member == sel) else {
+        return Vec::new();
+    };
+    let others: Vec<String> = cands
+        .iter()
+        .filter(|c| same(c.member) && c.member != sel)
+        .map(|c| format!("{} {:+.1}", c.member, c.aicc - best.aicc))
+        .collect();
+    if others.is_empty() {
+        return Vec::new();
+    }
+    let haze = sel
+        .haze
+        .map_or(String::new(), |h| format!(" on a {} haze", h.dist.name()));
+    // A difference under the margin is no evidence for either shape: said, not implied.
+    let ties: Vec<String> = cands
+        .iter()
+        .filter(|c| same(c.member) && c.member != sel && c.aicc - best.aicc < AICC_MARGIN)
+        .map(|c| c.member.to_string())
+        .collect();
+    let tie = if ties.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "; within {AICC_MARGIN} of it, so these data do not tell it from {}",
+            ties.join(", ")
+        )
+    };
+    vec![format!(
+        "specular lobe shape: {} with k_s {}{haze} has the lowest AICc of these components (AICc of the others: {}){tie}",
+        core.dist.name(),
+        core.ks.name(),
+        others.join(", ")
+    )]
+}
+
+/// Goodness of fit of the selected member against the readings' noise, said plainly.
+fn goodness_note(data: &Dataset, cands: &[Candidate], sel: Member) -> String {
+    if !data.has_noise() {
+        return "goodness of fit against noise: not known (the sweep has no std and n columns)"
+            .into();
+    }
+    let Some(g) = cands
+        .iter()
+        .find(|c| c.member == sel)
+        .and_then(|c| c.goodness)
+    else {
+        return "goodness of fit against noise: not known".into();
+    };
+    let within: Vec<&Candidate> = cands
+        .iter()
+        .filter(|c| c.goodness.is_some_and(|g| g.within_noise()))
+        .collect();
+    if g.within_noise() {
+        format!(
+            "goodness of fit: reduced chi-square {:.2} over {} degrees of freedom (limit {:.2}): {sel} fits within the readings' noise",
+            g.reduced(),
+            g.dof,
+            g.limit()
+        )
+    } else if within.is_empty() {
+        let best = cands
+            .iter()
+            .filter_map(|c| c.goodness.map(|g| (c.member, g.reduced())))
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        format!(
+            "NO member fits these data within their noise: reduced chi-square {:.1} for {sel} (best {}, limit {:.2}); the residuals are larger than the readings' std/sqrt(n) say they should be",
+            g.reduced(),
+            best.map_or("n/d".into(), |(m, r)| format!("{r:.1}, {m}")),
+            g.limit()
+        )
+    } else {
+        format!(
+            "goodness of fit: reduced chi-square {:.1} for {sel} is above the noise limit {:.2}; within noise: {}",
+            g.reduced(),
+            g.limit(),
+            within
+                .iter()
+                .map(|c| c.member.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    }
+}

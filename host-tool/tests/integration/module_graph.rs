@@ -601,13 +601,7 @@ fn long_files(files: &[(String, String)]) -> Vec<String> {
         .collect()
 }
 
-/// Whether a module lies in `fit/` (being made acyclic elsewhere, issue #35).
-fn in_fit(m: &Module) -> bool {
-    m.first().is_some_and(|s| s == "fit")
-}
-
 #[test]
-#[ignore = "enabled once fit/ is acyclic (issue #35)"]
 fn host_tool_has_no_import_cycle_and_no_long_file() {
     let files = host_tool_src();
     let found = cycles(&graph(&files));
@@ -621,27 +615,6 @@ fn host_tool_has_no_import_cycle_and_no_long_file() {
         "{} import cycle(s), {} file(s) over {MAX_LINES} lines:\n{}{}",
         found.len(),
         long.len(),
-        describe(&found),
-        long.join("\n")
-    );
-}
-
-/// Until fit/ is done: everything outside it already holds (no cycle through any
-/// module outside fit/, no long file outside src/fit/).
-#[test]
-fn host_tool_outside_fit_has_no_import_cycle_and_no_long_file() {
-    let files = host_tool_src();
-    let found: Vec<Cycle> = cycles(&graph(&files))
-        .into_iter()
-        .filter(|c| !c.modules.iter().all(in_fit))
-        .collect();
-    let long: Vec<String> = long_files(&files)
-        .into_iter()
-        .filter(|l| !l.starts_with("src/fit/"))
-        .collect();
-    assert!(
-        found.is_empty() && long.is_empty(),
-        "{}{}",
         describe(&found),
         long.join("\n")
     );

@@ -4,13 +4,12 @@
 use std::path::{Path, PathBuf};
 
 use brdf_core::member::Member;
-use clap::Parser;
 use gonio::calibrate::Instrument;
-use gonio::cli::convert::read_instrument;
-use gonio::cli::fit::{self as fit_cmd, FitArgs};
 use gonio::cli::fit_units;
 use gonio::export::mitsuba::{self, MemberTable};
-use gonio::fit::{self, Dataset, FamilyFit, Residual, campaign};
+use gonio::fit::data::{check_aperture, parse_floor};
+use gonio::fit::paper::member_by_name;
+use gonio::fit::{self, Dataset, FamilyFit, FitOptions, Loss, Residual, campaign};
 use gonio::outfile::Target;
 use gonio::sweep_file::{
     self, BrdfUnits, Header, Row, SweepData, SweepStatus as Status, SweepWriter,
@@ -106,47 +105,42 @@ pub struct FitRequest<'a> {
     pub all_starts: bool,
 }
 
-/// `gonio fit`'s own argument parser, so options, defaults and messages are the CLI's.
-#[derive(Parser)]
-#[command(name = "gonio fit", no_binary_name = true)]
-struct FitCommand {
-    #[command(flatten)]
-    args: FitArgs,
-}
-
-fn fit_args(path: Option<&Path>, req: &FitRequest) -> Result<FitArgs, String> {
-    let mut argv: Vec<String> = vec![
-        path.map_or_else(|| "-".into(), |p| p.display().to_string()),
-        format!("--residual={}", req.residual),
-        format!("--loss={}", req.loss),
-    ];
-    argv.extend(req.fix.iter().map(|f| format!("--fix={f}")));
+/// The engine's fit options from a request, by the parsers `gonio fit` uses for the
+/// same words (so values, defaults and messages are the CLI's), and the instrument
+/// when one is named.
+fn fit_options(req: &FitRequest) -> Result<(FitOptions, Option<(Instrument, PathBuf)>), String> {
+    let mut opts = FitOptions {
+        residual: Residual::parse(req.residual)?,
+        loss: Loss::parse(req.loss)?,
+        all_starts: req.all_starts,
+        ..FitOptions::default()
+    };
+    for f in &req.fix {
+        opts.fixed.set(f)?;
+    }
     if !req.models.is_empty() {
-        argv.push(format!("--models={}", req.models.join(",")));
+        // Comma-separated as on the command line.
+        let members = req
+            .models
+            .iter()
+            .flat_map(|m| m.split(','))
+            .filter(|m| !m.trim().is_empty())
+            .map(|m| member_by_name(m).map_err(|e| format!("--models {e}")))
+            .collect::<Result<_, _>>()?;
+        opts.set_members(members);
     }
     if let Some(a) = req.aperture {
-        argv.push(format!("--aperture={a}"));
-    }
-    if let Some(p) = req.instrument {
-        argv.push(format!("--instrument={}", p.display()));
+        opts.aperture = check_aperture(a).map_err(|e| format!("--{e}"))?;
     }
     if let Some(f) = req.floor {
-        argv.push(format!("--floor={f}"));
+        opts.floor = Some(parse_floor(f).map_err(|e| format!("--{e}"))?);
     }
-    if req.all_starts {
-        argv.push("--all-starts".into());
-    }
-    FitCommand::try_parse_from(argv)
-        .map(|c| c.args)
-        .map_err(|e| {
-            e.to_string()
-                .lines()
-                .find(|l| l.starts_with("error:"))
-                .map_or_else(
-                    || e.to_string(),
-                    |l| l.trim_start_matches("error: ").to_string(),
-                )
-        })
+    let instrument = match req.instrument {
+        Some(p) => Some((Instrument::read(p)?, p.to_path_buf())),
+        None => None,
+    };
+    opts.instrument = instrument.as_ref().map(|(i, _)| i.clone());
+    Ok((opts, instrument))
 }
 
 /// A finished fit: the family, the data and the residual kind it minimised.
@@ -162,16 +156,11 @@ pub struct FitOutcome {
 }
 
 /// Fits a sweep file, or rows when `path` is `None`, as `gonio fit` fits one sweep:
-/// its option parsing (`gonio::fit_cmd::options`), reader, `--aperture` over the
-/// file's line, `--instrument`'s conversion to 1/sr, and fitter.
+/// the engine's options (`FitOptions`, parsed as the CLI parses the same words), its
+/// reader and preparation (floor, `--instrument`'s conversion to 1/sr), `--aperture`
+/// over the file's line, and the fitter.
 pub fn fit(path: Option<&Path>, rows: &[Row], req: &FitRequest) -> Result<FitOutcome, String> {
-    let args = fit_args(path, req)?;
-    let mut opts = fit_cmd::options(&args).map_err(|e| e.to_string())?;
-    let instrument = match &args.instrument {
-        Some(p) => Some((read_instrument(p).map_err(|e| e.to_string())?, p.clone())),
-        None => None,
-    };
-    opts.instrument = instrument.as_ref().map(|(i, _)| i.clone());
+    let (opts, instrument) = fit_options(req)?;
     let source = path.unwrap_or(Path::new("the arrays"));
     let mut data = match path {
         Some(p) => {
@@ -183,8 +172,9 @@ pub fn fit(path: Option<&Path>, rows: &[Row], req: &FitRequest) -> Result<FitOut
         }
         None => campaign::prepare(rows, BrdfUnits::Relative, &opts, "the arrays")?,
     };
-    if let Some(a) = args.aperture {
-        data.aperture = a.0;
+    if req.aperture.is_some() {
+        // --aperture wins over the file's line; 0 turns it off.
+        data.aperture = opts.aperture;
     }
     let family = campaign::fit_data(source, &data, &opts).map_err(|e| e.to_string())?;
     Ok(FitOutcome {
@@ -224,7 +214,7 @@ pub fn model_names(o: &FitOutcome) -> (Vec<String>, String) {
 pub fn get_fit(o: &FitOutcome, name: Option<&str>) -> Result<Member, String> {
     let member = match name {
         None => o.family.selected_member,
-        Some(n) => fit_cmd::parse_member(n).map_err(|e| format!("unknown model {e}"))?,
+        Some(n) => member_by_name(n).map_err(|e| format!("unknown model {e}"))?,
     };
     if o.family.candidate(member).is_none() {
         return Err(format!("{member} was not fitted"));
@@ -275,7 +265,9 @@ pub fn load_table(path: &Path) -> Result<MemberTable, String> {
 /// fit minimised (ln f - ln y, f/y - 1 or f - y): the rows of `gonio fit --export
 /// residuals=`.
 pub fn residuals(o: &FitOutcome, member: Member) -> Vec<[f64; 5]> {
-    let fitted = o.family.fitted(&o.data, member)
+    let fitted = o
+        .family
+        .fitted(&o.data, member)
         .unwrap_or_else(|| vec![None; o.data.obs.len()]);
     o.data
         .obs

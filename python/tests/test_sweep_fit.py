@@ -153,8 +153,12 @@ def test_fit_arrays_and_errors():
         gonio.fit(FE_SWEEP, loss="l3")
     with pytest.raises(gonio.GonioError, match="--fix: unknown parameter 'k'"):
         gonio.fit(FE_SWEEP, fix=["k=1"])
-    with pytest.raises(gonio.GonioError, match="invalid value 'four' for '--models"):
+    with pytest.raises(gonio.GonioError, match="--models 'four': unknown component"):
         gonio.fit(FE_SWEEP, models=["four"])
+    with pytest.raises(gonio.GonioError, match="--residual 'lin': use log, rel or abs"):
+        gonio.fit(FE_SWEEP, residual="lin")
+    with pytest.raises(gonio.GonioError, match="--aperture 11: expected a half-angle"):
+        gonio.fit(FE_SWEEP, aperture=11.0)
     with pytest.raises(gonio.GonioError, match="at least 3"):
         gonio.fit([10.0], [10.0], [1.0])
 

@@ -91,7 +91,7 @@ fn measure(
     let _ = std::fs::remove_file(&out);
     let data = Dataset::from_rows(&rows, true).map_err(|e| StudyError::Failed(e.0))?;
     let fit = fit_member(&data, Member::THREE_COMPONENT, Residual::Log, None)
-        .ok_or_else(|| StudyError::Failed("fit failed".into()))?;
+        .map_err(|e| StudyError::Failed(format!("fit failed: {e:?}")))?;
     let (mut sum, mut n) = (0.0, 0usize);
     for i in 0..=16 {
         let ti = 5.0 * i as f64;

@@ -50,7 +50,25 @@ pub fn now_utc() -> String {
     humantime::format_rfc3339_seconds(std::time::SystemTime::now()).to_string()
 }
 
+/// The largest instrument file read (bytes): it holds a few lines.
+const MAX_INSTRUMENT_BYTES: u64 = 1 << 20;
+
 impl Instrument {
+    /// Reads and checks an instrument file (`gonio calibrate`'s); the message names
+    /// the file.
+    pub fn read(path: &std::path::Path) -> Result<Instrument, String> {
+        let cannot = |e: std::io::Error| format!("cannot read {}: {e}", path.display());
+        let meta = std::fs::metadata(path).map_err(cannot)?;
+        if !meta.is_file() || meta.len() > MAX_INSTRUMENT_BYTES {
+            return Err(format!(
+                "{}: not an instrument file (a regular file of at most 1 MiB)",
+                path.display()
+            ));
+        }
+        let text = std::fs::read_to_string(path).map_err(cannot)?;
+        Instrument::from_toml(&text).map_err(|e| format!("{}: {e}", path.display()))
+    }
+
     /// The instrument of a calibration against `standard` from `reference_file` at `date`.
     pub fn new(
         cal: &Calibration,

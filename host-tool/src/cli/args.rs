@@ -13,7 +13,6 @@ use crate::calibrate::{SpecError, Standard};
 use crate::capture::{DEFAULT_ADAPTIVE_BUDGET, HostPlan, SettingsOverride};
 use crate::device::SimConfig;
 use crate::export::ExportFormat;
-use crate::fit::Loss;
 
 /// Which plan to run; shared by `capture`, `simulate` and `demo`.
 #[derive(Debug, Clone, Args)]
@@ -208,22 +207,6 @@ pub fn parse_speed(s: &str) -> Result<f64, String> {
             "'{}' is not a speed factor from {lo} to {hi}",
             crate::text::escape_line(s, 40)
         )),
-    }
-}
-
-/// Parses `--loss` (a clap value parser: a bad value is a usage error before any work).
-pub fn parse_loss(s: &str) -> Result<Loss, String> {
-    let scale = |c: &str| -> Result<f64, String> {
-        match c.parse::<f64>() {
-            Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
-            _ => Err(format!("--loss {s}: the scale must be a number > 0")),
-        }
-    };
-    match s.split_once(':') {
-        None if s == "l2" => Ok(Loss::L2),
-        Some(("huber", c)) => Ok(Loss::Huber(scale(c)?)),
-        Some(("cauchy", c)) => Ok(Loss::Cauchy(scale(c)?)),
-        _ => Err(format!("--loss '{s}': use l2, huber:C or cauchy:C")),
     }
 }
 

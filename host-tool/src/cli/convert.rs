@@ -10,9 +10,6 @@ use crate::calibrate::{self, Instrument};
 use crate::outfile::{self, Target};
 use crate::sweep_file::{MAX_SWEEP_BYTES, parse_sweep};
 
-/// Largest instrument file read (bytes).
-const MAX_INSTRUMENT_BYTES: u64 = 1 << 20;
-
 /// `gonio convert`.
 #[derive(Debug, Args)]
 #[command(
@@ -42,17 +39,7 @@ pub struct ConvertArgs {
 
 /// Reads and checks an instrument file (bad content is bad input, exit 2).
 pub fn read_instrument(path: &Path) -> CliResult<Instrument> {
-    let cannot =
-        |e: std::io::Error| CliError::usage(format!("cannot read {}: {e}", path.display()));
-    let meta = std::fs::metadata(path).map_err(cannot)?;
-    if !meta.is_file() || meta.len() > MAX_INSTRUMENT_BYTES {
-        return Err(CliError::usage(format!(
-            "{}: not an instrument file (a regular file of at most 1 MiB)",
-            path.display()
-        )));
-    }
-    let text = std::fs::read_to_string(path).map_err(cannot)?;
-    Instrument::from_toml(&text).map_err(|e| CliError::usage(format!("{}: {e}", path.display())))
+    Instrument::read(path).map_err(CliError::usage)
 }
 
 /// Runs `gonio convert`.

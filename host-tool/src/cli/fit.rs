@@ -7,14 +7,14 @@ use clap::{Args, ValueEnum};
 
 use brdf_core::member::Member;
 
-use super::args::{parse_export, parse_loss};
+use super::args::parse_export;
 use super::error::{CliError, CliResult};
 use super::output::{write_stdout, write_stdout_with};
 use crate::calibrate::Instrument;
 use crate::export::ExportFormat;
 use crate::fit::campaign::{self, FileError};
 use crate::fit::physical::CheckScope;
-use crate::fit::{self, Dataset, FamilyFit, FitOptions, Fixed, Kind, Loss, Residual};
+use crate::fit::{self, Dataset, FamilyFit, FitOptions, Fixed, Loss, Residual};
 use crate::outfile::{self, Target};
 use crate::{export, plot};
 
@@ -124,14 +124,14 @@ pub struct FitArgs {
     /// Which fitted model to export [default: the selected one]: a name as --models
     /// takes; any fitted member, whatever its components (a member the family did not
     /// fit can be fitted with --models).
-    #[arg(long = "export-model", value_name = "MODEL", value_parser = parse_member)]
+    #[arg(long = "export-model", value_name = "MODEL", value_parser = fit::paper::member_by_name)]
     pub export_model: Option<Member>,
     /// Residuals to minimise.
     #[arg(long, value_enum, default_value_t = ResidualArg::Log)]
     pub residual: ResidualArg,
     /// Loss: l2, huber:C or cauchy:C (C in residual units, e.g. cauchy:0.05 for log
     /// residuals: readings off by more than ~5 % count less).
-    #[arg(long, default_value = "l2", value_name = "LOSS", value_parser = parse_loss)]
+    #[arg(long, default_value = "l2", value_name = "LOSS", value_parser = Loss::parse)]
     pub loss: Loss,
     /// Hold a parameter fixed: sigma, sigma_m, kdd, kid or kd, e.g. --fix sigma=0.115.
     /// Repeatable.
@@ -143,7 +143,7 @@ pub struct FitArgs {
     /// joined by '+' (specular, specular-haze, directional-diffuse, ideal-diffuse), a
     /// lobe optionally with :beckmann or :ggx and :smooth-ks, e.g.
     /// specular:ggx+specular-haze+ideal-diffuse.
-    #[arg(long, value_delimiter = ',', value_name = "MODELS", value_parser = parse_member)]
+    #[arg(long, value_delimiter = ',', value_name = "MODELS", value_parser = fit::paper::member_by_name)]
     pub models: Vec<Member>,
     /// The detector's acceptance half-angle in degrees (0 to 10): every model is
     /// averaged over the detector's cone before it is compared with the readings, so
@@ -193,16 +193,6 @@ fn parse_aperture_arg(s: &str) -> Result<Aperture, String> {
     fit::data::parse_aperture(s).map(Aperture)
 }
 
-/// A member name on the command line: a paper name, its short form, or a systematic
-/// name (see [`Member::parse`]).
-pub fn parse_member(s: &str) -> Result<Member, String> {
-    let t = s.trim();
-    if let Some(k) = Kind::from_cli_name(t) {
-        return Ok(k.member());
-    }
-    Member::parse(t).map_err(|e| format!("'{}': {e}", crate::text::escape_line(s, 60)))
-}
-
 /// The fit options from the command line (the members `--models` names, if any, in
 /// [`FitOptions::members`]).
 pub fn options(args: &FitArgs) -> CliResult<FitOptions> {
@@ -227,10 +217,7 @@ pub fn options(args: &FitArgs) -> CliResult<FitOptions> {
         opts.aperture = a.0;
     }
     if !args.models.is_empty() {
-        let mut m = args.models.clone();
-        m.sort();
-        m.dedup();
-        opts.members = Some(m);
+        opts.set_members(args.models.clone());
     }
     Ok(opts)
 }

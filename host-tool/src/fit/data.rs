@@ -191,12 +191,26 @@ pub fn parse_aperture(text: &str) -> Result<Option<f64>, String> {
         .or_else(|| t.strip_suffix("deg"))
         .unwrap_or(t)
         .trim();
-    match t.parse::<f64>() {
-        Ok(v) if v.is_finite() && (0.0..=MAX_APERTURE).contains(&v) => Ok((v > 0.0).then_some(v)),
-        _ => Err(format!(
-            "aperture '{}': expected a half-angle in degrees from 0 to {MAX_APERTURE}",
-            crate::text::escape_line(text, 40)
-        )),
+    t.parse::<f64>()
+        .ok()
+        .and_then(|v| check_aperture(v).ok())
+        .ok_or_else(|| {
+            format!(
+                "aperture '{}': expected a half-angle in degrees from 0 to {MAX_APERTURE}",
+                crate::text::escape_line(text, 40)
+            )
+        })
+}
+
+/// A detector acceptance half-angle in degrees checked: finite, in [0,
+/// [`MAX_APERTURE`]]; 0 means a point detector (`None`).
+pub fn check_aperture(v: f64) -> Result<Option<f64>, String> {
+    if v.is_finite() && (0.0..=MAX_APERTURE).contains(&v) {
+        Ok((v > 0.0).then_some(v))
+    } else {
+        Err(format!(
+            "aperture {v}: expected a half-angle in degrees from 0 to {MAX_APERTURE}"
+        ))
     }
 }
 

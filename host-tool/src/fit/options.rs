@@ -12,6 +12,21 @@ pub enum Residual {
     Absolute,
 }
 
+impl Residual {
+    /// Parses `log`, `rel` or `abs` (`gonio fit --residual`, Python's `residual=`).
+    pub fn parse(s: &str) -> Result<Residual, String> {
+        match s.trim() {
+            "log" => Ok(Residual::Log),
+            "rel" => Ok(Residual::Relative),
+            "abs" => Ok(Residual::Absolute),
+            _ => Err(format!(
+                "--residual '{}': use log, rel or abs",
+                crate::text::escape_line(s, 40)
+            )),
+        }
+    }
+}
+
 /// How residuals are penalised.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Loss {
@@ -57,6 +72,15 @@ pub struct FitOptions {
     pub instrument: Option<crate::calibrate::Instrument>,
 }
 
+impl FitOptions {
+    /// Fit exactly `members` (`--models`), each once, in the lattice's order.
+    pub fn set_members(&mut self, mut members: Vec<brdf_core::member::Member>) {
+        members.sort();
+        members.dedup();
+        self.members = Some(members);
+    }
+}
+
 impl Default for FitOptions {
     fn default() -> Self {
         FitOptions {
@@ -83,6 +107,22 @@ pub fn residual_of(kind: Residual, f: f64, y: f64) -> f64 {
 }
 
 impl Loss {
+    /// Parses `l2`, `huber:C` or `cauchy:C` (`gonio fit --loss`, Python's `loss=`).
+    pub fn parse(s: &str) -> Result<Loss, String> {
+        let scale = |c: &str| -> Result<f64, String> {
+            match c.parse::<f64>() {
+                Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+                _ => Err(format!("--loss {s}: the scale must be a number > 0")),
+            }
+        };
+        match s.split_once(':') {
+            None if s == "l2" => Ok(Loss::L2),
+            Some(("huber", c)) => Ok(Loss::Huber(scale(c)?)),
+            Some(("cauchy", c)) => Ok(Loss::Cauchy(scale(c)?)),
+            _ => Err(format!("--loss '{s}': use l2, huber:C or cauchy:C")),
+        }
+    }
+
     /// The IRLS weight of a residual `r` under this loss (1 for least squares).
     pub fn weight(self, r: f64) -> f64 {
         robust_weight(self, r)

@@ -252,6 +252,17 @@ pub fn coords(kind: Kind, n_inc: usize) -> Vec<Coord> {
     c
 }
 
+/// A member by name: a paper name, its short form (`ideal`, `ts`, `three`,
+/// `three-smooth`), or a systematic name (see [`Member::parse`]); for `gonio fit
+/// --models` and Python's `models=`.
+pub fn member_by_name(s: &str) -> Result<Member, String> {
+    let t = s.trim();
+    if let Some(k) = Kind::from_cli_name(t) {
+        return Ok(k.member());
+    }
+    Member::parse(t).map_err(|e| format!("'{}': {e}", crate::text::escape_line(s, 60)))
+}
+
 /// The [`Kind`] of a paper member.
 pub fn kind_of(m: brdf_core::member::Member) -> Option<Kind> {
     Kind::ALL.into_iter().find(|k| k.member() == m)

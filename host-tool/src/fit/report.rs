@@ -4,7 +4,7 @@
 use serde_json::{Value, json};
 
 use super::family_fit::FamilyFit;
-use super::member_fit::MemberFit;
+use super::member_fit::{MemberFit, smooth_ln_ks_variance};
 use super::paper::Fit;
 use super::paper::{Coord, Kind, scalar_coords};
 use super::select::Candidate;
@@ -60,13 +60,7 @@ pub fn ks_table(fit: &Fit, incidences: &[f64]) -> Vec<(f64, f64, Option<f64>)> {
                         .collect();
                     idx.filter(|ix| ix.iter().all(|&i| fit.identifiable[i]))
                         .map(|ix| {
-                            let g = [1.0, t, t * t];
-                            let mut var = 0.0;
-                            for a in 0..3 {
-                                for b in 0..3 {
-                                    var += g[a] * g[b] * fit.cov.get(ix[a], ix[b]);
-                                }
-                            }
+                            let var = smooth_ln_ks_variance(&fit.cov, [ix[0], ix[1], ix[2]], t);
                             ks * var.max(0.0).sqrt()
                         })
                 }

@@ -15,7 +15,7 @@ use brdf_core::member::{Component, LobeSpec, Member};
 
 use super::criteria::{aicc, bic};
 use super::goodness::Goodness;
-use super::member_fit::MemberFit;
+use super::member_fit::{MemberFit, smooth_ln_ks_variance};
 use super::paper::Kind;
 
 /// A difference in the criterion below this is not evidence for the larger model.
@@ -118,10 +118,7 @@ impl Candidate {
                         let t = ti / 90.0;
                         let g = [1.0, t, t * t];
                         let ln = (0..3).map(|a| g[a] * fit.x[p + a]).sum::<f64>();
-                        let var: f64 = (0..3)
-                            .flat_map(|a| (0..3).map(move |b| (a, b)))
-                            .map(|(a, b)| g[a] * g[b] * fit.cov.get(p + a, p + b))
-                            .sum();
+                        let var = smooth_ln_ks_variance(&fit.cov, [p, p + 1, p + 2], t);
                         let value = ln.exp();
                         Amplitude {
                             value,

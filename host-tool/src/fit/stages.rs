@@ -10,7 +10,7 @@ use super::data::Dataset;
 use super::family;
 use super::family_fit::FamilyFit;
 use super::goodness::{self, Goodness};
-use super::member_fit::{self, GridBases, MemberFit};
+use super::member_fit::{self, GridBases, MemberFit, NotFitted};
 use super::options::{FitOptions, Residual};
 use super::paper::{self, Fit, Kind};
 use super::peak;
@@ -28,18 +28,21 @@ pub(super) fn fit_members(
     notes: &mut Vec<String>,
 ) -> Vec<MemberFit> {
     let data = bases.data();
-    let fitted: Vec<Option<MemberFit>> = members
+    let fitted: Vec<Result<MemberFit, NotFitted>> = members
         .par_iter()
         .map(|&m| member_fit::fit_member_with(bases, m, residual))
         .collect();
     let mut out = Vec::new();
     for (m, f) in members.iter().zip(fitted) {
         match f {
-            Some(f) => out.push(f),
-            None => notes.push(format!(
+            Ok(f) => out.push(f),
+            Err(NotFitted::Undetermined) => notes.push(format!(
                 "{m}: not fitted ({} readings at {} incidence(s) cannot determine its parameters)",
                 data.obs.len(),
                 data.incidences.len()
+            )),
+            Err(NotFitted::NoStart) => notes.push(format!(
+                "{m}: not fitted: no start on its width grid could be refined (the model could not be evaluated there, or the optimiser failed from every one)"
             )),
         }
     }

@@ -11,9 +11,20 @@ use super::super::paper_rmse::paper_rmse_with;
 
 use super::{bases::*, grid::*, layout::*, problem::*, refine::*, result::*};
 
+/// Why a member was not fitted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NotFitted {
+    /// The data cannot determine its parameters: fewer readings than its free
+    /// parameters and a residual degree of freedom, or a smooth k_s over fewer than 3
+    /// incidences.
+    Undetermined,
+    /// No start of its width grid could be refined: the model could not be evaluated
+    /// there, or LM failed from every one.
+    NoStart,
+}
+
 /// Fits `member` to `data`: the width grid with linear amplitudes, then LM from the
-/// [`REFINED`] best grid points. `None` when the data cannot determine it (fewer readings than parameters, a
-/// smooth k_s over fewer than 3 incidences) or every start failed. `aperture`: the
+/// [`REFINED`] best grid points; [`NotFitted`] says why not. `aperture`: the
 /// detector's acceptance half-angle (degrees), over which the model is averaged before
 /// it is compared with the readings.
 pub fn fit_member(
@@ -21,7 +32,7 @@ pub fn fit_member(
     member: Member,
     residual: Residual,
     aperture: Option<f64>,
-) -> Option<MemberFit> {
+) -> Result<MemberFit, NotFitted> {
     fit_member_with(&GridBases::new(data, aperture), member, residual)
 }
 
@@ -31,7 +42,7 @@ pub fn fit_member_with(
     bases: &GridBases<'_>,
     member: Member,
     residual: Residual,
-) -> Option<MemberFit> {
+) -> Result<MemberFit, NotFitted> {
     fit_member_keeping(bases, member, residual, KEPT_AMPLITUDE_BYTES)
 }
 
@@ -51,7 +62,7 @@ pub(super) fn fit_member_keeping(
     member: Member,
     residual: Residual,
     kept_bytes: usize,
-) -> Option<MemberFit> {
+) -> Result<MemberFit, NotFitted> {
     let data = bases.data;
     let aperture = bases.aperture;
     let n_inc = data.incidences.len();
@@ -59,7 +70,7 @@ pub(super) fn fit_member_keeping(
     let held = layout.held(&bases.fixed);
     let fixed: Vec<bool> = held.iter().map(Option::is_some).collect();
     if undetermined(data, &layout, &fixed) {
-        return None;
+        return Err(NotFitted::Undetermined);
     }
     let grid = Grid::new(bases, member);
     let (core_w, haze_w) = (&grid.core_w, &grid.haze_w);
@@ -145,11 +156,11 @@ pub(super) fn fit_member_keeping(
             best = Some((c, x, converged, normal));
         }
     }
-    let (ssr, x, converged, normal) = best?;
+    let (ssr, x, converged, normal) = best.ok_or(NotFitted::NoStart)?;
     if bases.loss != Loss::L2 {
-        return reweighted(&p, bases.loss, x, &lm, held);
+        return reweighted(&p, bases.loss, x, &lm, held).ok_or(NotFitted::NoStart);
     }
-    finish(&mut p, x, ssr, converged, normal, held)
+    finish(&mut p, x, ssr, converged, normal, held).ok_or(NotFitted::NoStart)
 }
 
 /// IRLS passes of a robust loss after the least-squares optimum: each pass weights

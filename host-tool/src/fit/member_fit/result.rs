@@ -120,3 +120,17 @@ impl MemberFit {
             .map(|e| e.f)
     }
 }
+
+/// The variance of ln k_s(t) = c0 + c1 t + c2 t^2 at t = theta_i / 90 for a smooth
+/// k_s whose coefficients are parameters `at` of `cov`: g^T C g with g = (1, t, t^2).
+/// The one formula of the reports' k_s table and the selection's amplitude.
+pub fn smooth_ln_ks_variance(cov: &ArrowInverse, at: [usize; 3], t: f64) -> f64 {
+    let g = [1.0, t, t * t];
+    let mut var = 0.0;
+    for a in 0..3 {
+        for b in 0..3 {
+            var += g[a] * g[b] * cov.get(at[a], at[b]);
+        }
+    }
+    var
+}

@@ -519,7 +519,7 @@ fn refining_every_start_finds_the_lower_optimum_a_stopped_start_misses() {
         Member::parse("specular:beckmann+specular-haze:beckmann+directional-diffuse+ideal-diffuse")
             .unwrap();
     for m in crate::fit::family::reference_members() {
-        let (Some(p), Some(e)) = (
+        let (Ok(p), Ok(e)) = (
             fit_member_with(&pruned, m, Residual::Log),
             fit_member_with(&every, m, Residual::Log),
         ) else {

@@ -315,7 +315,11 @@ fn scale_study_here() -> Result<Vec<ScaleRow>> {
         let fam = fam.map_err(StudyError::Failed)?;
         let checks_all_cores_ms = all_cores.install(|| {
             best_ms(1, || {
-                let _ = crate::fit::physical::check_family(&fam);
+                let _ = crate::fit::physical::check_family(
+                    &fam.members,
+                    fam.selected_member,
+                    fam.checks,
+                );
             })
         });
         out.push(ScaleRow {

@@ -69,8 +69,9 @@ columns (gonio's captures do), the reduced chi-square against the readings' nois
 within it, and the report says so plainly when none does.\n\n\
 Each member is fitted on a log-spaced grid of lobe widths with its amplitudes solved linearly (non-negative) at \
 every grid point, so a lobe one reading step wide is found, then refined by Levenberg–Marquardt with an \
-analytic Jacobian; members are fitted in parallel. With --fix or a robust --loss only the paper's four models \
-are fitted, from multi-start Levenberg–Marquardt. Every parameter is fitted as its logarithm; standard errors \
+analytic Jacobian; members are fitted in parallel. --fix holds a parameter at its value in every member that has \
+it (a width held fixed is the grid's one width); a robust --loss refits each member from its least-squares \
+optimum by iteratively reweighted least squares. Every parameter is fitted as its logarithm; standard errors \
 come from the covariance at the optimum.\n\n\
 When at least 3 readings equal the sweep's smallest value exactly, the report asks whether that is a \
 detection floor; --floor auto leaves them out of the fit, --floor VALUE every reading at or below VALUE. When the \
@@ -179,8 +180,7 @@ pub struct FitArgs {
     /// fit takes about half the time, but now and then misses a lower optimum (on 97
     /// test sweeps, simulated two-lobe and GGX surfaces among them, 12 of 886 member
     /// fits ended 0.1-30 % higher in SSR, mostly two-lobe members, and one sweep's
-    /// selection changed). Not with --fix or a robust --loss, which use no width grid
-    /// (their multi-start stops no start early).
+    /// selection changed).
     #[arg(long)]
     pub all_starts: bool,
 }

@@ -234,7 +234,7 @@ pub fn report_text(fam: &FamilyFit, inst: Option<(&Instrument, &Path)>) -> Strin
         s.push_str(&instrument_text(fam, i, p));
     }
     s.push_str(&physical::checks_text(
-        &physical::check_family(fam),
+        &fam.physical,
         fam.units,
         fam.selected_member.name().as_str(),
         fam.checks,

@@ -13,8 +13,7 @@ use serde_json::{Value, json};
 use super::data::Dataset;
 use super::family_fit::FamilyFit;
 use super::options::{FitOptions, Residual};
-use super::paper::{Coord, Kind, scalar_coords};
-use super::report::{family_json_text, family_table, scalar};
+use super::report::{family_json_text, family_table};
 use super::stages::fit_family;
 use crate::outfile::{self, Target};
 use crate::sweep_file::{looks_like_radians, read_sweep};
@@ -118,9 +117,14 @@ pub fn prepare(
     Ok(data)
 }
 
-/// Fits the family to data read from `path` (named in the message of a failure).
+/// Fits the family to data read from `path` (named in the message of a failure), then
+/// assesses it: the physical checks its options name, made once into the result.
 pub fn fit_data(path: &Path, data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, FileError> {
-    fit_family(data, opts).map_err(|e| FileError::Fit(format!("{}: {e}", path.display())))
+    let mut fam =
+        fit_family(data, opts).map_err(|e| FileError::Fit(format!("{}: {e}", path.display())))?;
+    // Assessed once, here: every report formats these.
+    fam.physical = super::physical::check_family(&fam.members, fam.selected_member, fam.checks);
+    Ok(fam)
 }
 
 /// Reads, checks and fits one sweep file; every message starts with the path.
@@ -307,29 +311,12 @@ const KEY_PARAMS: [&str; 6] = ["sigma", "sigma_haze", "sigma_m", "k_dd", "k_id",
 /// Name, value and standard error of the selected member's scalar parameters (widths
 /// and scalar weights; not the per-incidence or smooth k_s).
 fn key_params(fam: &FamilyFit) -> Vec<(&'static str, f64, Option<f64>)> {
-    if let Some(f) = fam.selected_fit() {
-        return super::report::member_params(f)
-            .into_iter()
-            .filter_map(|(n, v, se)| KEY_PARAMS.iter().find(|&&k| k == n).map(|&k| (k, v, se)))
-            .collect();
-    }
-    // The paper-form path (--fix, robust losses): the selected member is a paper one.
-    let Some(fit) = super::paper::kind_of(fam.selected_member).and_then(|k| fam.get(k)) else {
+    let Some(f) = fam.selected_fit() else {
         return Vec::new();
     };
-    scalar_coords(fit.kind)
+    super::report::member_params(f)
         .into_iter()
-        .map(|c| {
-            let name = match c {
-                Coord::Sigma => "sigma",
-                Coord::SigmaM => "sigma_m",
-                Coord::Kdd => "k_dd",
-                Coord::Kid if fit.kind == Kind::TorranceSparrow => "k_d",
-                _ => "k_id",
-            };
-            let (v, se) = scalar(fit, c);
-            (name, v, se)
-        })
+        .filter_map(|(n, v, se)| KEY_PARAMS.iter().find(|&&k| k == n).map(|&k| (k, v, se)))
         .collect()
 }
 

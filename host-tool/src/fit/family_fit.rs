@@ -8,6 +8,7 @@ use super::goodness::member_fitted;
 use super::member_fit::MemberFit;
 use super::options::CheckScope;
 use super::paper::{Fit, Kind};
+use super::physical::ModelCheck;
 use super::select::Candidate;
 use crate::sweep_file::BrdfUnits;
 
@@ -45,10 +46,14 @@ pub struct FamilyFit {
     pub units: BrdfUnits,
     /// Which fitted models the reports' physical checks cover ([`FitOptions::checks`]).
     pub checks: CheckScope,
+    /// The physical checks of the models [`FamilyFit::checks`] names, made once after
+    /// the fit ([`super::campaign::fit_data`]) for every report to format (empty until
+    /// then).
+    pub physical: Vec<ModelCheck>,
 }
 
 impl FamilyFit {
-    /// The paper-form fit of one kind, if it was fitted.
+    /// The paper's view of one kind's fit, if it was fitted.
     pub fn get(&self, kind: Kind) -> Option<&Fit> {
         self.fits.iter().find(|f| f.kind == kind)
     }
@@ -63,7 +68,7 @@ impl FamilyFit {
         self.candidates.iter().find(|c| c.member == m)
     }
 
-    /// The selected member's grid fit (`None` on the paper-form path).
+    /// The selected member's fit.
     pub fn selected_fit(&self) -> Option<&MemberFit> {
         self.member(self.selected_member)
     }

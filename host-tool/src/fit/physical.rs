@@ -21,10 +21,10 @@ use brdf_core::geometry::Geometry;
 use rayon::prelude::*;
 use serde_json::{Value, json};
 
-use super::family_fit::FamilyFit;
 use super::member_fit::MemberFit;
 pub use super::options::CheckScope;
 use crate::sweep_file::BrdfUnits;
+use brdf_core::member::Member;
 
 /// The relative error the checks' albedo quadrature aims at: the stated bound itself
 /// (each model's estimate is reported; a finer target costs evaluations nobody reads).
@@ -33,7 +33,7 @@ pub const CHECK_REL_ERROR: f64 = brdf_core::albedo::DEFAULT_REL_ERROR;
 /// The checks of one fitted model.
 #[derive(Debug, Clone)]
 pub struct ModelCheck {
-    /// The model's name (the member's, or the paper model's on the paper-form path).
+    /// The member's name.
     pub name: String,
     /// Per fitted incidence (degrees): rho and its quadrature error estimate (the
     /// BRDF's units x sr).
@@ -167,17 +167,20 @@ fn finish(
     }
 }
 
-/// The fitted models [`FamilyFit::checks`] names checked, in the order reported
-/// (members and incidences in parallel): the family's members; with
-/// [`CheckScope::Selected`] only the selected one.
-pub fn check_family(fam: &FamilyFit) -> Vec<ModelCheck> {
-    if fam.checks == CheckScope::None {
+/// The checks of the fitted `members` that `scope` names (the selected one alone for
+/// [`CheckScope::Selected`]), in the order reported, members and incidences in
+/// parallel: what [`super::campaign::fit_data`] puts in [`FamilyFit::physical`] once,
+/// for every report to format.
+///
+/// [`FamilyFit::physical`]: super::family_fit::FamilyFit::physical
+pub fn check_family(members: &[MemberFit], selected: Member, scope: CheckScope) -> Vec<ModelCheck> {
+    if scope == CheckScope::None {
         return Vec::new();
     }
-    let all = fam.checks == CheckScope::All;
-    fam.members
+    let all = scope == CheckScope::All;
+    members
         .par_iter()
-        .filter(|f| all || f.member() == fam.selected_member)
+        .filter(|f| all || f.member() == selected)
         .map(check_member)
         .collect()
 }
@@ -359,7 +362,7 @@ mod tests {
             ..FitOptions::default()
         };
         let fam = fit_family(&data, &opts).unwrap();
-        let checks = check_family(&fam);
+        let checks = check_family(&fam.members, fam.selected_member, fam.checks);
         assert_eq!(checks.len(), fam.members.len());
         assert_eq!(fam.members.len(), members.len());
         for (c, m) in checks.iter().zip(&fam.members) {
@@ -428,9 +431,9 @@ mod tests {
             ..FitOptions::default()
         };
         let mut fam = fit_family(&data, &opts).unwrap();
-        let all = check_family(&fam);
+        let all = check_family(&fam.members, fam.selected_member, fam.checks);
         fam.checks = CheckScope::Selected;
-        let one = check_family(&fam);
+        let one = check_family(&fam.members, fam.selected_member, fam.checks);
         let selected = fam.selected_member.to_string();
         assert_eq!(one.len(), 1);
         assert_eq!(one[0].name, selected);
@@ -440,7 +443,7 @@ mod tests {
         assert!(t.contains("physical checks of the selected model"), "{t}");
         assert!(!t.contains("physical checks of every"), "{t}");
         fam.checks = CheckScope::None;
-        assert!(check_family(&fam).is_empty());
+        assert!(check_family(&fam.members, fam.selected_member, fam.checks).is_empty());
         let t = checks_text(&[], BrdfUnits::PerSr, &selected, CheckScope::None);
         assert!(t.contains("not run"), "{t}");
     }
@@ -458,7 +461,7 @@ mod tests {
         };
         let fam = fit_family(&data, &opts).unwrap();
         assert_eq!(fam.members.len(), 2);
-        let checks = check_family(&fam);
+        let checks = check_family(&fam.members, fam.selected_member, fam.checks);
         assert_eq!(checks.len(), 2);
         for c in &checks {
             assert_eq!(c.albedo.len(), 9);

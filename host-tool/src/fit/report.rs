@@ -292,20 +292,10 @@ pub fn member_fit_json(fit: &MemberFit, cand: Option<&Candidate>) -> Value {
     })
 }
 
-/// The object `gonio fit --json` lists for member `m` ([`any_member_json`]; on the
-/// paper-form path its paper fit's [`model_json`] with `reduced_chi2`), if it was
+/// The object `gonio fit --json` lists for member `m` ([`any_member_json`]), if it was
 /// fitted: what exports of one member report.
 pub fn member_json(f: &FamilyFit, m: Member) -> Option<Value> {
-    if let Some(fit) = f.member(m) {
-        return Some(any_member_json(f, fit));
-    }
-    let fit = super::paper::kind_of(m).and_then(|k| f.get(k))?;
-    let mut v = model_json(fit, &f.incidences);
-    if let Value::Object(map) = &mut v {
-        let g = f.candidate(m).and_then(|c| c.goodness);
-        map.insert("reduced_chi2".into(), opt(g.map(|g| g.reduced())));
-    }
-    Some(v)
+    f.member(m).map(|fit| any_member_json(f, fit))
 }
 
 /// One fitted member as JSON: a paper member in [`model_json`]'s form (with
@@ -363,18 +353,6 @@ impl serde::Serialize for ModelsJson<'_> {
     fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         use serde::ser::SerializeSeq;
         let f = self.0;
-        if f.members.is_empty() {
-            let mut seq = s.serialize_seq(Some(f.fits.len()))?;
-            for m in &f.fits {
-                let mut v = model_json(m, &f.incidences);
-                if let Value::Object(map) = &mut v {
-                    let g = f.candidate(m.kind.member()).and_then(|c| c.goodness);
-                    map.insert("reduced_chi2".into(), opt(g.map(|g| g.reduced())));
-                }
-                seq.serialize_element(&v)?;
-            }
-            return seq.end();
-        }
         let mut seq = s.serialize_seq(Some(f.members.len()))?;
         for m in &f.members {
             seq.serialize_element(&any_member_json(f, m))?;
@@ -408,7 +386,7 @@ impl serde::Serialize for FamilyJson<'_> {
         m.serialize_entry("brdf_units", f.units.word())?;
         m.serialize_entry(
             "physical_checks",
-            &super::physical::checks_json(&super::physical::check_family(f), f.units),
+            &super::physical::checks_json(&f.physical, f.units),
         )?;
         m.serialize_entry("physical_checks_of", f.checks.word())?;
         if let Some(i) = self.1 {
@@ -516,16 +494,10 @@ pub fn family_table(f: &FamilyFit, residual: &str) -> String {
     use std::fmt::Write;
     let mut out = String::new();
     let inc = &f.incidences;
-    if f.members.is_empty() {
-        for fit in &f.fits {
-            kind_block(&mut out, f, fit, residual);
-        }
-    } else {
-        for m in &f.members {
-            match super::paper::kind_of(m.member()).and_then(|k| f.get(k)) {
-                Some(fit) => kind_block(&mut out, f, fit, residual),
-                None => member_block(&mut out, f, m, residual),
-            }
+    for m in &f.members {
+        match super::paper::kind_of(m.member()).and_then(|k| f.get(k)) {
+            Some(fit) => kind_block(&mut out, f, fit, residual),
+            None => member_block(&mut out, f, m, residual),
         }
     }
     // The paper's Table 3: RMSE1 (T–S) beside RMSE2 (three-component), normalised

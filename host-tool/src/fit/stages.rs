@@ -290,6 +290,7 @@ pub fn fit_family(data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, String
         has_noise: data.has_noise(),
         units: data.units,
         checks: opts.checks,
+        physical: Vec::new(),
     })
 }
 

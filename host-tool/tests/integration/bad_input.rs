@@ -494,15 +494,9 @@ const CASES: &[Case] = &[
         "floor 'often': expected auto",
     ),
     case(
-        &[
-            "fit",
-            "{d}/fe-0.115.csv",
-            "--all-starts",
-            "--fix",
-            "sigma_m=0.7",
-        ],
+        &["fit", "{d}/fe-0.115.csv", "--fix", "sigma=50"],
         2,
-        "--all-starts cannot be combined with --fix",
+        "the fit's bounds for it",
     ),
     case(
         &["fit", "{d}/fe-0.115.csv", "--checks", "some"],

@@ -4,7 +4,7 @@
 use super::data::Dataset;
 use super::factors::{Detectors, Incidence, point_value};
 use super::member_fit::{MemberFit, eval_at};
-use super::options::{Residual, residual_of};
+use super::options::Residual;
 
 /// The fitted value at every reading of `data`, in file order, as the fit compared it
 /// with the reading: the reading's own incidence's parameters, averaged over the
@@ -62,30 +62,14 @@ impl Goodness {
     }
 }
 
-/// The chi-square of fitted values against `data`: the sum of squared residuals over
-/// the readings' noise variance in the residual's kind, pooled over the readings (the
-/// mean of (std / sqrt(n))^2, as sigma_y / y for log and relative residuals, sigma_y for
-/// absolute ones). Pooled because a std from a few samples is too noisy to weight one
-/// reading alone: with 4 samples E[1 / s^2] is three times 1 / sigma^2, which would
-/// triple the statistic of a perfect model. `None` when a reading has no standard
-/// error, a value is missing, or there are no degrees of freedom left.
-pub fn goodness(
-    data: &Dataset,
-    fitted: &[Option<f64>],
-    residual: Residual,
-    k: usize,
-) -> Option<Goodness> {
-    let mut ssr = 0.0;
-    for (o, f) in data.obs.iter().zip(fitted) {
-        let r = residual_of(residual, (*f)?, o.y);
-        ssr += r * r;
-    }
-    goodness_of_ssr(data, ssr, residual, k)
-}
-
-/// [`goodness`] of a fit whose sum of squared residuals (in the residual's kind, over
-/// every reading of `data`) is `ssr`: what a member's fit reports of itself, so its
-/// values need not be evaluated again.
+/// The chi-square of a fit whose sum of squared residuals (in the residual's kind, over
+/// every reading of `data`) is `ssr`, against the readings' noise variance in the
+/// residual's kind, pooled over the readings (the mean of (std / sqrt(n))^2, as
+/// sigma_y / y for log and relative residuals, sigma_y for absolute ones). Pooled
+/// because a std from a few samples is too noisy to weight one reading alone: with 4
+/// samples E[1 / s^2] is three times 1 / sigma^2, which would triple the statistic of
+/// a perfect model. `None` when a reading has no standard error or there are no
+/// degrees of freedom left.
 pub fn goodness_of_ssr(data: &Dataset, ssr: f64, residual: Residual, k: usize) -> Option<Goodness> {
     if data.obs.len() <= k || data.obs.is_empty() {
         return None;

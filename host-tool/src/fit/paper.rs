@@ -241,17 +241,6 @@ pub fn scalar_coords(kind: Kind) -> Vec<Coord> {
     c
 }
 
-/// Every coordinate of a kind, fixed or free.
-pub fn coords(kind: Kind, n_inc: usize) -> Vec<Coord> {
-    let mut c = scalar_coords(kind);
-    match kind {
-        Kind::TorranceSparrow | Kind::ThreeComponent => c.extend((0..n_inc).map(Coord::Ks)),
-        Kind::ThreeSmooth => c.extend((0..3).map(Coord::KsPoly)),
-        Kind::IdealDiffuse => {}
-    }
-    c
-}
-
 /// A member by name: a paper name, its short form (`ideal`, `ts`, `three`,
 /// `three-smooth`), or a systematic name (see [`Member::parse`]); for `gonio fit
 /// --models` and Python's `models=`.

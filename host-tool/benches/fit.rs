@@ -14,6 +14,13 @@ use gonio::fit::member_fit::fit_member;
 use gonio::fit::{Dataset, FitOptions, Residual, fit_family};
 use gonio::sweep_file::Row;
 
+/// The three-component member fitted as the family fits it (width grid, then LM).
+fn three(
+    data: &Dataset,
+) -> Result<gonio::fit::member_fit::MemberFit, gonio::fit::member_fit::NotFitted> {
+    fit_member(data, Member::THREE_COMPONENT, Residual::Log, None)
+}
+
 fn paper_sweep(name: &str, noise: f64) -> Vec<Row> {
     let p = Preset::by_name(name).unwrap();
     synthetic_paper_sweep(|ti| p.model(ti).unwrap(), noise, 7)
@@ -53,19 +60,12 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("fit 9x17 sweep");
     for name in ["fe-0.115", "cu-0.070"] {
         let data = Dataset::from_rows(&paper_sweep(name, 0.005), true).unwrap();
-        g.bench_function(format!("{name} all four models"), |b| {
+        g.bench_function(format!("{name} default family"), |b| {
             b.iter(|| fit_family(black_box(&data), &opts).unwrap())
         });
         // The lattice members (width grid + NNLS + LM), as the family fits them.
         g.bench_function(format!("{name} member three-component"), |b| {
-            b.iter(|| {
-                fit_member(
-                    black_box(&data),
-                    Member::THREE_COMPONENT,
-                    Residual::Log,
-                    None,
-                )
-            })
+            b.iter(|| three(black_box(&data)))
         });
         g.bench_function(format!("{name} member three-component + haze"), |b| {
             b.iter(|| fit_member(black_box(&data), with_haze(), Residual::Log, None))
@@ -76,18 +76,11 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("fit 1-degree grid 90x179");
     g.sample_size(10);
     let data = Dataset::from_rows(&one_degree_grid("fe-0.115"), true).unwrap();
-    g.bench_function("fe-0.115 all four models", |b| {
+    g.bench_function("fe-0.115 default family", |b| {
         b.iter(|| fit_family(black_box(&data), &opts).unwrap())
     });
     g.bench_function("fe-0.115 member three-component", |b| {
-        b.iter(|| {
-            fit_member(
-                black_box(&data),
-                Member::THREE_COMPONENT,
-                Residual::Log,
-                None,
-            )
-        })
+        b.iter(|| three(black_box(&data)))
     });
     g.finish();
 
@@ -101,16 +94,7 @@ fn bench(c: &mut Criterion) {
         let data = Dataset::from_rows(&rows, true).unwrap();
         g.bench_function(
             format!("{n_inc} incidences x {per}: three-component"),
-            |b| {
-                b.iter(|| {
-                    fit_member(
-                        black_box(&data),
-                        Member::THREE_COMPONENT,
-                        Residual::Log,
-                        None,
-                    )
-                })
-            },
+            |b| b.iter(|| three(black_box(&data))),
         );
     }
     g.finish();

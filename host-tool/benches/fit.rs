@@ -1,6 +1,6 @@
-//! Criterion benchmark of fitting: the paper's 9 x 17 sweep (all four models, target
+//! Criterion benchmark of fitting: the paper's 9 x 17 sweep (the default family, target
 //! well under a millisecond; the three-component model alone), the 1-degree grid of the
-//! paper's geometry (90 x 179 = 16,110 readings, target 200 ms for all four models), and
+//! paper's geometry (90 x 179 = 16,110 readings, target 200 ms for the default family), and
 //! many incidences with few readings each (the per-incidence k_s make thousands of
 //! parameters: the arrow solver's case).
 

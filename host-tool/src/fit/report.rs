@@ -238,6 +238,26 @@ pub fn member_params(fit: &MemberFit) -> Vec<(String, f64, Option<f64>)> {
     out
 }
 
+/// The names of a member's parameters held fixed (`--fix`), in report order; the
+/// JSON lists them as `fixed` and the table marks them.
+pub fn held_names(fit: &MemberFit) -> Vec<&'static str> {
+    let l = &fit.layout;
+    let kid = if fit.member() == Member::TORRANCE_SPARROW {
+        "k_d"
+    } else {
+        "k_id"
+    };
+    [
+        (l.sigma, "sigma"),
+        (l.sigma_m, "sigma_m"),
+        (l.kdd, "k_dd"),
+        (l.kid, kid),
+    ]
+    .into_iter()
+    .filter_map(|(slot, name)| slot.filter(|&i| fit.is_fixed(i)).map(|_| name))
+    .collect()
+}
+
 /// A member fitted on the width grid ([`super::member_fit`]) as a JSON object: the
 /// fields of [`model_json`] where they apply (`params` and `std_errors` by parameter
 /// name, per-incidence k_s as `[theta_i, value]` pairs), plus the reduced chi-square.
@@ -303,6 +323,19 @@ pub fn member_json(f: &FamilyFit, m: Member) -> Option<Value> {
 /// `lobes` and `reduced_chi2`.
 fn any_member_json(f: &FamilyFit, fit: &MemberFit) -> Value {
     let cand = f.candidate(fit.member());
+    let mut v = view_json(f, fit, cand);
+    // Parameters held fixed (`--fix`): listed, so a null standard error is not read as
+    // "not determined" (only when there are some: other fits answer as before).
+    let held = held_names(fit);
+    if let (Value::Object(map), false) = (&mut v, held.is_empty()) {
+        map.insert("fixed".into(), json!(held));
+    }
+    v
+}
+
+/// [`any_member_json`]'s object in the member's naming view: the paper's for a paper
+/// member, the lattice's for any other.
+fn view_json(f: &FamilyFit, fit: &MemberFit, cand: Option<&Candidate>) -> Value {
     match super::paper::kind_of(fit.member()).and_then(|k| f.get(k)) {
         Some(paper) => {
             let mut v = model_json(paper, &f.incidences);
@@ -413,6 +446,16 @@ pub fn fmt_se(v: f64, se: Option<f64>) -> String {
     }
 }
 
+/// A parameter's table cell: [`fmt_se`], or the value and `(fixed)` for one held fixed
+/// (its standard error is not "not determined": there is none).
+fn fmt_value(v: f64, se: Option<f64>, held: bool) -> String {
+    if held {
+        format!("{v:>14.6}   {:<10}", "(fixed)")
+    } else {
+        fmt_se(v, se)
+    }
+}
+
 fn fit_line(
     f: &FamilyFit,
     m: Member,
@@ -450,12 +493,11 @@ fn kind_block(out: &mut String, f: &FamilyFit, fit: &Fit, residual: &str) {
     for c in scalar_coords(fit.kind) {
         let (v, se) = scalar(fit, c);
         let held = fit.free.iter().zip(&fit.fixed).any(|(&x, &f)| x == c && f);
-        let fixed = if held { " (fixed)" } else { "" };
         let _ = writeln!(
             out,
-            "  {:<12} {}{fixed}",
+            "  {:<12} {}",
             coord_name(fit.kind, c, inc),
-            fmt_se(v, se)
+            fmt_value(v, se, held)
         );
     }
     if fit.kind.specular() {
@@ -479,8 +521,10 @@ fn member_block(out: &mut String, f: &FamilyFit, fit: &MemberFit, residual: &str
         ""
     };
     let _ = writeln!(out, "{m} ({} free parameters){mark}", fit.k());
+    let held = held_names(fit);
     for (name, v, se) in member_params(fit) {
-        let _ = writeln!(out, "  {name:<12} {}", fmt_se(v, se));
+        let fixed = held.contains(&name.as_str());
+        let _ = writeln!(out, "  {name:<12} {}", fmt_value(v, se, fixed));
     }
     let _ = writeln!(
         out,

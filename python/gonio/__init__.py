@@ -203,6 +203,7 @@ class ModelFit:
     ssr: float
     converged: bool
     correlations: Optional[dict]  # None for members fitted on the width grid
+    fixed: Optional[list] = None  # parameters held fixed (fix=...), None when none
 
 
 class FitResult:

@@ -100,6 +100,7 @@ def test_fit_options_as_on_the_command_line(gonio_bin):
         d.pop("fit_seconds")
     assert_same_json(ours, cli)
     assert set(r.models) == {"torrance-sparrow", "three-component"}
+    assert r.models["three-component"].fixed == ["sigma_m", "k_dd"]
 
 
 def test_fit_aperture_and_instrument_as_on_the_command_line(gonio_bin, tmp_path):

@@ -294,8 +294,18 @@ fn a_device_that_goes_away_and_comes_back_is_reconnected() {
         err.contains("device lost") && err.contains("device is back"),
         "{err}"
     );
+    // At least one reconnect: under load the capture may lose and regain the device
+    // more than once before the second device answers (scheduling decides how often);
+    // what matters is that it came back and lost nothing.
+    let reconnects = out
+        .last_line()
+        .split_whitespace()
+        .collect::<Vec<_>>()
+        .windows(2)
+        .find(|w| w[1].starts_with("reconnect"))
+        .and_then(|w| w[0].parse::<u32>().ok());
     assert!(
-        out.last_line().contains("34/34 readings") && out.last_line().contains("1 reconnects"),
+        out.last_line().contains("34/34 readings") && reconnects.is_some_and(|n| n >= 1),
         "{err}"
     );
     assert_eq!(seqs(&file), (0..34).collect::<Vec<_>>());

@@ -14,7 +14,9 @@ pub const MIN_OFFSET: f64 = 0.1;
 const PEAK_RATIO: f64 = 10.0;
 
 /// The vertex of the parabola through three points (x ascending), `None` when they do
-/// not bend down.
+/// not bend down or the vertex falls outside them: three readings place a peak only
+/// between the outer two (beyond, the top is too flat for them: a lobe far wider than
+/// the detector step once put a "peak" 130 degrees off).
 fn vertex(x: [f64; 3], y: [f64; 3]) -> Option<f64> {
     let (d0, d1) = ((y[1] - y[0]) / (x[1] - x[0]), (y[2] - y[1]) / (x[2] - x[1]));
     let curv = (d1 - d0) / (x[2] - x[0]);
@@ -22,7 +24,8 @@ fn vertex(x: [f64; 3], y: [f64; 3]) -> Option<f64> {
         return None;
     }
     // y' = d0 + curv (2 x - x0 - x1) = 0.
-    Some(0.5 * (x[0] + x[1] - d0 / curv))
+    let v = 0.5 * (x[0] + x[1] - d0 / curv);
+    (x[0]..=x[2]).contains(&v).then_some(v)
 }
 
 /// Per incidence (degrees): the measured peak's position minus the fitted one's, each
@@ -145,6 +148,51 @@ mod tests {
         let v = vertex(x, x.map(|x: f64| -(x - 0.3) * (x - 0.3))).unwrap();
         assert!((v - 0.3).abs() < 1e-12, "{v}");
         assert!(vertex(x, x.map(|x: f64| x * x)).is_none());
+        // Bending down, but the vertex (x = 30) lies far beyond the three readings: the
+        // readings do not place it, so there is none (it was reported as an offset).
+        let flat = [
+            -0.01 * (-1.0f64 - 30.0).powi(2),
+            -0.01 * 900.0,
+            -0.01 * 28f64.powi(2),
+        ];
+        assert!(vertex(x, flat).is_none());
+    }
+
+    #[test]
+    fn a_lobe_wider_than_the_detector_step_claims_no_offset() {
+        // The fixed-width member of the golden corpus (fe-0.115 fitted with sigma held
+        // at 0.3) once read "+129.59 deg" at theta_i 40: its lobe is so flat over three
+        // 10-degree steps that its parabola's vertex fell outside them.
+        let data = super::super::Dataset::from_rows(
+            &super::super::data::synthetic_paper_sweep(
+                |ti| {
+                    brdf_core::Preset::by_name("fe-0.115")
+                        .unwrap()
+                        .model(ti)
+                        .unwrap()
+                },
+                0.0,
+                1,
+            ),
+            true,
+        )
+        .unwrap();
+        // A wide lobe rising through the mirror direction: ln f bends down so little over
+        // three 10-degree steps that its parabola's vertex sits 125 degrees away.
+        let fitted: Vec<Option<f64>> = data
+            .obs
+            .iter()
+            .map(|o| {
+                let d = o.theta_r - o.theta_i;
+                Some((0.05 * d - 0.0002 * d * d).exp())
+            })
+            .collect();
+        for (ti, o) in offsets(&data, &fitted) {
+            assert!(
+                o.abs() <= 20.0,
+                "theta_i {ti}: offset {o} beyond the readings"
+            );
+        }
     }
 
     #[test]

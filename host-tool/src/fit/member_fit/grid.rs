@@ -439,7 +439,7 @@ pub(super) fn point_cost(
                 f += ks[o.inc][slot].max(floor) * b.b[k];
             }
         }
-        let r = resid.of(f, k, o.y);
+        let r = resid.raw(f, k, o.y);
         cost += r * r;
         if cost > bound {
             return None;

@@ -80,11 +80,13 @@ impl Layout {
     }
 
     /// Locals per incidence.
+    #[inline]
     pub fn n_local(&self) -> usize {
         usize::from(self.core_local) + usize::from(self.haze_local)
     }
 
     /// Total parameters.
+    #[inline]
     pub fn len(&self) -> usize {
         self.n_global + self.n_inc * self.n_local()
     }
@@ -100,22 +102,26 @@ impl Layout {
     }
 
     /// Index of incidence `j`'s local k_s of the core (or the haze) lobe.
+    #[inline]
     pub fn local(&self, j: usize, haze: bool) -> usize {
         self.n_global + j * self.n_local() + usize::from(haze && self.core_local)
     }
 
     /// Parameter `i` is a linear amplitude (k_dd, k_id or a per-incidence k_s) in its
     /// log coordinate.
+    #[inline]
     pub fn is_amplitude(&self, i: usize) -> bool {
         Some(i) == self.kdd || Some(i) == self.kid || i >= self.n_global
     }
 
     /// The haze width is a ratio to the core's (see [`Layout::sigma_haze`]).
+    #[inline]
     pub fn haze_ratio(&self) -> bool {
         self.sigma.is_some() && self.sigma_haze.is_some()
     }
 
     /// ln sigma_haze at `x`.
+    #[inline]
     pub fn ln_sigma_haze(&self, x: &[f64]) -> Option<f64> {
         let h = x[self.sigma_haze?];
         Some(if self.haze_ratio() {
@@ -126,6 +132,7 @@ impl Layout {
     }
 
     /// Box bounds of parameter `i` (log coordinates; smooth c1, c2 plain).
+    #[inline]
     pub fn bounds(&self, i: usize) -> (f64, f64) {
         let poly = |p: Option<usize>| p.is_some_and(|p| i > p && i < p + 3);
         if Some(i) == self.sigma_haze && self.haze_ratio() {
@@ -142,6 +149,7 @@ impl Layout {
     }
 
     /// The member's parameters at incidence `j` from the vector `x`.
+    #[inline]
     pub fn params(&self, x: &[f64], j: usize) -> MemberParams<f64> {
         let lobe = |spec: LobeSpec, ln_sigma: f64, poly: Option<usize>, haze: bool| LobeParams {
             dist: spec.dist,
@@ -209,6 +217,7 @@ impl Layout {
     }
 
     /// The model of incidence `j` at `x`; `None` when it cannot be built.
+    #[inline]
     pub fn model(&self, x: &[f64], j: usize) -> Option<MemberModel<f64>> {
         MemberModel::new(&self.params(x, j)).ok()
     }
@@ -217,6 +226,7 @@ impl Layout {
     /// ([`Layout::model`]'s): only the per-incidence k_s differ (a row pass builds one
     /// model per incidence, and the lobes' widths were most of that). False when it
     /// cannot be built.
+    #[inline]
     pub fn next_model(&self, model: &mut MemberModel<f64>, x: &[f64], j: usize) -> bool {
         let ks = |on: bool, haze: bool| on.then(|| x[self.local(j, haze)].exp());
         model

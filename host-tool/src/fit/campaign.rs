@@ -320,6 +320,12 @@ fn key_params(fam: &FamilyFit) -> Vec<(&'static str, f64, Option<f64>)> {
         .collect()
 }
 
+/// The names of the selected member's parameters held fixed (`--fix`).
+fn held(fam: &FamilyFit) -> Vec<&'static str> {
+    fam.selected_fit()
+        .map_or_else(Vec::new, super::report::held_names)
+}
+
 /// The selected member's paper RMSE (Table 3) over all readings.
 fn selected_rmse(fam: &FamilyFit) -> Option<f64> {
     fam.candidate(fam.selected_member).and_then(|c| c.rmse)
@@ -397,11 +403,14 @@ pub fn summary_json(files: &[CampaignFile], names: &[Option<String>]) -> Value {
             Ok(fit) => {
                 let fam = &fit.family;
                 let mut params = serde_json::Map::new();
+                let fixed = held(fam);
                 for (n, v, se) in key_params(fam) {
-                    params.insert(
-                        n.into(),
-                        json!({"value": num(v), "se": se.map_or(Value::Null, num)}),
-                    );
+                    let mut p = json!({"value": num(v), "se": se.map_or(Value::Null, num)});
+                    // Held fixed (`--fix`): said, so its null se is not "not determined".
+                    if let (true, Value::Object(m)) = (fixed.contains(&n), &mut p) {
+                        m.insert("fixed".into(), Value::Bool(true));
+                    }
+                    params.insert(n.into(), p);
                 }
                 json!({
                     "file": f.path.display().to_string(),
@@ -461,12 +470,14 @@ pub fn summary_table(files: &[CampaignFile]) -> String {
         match &f.outcome {
             Ok(fit) => {
                 let fam = &fit.family;
-                let sigma = key_params(fam)
-                    .into_iter()
-                    .find(|p| p.0 == "sigma")
-                    .map_or("-".into(), |(_, v, se)| {
-                        super::report::fmt_se(v, se).trim().to_string()
-                    });
+                let sigma = key_params(fam).into_iter().find(|p| p.0 == "sigma").map_or(
+                    "-".into(),
+                    |(n, v, se)| {
+                        super::report::fmt_value(v, se, held(fam).contains(&n))
+                            .trim()
+                            .to_string()
+                    },
+                );
                 let rmse = selected_rmse(fam).map_or("n/d".into(), |r| format!("{r:.4}"));
                 let _ = writeln!(
                     out,
@@ -498,6 +509,27 @@ mod tests {
         let path = dir.join(name);
         std::fs::write(&path, s).unwrap();
         path
+    }
+
+    #[test]
+    fn a_parameter_held_fixed_is_said_to_be_in_the_summary() {
+        let dir = crate::outfile::test_dir("campaign-fixed");
+        let a = write_sweep(&dir, "a.csv", "fe-0.115", 1);
+        let mut opts = FitOptions::default();
+        opts.fixed.set("sigma=0.115").unwrap();
+        let files = fit_files(&[a], &opts, &|_, _| {});
+        let names = [Some("a.txt".to_string())];
+        let v = summary_json(&files, &names);
+        let sigma = &v["files"][0]["params"]["sigma"];
+        assert_eq!(
+            (sigma["value"].as_f64(), sigma["fixed"].as_bool()),
+            (Some(0.115), Some(true)),
+            "{sigma}"
+        );
+        assert!(v["files"][0]["params"]["k_dd"].get("fixed").is_none());
+        let table = summary_table(&files);
+        assert!(table.contains("0.115000   (fixed)"), "{table}");
+        assert!(!table.contains("(n/d)"), "{table}");
     }
 
     #[test]

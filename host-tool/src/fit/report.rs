@@ -448,7 +448,7 @@ pub fn fmt_se(v: f64, se: Option<f64>) -> String {
 
 /// A parameter's table cell: [`fmt_se`], or the value and `(fixed)` for one held fixed
 /// (its standard error is not "not determined": there is none).
-fn fmt_value(v: f64, se: Option<f64>, held: bool) -> String {
+pub fn fmt_value(v: f64, se: Option<f64>, held: bool) -> String {
     if held {
         format!("{v:>14.6}   {:<10}", "(fixed)")
     } else {

@@ -35,6 +35,7 @@ pub mod family_fit;
 pub mod goodness;
 pub mod lm;
 pub mod member_fit;
+pub mod notes;
 pub mod options;
 pub mod paper;
 pub mod paper_rmse;

@@ -1,0 +1,186 @@
+//! The notes a family fit reports, in the order reported: what the selection says of
+//! each component and of the lobe shape, BIC's choice when it differs, goodness against
+//! the noise, the detection floor, the peak's position, what could not be fitted or
+//! determined, and how the data were compared.
+
+use brdf_core::member::Member;
+
+use super::data::Dataset;
+use super::goodness;
+use super::member_fit::MemberFit;
+use super::peak;
+use super::select::MARGIN as AICC_MARGIN;
+use super::select::{self, Candidate, Criterion, Selection};
+
+/// The family's notes: the selection's (`selected` by AICc over `candidates`,
+/// `selected_bic` by BIC), those
+/// the fit itself made while fitting (`fitting`: members not fitted), each member's
+/// flags, and the comparison's (readings normalised off the mirror direction, the
+/// detector's `aperture`, degrees).
+pub fn family_notes(
+    data: &Dataset,
+    members: &[MemberFit],
+    candidates: &[Candidate],
+    selected_member: Member,
+    selected_bic: Member,
+    mut fitting: Vec<String>,
+    aperture: Option<f64>,
+) -> Vec<String> {
+    let sel = Selection::new(candidates, Criterion::Aicc);
+    let mut summary = select::component_notes(&sel, selected_member);
+    summary.extend(variant_notes(candidates, selected_member));
+    if selected_bic != selected_member {
+        summary.push(format!(
+            "BIC (stricter with many readings) would select {selected_bic} by the same rule"
+        ));
+    }
+    summary.push(goodness_note(data, candidates, selected_member));
+    summary.extend(data.floor.notes());
+    let fitted = members
+        .iter()
+        .find(|f| f.member() == selected_member)
+        .map(|f| goodness::member_fitted(f, data));
+    if let Some(note) =
+        fitted.and_then(|v| peak::offset_note(data, &v, &selected_member.to_string()))
+    {
+        summary.push(note);
+    }
+    if let Some(f) = members.iter().find(|f| f.member() == selected_member)
+        && let (Some(core), Some((sigma, _))) = (selected_member.core, f.sigma())
+    {
+        summary.extend(peak::unresolved_core_note(data, core.dist, sigma));
+    }
+    summary.append(&mut fitting);
+    let mut notes = summary;
+    for f in members {
+        if (0..f.x.len()).any(|i| !f.identifiable[i] && !f.is_fixed(i)) {
+            notes.push(format!(
+                "{}: some parameters are not determined by these data (flagged)",
+                f.member()
+            ));
+        }
+        if !f.converged {
+            notes.push(format!(
+                "{}: the optimiser stopped before its tolerances were met",
+                f.member()
+            ));
+        }
+    }
+    let nearest: Vec<String> = (0..data.incidences.len())
+        .filter_map(|j| match data.specular_reference(j) {
+            Some((k, false)) => Some(format!(
+                "{} (at {})",
+                data.incidences[j], data.obs[k].theta_r
+            )),
+            _ => None,
+        })
+        .collect();
+    if !nearest.is_empty() {
+        notes.push(format!(
+            "no reading at theta_r = theta_i for theta_i {}: their paper RMSE is normalised at the nearest reading",
+            nearest.join(", ")
+        ));
+    }
+    if let Some(a) = aperture {
+        notes.push(format!(
+            "every model was averaged over the detector's aperture (half-angle {a} deg) before comparison; parameters are the surface's"
+        ));
+    }
+    notes
+}
+
+/// The lobe shape of the selected component set: how its fitted variants compare.
+fn variant_notes(cands: &[Candidate], sel: Member) -> Vec<String> {
+    let Some(core) = sel.core else {
+        return Vec::new();
+    };
+    let same = |m: Member| {
+        m.core.is_some()
+            && m.haze.is_some() == sel.haze.is_some()
+            && m.directional == sel.directional
+            && m.ideal == sel.ideal
+    };
+    let Some(best) = cands.iter().find(|c| c.member == sel) else {
+        return Vec::new();
+    };
+    let others: Vec<String> = cands
+        .iter()
+        .filter(|c| same(c.member) && c.member != sel)
+        .map(|c| format!("{} {:+.1}", c.member, c.aicc - best.aicc))
+        .collect();
+    if others.is_empty() {
+        return Vec::new();
+    }
+    let haze = sel
+        .haze
+        .map_or(String::new(), |h| format!(" on a {} haze", h.dist.name()));
+    // A difference under the margin is no evidence for either shape: said, not implied.
+    let ties: Vec<String> = cands
+        .iter()
+        .filter(|c| same(c.member) && c.member != sel && c.aicc - best.aicc < AICC_MARGIN)
+        .map(|c| c.member.to_string())
+        .collect();
+    let tie = if ties.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "; within {AICC_MARGIN} of it, so these data do not tell it from {}",
+            ties.join(", ")
+        )
+    };
+    vec![format!(
+        "specular lobe shape: {} with k_s {}{haze} has the lowest AICc of these components (AICc of the others: {}){tie}",
+        core.dist.name(),
+        core.ks.name(),
+        others.join(", ")
+    )]
+}
+
+/// Goodness of fit of the selected member against the readings' noise, said plainly.
+fn goodness_note(data: &Dataset, cands: &[Candidate], sel: Member) -> String {
+    if !data.has_noise() {
+        return "goodness of fit against noise: not known (the sweep has no std and n columns)"
+            .into();
+    }
+    let Some(g) = cands
+        .iter()
+        .find(|c| c.member == sel)
+        .and_then(|c| c.goodness)
+    else {
+        return "goodness of fit against noise: not known".into();
+    };
+    let within: Vec<&Candidate> = cands
+        .iter()
+        .filter(|c| c.goodness.is_some_and(|g| g.within_noise()))
+        .collect();
+    if g.within_noise() {
+        format!(
+            "goodness of fit: reduced chi-square {:.2} over {} degrees of freedom (limit {:.2}): {sel} fits within the readings' noise",
+            g.reduced(),
+            g.dof,
+            g.limit()
+        )
+    } else if within.is_empty() {
+        let best = cands
+            .iter()
+            .filter_map(|c| c.goodness.map(|g| (c.member, g.reduced())))
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        format!(
+            "NO member fits these data within their noise: reduced chi-square {:.1} for {sel} (best {}, limit {:.2}); the residuals are larger than the readings' std/sqrt(n) say they should be",
+            g.reduced(),
+            best.map_or("n/d".into(), |(m, r)| format!("{r:.1}, {m}")),
+            g.limit()
+        )
+    } else {
+        format!(
+            "goodness of fit: reduced chi-square {:.1} for {sel} is above the noise limit {:.2}; within noise: {}",
+            g.reduced(),
+            g.limit(),
+            within
+                .iter()
+                .map(|c| c.member.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    }
+}

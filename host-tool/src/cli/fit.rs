@@ -353,6 +353,12 @@ pub fn run(args: &FitArgs) -> CliResult {
         None => None,
     };
     opts.instrument = inst.as_ref().map(|(i, _)| i.clone());
+    if crate::import::merl::MerlFile::is_merl(sweep) {
+        let name = sweep.display();
+        return Err(CliError::usage(format!(
+            "{name} is a MERL BRDF table (.binary), not a sweep file: import the plane of incidence first, e.g. gonio import merl {name} --out sweep.csv, then fit sweep.csv"
+        )));
+    }
     let (mut data, warnings) = campaign::read_data(sweep, &opts).map_err(file_error)?;
     if let Some(a) = args.aperture {
         // --aperture wins over the file's line; 0 turns it off.

@@ -112,6 +112,26 @@ impl MerlFile {
         MerlFile::from_bytes(&bytes).map_err(bad)
     }
 
+    /// Whether `path` holds a MERL BRDF file (its length and its dims header), read
+    /// without loading it: for commands that read sweep files to say what to do with
+    /// one instead of failing on its bytes.
+    pub fn is_merl(path: &Path) -> bool {
+        let Ok(meta) = std::fs::metadata(path) else {
+            return false;
+        };
+        let mut head = [0u8; 12];
+        meta.is_file()
+            && meta.len() == MERL_FILE_LEN
+            && std::fs::File::open(path)
+                .and_then(|mut f| f.read_exact(&mut head))
+                .is_ok()
+            && head
+                .chunks_exact(4)
+                .map(|c| i32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+                .zip(MERL_DIMS)
+                .all(|(d, e)| d as i64 == e as i64)
+    }
+
     /// Parses the bytes of a MERL file (checks dims and length).
     pub fn from_bytes(bytes: &[u8]) -> Result<MerlFile, String> {
         if bytes.len() as u64 != MERL_FILE_LEN {

@@ -47,6 +47,14 @@ fn fixtures() -> Scratch {
     let d = scratch("bad");
     let w = |name: &str, bytes: &[u8]| std::fs::write(d.join(name), bytes).unwrap();
     w("empty.csv", b"");
+    // A MERL BRDF table (dims header, three channels of 90 x 90 x 180 f64): 35 MB of
+    // zeros after its header.
+    let mut merl = [90i32, 90, 180]
+        .iter()
+        .flat_map(|d| d.to_le_bytes())
+        .collect::<Vec<u8>>();
+    merl.resize(12 + 3 * 8 * 90 * 90 * 180, 0);
+    w("gold.binary", &merl);
     let mut garbage = Vec::new();
     let mut rng = XorShift32::new(0x1234_5678);
     for _ in 0..4096 {
@@ -462,6 +470,11 @@ const CASES: &[Case] = &[
     case(&["fit", "{d}/fit-cols.csv"], 2, "missing column 'theta_r'"),
     case(&["fit", "{d}/fit-nan.csv"], 2, ":3: brdf 'nan'"),
     case(&["fit", "{d}/fit-bin.csv"], 2, "not UTF-8"),
+    case(
+        &["fit", "{d}/gold.binary"],
+        2,
+        "is a MERL BRDF table (.binary), not a sweep file: import the plane of incidence first, e.g. gonio import merl",
+    ),
     case(&["fit", "{d}/fit-few.csv"], 2, "at least 3"),
     case(&["fit", "{d}/fit-neg.csv"], 2, "--residual abs,"),
     case(&["fit", "{d}/fit-range.csv"], 2, "theta_r = 95"),

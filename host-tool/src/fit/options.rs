@@ -143,6 +143,15 @@ fn robust_weight(loss: Loss, r: f64) -> f64 {
     }
 }
 
+/// The fit's box bounds of a lobe width sigma (radians; natural units).
+pub const SIGMA_BOUNDS: (f64, f64) = (1e-4, 20.0);
+
+/// The fit's box bounds of sigma_m (radians).
+pub const SIGMA_M_BOUNDS: (f64, f64) = (1e-3, 20.0);
+
+/// The fit's box bounds of every amplitude (k_s, k_dd, k_id; the data's units).
+pub const AMPLITUDE_BOUNDS: (f64, f64) = (1e-12, 1e12);
+
 /// Parameters held fixed (`--fix name=value`), in natural units.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Fixed {
@@ -171,12 +180,12 @@ impl Fixed {
         if !(v.is_finite() && v > 0.0) {
             return Err(format!("--fix '{spec}': the value must be finite and > 0"));
         }
-        // The fit's box bounds (widths in radians): a value outside them could not be
-        // held where it was asked.
+        // The fit's box bounds: a value outside them could not be held where it was
+        // asked.
         let (lo, hi) = match name.trim() {
-            "sigma" => (1e-4, 20.0),
-            "sigma_m" | "sigma-m" => (1e-3, 20.0),
-            _ => (1e-12, 1e12),
+            "sigma" => SIGMA_BOUNDS,
+            "sigma_m" | "sigma-m" => SIGMA_M_BOUNDS,
+            _ => AMPLITUDE_BOUNDS,
         };
         if !(lo..=hi).contains(&v) {
             return Err(format!(

@@ -191,20 +191,8 @@ pub fn member_lobes(m: Member) -> Value {
 /// standard error (`None`: not determined).
 pub fn member_params(fit: &MemberFit) -> Vec<(String, f64, Option<f64>)> {
     let l = &fit.layout;
-    let m = fit.member();
     let mut out = Vec::new();
-    let kid_name = if m == Member::TORRANCE_SPARROW {
-        "k_d"
-    } else {
-        "k_id"
-    };
-    for (slot, name) in [
-        (l.sigma, "sigma"),
-        (l.sigma_haze, "sigma_haze"),
-        (l.sigma_m, "sigma_m"),
-        (l.kdd, "k_dd"),
-        (l.kid, kid_name),
-    ] {
+    for (slot, name) in scalar_slots(fit) {
         if let Some(i) = slot {
             // With a core lobe the haze's coordinate is its width's ratio to the core's.
             let (v, se) = if slot == l.sigma_haze {
@@ -241,6 +229,16 @@ pub fn member_params(fit: &MemberFit) -> Vec<(String, f64, Option<f64>)> {
 /// The names of a member's parameters held fixed (`--fix`), in report order; the
 /// JSON lists them as `fixed` and the table marks them.
 pub fn held_names(fit: &MemberFit) -> Vec<&'static str> {
+    scalar_slots(fit)
+        .into_iter()
+        .filter_map(|(slot, name)| slot.filter(|&i| fit.is_fixed(i)).map(|_| name))
+        .collect()
+}
+
+/// A member's widths and scalar weights: where each sits in its parameter vector (if
+/// the member has it) and its report name, in report order (`k_d` for the paper's
+/// Torrance–Sparrow ideal diffuse, `k_id` for every other member's).
+fn scalar_slots(fit: &MemberFit) -> [(Option<usize>, &'static str); 5] {
     let l = &fit.layout;
     let kid = if fit.member() == Member::TORRANCE_SPARROW {
         "k_d"
@@ -249,13 +247,11 @@ pub fn held_names(fit: &MemberFit) -> Vec<&'static str> {
     };
     [
         (l.sigma, "sigma"),
+        (l.sigma_haze, "sigma_haze"),
         (l.sigma_m, "sigma_m"),
         (l.kdd, "k_dd"),
         (l.kid, kid),
     ]
-    .into_iter()
-    .filter_map(|(slot, name)| slot.filter(|&i| fit.is_fixed(i)).map(|_| name))
-    .collect()
 }
 
 /// A member fitted on the width grid ([`super::member_fit`]) as a JSON object: the

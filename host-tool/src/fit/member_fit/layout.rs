@@ -6,7 +6,7 @@ use brdf_core::member_model::{DirectionalParams, Ks, LobeParams, MemberModel, Me
 
 use super::super::arrow::Shape;
 
-use super::super::options::Fixed;
+use super::super::options::{AMPLITUDE_BOUNDS, Fixed, SIGMA_BOUNDS, SIGMA_M_BOUNDS};
 
 /// A haze grid point is used only when at least this many times the core's width
 /// (the two lobes then keep their roles: core narrow, haze wide).
@@ -135,16 +135,17 @@ impl Layout {
     #[inline]
     pub fn bounds(&self, i: usize) -> (f64, f64) {
         let poly = |p: Option<usize>| p.is_some_and(|p| i > p && i < p + 3);
+        let ln = |(lo, hi): (f64, f64)| (lo.ln(), hi.ln());
         if Some(i) == self.sigma_haze && self.haze_ratio() {
-            (HAZE_OVER_CORE.ln(), (20.0f64 / 1e-4).ln())
+            (HAZE_OVER_CORE.ln(), (SIGMA_BOUNDS.1 / SIGMA_BOUNDS.0).ln())
         } else if Some(i) == self.sigma || Some(i) == self.sigma_haze {
-            (1e-4f64.ln(), 20f64.ln())
+            ln(SIGMA_BOUNDS)
         } else if Some(i) == self.sigma_m {
-            (1e-3f64.ln(), 20f64.ln())
+            ln(SIGMA_M_BOUNDS)
         } else if poly(self.core_poly) || poly(self.haze_poly) {
             (-60.0, 60.0)
         } else {
-            (1e-12f64.ln(), 1e12f64.ln())
+            ln(AMPLITUDE_BOUNDS)
         }
     }
 

@@ -6,13 +6,14 @@
 use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
+use brdf_core::member::Member;
 use brdf_core::protocol::Specimen;
 use brdf_core::sim::SIM_K;
 use brdf_core::{Model, Preset};
 use gonio::calibrate::{self, Instrument, Quantity, Standard};
 use gonio::capture::{CaptureSetup, HostPlan, Quiet, SettingsOverride, capture};
 use gonio::device::SerialConnector;
-use gonio::fit::{FitOptions, Kind, campaign};
+use gonio::fit::{FitOptions, campaign};
 use gonio::sweep_file::read_sweep;
 use gonio_e2e::{Qemu, qemu_elf};
 
@@ -58,15 +59,13 @@ fn reference_and_sample_on_the_board_recover_the_absolute_brdf() {
     std::fs::write(&abs, text).unwrap();
     let fit = campaign::fit_sweep_file(&abs, &FitOptions::default()).unwrap();
     let fam = &fit.family;
-    let three = fam.get(Kind::ThreeComponent).unwrap();
+    let three = fam.member(Member::THREE_COMPONENT).unwrap();
     let fe = Preset::by_name("fe-0.115").unwrap();
     let mut worst: f64 = 0.0;
     for o in &fit.data.obs {
         let truth: Model<f64> = fe.model(o.theta_i).unwrap();
         let want = truth.eval_in_plane(o.theta_i, o.theta_r).unwrap().f / k;
-        let got = three
-            .predict(&fam.incidences, o.theta_i, o.theta_r)
-            .unwrap();
+        let got = three.predict(o.theta_i, o.theta_r).unwrap();
         worst = worst.max((got / want - 1.0).abs());
     }
     eprintln!(

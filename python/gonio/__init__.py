@@ -202,7 +202,7 @@ class ModelFit:
     k: int
     ssr: float
     converged: bool
-    correlations: Optional[dict]  # None for members fitted on the width grid
+    correlations: Optional[dict]  # {"names": [...], "matrix": [[...]]} of the fitted coordinates
     fixed: Optional[list] = None  # parameters held fixed (fix=...), None when none
 
 

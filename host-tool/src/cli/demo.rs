@@ -119,7 +119,8 @@ fn truth_table(preset: &Preset, fam: &FamilyFit) -> String {
         return String::new();
     };
     let mut s = String::from("\nrecovered vs true (three-component fit):\n");
-    for (name, got, _) in report::member_params(fit) {
+    for p in report::member_params(fit) {
+        let (name, got) = (p.name(), p.value);
         let truth = match name.as_str() {
             "sigma" => Some(preset.sigma),
             "sigma_m" => Some(SIGMA_M_PAPER),

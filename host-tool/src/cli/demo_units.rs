@@ -12,9 +12,10 @@ use brdf_core::sim::SIM_K;
 use super::error::{CliError, CliResult};
 use super::fit::fit_file;
 use crate::calibrate::{self, Instrument, Quantity, Standard, now_utc};
-use crate::fit::{FamilyFit, FitOptions, Kind, physical};
+use crate::fit::{FamilyFit, FitOptions, physical, report};
 use crate::outfile::{self, Target};
 use crate::sweep_file::read_sweep;
+use brdf_core::member::Member;
 
 /// The reflectance factor of the demo's simulated standard.
 pub const DEMO_REFERENCE: f64 = 0.99;
@@ -88,7 +89,7 @@ pub fn absolute_chain(
         (inst.k / k - 1.0) * 100.0,
         100.0 * inst.relative_uncertainty()
     );
-    let Some(fit) = fam.get(Kind::ThreeComponent) else {
+    let Some(fit) = fam.member(Member::THREE_COMPONENT) else {
         return Err(CliError::failed(
             "the three-component model did not fit the sample in 1/sr",
         ));
@@ -97,7 +98,7 @@ pub fn absolute_chain(
         .obs
         .iter()
         .filter_map(|o| {
-            let got = fit.predict(&fam.incidences, o.theta_i, o.theta_r)?;
+            let got = fit.predict(o.theta_i, o.theta_r)?;
             Some((got / true_brdf(preset, o.theta_i, o.theta_r)? - 1.0).abs())
         })
         .fold(0.0, f64::max);
@@ -114,21 +115,18 @@ pub fn absolute_chain(
             (got / truth - 1.0) * 100.0
         );
     };
-    row(&mut s, "k_dd", fit.values.kdd, KDD_PAPER / k);
-    row(&mut s, "k_id", fit.values.kid, KID_PAPER / k);
-    for (j, &ti) in fam.incidences.iter().enumerate() {
-        if let Ok(truth) = preset.ks(ti) {
-            row(&mut s, &format!("k_s({ti})"), fit.values.ks[j], truth / k);
+    for p in report::member_params(fit) {
+        let truth = match (p.base, p.theta_i) {
+            ("k_dd", None) => Some(KDD_PAPER),
+            ("k_id", None) => Some(KID_PAPER),
+            ("k_s", Some(ti)) => preset.ks(ti).ok(),
+            _ => None,
+        };
+        if let Some(truth) = truth {
+            row(&mut s, &p.name(), p.value, truth / k);
         }
     }
-    let check = match fam.member(Kind::ThreeComponent.member()) {
-        Some(member) => physical::check_member(member),
-        None => {
-            return Err(CliError::failed(
-                "the three-component member was not fitted",
-            ));
-        }
-    };
+    let check = physical::check_member(fit);
     if let Some((ti, rho, _)) = check
         .albedo
         .iter()

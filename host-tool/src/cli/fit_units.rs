@@ -10,9 +10,9 @@ use serde_json::{Value, json};
 use super::convert::read_instrument;
 use super::error::{CliError, CliResult};
 use crate::calibrate::{FittedParam, Instrument, ParamKind, combine_uncertainty};
-use crate::fit::paper::{Coord, scalar_coords};
-use crate::fit::report::{coord_name, ks_table, scalar};
-use crate::fit::{FamilyFit, physical};
+use crate::fit::member_fit::MemberFit;
+use crate::fit::report::{Param, member_params};
+use crate::fit::{FamilyFit, Kind, physical};
 use crate::sweep_file::{BrdfUnits, read_sweep};
 
 /// The units a sweep file declares (relative when it has no `# brdf:` line).
@@ -77,83 +77,44 @@ pub fn campaign_instrument_json(inst: &Instrument, path: &Path) -> Value {
 /// A model's name and its parameters: name, [value, u(fit), u(K), u(total)].
 type ModelRows = (String, Vec<(String, [f64; 4])>);
 
-/// How a member's parameter (by its report name) scales with K.
-fn member_param_kind(name: &str) -> ParamKind {
-    if name.starts_with("sigma") || name.ends_with("_c1") || name.ends_with("_c2") {
+/// How a member's parameter scales with K.
+fn param_kind(p: &Param) -> ParamKind {
+    if p.base.starts_with("sigma") || p.base.ends_with("_c1") || p.base.ends_with("_c2") {
         ParamKind::Width
-    } else if name.ends_with("_c0") {
+    } else if p.base.ends_with("_c0") {
         ParamKind::LogAmplitude
     } else {
         ParamKind::Amplitude
     }
 }
 
-/// The selected member's rows when it is not one of the paper's models (a GGX core, a
-/// haze lobe, a smooth k_s): its parameters with u(fit) and u(K) as the paper fits'.
-fn selected_member_rows(fam: &FamilyFit, rel: f64) -> Option<ModelRows> {
-    let sel = fam.selected_member;
-    if fam.fits.iter().any(|f| f.kind.member() == sel) {
-        return None;
-    }
-    let fit = fam.selected_fit()?;
-    let named = crate::fit::report::member_params(fit);
+/// One member's parameters in 1/sr with u(fit) and u(K) side by side.
+fn member_rows(fit: &MemberFit, rel: f64) -> ModelRows {
+    let named = member_params(fit);
     let params: Vec<FittedParam> = named
         .iter()
-        .map(|(n, v, se)| FittedParam {
-            value: *v,
-            std_error: se.unwrap_or(f64::NAN),
-            kind: member_param_kind(n),
+        .map(|p| FittedParam {
+            value: p.value,
+            std_error: p.se.unwrap_or(f64::NAN),
+            kind: param_kind(p),
         })
         .collect();
     let out = named
-        .into_iter()
+        .iter()
         .zip(combine_uncertainty(&params, rel))
-        .map(|((n, ..), a)| (n, [a.value, a.u_fit, a.u_instrument, a.u_total]))
+        .map(|(p, a)| (p.name(), [a.value, a.u_fit, a.u_instrument, a.u_total]))
         .collect();
-    Some((sel.to_string(), out))
+    (fit.member().to_string(), out)
 }
 
-/// Each paper model's parameters in 1/sr with the fit's and K's uncertainty side by
-/// side, then the selected member's when it is not a paper model.
+/// The paper's fitted members, then the selected member when it is not one of them.
 fn rows(fam: &FamilyFit, inst: &Instrument) -> Vec<ModelRows> {
     let rel = inst.relative_uncertainty();
-    let mut out: Vec<ModelRows> = fam
-        .fits
-        .iter()
-        .map(|fit| {
-            let mut named = Vec::new();
-            for c in scalar_coords(fit.kind) {
-                let (v, se) = scalar(fit, c);
-                let kind = match c {
-                    Coord::Sigma | Coord::SigmaM => ParamKind::Width,
-                    _ => ParamKind::Amplitude,
-                };
-                named.push((coord_name(fit.kind, c, &fam.incidences), v, se, kind));
-            }
-            if fit.kind.specular() {
-                for (t, k, se) in ks_table(fit, &fam.incidences) {
-                    named.push((format!("k_s({t})"), k, se, ParamKind::Amplitude));
-                }
-            }
-            let params: Vec<FittedParam> = named
-                .iter()
-                .map(|(_, v, se, kind)| FittedParam {
-                    value: *v,
-                    std_error: se.unwrap_or(f64::NAN),
-                    kind: *kind,
-                })
-                .collect();
-            let abs = combine_uncertainty(&params, rel);
-            let out = named
-                .into_iter()
-                .zip(abs)
-                .map(|((n, ..), a)| (n, [a.value, a.u_fit, a.u_instrument, a.u_total]))
-                .collect();
-            (fit.kind.name().to_string(), out)
-        })
-        .collect();
-    out.extend(selected_member_rows(fam, rel));
-    out
+    let paper = Kind::ALL.iter().filter_map(|k| fam.member(k.member()));
+    let selected = fam
+        .selected_fit()
+        .filter(|s| Kind::ALL.iter().all(|k| k.member() != s.member()));
+    paper.chain(selected).map(|f| member_rows(f, rel)).collect()
 }
 
 /// The `--instrument` section of the report.

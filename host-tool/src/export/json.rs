@@ -24,7 +24,7 @@ pub(super) fn export_json(fam: &FamilyFit, table: &MemberTable) -> Value {
     }
     if ks_form(KsForm::Smooth) {
         ks_between.push(
-            "a smooth k_s as ln k_s = c0 + c1 t + c2 t^2 with t = theta_i / 90 (ln_ks_c0..2, ln_ks_haze_c0..2)",
+            "a smooth k_s as ln k_s = c0 + c1 t + c2 t^2 with t = theta_i / 90 (ln_ks_c0..2, ln_ks_haze_c0..2; k_s and k_s_haze list the curve at the fitted incidences)",
         );
     }
     if let Value::Object(map) = &mut v {

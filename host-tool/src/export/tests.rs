@@ -8,10 +8,12 @@ use serde_json::Value;
 
 use super::merl::*;
 use super::*;
-use crate::fit::{Dataset, FitOptions, Kind, fit_family};
+use crate::fit::member_fit::MemberFit;
+use crate::fit::{Dataset, FitOptions, fit_family};
 use crate::sweep_file::{Row, read_sweep};
 use brdf_core::Preset;
 use brdf_core::member::Member;
+use brdf_core::member_model::MemberModel;
 
 fn rows() -> Vec<Row> {
     let p = Preset::by_name("fe-0.115").unwrap();
@@ -79,9 +81,20 @@ fn json_has_parameters_units_and_incidences() {
     let v: Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
     assert_eq!(v["model"], "three-component");
     assert_eq!(v["name"], "three-component");
-    let fit = fam.get(Kind::ThreeComponent).unwrap();
-    assert!(rel(v["params"]["sigma"].as_f64().unwrap(), fit.values.sigma) < 1e-12);
-    assert!(rel(v["params"]["sigma_m"].as_f64().unwrap(), fit.values.sigma_m) < 1e-12);
+    let fit = fam.member(Member::THREE_COMPONENT).unwrap();
+    let l = &fit.layout;
+    assert!(
+        rel(
+            v["params"]["sigma"].as_f64().unwrap(),
+            fit.natural(l.sigma.unwrap()).0
+        ) < 1e-12
+    );
+    assert!(
+        rel(
+            v["params"]["sigma_m"].as_f64().unwrap(),
+            fit.natural(l.sigma_m.unwrap()).0
+        ) < 1e-12
+    );
     assert_eq!(v["params"]["k_s"].as_array().unwrap().len(), 9);
     assert_eq!(v["incidences"].as_array().unwrap().len(), 9);
     assert_eq!(v["incidences"][2].as_f64().unwrap(), 20.0);
@@ -103,7 +116,7 @@ fn json_has_parameters_units_and_incidences() {
 #[test]
 fn csv_grid_reads_back_as_a_sweep_file() {
     let fam = fixture();
-    let fit = fam.get(Kind::ThreeComponent).unwrap();
+    let fit = fam.member(Member::THREE_COMPONENT).unwrap();
     let dir = tempdir("csv");
     let path = dir.join("grid.csv");
     write_export(
@@ -131,7 +144,7 @@ fn csv_grid_reads_back_as_a_sweep_file() {
     assert_eq!((last.theta_i, last.theta_r), (90.0, 89.0));
     for r in data.rows.iter().step_by(97) {
         let f = fit
-            .model_at(&fam.incidences, r.theta_i)
+            .model_at(r.theta_i)
             .unwrap()
             .eval_in_plane(r.theta_i, r.theta_r)
             .unwrap()
@@ -144,7 +157,7 @@ fn csv_grid_reads_back_as_a_sweep_file() {
         );
     }
     // At a fitted incidence the grid is the fitted model itself.
-    let m20 = fit.values.model(Kind::ThreeComponent, 2).unwrap();
+    let m20 = MemberModel::new(&fit.layout.params(&fit.x, 2)).unwrap();
     let r = data
         .rows
         .iter()
@@ -152,6 +165,32 @@ fn csv_grid_reads_back_as_a_sweep_file() {
         .unwrap();
     assert!(rel(r.brdf, m20.eval_in_plane(20.0, 20.0).unwrap().f) < 1e-12);
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The three-component fit as brdf-core's paper model at `theta_i` (degrees), k_s
+/// linear between the fitted incidences and clamped outside them: the export's
+/// values checked by a path other than the member model it evaluates.
+fn paper_model(fit: &MemberFit, theta_i: f64) -> brdf_core::Model<f64> {
+    let l = &fit.layout;
+    let inc = &fit.incidences;
+    let ks = |j: usize| fit.natural(l.local(j, false)).0;
+    let last = inc.len() - 1;
+    let k_s = match inc.iter().position(|&t| t >= theta_i) {
+        Some(0) => ks(0),
+        None => ks(last),
+        Some(j) => {
+            let w = (theta_i - inc[j - 1]) / (inc[j] - inc[j - 1]);
+            ks(j - 1) + w * (ks(j) - ks(j - 1))
+        }
+    };
+    brdf_core::Model::three_component(brdf_core::Params {
+        ks: k_s,
+        sigma: fit.natural(l.sigma.unwrap()).0,
+        kdd: fit.natural(l.kdd.unwrap()).0,
+        sigma_m: fit.natural(l.sigma_m.unwrap()).0,
+        kid: fit.natural(l.kid.unwrap()).0,
+    })
+    .unwrap()
 }
 
 /// Cell index in file order.
@@ -167,7 +206,7 @@ fn angles(w: [f64; 3]) -> (f64, f64) {
 #[test]
 fn merl_file_layout_scales_and_read_back() {
     let fam = fixture();
-    let fit = fam.get(Kind::ThreeComponent).unwrap();
+    let fit = fam.member(Member::THREE_COMPONENT).unwrap();
     let dir = tempdir("merl");
     let path = dir.join("fe.binary");
     write_export(
@@ -222,11 +261,7 @@ fn merl_file_layout_scales_and_read_back() {
         );
         let way = |a: [f64; 3], b: [f64; 3]| {
             let t = a[2].clamp(-1.0, 1.0).acos().to_degrees();
-            fit.model_at(&fam.incidences, t)
-                .unwrap()
-                .eval_vectors(a, b)
-                .unwrap()
-                .f
+            paper_model(fit, t).eval_vectors(a, b).unwrap().f
         };
         // The reciprocal mean: the same whichever way round the lookup goes.
         let direct = 0.5 * (way(w_in, w_out) + way(w_out, w_in));
@@ -248,13 +283,7 @@ fn merl_file_layout_scales_and_read_back() {
         let th = 90.0 * (i as f64 / 90.0).powi(2);
         let td = j as f64;
         let (ti, tr) = (td + th, td - th);
-        let plane = |ti: f64, tr: f64| {
-            fit.model_at(&fam.incidences, ti)
-                .unwrap()
-                .eval_in_plane(ti, tr)
-                .unwrap()
-                .f
-        };
+        let plane = |ti: f64, tr: f64| paper_model(fit, ti).eval_in_plane(ti, tr).unwrap().f;
         // Swapped: the source where the detector was, the detector where the source was.
         let side = if tr >= 0.0 { 1.0 } else { -1.0 };
         let want = 0.5 * (plane(ti, tr) + plane(tr.abs(), side * ti));

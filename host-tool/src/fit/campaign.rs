@@ -316,7 +316,12 @@ fn key_params(fam: &FamilyFit) -> Vec<(&'static str, f64, Option<f64>)> {
     };
     super::report::member_params(f)
         .into_iter()
-        .filter_map(|(n, v, se)| KEY_PARAMS.iter().find(|&&k| k == n).map(|&k| (k, v, se)))
+        .filter_map(|p| {
+            let key = KEY_PARAMS
+                .iter()
+                .find(|&&k| p.theta_i.is_none() && k == p.base)?;
+            Some((*key, p.value, p.se))
+        })
         .collect()
 }
 

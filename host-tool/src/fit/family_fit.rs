@@ -7,7 +7,7 @@ use super::data::Dataset;
 use super::goodness::member_fitted;
 use super::member_fit::MemberFit;
 use super::options::CheckScope;
-use super::paper::{Fit, Kind};
+use super::paper::Kind;
 use super::physical::ModelCheck;
 use super::select::Candidate;
 use crate::sweep_file::BrdfUnits;
@@ -17,12 +17,9 @@ use crate::sweep_file::BrdfUnits;
 pub struct FamilyFit {
     /// The data's incidence angles (degrees).
     pub incidences: Vec<f64>,
-    /// The paper's members among the fitted ones, in the paper's form, simplest first.
-    pub fits: Vec<Fit>,
-    /// Every member fitted on the width grid, in the order fitted (empty when the
-    /// paper's models were fitted by [`fit_kind`]: `--fix`, robust losses).
+    /// Every member fitted, in the order fitted.
     pub members: Vec<MemberFit>,
-    /// What selection used of every fitted model (members, or the paper fits).
+    /// What selection used of every fitted member.
     pub candidates: Vec<Candidate>,
     /// The member selected (see [`select`]).
     pub selected_member: Member,
@@ -53,11 +50,6 @@ pub struct FamilyFit {
 }
 
 impl FamilyFit {
-    /// The paper's view of one kind's fit, if it was fitted.
-    pub fn get(&self, kind: Kind) -> Option<&Fit> {
-        self.fits.iter().find(|f| f.kind == kind)
-    }
-
     /// The grid fit of a member, if it was fitted.
     pub fn member(&self, m: Member) -> Option<&MemberFit> {
         self.members.iter().find(|f| f.member() == m)

@@ -1,6 +1,7 @@
 //! Tests of the fitter on synthetic sweeps with known parameters.
 
-use super::paper::Coord;
+use super::member_fit::MemberFit;
+use super::report::{Param, member_params};
 use super::*;
 use crate::sweep_file::Row;
 use brdf_core::member::Member;
@@ -21,11 +22,29 @@ pub(super) fn family(rows: &[Row]) -> FamilyFit {
     fit_family(&data, &FitOptions::default()).unwrap()
 }
 
-/// |fitted - true| in standard errors, for a scalar parameter.
-fn z(fit: &Fit, c: Coord, truth: f64) -> f64 {
-    let i = fit.free.iter().position(|&x| x == c).unwrap();
-    let se = fit.se_coord(i).expect("identifiable");
-    (fit.values.get(c) - truth.ln()).abs() / se
+/// A paper member's fit.
+fn get(f: &FamilyFit, k: Kind) -> Option<&MemberFit> {
+    f.member(k.member())
+}
+
+/// A fitted member's parameter by its report name.
+fn param(fit: &MemberFit, name: &str) -> Param {
+    member_params(fit)
+        .into_iter()
+        .find(|p| p.name() == name)
+        .unwrap_or_else(|| panic!("{} has no {name}", fit.member()))
+}
+
+/// A fitted member's parameter value by its report name.
+fn value(fit: &MemberFit, name: &str) -> f64 {
+    param(fit, name).value
+}
+
+/// |ln fitted - ln true| in standard errors of ln (the fitted coordinate).
+fn z(fit: &MemberFit, name: &str, truth: f64) -> f64 {
+    let p = param(fit, name);
+    let se_ln = p.se.expect("determined") / p.value;
+    (p.value.ln() - truth.ln()).abs() / se_ln
 }
 
 #[test]
@@ -38,28 +57,28 @@ fn recovers_preset_parameters_within_their_standard_errors() {
     ] {
         let p = Preset::by_name(name).unwrap();
         let f = family(&preset_sweep(name, noise, seed));
-        let three = f.get(Kind::ThreeComponent).unwrap();
+        let three = get(&f, Kind::ThreeComponent).unwrap();
         assert!(three.converged, "{name}");
         for (c, truth) in [
-            (Coord::Sigma, p.sigma),
-            (Coord::SigmaM, 0.7),
-            (Coord::Kdd, 900.0),
-            (Coord::Kid, 25.0),
+            ("sigma", p.sigma),
+            ("sigma_m", 0.7),
+            ("k_dd", 900.0),
+            ("k_id", 25.0),
         ] {
             let zz = z(three, c, truth);
             assert!(
                 zz < 3.0,
-                "{name} noise {noise}: {c:?} off by {zz:.2} standard errors ({})",
-                three.values.get(c).exp()
+                "{name} noise {noise}: {c} off by {zz:.2} standard errors ({})",
+                value(three, c)
             );
         }
         for (j, &ks) in p.ks_table.iter().enumerate() {
-            let zz = z(three, Coord::Ks(j), ks);
+            let c = format!("k_s({})", 10 * j);
+            let zz = z(three, &c, ks);
             assert!(
                 zz < 3.5,
-                "{name}: k_s({}) off by {zz:.2} se ({} vs {ks})",
-                10 * j,
-                three.values.ks[j]
+                "{name}: {c} off by {zz:.2} se ({} vs {ks})",
+                value(three, &c)
             );
         }
         // The residual scatter matches the noise that was put in.
@@ -98,18 +117,14 @@ fn recovers_an_arbitrary_parameter_set() {
         11,
     );
     let f = family(&rows);
-    let three = f.get(Kind::ThreeComponent).unwrap();
+    let three = get(&f, Kind::ThreeComponent).unwrap();
     for (c, t) in [
-        (Coord::Sigma, 0.3),
-        (Coord::SigmaM, 0.45),
-        (Coord::Kdd, 300.0),
-        (Coord::Kid, 60.0),
+        ("sigma", 0.3),
+        ("sigma_m", 0.45),
+        ("k_dd", 300.0),
+        ("k_id", 60.0),
     ] {
-        assert!(
-            z(three, c, t) < 3.0,
-            "{c:?}: {} vs {t}",
-            three.values.get(c).exp()
-        );
+        assert!(z(three, c, t) < 3.0, "{c}: {} vs {t}", value(three, c));
     }
 }
 
@@ -141,8 +156,8 @@ fn torrance_sparrow_data_gets_no_directional_diffuse_term() {
             "seed {seed}: {}",
             f.selected_member
         );
-        let ts = f.get(Kind::TorranceSparrow).unwrap();
-        assert!(z(ts, Coord::Sigma, 0.1) < 3.0 && z(ts, Coord::Kid, 12.0) < 3.0);
+        let ts = get(&f, Kind::TorranceSparrow).unwrap();
+        assert!(z(ts, "sigma", 0.1) < 3.0 && z(ts, "k_d", 12.0) < 3.0);
     }
 }
 
@@ -172,18 +187,18 @@ fn a_flat_sample_is_ideal_diffuse() {
         "{:?}",
         f.notes
     );
-    let ideal = f.get(Kind::IdealDiffuse).unwrap();
-    assert!(z(ideal, Coord::Kid, 40.0) < 3.0);
+    let ideal = get(&f, Kind::IdealDiffuse).unwrap();
+    assert!(z(ideal, "k_id", 40.0) < 3.0);
 }
 
 #[test]
 fn paper_rmse_is_zero_for_exact_data_and_defined_per_incidence() {
     let f = family(&preset_sweep("fe-0.115", 0.0, 1));
-    let three = f.get(Kind::ThreeComponent).unwrap();
+    let three = get(&f, Kind::ThreeComponent).unwrap();
     assert!(three.rmse.unwrap() < 1e-6, "{:?}", three.rmse);
     assert_eq!(three.rmse_by_inc.len(), 9);
     // T-S cannot follow the directional diffuse lobe: visibly larger error.
-    let ts = f.get(Kind::TorranceSparrow).unwrap();
+    let ts = get(&f, Kind::TorranceSparrow).unwrap();
     assert!(ts.rmse.unwrap() > 10.0 * three.rmse.unwrap().max(1e-9));
 }
 
@@ -196,11 +211,11 @@ fn fixed_parameters_stay_fixed() {
     opts.fixed.set("kid=25").unwrap();
     // The default family, fitted with them held: every member that has them.
     let f = fit_family(&data, &opts).unwrap();
-    let fit = f.get(Kind::ThreeComponent).unwrap();
-    assert_eq!((fit.values.sigma, fit.values.kid), (0.115, 25.0));
+    let fit = get(&f, Kind::ThreeComponent).unwrap();
+    assert_eq!((value(fit, "sigma"), value(fit, "k_id")), (0.115, 25.0));
     assert_eq!(fit.k(), 11, "sigma_m, k_dd and 9 k_s are free");
-    for (c, fixed) in fit.free.iter().zip(&fit.fixed) {
-        assert_eq!(*fixed, matches!(c, Coord::Sigma | Coord::Kid), "{c:?}");
+    for p in member_params(fit) {
+        assert_eq!(p.held, ["sigma", "k_id"].contains(&p.base), "{}", p.name());
     }
     let m = f.member(Member::THREE_COMPONENT).unwrap();
     let l = &m.layout;
@@ -240,12 +255,14 @@ fn robust_loss_resists_outliers() {
         };
         fit_family(&data, &opts)
             .unwrap()
-            .get(Kind::ThreeComponent)
+            .member(Member::THREE_COMPONENT)
             .unwrap()
             .clone()
     };
     let (l2, robust) = (three(Loss::L2), three(Loss::Cauchy(0.02)));
-    let err = |f: &Fit| (f.values.sigma / 0.115 - 1.0).abs() + (f.values.kdd / 900.0 - 1.0).abs();
+    let err = |f: &MemberFit| {
+        (value(f, "sigma") / 0.115 - 1.0).abs() + (value(f, "k_dd") / 900.0 - 1.0).abs()
+    };
     assert!(err(&robust) < 0.02, "robust fit error {}", err(&robust));
     assert!(
         err(&robust) < err(&l2) / 3.0,
@@ -293,13 +310,13 @@ fn degenerate_inputs_are_clear_errors_or_flagged() {
     // One incidence angle: the smooth model cannot be fitted, the others can.
     let one: Vec<Row> = rows.iter().filter(|r| r.theta_i == 40.0).copied().collect();
     let f = family(&one);
-    assert!(f.get(Kind::ThreeSmooth).is_none());
+    assert!(get(&f, Kind::ThreeSmooth).is_none());
     assert!(
         f.notes
             .iter()
             .any(|n| n.starts_with("three-component-smooth-ks: not fitted"))
     );
-    assert!(f.get(Kind::ThreeComponent).is_some());
+    assert!(get(&f, Kind::ThreeComponent).is_some());
     // All values equal: a constant, and the lobes are flagged or rejected.
     let flat: Vec<Row> = rows.iter().map(|r| Row { brdf: 7.0, ..*r }).collect();
     let f = family(&flat);
@@ -312,7 +329,7 @@ fn degenerate_inputs_are_clear_errors_or_flagged() {
         .copied()
         .collect();
     let f = family(&no_spec);
-    let three = f.get(Kind::ThreeComponent).unwrap();
+    let three = get(&f, Kind::ThreeComponent).unwrap();
     assert!(three.rmse_by_inc[2].is_some());
     assert!(three.rmse_by_inc[1].is_some());
     assert!(
@@ -330,16 +347,33 @@ fn degenerate_inputs_are_clear_errors_or_flagged() {
 fn fitted_models_evaluate_between_incidences() {
     let rows = preset_sweep("fe-0.115", 0.0, 1);
     let f = family(&rows);
-    let three = f.get(Kind::ThreeComponent).unwrap();
-    let inc = &f.incidences;
-    assert!(
-        (three.ks_at(inc, 25.0) - 155.0).abs() < 0.5,
-        "{}",
-        three.ks_at(inc, 25.0)
-    );
-    assert!((three.ks_at(inc, -5.0) - 115.0).abs() < 0.5);
-    assert!((three.ks_at(inc, 85.0) - 260.0).abs() < 0.5);
-    let m = three.model_at(inc, 20.0).unwrap();
+    let three = get(&f, Kind::ThreeComponent).unwrap();
+    // k_s linear in theta_i between the fitted incidences, clamped outside them.
+    let p = Preset::by_name("fe-0.115").unwrap();
+    let ks_between = (p.ks_table[2] + p.ks_table[3]) / 2.0;
+    for (at, ks, eval_at) in [
+        (25.0, ks_between, 25.0),
+        (-5.0, p.ks_table[0], 0.0),
+        (85.0, p.ks_table[8], 80.0),
+    ] {
+        let model = Model::three_component(Params {
+            ks,
+            sigma: p.sigma,
+            kdd: 900.0,
+            sigma_m: 0.7,
+            kid: 25.0,
+        })
+        .unwrap();
+        let want = model.eval_in_plane(eval_at, eval_at).unwrap().f;
+        let got = three
+            .model_at(at)
+            .unwrap()
+            .eval_in_plane(eval_at, eval_at)
+            .unwrap()
+            .f;
+        assert!((got / want - 1.0).abs() < 1e-6, "at {at}: {got} vs {want}");
+    }
+    let m = three.model_at(20.0).unwrap();
     let want = Preset::by_name("fe-0.115")
         .unwrap()
         .model(20.0)
@@ -556,7 +590,7 @@ fn the_scatterworks_metal_selects_a_haze_lobe_within_table_3_rmse_0_01() {
     let rmse = f.selected_fit().unwrap().rmse.unwrap();
     assert!(rmse <= 0.01, "Table-3 RMSE {rmse}");
     // The paper's models stay far worse, and every incidence has an RMSE.
-    let ts = f.get(Kind::TorranceSparrow).unwrap();
+    let ts = get(&f, Kind::TorranceSparrow).unwrap();
     assert!(ts.rmse.unwrap() > 0.2);
     assert!(ts.rmse_by_inc.iter().all(Option::is_some));
 }

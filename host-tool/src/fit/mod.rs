@@ -16,7 +16,7 @@
 //! - assessing a fit: [`goodness`] (against the readings' noise), [`paper_rmse`]
 //!   (Table 3), [`peak`], [`physical`] (albedo, reciprocity);
 //! - reading and preparing data: [`data`], [`campaign`] (floor, instrument units);
-//!   what a fit is asked: [`options`]; the paper's naming view: [`paper`];
+//!   what a fit is asked: [`options`]; the paper's model names: [`paper`];
 //! - writing results: [`report`] (text and JSON).
 //!
 //! Positivity: every parameter is fitted as its natural logarithm (p = exp(u)), within
@@ -49,7 +49,7 @@ pub mod stages;
 pub use data::{Dataset, Floor};
 pub use family_fit::FamilyFit;
 pub use options::{FitOptions, Fixed, Loss, Residual};
-pub use paper::{Fit, Kind, Names};
+pub use paper::{Kind, Names};
 pub use stages::{AICC_MARGIN, fit_family};
 
 #[cfg(test)]

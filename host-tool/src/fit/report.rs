@@ -1,75 +1,12 @@
 //! Fit results for people (a table) and for programs (the JSON contract of
-//! `gonio fit --json`).
+//! `gonio fit --json`): both format one list of a fitted member's parameters,
+//! [`member_params`], whatever the member.
 
 use serde_json::{Value, json};
 
 use super::family_fit::FamilyFit;
-use super::member_fit::{MemberFit, smooth_ln_ks_variance};
-use super::paper::Fit;
-use super::paper::{Coord, Kind, scalar_coords};
-use super::select::Candidate;
+use super::member_fit::MemberFit;
 use brdf_core::member::Member;
-
-/// A parameter's name in reports.
-pub fn coord_name(kind: Kind, c: Coord, incidences: &[f64]) -> String {
-    match c {
-        Coord::Sigma => "sigma".into(),
-        Coord::SigmaM => "sigma_m".into(),
-        Coord::Kdd => "k_dd".into(),
-        Coord::Kid if kind == Kind::TorranceSparrow => "k_d".into(),
-        Coord::Kid => "k_id".into(),
-        Coord::Ks(j) => format!("k_s({})", incidences[j]),
-        Coord::KsPoly(k) => format!("ln_ks_c{k}"),
-    }
-}
-
-/// Natural value and standard error (None: fixed or not identifiable) of a scalar
-/// parameter coordinate.
-pub fn scalar(fit: &Fit, c: Coord) -> (f64, Option<f64>) {
-    let at = fit.free.iter().position(|&x| x == c);
-    if at.is_some_and(|i| fit.fixed[i]) {
-        // Held fixed: the value asked for, to the last bit.
-        return (fit.values.natural(c), None);
-    }
-    let v = fit.values.get(c).exp();
-    let se = at.and_then(|i| fit.se_coord(i)).map(|s| v * s);
-    (v, se)
-}
-
-/// k_s per incidence with standard errors.
-pub fn ks_table(fit: &Fit, incidences: &[f64]) -> Vec<(f64, f64, Option<f64>)> {
-    // Where each incidence's k_s sits among the free coordinates (one pass, not a
-    // search per incidence).
-    let mut ks_index = vec![None; incidences.len()];
-    for (i, c) in fit.free.iter().enumerate() {
-        if let Coord::Ks(j) = *c {
-            ks_index[j] = Some(i);
-        }
-    }
-    incidences
-        .iter()
-        .enumerate()
-        .map(|(j, &ti)| {
-            let ks = fit.values.ks[j];
-            let se = match fit.kind {
-                Kind::ThreeSmooth => {
-                    // var(ln k_s) = g^T C g, g = (1, t, t^2) over the polynomial coordinates.
-                    let t = ti / 90.0;
-                    let idx: Option<Vec<usize>> = (0..3)
-                        .map(|k| fit.free.iter().position(|&c| c == Coord::KsPoly(k)))
-                        .collect();
-                    idx.filter(|ix| ix.iter().all(|&i| fit.identifiable[i]))
-                        .map(|ix| {
-                            let var = smooth_ln_ks_variance(&fit.cov, [ix[0], ix[1], ix[2]], t);
-                            ks * var.max(0.0).sqrt()
-                        })
-                }
-                _ => ks_index[j].and_then(|i| fit.se_coord(i)).map(|s| ks * s),
-            };
-            (ti, ks, se)
-        })
-        .collect()
-}
 
 fn num(x: f64) -> Value {
     if x.is_finite() { json!(x) } else { Value::Null }
@@ -79,64 +16,166 @@ fn opt(x: Option<f64>) -> Value {
     x.map_or(Value::Null, num)
 }
 
-/// Above this many free parameters, `correlations` covers the scalar parameters only.
+/// Above this many free parameters, `correlations` covers the global parameters only
+/// (a matrix over thousands of per-incidence k_s would dwarf the fit).
 pub const CORRELATION_LIMIT: usize = 100;
 
-/// One model as a JSON object.
-pub fn model_json(fit: &Fit, incidences: &[f64]) -> Value {
-    let mut params = serde_json::Map::new();
-    let mut errors = serde_json::Map::new();
-    let kind = fit.kind;
-    for c in scalar_coords(kind) {
-        let (v, se) = scalar(fit, c);
-        let name = coord_name(kind, c, incidences);
-        params.insert(name.clone(), num(v));
-        errors.insert(name, opt(se));
-    }
-    if kind.specular() {
-        let ks = ks_table(fit, incidences);
-        // Values built in place (no intermediate copy): memory matters with thousands
-        // of incidences.
-        params.insert(
-            "k_s".into(),
-            Value::Array(
-                ks.iter()
-                    .map(|(t, k, _)| Value::Array(vec![num(*t), num(*k)]))
-                    .collect(),
-            ),
-        );
-        errors.insert(
-            "k_s".into(),
-            Value::Array(
-                ks.iter()
-                    .map(|(t, _, s)| Value::Array(vec![num(*t), opt(*s)]))
-                    .collect(),
-            ),
-        );
-        if let Some(p) = fit.values.poly {
-            params.insert("ln_ks_poly".into(), json!(p));
+/// One reported parameter of a fitted member.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Param {
+    /// Its name without an incidence: `sigma`, `sigma_haze`, `sigma_m`, `k_dd`, `k_id`
+    /// (`k_d` for Torrance–Sparrow), `ln_ks_c0..2`, `ln_ks_haze_c0..2`, `k_s`,
+    /// `k_s_haze`.
+    pub base: &'static str,
+    /// The incidence (degrees) of a per-incidence k_s.
+    pub theta_i: Option<f64>,
+    /// Natural value: a width (sigma dimensionless, sigma_m in radians), a weight in
+    /// the data's units (relative or 1/sr), or a coefficient of ln k_s.
+    pub value: f64,
+    /// Standard error (None: held fixed, or not determined by the data).
+    pub se: Option<f64>,
+    /// Held fixed (`--fix`).
+    pub held: bool,
+    /// Where it sits in the fit's parameter vector; None for a value derived from
+    /// others (a smooth k_s at a fitted incidence).
+    pub slot: Option<usize>,
+}
+
+impl Param {
+    /// Its report name: the base, with the incidence for a per-incidence k_s
+    /// (`k_s(20)`).
+    pub fn name(&self) -> String {
+        match self.theta_i {
+            Some(t) => format!("{}({t})", self.base),
+            None => self.base.to_string(),
         }
     }
-    let k = fit.k();
-    // The full matrix of the free parameters up to CORRELATION_LIMIT of them; beyond,
-    // the scalar parameters' block (a matrix over thousands of k_s would dwarf the fit).
-    let free = (0..fit.free.len()).filter(|&i| !fit.fixed[i]);
-    let shown: Vec<usize> = if k <= CORRELATION_LIMIT {
-        free.collect()
+}
+
+/// The parameters of a fitted member, in report order: widths and scalar weights,
+/// smooth-k_s coefficients, then k_s at each fitted incidence (fitted per incidence,
+/// or the smooth curve's value there).
+pub fn member_params(fit: &MemberFit) -> Vec<Param> {
+    let l = &fit.layout;
+    let mut out = Vec::new();
+    for (slot, base) in scalar_slots(fit) {
+        if let Some(i) = slot {
+            // With a core lobe the haze's coordinate is its width's ratio to the core's.
+            let (value, se) = if slot == l.sigma_haze {
+                fit.sigma_haze().unwrap_or((f64::NAN, None))
+            } else {
+                fit.natural(i)
+            };
+            let held = fit.is_fixed(i);
+            out.push(Param {
+                base,
+                theta_i: None,
+                value,
+                se,
+                held,
+                slot,
+            });
+        }
+    }
+    const POLY: [[&str; 3]; 2] = [
+        ["ln_ks_c0", "ln_ks_c1", "ln_ks_c2"],
+        ["ln_ks_haze_c0", "ln_ks_haze_c1", "ln_ks_haze_c2"],
+    ];
+    for (poly, names) in [(l.core_poly, POLY[0]), (l.haze_poly, POLY[1])] {
+        if let Some(p) = poly {
+            for (k, base) in names.into_iter().enumerate() {
+                let i = p + k;
+                let se = fit.identifiable[i].then(|| fit.cov.get(i, i).max(0.0).sqrt());
+                out.push(Param {
+                    base,
+                    theta_i: None,
+                    value: fit.x[i],
+                    se,
+                    held: false,
+                    slot: Some(i),
+                });
+            }
+        }
+    }
+    for (local, poly, haze, base) in [
+        (l.core_local, l.core_poly, false, "k_s"),
+        (l.haze_local, l.haze_poly, true, "k_s_haze"),
+    ] {
+        for (j, &t) in fit.incidences.iter().enumerate() {
+            let theta_i = Some(t);
+            if local {
+                let i = l.local(j, haze);
+                let (value, se) = fit.natural(i);
+                out.push(Param {
+                    base,
+                    theta_i,
+                    value,
+                    se,
+                    held: false,
+                    slot: Some(i),
+                });
+            } else if let Some(p) = poly {
+                let (ln, se) = fit.smooth_ks(p, t);
+                out.push(Param {
+                    base,
+                    theta_i,
+                    value: ln.exp(),
+                    se,
+                    held: false,
+                    slot: None,
+                });
+            }
+        }
+    }
+    out
+}
+
+/// The names of a member's parameters held fixed (`--fix`), in report order; the
+/// JSON lists them as `fixed` and the table marks them.
+pub fn held_names(fit: &MemberFit) -> Vec<&'static str> {
+    member_params(fit)
+        .into_iter()
+        .filter(|p| p.held)
+        .map(|p| p.base)
+        .collect()
+}
+
+/// A member's widths and scalar weights: where each sits in its parameter vector (if
+/// the member has it) and its report name, in report order (`k_d` for the paper's
+/// Torrance–Sparrow ideal diffuse, `k_id` for every other member's).
+fn scalar_slots(fit: &MemberFit) -> [(Option<usize>, &'static str); 5] {
+    let l = &fit.layout;
+    let kid = if fit.member() == Member::TORRANCE_SPARROW {
+        "k_d"
     } else {
-        free.filter(|&i| !matches!(fit.free[i], Coord::Ks(_)))
-            .collect()
+        "k_id"
     };
-    let names: Vec<String> = shown
+    [
+        (l.sigma, "sigma"),
+        (l.sigma_haze, "sigma_haze"),
+        (l.sigma_m, "sigma_m"),
+        (l.kdd, "k_dd"),
+        (l.kid, kid),
+    ]
+}
+
+/// The correlations of a fit's free coordinates (ln of each parameter; for
+/// `sigma_haze` beside a core lobe, ln of its ratio to sigma; the smooth k_s
+/// coefficients as they are): their names and the matrix, null where a coordinate is
+/// not determined. Past [`CORRELATION_LIMIT`] free parameters, the global ones only.
+fn correlations(fit: &MemberFit, params: &[Param]) -> Value {
+    let many = fit.k() > CORRELATION_LIMIT;
+    let shown: Vec<(String, usize)> = params
         .iter()
-        .map(|&i| coord_name(kind, fit.free[i], incidences))
+        .filter(|p| !(p.held || many && p.theta_i.is_some()))
+        .filter_map(|p| p.slot.map(|i| (p.name(), i)))
         .collect();
-    let corr: Vec<Vec<Value>> = shown
+    let matrix: Vec<Vec<Value>> = shown
         .iter()
-        .map(|&i| {
+        .map(|&(_, i)| {
             shown
                 .iter()
-                .map(|&j| {
+                .map(|&(_, j)| {
                     if fit.identifiable[i] && fit.identifiable[j] {
                         num(fit.cov.get(i, j) / (fit.cov.get(i, i) * fit.cov.get(j, j)).sqrt())
                     } else {
@@ -146,23 +185,8 @@ pub fn model_json(fit: &Fit, incidences: &[f64]) -> Value {
                 .collect()
         })
         .collect();
-    json!({
-        "name": kind.name(),
-        "params": params,
-        "std_errors": errors,
-        "rmse": opt(fit.rmse),
-        "rmse_by_theta_i": Value::Array(incidences.iter().zip(&fit.rmse_by_inc).map(|(t, r)| Value::Array(vec![num(*t), opt(*r)])).collect()),
-        "aicc": num(fit.aicc()),
-        "bic": num(fit.bic()),
-        "n": fit.n,
-        "k": k,
-        "components": member_components(fit.kind.member()),
-        "lobes": member_lobes(fit.kind.member()),
-        "ssr": num(fit.ssr),
-        "converged": fit.converged,
-        "evaluations": fit.evaluations,
-        "correlations": {"names": names, "matrix": corr},
-    })
+    let names: Vec<String> = shown.into_iter().map(|(n, _)| n).collect();
+    json!({"names": names, "matrix": matrix})
 }
 
 /// The member's components, in the fixed vocabulary (`specular`, `specular-haze`,
@@ -186,110 +210,31 @@ pub fn member_lobes(m: Member) -> Value {
     Value::Object(map)
 }
 
-/// The parameters of a member fitted on the width grid, in report order: widths and
-/// scalar weights, smooth-k_s coefficients, then each per-incidence k_s; value and
-/// standard error (`None`: not determined).
-pub fn member_params(fit: &MemberFit) -> Vec<(String, f64, Option<f64>)> {
-    let l = &fit.layout;
-    let mut out = Vec::new();
-    for (slot, name) in scalar_slots(fit) {
-        if let Some(i) = slot {
-            // With a core lobe the haze's coordinate is its width's ratio to the core's.
-            let (v, se) = if slot == l.sigma_haze {
-                fit.sigma_haze().unwrap_or((f64::NAN, None))
-            } else {
-                fit.natural(i)
-            };
-            out.push((name.to_string(), v, se));
-        }
-    }
-    for (poly, name) in [(l.core_poly, "ln_ks_c"), (l.haze_poly, "ln_ks_haze_c")] {
-        if let Some(p) = poly {
-            for k in 0..3 {
-                let i = p + k;
-                let se = fit.identifiable[i].then(|| fit.cov.get(i, i).max(0.0).sqrt());
-                out.push((format!("{name}{k}"), fit.x[i], se));
-            }
-        }
-    }
-    for (local, haze, name) in [
-        (l.core_local, false, "k_s"),
-        (l.haze_local, true, "k_s_haze"),
-    ] {
-        if local {
-            for (j, t) in fit.incidences.iter().enumerate() {
-                let (v, se) = fit.natural(l.local(j, haze));
-                out.push((format!("{name}({t})"), v, se));
-            }
-        }
-    }
-    out
-}
-
-/// The names of a member's parameters held fixed (`--fix`), in report order; the
-/// JSON lists them as `fixed` and the table marks them.
-pub fn held_names(fit: &MemberFit) -> Vec<&'static str> {
-    scalar_slots(fit)
-        .into_iter()
-        .filter_map(|(slot, name)| slot.filter(|&i| fit.is_fixed(i)).map(|_| name))
-        .collect()
-}
-
-/// A member's widths and scalar weights: where each sits in its parameter vector (if
-/// the member has it) and its report name, in report order (`k_d` for the paper's
-/// Torrance–Sparrow ideal diffuse, `k_id` for every other member's).
-fn scalar_slots(fit: &MemberFit) -> [(Option<usize>, &'static str); 5] {
-    let l = &fit.layout;
-    let kid = if fit.member() == Member::TORRANCE_SPARROW {
-        "k_d"
-    } else {
-        "k_id"
-    };
-    [
-        (l.sigma, "sigma"),
-        (l.sigma_haze, "sigma_haze"),
-        (l.sigma_m, "sigma_m"),
-        (l.kdd, "k_dd"),
-        (l.kid, kid),
-    ]
-}
-
-/// A member fitted on the width grid ([`super::member_fit`]) as a JSON object: the
-/// fields of [`model_json`] where they apply (`params` and `std_errors` by parameter
-/// name, per-incidence k_s as `[theta_i, value]` pairs), plus the reduced chi-square.
-pub fn member_fit_json(fit: &MemberFit, cand: Option<&Candidate>) -> Value {
+/// A fitted member as the object `gonio fit --json` lists: `params` and
+/// `std_errors` by parameter name (a per-incidence k_s as `[theta_i, value]` pairs),
+/// `fixed` (the parameters held fixed, when there are some: a null standard error
+/// then does not mean "not determined"), the criteria selection compared, the paper's
+/// RMSE, the reduced chi-square against the readings' noise and the correlations.
+pub fn member_fit_json(f: &FamilyFit, fit: &MemberFit) -> Value {
     let m = fit.member();
+    let cand = f.candidate(m);
+    let all = member_params(fit);
     let mut params = serde_json::Map::new();
     let mut errors = serde_json::Map::new();
-    let mut ks: [Vec<Value>; 2] = [Vec::new(), Vec::new()];
-    let mut ks_se: [Vec<Value>; 2] = [Vec::new(), Vec::new()];
-    let l = &fit.layout;
-    for (slot, (local, haze)) in [(l.core_local, false), (l.haze_local, true)]
-        .into_iter()
-        .enumerate()
-    {
-        if local {
-            for (j, t) in fit.incidences.iter().enumerate() {
-                let (v, se) = fit.natural(l.local(j, haze));
-                ks[slot].push(json!([num(*t), num(v)]));
-                ks_se[slot].push(json!([num(*t), opt(se)]));
-            }
+    for p in all.iter().filter(|p| p.theta_i.is_none()) {
+        params.insert(p.base.into(), num(p.value));
+        errors.insert(p.base.into(), opt(p.se));
+    }
+    for base in ["k_s", "k_s_haze"] {
+        let of = || all.iter().filter(move |p| p.base == base);
+        if of().next().is_some() {
+            // Built in place: memory matters with thousands of incidences.
+            let pair = |p: &Param, v: Value| Value::Array(vec![opt(p.theta_i), v]);
+            params.insert(base.into(), of().map(|p| pair(p, num(p.value))).collect());
+            errors.insert(base.into(), of().map(|p| pair(p, opt(p.se))).collect());
         }
     }
-    for (name, v, se) in member_params(fit) {
-        if name.starts_with("k_s(") || name.starts_with("k_s_haze(") {
-            continue;
-        }
-        params.insert(name.clone(), num(v));
-        errors.insert(name, opt(se));
-    }
-    for (slot, name) in ["k_s", "k_s_haze"].into_iter().enumerate() {
-        if !ks[slot].is_empty() {
-            params.insert(name.into(), Value::Array(std::mem::take(&mut ks[slot])));
-            errors.insert(name.into(), Value::Array(std::mem::take(&mut ks_se[slot])));
-        }
-    }
-    json!({
+    let mut v = json!({
         "name": m.name().as_str(),
         "components": member_components(m),
         "lobes": member_lobes(m),
@@ -297,55 +242,27 @@ pub fn member_fit_json(fit: &MemberFit, cand: Option<&Candidate>) -> Value {
         "std_errors": errors,
         "rmse": opt(fit.rmse),
         "rmse_by_theta_i": Value::Array(fit.incidences.iter().zip(&fit.rmse_by_inc).map(|(t, r)| Value::Array(vec![num(*t), opt(*r)])).collect()),
-        "aicc": num(fit.aicc()),
-        "bic": num(cand.map_or(f64::NAN, |c| c.bic)),
+        "aicc": num(cand.map_or_else(|| fit.aicc(), |c| c.aicc)),
+        "bic": num(cand.map_or_else(|| fit.bic(), |c| c.bic)),
         "n": fit.n,
         "k": fit.k(),
         "ssr": num(fit.ssr),
         "converged": fit.converged,
         "aperture_deg": opt(fit.aperture),
         "reduced_chi2": opt(cand.and_then(|c| c.goodness).map(|g| g.reduced())),
-    })
-}
-
-/// The object `gonio fit --json` lists for member `m` ([`any_member_json`]), if it was
-/// fitted: what exports of one member report.
-pub fn member_json(f: &FamilyFit, m: Member) -> Option<Value> {
-    f.member(m).map(|fit| any_member_json(f, fit))
-}
-
-/// One fitted member as JSON: a paper member in [`model_json`]'s form (with
-/// correlations), any other in [`member_fit_json`]'s; both carry `components`,
-/// `lobes` and `reduced_chi2`.
-fn any_member_json(f: &FamilyFit, fit: &MemberFit) -> Value {
-    let cand = f.candidate(fit.member());
-    let mut v = view_json(f, fit, cand);
-    // Parameters held fixed (`--fix`): listed, so a null standard error is not read as
-    // "not determined" (only when there are some: other fits answer as before).
-    let held = held_names(fit);
+        "correlations": correlations(fit, &all),
+    });
+    let held: Vec<&str> = all.iter().filter(|p| p.held).map(|p| p.base).collect();
     if let (Value::Object(map), false) = (&mut v, held.is_empty()) {
         map.insert("fixed".into(), json!(held));
     }
     v
 }
 
-/// [`any_member_json`]'s object in the member's naming view: the paper's for a paper
-/// member, the lattice's for any other.
-fn view_json(f: &FamilyFit, fit: &MemberFit, cand: Option<&Candidate>) -> Value {
-    match super::paper::kind_of(fit.member()).and_then(|k| f.get(k)) {
-        Some(paper) => {
-            let mut v = model_json(paper, &f.incidences);
-            if let Value::Object(map) = &mut v {
-                map.insert("aperture_deg".into(), opt(fit.aperture));
-                map.insert(
-                    "reduced_chi2".into(),
-                    opt(cand.and_then(|c| c.goodness).map(|g| g.reduced())),
-                );
-            }
-            v
-        }
-        None => member_fit_json(fit, cand),
-    }
+/// The object `gonio fit --json` lists for member `m` ([`member_fit_json`]), if it
+/// was fitted: what exports of one member report.
+pub fn member_json(f: &FamilyFit, m: Member) -> Option<Value> {
+    f.member(m).map(|fit| member_fit_json(f, fit))
 }
 
 /// The whole result as the `gonio fit --json` object (without an instrument section).
@@ -384,7 +301,7 @@ impl serde::Serialize for ModelsJson<'_> {
         let f = self.0;
         let mut seq = s.serialize_seq(Some(f.members.len()))?;
         for m in &f.members {
-            seq.serialize_element(&any_member_json(f, m))?;
+            seq.serialize_element(&member_fit_json(f, m))?;
         }
         seq.end()
     }
@@ -472,42 +389,6 @@ fn fit_line(
     )
 }
 
-fn kind_block(out: &mut String, f: &FamilyFit, fit: &Fit, residual: &str) {
-    use std::fmt::Write;
-    let inc = &f.incidences;
-    let mark = if fit.kind.member() == f.selected_member {
-        "  <- selected"
-    } else {
-        ""
-    };
-    let _ = writeln!(
-        out,
-        "{} ({} free parameters){mark}",
-        fit.kind.name(),
-        fit.k()
-    );
-    for c in scalar_coords(fit.kind) {
-        let (v, se) = scalar(fit, c);
-        let held = fit.free.iter().zip(&fit.fixed).any(|(&x, &f)| x == c && f);
-        let _ = writeln!(
-            out,
-            "  {:<12} {}",
-            coord_name(fit.kind, c, inc),
-            fmt_value(v, se, held)
-        );
-    }
-    if fit.kind.specular() {
-        for (t, k, se) in ks_table(fit, inc) {
-            let _ = writeln!(out, "  {:<12} {}", format!("k_s({t})"), fmt_se(k, se));
-        }
-    }
-    let _ = writeln!(
-        out,
-        "{}",
-        fit_line(f, fit.kind.member(), residual, fit.ssr, fit.n, fit.rmse)
-    );
-}
-
 fn member_block(out: &mut String, f: &FamilyFit, fit: &MemberFit, residual: &str) {
     use std::fmt::Write;
     let m = fit.member();
@@ -516,11 +397,16 @@ fn member_block(out: &mut String, f: &FamilyFit, fit: &MemberFit, residual: &str
     } else {
         ""
     };
-    let _ = writeln!(out, "{m} ({} free parameters){mark}", fit.k());
-    let held = held_names(fit);
-    for (name, v, se) in member_params(fit) {
-        let fixed = held.contains(&name.as_str());
-        let _ = writeln!(out, "  {name:<12} {}", fmt_value(v, se, fixed));
+    let k = fit.k();
+    let plural = if k == 1 { "" } else { "s" };
+    let _ = writeln!(out, "{m} ({k} free parameter{plural}){mark}");
+    for p in member_params(fit) {
+        let _ = writeln!(
+            out,
+            "  {:<12} {}",
+            p.name(),
+            fmt_value(p.value, p.se, p.held)
+        );
     }
     let _ = writeln!(
         out,
@@ -535,25 +421,15 @@ pub fn family_table(f: &FamilyFit, residual: &str) -> String {
     let mut out = String::new();
     let inc = &f.incidences;
     for m in &f.members {
-        match super::paper::kind_of(m.member()).and_then(|k| f.get(k)) {
-            Some(fit) => kind_block(&mut out, f, fit, residual),
-            None => member_block(&mut out, f, m, residual),
-        }
+        member_block(&mut out, f, m, residual);
     }
     // The paper's Table 3: RMSE1 (T–S) beside RMSE2 (three-component), normalised
     // curves; and the selected member's when it is neither.
-    let ts = f
-        .get(Kind::TorranceSparrow)
-        .map(|x| (&x.rmse_by_inc, x.rmse));
-    let three = f
-        .get(Kind::ThreeComponent)
-        .map(|x| (&x.rmse_by_inc, x.rmse));
+    let col = |m: Member| f.member(m).map(|x| (&x.rmse_by_inc, x.rmse));
+    let (ts, three) = (col(Member::TORRANCE_SPARROW), col(Member::THREE_COMPONENT));
     let sel = f
         .selected_fit()
-        .filter(|s| {
-            super::paper::kind_of(s.member())
-                .is_none_or(|k| !matches!(k, Kind::TorranceSparrow | Kind::ThreeComponent))
-        })
+        .filter(|s| ![Member::TORRANCE_SPARROW, Member::THREE_COMPONENT].contains(&s.member()))
         .map(|x| (&x.rmse_by_inc, x.rmse));
     let _ = writeln!(out, "RMSE of normalised curves (as the paper's Table 3)");
     let _ = writeln!(

@@ -15,7 +15,7 @@ use brdf_core::member::{Component, LobeSpec, Member};
 
 use super::criteria::{aicc, bic};
 use super::goodness::Goodness;
-use super::member_fit::{MemberFit, smooth_ln_ks_variance};
+use super::member_fit::MemberFit;
 use super::paper::Kind;
 
 /// A difference in the criterion below this is not evidence for the larger model.
@@ -110,19 +110,14 @@ impl Candidate {
             if let Some(p) = poly {
                 // ln k_s(t) = c0 + c1 t + c2 t^2: its level where the data determine it
                 // best (c0 alone is the extrapolation to theta_i = 0).
-                let ident = (0..3).all(|a| fit.identifiable[p + a]);
                 return fit
                     .incidences
                     .iter()
-                    .map(|ti| {
-                        let t = ti / 90.0;
-                        let g = [1.0, t, t * t];
-                        let ln = (0..3).map(|a| g[a] * fit.x[p + a]).sum::<f64>();
-                        let var = smooth_ln_ks_variance(&fit.cov, [p, p + 1, p + 2], t);
-                        let value = ln.exp();
+                    .map(|&ti| {
+                        let (ln, se) = fit.smooth_ks(p, ti);
                         Amplitude {
-                            value,
-                            se: ident.then(|| value * var.max(0.0).sqrt()),
+                            value: ln.exp(),
+                            se,
                             at_bound: ln <= l.bounds(p).0 + 1.0,
                             held: false,
                         }
@@ -151,7 +146,7 @@ impl Candidate {
         Candidate {
             member: m,
             aicc: fit.aicc(),
-            bic: bic(fit.ssr, fit.n, fit.k()),
+            bic: fit.bic(),
             k: fit.k(),
             rmse: fit.rmse,
             amplitude,

@@ -13,7 +13,7 @@ use super::goodness::{self, Goodness};
 use super::member_fit::{self, GridBases, MemberFit, NotFitted};
 use super::notes;
 use super::options::{FitOptions, Residual};
-use super::paper::{self, Fit, Kind};
+use super::paper::Kind;
 use super::select::{self, Candidate, Criterion, Selection};
 
 /// A difference in AICc below this is not evidence for the larger model.
@@ -192,11 +192,6 @@ pub fn fit_family(data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, String
         }
         fitted
     };
-    let fits: Vec<Fit> = Kind::ALL
-        .iter()
-        .filter_map(|k| fitted.members.iter().find(|f| f.member() == k.member()))
-        .filter_map(paper::to_fit)
-        .collect();
     let fit_seconds = t0.elapsed().as_secs_f64();
     let Fitted {
         members,
@@ -222,7 +217,6 @@ pub fn fit_family(data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, String
     );
     Ok(FamilyFit {
         incidences: data.incidences.clone(),
-        fits,
         members,
         candidates,
         selected_member,

@@ -4,9 +4,10 @@ use std::path::PathBuf;
 use std::sync::OnceLock;
 
 use super::*;
-use crate::fit::{FitOptions, Kind, fit_family};
+use crate::fit::{FitOptions, fit_family};
 use crate::sweep_file::Row;
 use brdf_core::Preset;
+use brdf_core::member::Member;
 
 /// Paper-grid rows of a preset with 3 % multiplicative noise; `skip_specular` leaves the
 /// reading at theta_r = theta_i out at the listed incidences.
@@ -96,8 +97,8 @@ fn writes_one_png_and_svg_per_incidence_and_an_overview() {
 fn rmse_of_each_model_is_in_the_title() {
     let (data, fam) = fixture();
     let fig = incidence_figure(data, fam, 2);
-    let ts = fam.get(Kind::TorranceSparrow).unwrap().rmse_by_inc[2].unwrap();
-    let three = fam.get(Kind::ThreeComponent).unwrap().rmse_by_inc[2].unwrap();
+    let ts = fam.member(Member::TORRANCE_SPARROW).unwrap().rmse_by_inc[2].unwrap();
+    let three = fam.member(Member::THREE_COMPONENT).unwrap().rmse_by_inc[2].unwrap();
     assert!(
         fig.subtitles[0].contains(&format!("{ts:.4}")),
         "{:?}",

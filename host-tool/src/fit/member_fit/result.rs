@@ -57,6 +57,11 @@ impl MemberFit {
         super::super::criteria::aicc(self.ssr, self.n, self.k())
     }
 
+    /// BIC.
+    pub fn bic(&self) -> f64 {
+        super::super::criteria::bic(self.ssr, self.n, self.k())
+    }
+
     /// A parameter's value in natural units (exp of its log coordinate) and its standard
     /// error by the delta method, if determined.
     pub fn natural(&self, i: usize) -> (f64, Option<f64>) {
@@ -85,6 +90,21 @@ impl MemberFit {
                 .then(|| self.cov.get(h, h) + self.cov.get(c, c) + 2.0 * self.cov.get(h, c)),
         };
         Some((v, se.map(|var| v * var.max(0.0).sqrt())))
+    }
+
+    /// A smooth k_s whose coefficients are parameters `p..p + 3`, at `theta_i`
+    /// (degrees): ln k_s, and the standard error of k_s by the delta method when the
+    /// coefficients are determined. The one formula of the reports' k_s and the
+    /// selection's amplitude.
+    pub fn smooth_ks(&self, p: usize, theta_i: f64) -> (f64, Option<f64>) {
+        let t = theta_i / 90.0;
+        let g = [1.0, t, t * t];
+        let ln = (0..3).map(|a| g[a] * self.x[p + a]).sum::<f64>();
+        let se = (0..3).all(|a| self.identifiable[p + a]).then(|| {
+            let var = smooth_ln_ks_variance(&self.cov, [p, p + 1, p + 2], t);
+            ln.exp() * var.max(0.0).sqrt()
+        });
+        (ln, se)
     }
 
     /// The fitted model at any incidence (degrees): per-incidence k_s interpolated
@@ -123,8 +143,7 @@ impl MemberFit {
 
 /// The variance of ln k_s(t) = c0 + c1 t + c2 t^2 at t = theta_i / 90 for a smooth
 /// k_s whose coefficients are parameters `at` of `cov`: g^T C g with g = (1, t, t^2).
-/// The one formula of the reports' k_s table and the selection's amplitude.
-pub fn smooth_ln_ks_variance(cov: &ArrowInverse, at: [usize; 3], t: f64) -> f64 {
+fn smooth_ln_ks_variance(cov: &ArrowInverse, at: [usize; 3], t: f64) -> f64 {
     let g = [1.0, t, t * t];
     let mut var = 0.0;
     for a in 0..3 {

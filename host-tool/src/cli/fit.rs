@@ -183,6 +183,16 @@ pub struct FitArgs {
     /// selection changed).
     #[arg(long)]
     pub all_starts: bool,
+    /// The instrument's angles: `fit` fits a detector zero offset in theta_r and an
+    /// in-plane sample tilt (which moves the mirror direction by twice the tilt and the
+    /// local incidence by the tilt), each with a standard error, reported as
+    /// instrument findings (where the data cannot tell them apart, all of the peak's
+    /// shift is reported as a detector offset, and the report says so); a number is a
+    /// known detector zero offset in degrees (the detector sits at theta_r - DEG when
+    /// it reads theta_r). The fit is then of the readings at the sample's local angles.
+    /// Default: the sweep's `# offset:` line, else none.
+    #[arg(long, value_name = "fit|DEG", value_parser = fit::offset::OffsetSpec::parse)]
+    pub offset: Option<fit::offset::OffsetSpec>,
 }
 
 /// `--aperture`'s value: a half-angle, or 0 (a point detector).
@@ -211,6 +221,7 @@ pub fn options(args: &FitArgs) -> CliResult<FitOptions> {
         fixed,
         floor: args.floor,
         all_starts: args.all_starts,
+        offset: args.offset,
         ..FitOptions::default()
     };
     if let Some(a) = args.aperture {

@@ -72,6 +72,12 @@ pub fn read_data(path: &Path, opts: &FitOptions) -> Result<(Dataset, Vec<String>
         data.aperture = super::data::parse_aperture(a)
             .map_err(|e| FileError::Input(format!("{name}: # aperture: {e}")))?;
     }
+    if let Some(o) = sweep.meta.get("offset") {
+        data.offset = Some(
+            super::offset::OffsetSpec::parse(o)
+                .map_err(|e| FileError::Input(format!("{name}: # offset: {e}")))?,
+        );
+    }
     if opts
         .instrument
         .as_ref()

@@ -95,12 +95,46 @@ pub struct Dataset {
     /// The detector's acceptance half-angle (degrees) the sweep declares in its
     /// `# aperture:` header line, if any.
     pub aperture: Option<f64>,
+    /// The instrument's angles the sweep declares in its `# offset:` header line
+    /// (`fit`, or a detector zero offset in degrees), if any; `--offset` overrides it.
+    pub offset: Option<OffsetSpec>,
     /// The units of the brdf values (the sweep's `# brdf:` line; 1/sr after
     /// `--instrument`): relative unless said otherwise.
     pub units: BrdfUnits,
     /// What the rows said of a detection floor, and what was left out for one.
     pub floor: FloorReport,
 }
+
+/// What `--offset` (or a sweep's `# offset:` line) asks.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum OffsetSpec {
+    /// Fit the detector zero offset and the sample tilt.
+    Fit,
+    /// A known detector zero offset (degrees); no tilt.
+    Detector(f64),
+}
+
+impl OffsetSpec {
+    /// `fit`, or a detector offset in degrees (|d| <= [`MAX_OFFSET`]); see [`super::offset`].
+    pub fn parse(s: &str) -> Result<Self, String> {
+        let t = s.trim();
+        if t.eq_ignore_ascii_case("fit") {
+            return Ok(OffsetSpec::Fit);
+        }
+        let d: f64 = t.parse().map_err(|_| {
+            format!("offset '{t}': expected 'fit' or a detector zero offset in degrees (e.g. 0.5)")
+        })?;
+        if !(d.is_finite() && d.abs() <= MAX_OFFSET) {
+            return Err(format!(
+                "offset {d}: a detector zero offset is within +-{MAX_OFFSET} degrees"
+            ));
+        }
+        Ok(OffsetSpec::Detector(d))
+    }
+}
+
+/// The largest angle offset searched or accepted (degrees).
+pub const MAX_OFFSET: f64 = 10.0;
 
 /// A detection floor: readings at or below it are the instrument's limit, not
 /// measurements of the surface, and are left out of the fit (`gonio fit --floor`).
@@ -377,6 +411,7 @@ impl Dataset {
             specular,
             nearest,
             aperture: None,
+            offset: None,
             units: BrdfUnits::Relative,
             floor: FloorReport::default(),
         })

@@ -6,6 +6,7 @@ use brdf_core::member::Member;
 use super::data::Dataset;
 use super::goodness::member_fitted;
 use super::member_fit::MemberFit;
+use super::offset::Angles;
 use super::options::CheckScope;
 use super::paper::Kind;
 use super::physical::ModelCheck;
@@ -47,6 +48,10 @@ pub struct FamilyFit {
     /// the fit ([`super::campaign::fit_data`]) for every report to format (empty until
     /// then).
     pub physical: Vec<ModelCheck>,
+    /// The instrument's angles the family was fitted at (`--offset`), if any: the
+    /// members then describe the readings at the sample's local angles, and
+    /// [`FamilyFit::incidences`] are local incidences.
+    pub angles: Option<Angles>,
 }
 
 impl FamilyFit {
@@ -70,7 +75,18 @@ impl FamilyFit {
     /// The fitted value at every reading of `data` for `member` (as the fit compared
     /// it, [`member_fitted`]); `None` when the family did not fit it. The one source
     /// of "fitted" for the residuals export, the plots and the Python bind.
+    /// With [`FamilyFit::angles`], each reading's fitted value is the member's at
+    /// that reading's local angles (`None` for one left out beyond 90 degrees).
     pub fn fitted(&self, data: &Dataset, member: Member) -> Option<Vec<Option<f64>>> {
-        self.member(member).map(|m| member_fitted(m, data))
+        let m = self.member(member)?;
+        let Some(angles) = &self.angles else {
+            return Some(member_fitted(m, data));
+        };
+        let (local, kept) = angles.apply(data).ok()?;
+        let mut out = vec![None; data.obs.len()];
+        for (k, v) in kept.into_iter().zip(member_fitted(m, &local)) {
+            out[k] = v;
+        }
+        Some(out)
     }
 }

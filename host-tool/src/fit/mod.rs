@@ -36,6 +36,7 @@ pub mod goodness;
 pub mod lm;
 pub mod member_fit;
 pub mod notes;
+pub mod offset;
 pub mod options;
 pub mod paper;
 pub mod paper_rmse;

@@ -103,21 +103,40 @@ fn variant_notes(cands: &[Candidate], sel: Member) -> Vec<String> {
     let Some(best) = cands.iter().find(|c| c.member == sel) else {
         return Vec::new();
     };
-    let others: Vec<String> = cands
-        .iter()
-        .filter(|c| same(c.member) && c.member != sel)
+    // Members of the same components with a lower AICc are there only when selection
+    // passed them over (a component of theirs is not supported): said as such, never
+    // as a tie or as higher.
+    let selection = Selection::new(cands, Criterion::Aicc);
+    let variants = || cands.iter().filter(|c| same(c.member) && c.member != sel);
+    let others: Vec<String> = variants()
+        .filter(|c| c.aicc >= best.aicc)
         .map(|c| format!("{} {:+.1}", c.member, c.aicc - best.aicc))
         .collect();
-    if others.is_empty() {
+    let passed_over: Vec<String> = variants()
+        .filter(|c| c.aicc < best.aicc)
+        .map(|c| {
+            let unsupported = c
+                .member
+                .components()
+                .find(|&k| selection.test(c.member, k).is_some_and(|t| !t.supports()));
+            let why = unsupported.map_or(String::new(), |k| {
+                format!(
+                    ", passed over: its {} is not supported by these data",
+                    k.name()
+                )
+            });
+            format!("{} {:.1} lower{why}", c.member, best.aicc - c.aicc)
+        })
+        .collect();
+    if others.is_empty() && passed_over.is_empty() {
         return Vec::new();
     }
     let haze = sel
         .haze
         .map_or(String::new(), |h| format!(" on a {} haze", h.dist.name()));
     // A difference under the margin is no evidence for either shape: said, not implied.
-    let ties: Vec<String> = cands
-        .iter()
-        .filter(|c| same(c.member) && c.member != sel && c.aicc - best.aicc < AICC_MARGIN)
+    let ties: Vec<String> = variants()
+        .filter(|c| (0.0..AICC_MARGIN).contains(&(c.aicc - best.aicc)))
         .map(|c| c.member.to_string())
         .collect();
     let tie = if ties.is_empty() {
@@ -128,11 +147,23 @@ fn variant_notes(cands: &[Candidate], sel: Member) -> Vec<String> {
             ties.join(", ")
         )
     };
+    let mut parts = Vec::new();
+    if !others.is_empty() {
+        parts.push(format!("AICc of the others: {}", others.join(", ")));
+    }
+    if !passed_over.is_empty() {
+        parts.push(format!("AICc of {}", passed_over.join("; ")));
+    }
+    let lowest = if passed_over.is_empty() {
+        "has the lowest AICc of these components"
+    } else {
+        "is selected among these components"
+    };
     vec![format!(
-        "specular lobe shape: {} with k_s {}{haze} has the lowest AICc of these components (AICc of the others: {}){tie}",
+        "specular lobe shape: {} with k_s {}{haze} {lowest} ({}){tie}",
         core.dist.name(),
         core.ks.name(),
-        others.join(", ")
+        parts.join("; ")
     )]
 }
 

@@ -70,6 +70,9 @@ pub struct FitOptions {
     /// fit (`gonio fit --instrument`), by calibrate's conversion, the one `gonio
     /// convert` writes with: the readings and their standard errors alike.
     pub instrument: Option<crate::calibrate::Instrument>,
+    /// The instrument's angles: a detector zero offset given, or the offset and a
+    /// sample tilt fitted (`gonio fit --offset`, or the sweep's `# offset:` line).
+    pub offset: Option<super::data::OffsetSpec>,
 }
 
 impl FitOptions {
@@ -93,6 +96,7 @@ impl Default for FitOptions {
             floor: None,
             all_starts: false,
             instrument: None,
+            offset: None,
         }
     }
 }

@@ -61,19 +61,36 @@ pub fn offsets(data: &Dataset, fitted: &[Option<f64>]) -> Vec<(f64, f64)> {
     out
 }
 
+/// The mean of [`offsets`] over the incidences with a peak (degrees), with its
+/// standard error from their scatter (None from one incidence).
+pub fn mean_offset(data: &Dataset, fitted: &[Option<f64>]) -> Option<(f64, Option<f64>)> {
+    let d: Vec<f64> = offsets(data, fitted).into_iter().map(|(_, o)| o).collect();
+    let n = d.len() as f64;
+    let mean = d.iter().sum::<f64>() / n;
+    let se = (d.len() > 1).then(|| {
+        let var = d.iter().map(|o| (o - mean).powi(2)).sum::<f64>() / (n - 1.0);
+        (var / n).sqrt()
+    });
+    (!d.is_empty()).then_some((mean, se))
+}
+
 /// A note when the measured peak sits on the same side of the fitted one at every
-/// incidence with a peak, by at least [`MIN_OFFSET`] degrees at each.
+/// incidence with a peak, by at least [`MIN_OFFSET`] degrees at each. Each incidence's
+/// offset lies within the readings around its peak ([`offsets`]), so the note cannot
+/// claim an angle the readings do not span.
 pub fn offset_note(data: &Dataset, fitted: &[Option<f64>], member: &str) -> Option<String> {
     let d = offsets(data, fitted);
     let same_side = d.iter().all(|&(_, o)| o > 0.0) || d.iter().all(|&(_, o)| o < 0.0);
     if d.is_empty() || !same_side || d.iter().any(|&(_, o)| o.abs() < MIN_OFFSET) {
         return None;
     }
-    let mean = d.iter().map(|&(_, o)| o).sum::<f64>() / d.len() as f64;
+    let (mean, se) = mean_offset(data, fitted)?;
+    let se = se.map_or(String::new(), |s| format!(" ± {s:.2}"));
     let each: Vec<String> = d.iter().map(|(t, o)| format!("{t}: {o:+.2}")).collect();
     Some(format!(
-        "the measured specular peak sits {mean:+.2} deg in theta_r from {member}'s (per theta_i: {}): \
-         an angle offset or a tilted sample? No member has a parameter for it; it widens the fitted core",
+        "the measured specular peak sits {mean:+.2}{se} deg in theta_r from {member}'s (per theta_i: {}): \
+         an angle offset or a tilted sample? Left as it is, it widens the fitted core; rerun with \
+         --offset fit to fit a detector zero offset and a sample tilt",
         each.join(", ")
     ))
 }

@@ -311,7 +311,9 @@ impl serde::Serialize for FamilyJson<'_> {
     fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         use serde::ser::SerializeMap;
         let f = self.0;
-        let mut m = s.serialize_map(Some(11 + usize::from(self.1.is_some())))?;
+        let mut m = s.serialize_map(Some(
+            11 + usize::from(self.1.is_some()) + usize::from(f.angles.is_some()),
+        ))?;
         m.serialize_entry("models", &ModelsJson(f))?;
         m.serialize_entry("selected", f.selected_member.name().as_str())?;
         m.serialize_entry("selected_bic", f.selected_bic.name().as_str())?;
@@ -337,6 +339,9 @@ impl serde::Serialize for FamilyJson<'_> {
         m.serialize_entry("physical_checks_of", f.checks.word())?;
         if let Some(i) = self.1 {
             m.serialize_entry("instrument", i)?;
+        }
+        if let Some(a) = &f.angles {
+            m.serialize_entry("angles", &a.to_json())?;
         }
         m.end()
     }

@@ -12,8 +12,10 @@ use super::family_fit::FamilyFit;
 use super::goodness::{self, Goodness};
 use super::member_fit::{self, GridBases, MemberFit, NotFitted};
 use super::notes;
+use super::offset::{self, Angles, OffsetSpec};
 use super::options::{FitOptions, Residual};
 use super::paper::Kind;
+use super::peak;
 use super::select::{self, Candidate, Criterion, Selection};
 
 /// A difference in AICc below this is not evidence for the larger model.
@@ -158,8 +160,61 @@ pub(super) fn stage_one(
 }
 
 /// Fits the family and selects a member: the default family (three stages, see
-/// [`family`]) unless [`FitOptions::members`] names exactly the members to fit.
+/// [`family`]) unless [`FitOptions::members`] names exactly the members to fit. With
+/// [`FitOptions::offset`], at the instrument's angles given or fitted
+/// ([`super::offset`]): the family is fitted to the readings at the sample's local
+/// angles, and [`FamilyFit::angles`] says which.
 pub fn fit_family(data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, String> {
+    let Some(spec) = opts.offset.or(data.offset) else {
+        return fit_nominal(data, opts);
+    };
+    let t0 = Instant::now();
+    let plain = FitOptions {
+        offset: None,
+        ..opts.clone()
+    };
+    let angles = match spec {
+        OffsetSpec::Detector(d) => Angles::given(d),
+        OffsetSpec::Fit => {
+            let first = fit_nominal(data, &plain)?;
+            let m = first.selected_member;
+            let s0 = first
+                .fitted(data, m)
+                .and_then(|v| peak::mean_offset(data, &v))
+                .map_or(0.0, |(mean, _)| mean);
+            offset::fit_angles(data, m, &member_ssr(&plain, m), s0)
+        }
+    };
+    let (local, _) = angles.apply(data)?;
+    let mut fam = fit_nominal(&local, &plain)?;
+    let mut notes = angles.notes();
+    notes.append(&mut fam.notes);
+    fam.notes = notes;
+    fam.angles = Some(angles);
+    fam.fit_seconds = t0.elapsed().as_secs_f64();
+    Ok(fam)
+}
+
+/// `member` fitted to readings as [`fit_family`] fits it (options `opts`, offsets
+/// aside): its SSR and residual degrees of freedom; what [`offset::fit_angles`]
+/// minimises.
+pub(super) fn member_ssr(
+    opts: &FitOptions,
+    member: Member,
+) -> impl Fn(&Dataset) -> Option<(f64, usize)> + Sync {
+    let one = FitOptions {
+        members: Some(vec![member]),
+        offset: None,
+        ..opts.clone()
+    };
+    move |data: &Dataset| {
+        let f = fit_nominal(data, &one).ok()?;
+        f.member(member).map(|m| (m.ssr, m.n - m.k()))
+    }
+}
+
+/// [`fit_family`] at the readings' own angles.
+fn fit_nominal(data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, String> {
     let t0 = Instant::now();
     let aperture = opts.aperture.or(data.aperture);
     let requested: Option<Vec<Member>> = opts.members.clone();
@@ -235,6 +290,7 @@ pub fn fit_family(data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, String
         units: data.units,
         checks: opts.checks,
         physical: Vec::new(),
+        angles: None,
     })
 }
 

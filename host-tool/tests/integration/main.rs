@@ -10,6 +10,7 @@ mod eval_cli;
 mod fault_injection;
 mod fit_cli;
 mod golden;
+mod honest_answers;
 mod hostile;
 mod module_graph;
 mod ports_flash;

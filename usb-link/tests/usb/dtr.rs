@@ -5,6 +5,7 @@
 use std::collections::BTreeSet;
 use std::time::Duration;
 
+use brdf_core::frame::{FrameDecoder, MAX_FRAME_LEN};
 use brdf_core::protocol::{Command, Event, SweepDone};
 use gonio::capture::HostPlan;
 use gonio::device::FramedLink;
@@ -76,9 +77,21 @@ fn dtr_dropped_mid_sweep_stops_the_device_and_a_reopened_port_resumes_cleanly() 
     for _ in 0..1_000 {
         rig.step_both();
     }
-    let stale = rig.received.len();
-    assert!(stale <= MAX_PACKET, "{stale} stale bytes after reopening");
-    rig.received.clear();
+    let stale: Vec<u8> = rig.received.drain(..).collect();
+    assert!(
+        stale.len() <= MAX_PACKET,
+        "{} stale bytes after reopening",
+        stale.len()
+    );
+    // What the device said after the close (the answer to the Abort it gave itself)
+    // was not kept for the next host.
+    let mut decoder = FrameDecoder::<MAX_FRAME_LEN>::new();
+    let late: Vec<Event> = stale
+        .iter()
+        .filter_map(|&b| decoder.push::<Event>(b)?.ok())
+        .filter(|e| !matches!(e, Event::Reading(_)))
+        .collect();
+    assert!(late.is_empty(), "the next host got {late:?}");
     let mut link = FramedLink::new(UsbPort::open(&mut rig));
     link.handshake(ANSWER).expect("handshake after reopening");
     link.send(&Command::Abort).unwrap();

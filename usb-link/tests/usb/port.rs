@@ -7,7 +7,7 @@ use std::time::Duration;
 
 use gonio::device::{Connector, FramedLink, LinkError, Transport};
 
-use super::rig::Rig;
+use super::rig::{Pause, Rig};
 
 /// Iterations with nothing scheduled on the device and nothing arriving after which a
 /// receive reports that nothing came (the USB pipeline is empty well before).
@@ -54,7 +54,11 @@ impl<'a> UsbPort<'a> {
         self.rig.reading = false;
         self.rig.run_device_for(s.for_us);
         self.rig.reading = true;
-        self.rig.paused = Some((self.rig.steps - steps, self.rig.service.ctrl.is_busy()));
+        self.rig.paused = Some(Pause {
+            steps: self.rig.steps - steps,
+            busy: self.rig.service.ctrl.is_busy(),
+            sending: self.rig.service.sending(),
+        });
     }
 }
 

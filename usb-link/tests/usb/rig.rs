@@ -36,6 +36,17 @@ const IDLE_STEP_US: u64 = 1_000;
 /// The firmware's service, as on the board but with simulated hardware.
 pub type SimService = Service<SimArm, SimArm, SimPin, VirtualSample>;
 
+/// What the device did while the host did not read.
+#[derive(Debug, Clone, Copy)]
+pub struct Pause {
+    /// Loop iterations run.
+    pub steps: u64,
+    /// At the end, the controller was still busy (its sweep held, not over).
+    pub busy: bool,
+    /// At the end, the service still held a frame it could not hand the link.
+    pub sending: bool,
+}
+
 /// Device and host around one simulated bus.
 pub struct Rig {
     /// The host's end of the wire.
@@ -60,9 +71,8 @@ pub struct Rig {
     pub received: VecDeque<u8>,
     /// Lengths of the completed bulk IN transfers, in order.
     pub transfers: Vec<usize>,
-    /// What a pause in reading (port.rs's `Stall`) saw: device iterations run, and
-    /// whether the controller was still busy (its sweep held, not over) when it ended.
-    pub paused: Option<(u64, bool)>,
+    /// What a pause in reading (port.rs's `Stall`) saw.
+    pub paused: Option<Pause>,
     /// The host sends IN tokens to the data endpoint (an application reads the port).
     pub reading: bool,
 }

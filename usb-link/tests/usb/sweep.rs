@@ -62,19 +62,27 @@ fn the_paper_sweep_through_usb_gives_the_in_process_readings() {
 
 #[test]
 fn a_host_that_stops_reading_loses_nothing_and_the_loop_keeps_running() {
+    let reference = reference();
+    let sweep_ms = reference.iter().filter_map(|r| r.t_ms).max().expect("t_ms");
     let mut rig = Rig::new();
     let dir = tempfile::tempdir().unwrap();
-    // Stop reading for 3 s of device time once about 40 readings' worth has arrived.
+    // Stop reading once about 40 readings' worth has arrived, for twice as long as the
+    // whole sweep takes: without the host, it would have ended long before.
     let stall = Stall {
         after: 1_500,
-        for_us: 3_000_000,
+        for_us: 2 * sweep_ms * 1_000,
     };
     let rows = paper_capture(&mut UsbConnector::new(&mut rig, Some(stall)), &dir);
-    let (steps, busy) = rig.paused.expect("the host paused");
-    // The loop kept iterating (every iteration returned) and the sweep waited for the
-    // host instead of finishing into a full buffer.
-    assert!(steps > 1_000, "{steps} iterations during the pause");
-    assert!(busy, "the sweep ran on while nobody read");
-    assert_eq!(measured(&rows), measured(&reference()));
+    let pause = rig.paused.expect("the host paused");
+    // Every iteration of the loop returned (a write that waited for the host would
+    // never have), the port's buffers filled up, and the sweep waited for the host.
+    assert!(
+        pause.steps > 1_000,
+        "{} iterations during the pause",
+        pause.steps
+    );
+    assert!(pause.sending, "the device's buffers never filled");
+    assert!(pause.busy, "the sweep ran on while nobody read");
+    assert_eq!(measured(&rows), measured(&reference));
     assert_eq!(rig.service.ctrl.dropped_events(), 0);
 }

@@ -35,6 +35,13 @@ fn descriptors_are_what_gonio_ports_matches() {
     };
     let row = PortRow::from_info(&info);
     assert_eq!(row.gonio, Likeness::Yes, "{row:?}");
+    // The lines firmware/README.md's bring-up shows.
+    assert_eq!(
+        gonio::cli::ports::table(&[row]),
+        "  PORT          TYPE  VID:PID    MANUFACTURER  PRODUCT           SERIAL\n\
+         * /dev/ttyACM0  usb   16c0:27dd  gonio         gonio goniometer  3A0047001851393038353133\n\
+         * looks like the gonio firmware (product \"gonio goniometer\")\n"
+    );
     let infos = [info];
     assert_eq!(
         find_by_usb_serial(&infos, SERIAL).map(|p| p.port_name.as_str()),

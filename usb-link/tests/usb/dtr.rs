@@ -123,3 +123,19 @@ fn dtr_dropped_mid_sweep_stops_the_device_and_a_reopened_port_resumes_cleanly() 
     assert_eq!((all.len(), seqs.len()), (153, 153), "each point once");
     assert_eq!(all, (0..153).collect());
 }
+
+/// docs/protocol.md tells client writers what this file checks: keep it saying so.
+#[test]
+fn the_protocol_page_states_what_a_close_does() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/protocol.md");
+    let doc = std::fs::read_to_string(path).expect("docs/protocol.md");
+    let words = doc.split_whitespace().collect::<Vec<_>>().join(" ");
+    for said in [
+        "When DTR falls, the device acts as on `Abort`",
+        "discards everything it would send until DTR rises again",
+        "except at most one 64-byte packet already waiting in the USB endpoint",
+        "A host that never raises DTR is served as usual",
+    ] {
+        assert!(words.contains(said), "docs/protocol.md should say '{said}'");
+    }
+}

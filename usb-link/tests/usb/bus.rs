@@ -3,6 +3,11 @@
 //! packet buffer per endpoint as in real controllers. Control, bulk and interrupt
 //! endpoints behave alike at this level; what differs (transfer sizes, ZLPs, polling)
 //! is the host model's business (`host.rs`).
+//!
+//! Written here because the existing testers do not cover this: usbd-class-tester
+//! 0.3 does control and interrupt transfers only (no bulk, no bus reset), and
+//! mock-usb-bus 0.1 has no SETUP packets, stalls or SET_ADDRESS (those panic), so
+//! nothing can enumerate on it.
 
 use std::sync::{Arc, Mutex, MutexGuard};
 

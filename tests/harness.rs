@@ -1,5 +1,5 @@
-//! Test harness: builds the `qemu` firmware image and runs it under QEMU with its
-//! USART on a pseudo-terminal, killing QEMU when the handle drops.
+//! Test harness: builds the firmware images, and runs the `qemu` one under QEMU with
+//! its USART on a pseudo-terminal, killing QEMU when the handle drops.
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -19,22 +19,34 @@ pub fn root() -> PathBuf {
 /// is taken from the repository root, since tests run in their package directory),
 /// otherwise built here with the same command `cargo xtask firmware --board qemu` runs.
 pub fn qemu_elf() -> PathBuf {
-    if let Some(p) = std::env::var_os("GONIO_QEMU_ELF") {
+    board_elf("qemu", "GONIO_QEMU_ELF")
+}
+
+/// The `stm32f411` board's ELF (what `gonio flash` flashes): `$GONIO_STM32F411_ELF` if
+/// set, otherwise built here, as [`qemu_elf`] does.
+pub fn stm32f411_elf() -> PathBuf {
+    board_elf("stm32f411", "GONIO_STM32F411_ELF")
+}
+
+/// A board's release ELF: `$var` if set (relative to the repository root), otherwise
+/// built with `cargo xtask firmware --board BOARD`'s command.
+fn board_elf(board: &str, var: &str) -> PathBuf {
+    if let Some(p) = std::env::var_os(var) {
         let p = root().join(p);
-        assert!(p.is_file(), "GONIO_QEMU_ELF={} is not a file", p.display());
+        assert!(p.is_file(), "{var}={} is not a file", p.display());
         return p;
     }
     let fw = root().join("firmware");
     let status = Command::new("cargo")
-        .args(["build", "--release", "--bin", "qemu", "--features", "qemu"])
+        .args(["build", "--release", "--bin", board, "--features", board])
         .current_dir(&fw)
         .status()
-        .expect("run cargo to build the qemu firmware");
+        .expect("run cargo to build the firmware");
     assert!(
         status.success(),
-        "building the qemu firmware failed (`cargo xtask firmware --board qemu` installs the thumb target and flip-link)"
+        "building the {board} firmware failed (`cargo xtask firmware --board {board}` installs the thumb target and flip-link)"
     );
-    fw.join("target/thumbv7em-none-eabihf/release/qemu")
+    fw.join("target/thumbv7em-none-eabihf/release").join(board)
 }
 
 /// A running QEMU with the firmware; killed on drop.

@@ -67,7 +67,8 @@ enum Cmd {
     PerfReport,
     /// Everything CI runs: setup (and rustfmt, clippy), fmt and clippy (workspace and firmware), the thumb
     /// build of brdf-core, the size budget, and all workspace tests with the qemu image
-    /// (so the end-to-end tests run too).
+    /// (so the end-to-end tests run too), the stm32f411 image (its flash dry run) and
+    /// usb-link's simulated-bus tests of the board's USB link.
     Test,
 }
 
@@ -372,8 +373,11 @@ fn test_all() -> Result {
     )?;
     size()?;
     let elf = firmware(Board::Qemu)?;
+    // The stm32f411 image is what the flash dry run (tests/flash_dry_run.rs) plans.
+    let stm32 = firmware(Board::Stm32f411)?;
     let status = command(&root, "cargo", &["test", "--workspace"])
         .env("GONIO_QEMU_ELF", &elf)
+        .env("GONIO_STM32F411_ELF", &stm32)
         .status()
         .map_err(|e| e.to_string())?;
     if !status.success() {

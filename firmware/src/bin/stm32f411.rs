@@ -55,9 +55,8 @@
 
 use brdf_core::axis::StepDirPins;
 use brdf_core::controller::{Controller, ControllerConfig, Detector, DetectorError};
-use brdf_core::identity::{USB_MANUFACTURER, USB_PID, USB_PRODUCT, USB_VID};
 use brdf_core::mechanics;
-use brdf_core::service::{Link, Service};
+use brdf_core::service::Service;
 use cortex_m_rt::entry;
 use defmt_rtt as _;
 use embedded_hal::delay::DelayNs;
@@ -75,15 +74,11 @@ use stm32f4xx_hal::pac;
 use stm32f4xx_hal::prelude::*;
 use stm32f4xx_hal::rcc::{Config, Rcc};
 use stm32f4xx_hal::timer::FTimerUs;
-use usb_device::UsbError;
 use usb_device::bus::UsbBusAllocator;
-use usb_device::device::{StringDescriptors, UsbDevice, UsbDeviceBuilder, UsbVidPid};
-use usbd_serial::SerialPort;
+use usb_link::UsbLink;
 
 /// Board name reported in the handshake.
 const BOARD: &str = "stm32f411";
-/// USB vendor/product: the pid.codes (V-USB) shared CDC-ACM pair.
-const USB_VID_PID: UsbVidPid = UsbVidPid(USB_VID, USB_PID);
 /// Step pulse width (A4988 >= 1 us, DRV8825 >= 1.9 us, TMC2209 >= 0.1 us).
 const STEP_PULSE_NS: u32 = 2_000;
 /// Direction setup time before the next step edge (DRV8825 >= 650 ns, A4988 >= 200 ns).
@@ -200,40 +195,6 @@ impl MicrosClock {
         }
         self.last = now;
         (u64::from(self.wraps) << 32) | u64::from(now)
-    }
-}
-
-/// The USB CDC-ACM port as the service's link.
-struct UsbLink<'a> {
-    dev: UsbDevice<'a, UsbBusType>,
-    serial: SerialPort<'a, UsbBusType>,
-}
-
-impl Link for UsbLink<'_> {
-    fn poll(&mut self) {
-        self.dev.poll(&mut [&mut self.serial]);
-    }
-
-    fn read(&mut self, buf: &mut [u8]) -> usize {
-        match self.serial.read(buf) {
-            Ok(n) => n,
-            Err(UsbError::WouldBlock) => 0,
-            Err(_) => {
-                defmt::warn!("usb read failed");
-                0
-            }
-        }
-    }
-
-    fn write(&mut self, bytes: &[u8]) -> usize {
-        match self.serial.write(bytes) {
-            Ok(n) => n,
-            Err(UsbError::WouldBlock) => 0,
-            Err(_) => {
-                defmt::warn!("usb write failed");
-                0
-            }
-        }
     }
 }
 
@@ -366,16 +327,9 @@ fn main() -> ! {
     let serial_number = core::str::from_utf8(&serial_hex).unwrap_or("0");
     defmt::info!("serial number {}", serial_number);
 
-    let serial = SerialPort::new(&usb_bus);
-    let dev = UsbDeviceBuilder::new(&usb_bus, USB_VID_PID)
-        .device_class(usbd_serial::USB_CLASS_CDC)
-        .strings(&[StringDescriptors::default()
-            .manufacturer(USB_MANUFACTURER)
-            .product(USB_PRODUCT)
-            .serial_number(serial_number)])
-        .unwrap()
-        .build();
-    let mut link = UsbLink { dev, serial };
+    // Descriptors (VID:PID, strings) and the link's behaviour live in usb-link, which
+    // the host tests run against a simulated bus.
+    let mut link = UsbLink::new(&usb_bus, serial_number);
 
     let cfg = ControllerConfig {
         board: BOARD,
@@ -388,8 +342,21 @@ fn main() -> ! {
     led.set_low();
     defmt::info!("gonio {} ready", BOARD);
 
+    let (mut errors, mut open) = (0, false);
     loop {
         let now = clock.now_us();
         service.poll(&mut link, now);
+        if link.host_open() != open {
+            open = link.host_open();
+            if open {
+                defmt::info!("usb: host opened the port (DTR on)");
+            } else {
+                defmt::info!("usb: host closed the port (DTR off): stopped, output discarded");
+            }
+        }
+        if link.errors() != errors {
+            errors = link.errors();
+            defmt::warn!("usb: {} read/write errors so far", errors);
+        }
     }
 }

@@ -7,6 +7,8 @@
 
 use std::path::{Path, PathBuf};
 
+#[cfg(all(feature = "flash", any(test, feature = "testing")))]
+pub use dry_run::{FlashPlan, dry_run};
 pub use error::FlashError;
 pub use select::{
     BUILD_HINT, DEFAULT_CHIP, DEFAULT_ELF, NO_FEATURE, NO_PROBE, ProbeSelector,
@@ -99,6 +101,8 @@ pub fn flash(
     Err(FlashError::Input(NO_FEATURE.into()))
 }
 
+#[cfg(all(feature = "flash", any(test, feature = "testing")))]
+mod dry_run;
 mod error;
 #[cfg(feature = "flash")]
 mod probe;

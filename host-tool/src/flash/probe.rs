@@ -6,15 +6,15 @@ use std::time::{Duration, Instant};
 
 use probe_rs::config::{Registry, RegistryError};
 use probe_rs::flashing::{
-    DownloadOptions, ElfLoader, ElfOptions, FileDownloadError, FlashProgress, ProgressEvent,
-    ProgressOperation, download_file_with_options,
+    DownloadOptions, ElfLoader, ElfOptions, FileDownloadError, FlashError as ProbeFlashError,
+    FlashProgress, ProgressEvent, ProgressOperation, build_loader,
 };
 use probe_rs::probe::list::{Accessibility, Lister};
 use probe_rs::probe::{DebugProbeError, DebugProbeInfo, DebugProbeSelector, Probe};
-use probe_rs::{Permissions, Session};
+use probe_rs::{Permissions, Session, Target};
 
 use super::error::FlashError;
-use super::select::{DEFAULT_CHIP, NO_PROBE, ProbeSelector};
+use super::select::{BUILD_HINT, DEFAULT_CHIP, NO_PROBE, ProbeSelector};
 
 /// An error and its sources on one line, without repeats.
 fn chain(e: &dyn StdError) -> String {
@@ -108,7 +108,7 @@ install the probe-rs udev rules: https://probe.rs/docs/getting-started/probe-set
 
 /// Progress seen so far: bytes and time per operation.
 #[derive(Default)]
-struct Tally {
+pub(super) struct Tally {
     erased: u64,
     programmed: u64,
     verified: u64,
@@ -163,14 +163,9 @@ impl Tally {
     }
 }
 
-/// Flashes `elf` into `chip` through the selected (or only) probe.
-pub(super) fn flash(
-    chip: &str,
-    selector: Option<&ProbeSelector>,
-    elf: &Path,
-) -> Result<(), FlashError> {
-    // The chip name is checked before looking for a probe: a typo is bad input.
-    let target = Registry::from_builtin_families()
+/// The chip's probe-rs target; an unknown name is bad input.
+pub(super) fn target(chip: &str) -> Result<Target, FlashError> {
+    Registry::from_builtin_families()
         .get_target_by_name(chip)
         .map_err(|e| match e {
             RegistryError::ChipNotFound(_) => FlashError::Input(format!(
@@ -178,36 +173,83 @@ pub(super) fn flash(
                 DEFAULT_CHIP
             )),
             other => FlashError::Input(format!("--chip '{chip}': {}", chain(&other))),
-        })?;
-    let lister = Lister::new();
-    let (probe, probe_name) = open_probe(&lister, selector)?;
-    eprintln!("gonio: attaching to {chip} through {probe_name}");
-    let mut session: Session = probe.attach(target, Permissions::default()).map_err(|e| {
+        })
+}
+
+/// A session on `target` through `probe`.
+pub(super) fn attach(
+    probe: Probe,
+    target: Target,
+    probe_name: &str,
+) -> Result<Session, FlashError> {
+    let chip = target.name.clone();
+    probe.attach(target, Permissions::default()).map_err(|e| {
         FlashError::Failed(format!(
             "cannot attach to {chip} through {probe_name}: {}; check the SWD wiring \
 (SWDIO, SWCLK, GND) and that the board is powered",
             chain(&e)
         ))
-    })?;
+    })
+}
 
-    let start = Instant::now();
+/// Loads `elf` for the session's chip (its data must lie in the chip's flash), plans
+/// the download (sectors, flash algorithm), then erases, programs and verifies, or,
+/// with `dry_run`, stops before touching the flash. Returns the image's data as
+/// (address, length) ranges and the programming tally.
+pub(super) fn download(
+    session: &mut Session,
+    elf: &Path,
+    dry_run: bool,
+) -> Result<(Vec<(u64, u64)>, Tally), FlashError> {
+    let chip = session.target().name.clone();
+    let failed = |e: FileDownloadError| {
+        let what = format!("flashing '{}' failed: {}", elf.display(), chain(&e));
+        match e {
+            // Problems with the image itself are bad input: not an image for this
+            // target, or data where the chip has no flash (built for another chip).
+            FileDownloadError::NoLoadableSegments
+            | FileDownloadError::IncompatibleImage { .. }
+            | FileDownloadError::IncompatibleImageChip { .. }
+            | FileDownloadError::Object(_)
+            | FileDownloadError::Elf(_)
+            | FileDownloadError::Flash(ProbeFlashError::NoSuitableNvm { .. }) => FlashError::Input(
+                format!("{what} (is it built for {chip}? `{BUILD_HINT}` builds the board's)"),
+            ),
+            _ => FlashError::Failed(what),
+        }
+    };
+    let loader =
+        build_loader(session, elf, ElfLoader(ElfOptions::default()), None).map_err(failed)?;
+    let ranges = loader
+        .data()
+        .map(|(address, data)| (address, data.len() as u64))
+        .collect();
     let mut tally = Tally::default();
     let mut options = DownloadOptions::default();
     options.verify = true;
+    options.dry_run = dry_run;
     options.progress = FlashProgress::new(|event| tally.on(event));
-    download_file_with_options(&mut session, elf, ElfLoader(ElfOptions::default()), options)
-        .map_err(|e| {
-            let what = format!("flashing '{}' failed: {}", elf.display(), chain(&e));
-            match e {
-                // Problems with the image itself are bad input.
-                FileDownloadError::NoLoadableSegments
-                | FileDownloadError::IncompatibleImage { .. }
-                | FileDownloadError::IncompatibleImageChip { .. }
-                | FileDownloadError::Object(_)
-                | FileDownloadError::Elf(_) => FlashError::Input(what),
-                _ => FlashError::Failed(what),
-            }
-        })?;
+    loader
+        .commit(session, options)
+        .map_err(|e| failed(FileDownloadError::Flash(e)))?;
+    Ok((ranges, tally))
+}
+
+/// Flashes `elf` into `chip` through the selected (or only) probe.
+pub(super) fn flash(
+    chip: &str,
+    selector: Option<&ProbeSelector>,
+    elf: &Path,
+) -> Result<(), FlashError> {
+    // The chip name is checked before looking for a probe: a typo is bad input.
+    let target = target(chip)?;
+    let lister = Lister::new();
+    let (probe, probe_name) = open_probe(&lister, selector)?;
+    eprintln!("gonio: attaching to {chip} through {probe_name}");
+    let mut session = attach(probe, target, &probe_name)?;
+
+    let start = Instant::now();
+    let (_, tally) = download(&mut session, elf, false)?;
     let took = start.elapsed();
 
     session

@@ -250,7 +250,7 @@ pub fn fit_file(path: &std::path::Path, opts: &FitOptions) -> CliResult<(Dataset
 fn file_error(e: FileError) -> CliError {
     match e {
         FileError::Input(e) => CliError::usage(e),
-        FileError::Fit(e) => CliError::failed(e),
+        FileError::Fit(e) | FileError::Output(e) => CliError::failed(e),
     }
 }
 
@@ -272,7 +272,8 @@ fn run_campaign(args: &FitArgs, opts: &FitOptions) -> CliResult {
         ));
     }
     let files = campaign::expand_inputs(&args.sweeps).map_err(CliError::usage)?;
-    campaign::check_outputs(&args.out, &files, args.force).map_err(CliError::usage)?;
+    let ext = if args.json { "json" } else { "txt" };
+    campaign::check_outputs(&args.out, &files, ext, args.force).map_err(CliError::usage)?;
     super::fit_units::check_campaign_units(&files)?;
     let inst = match &args.instrument {
         Some(p) => Some((super::fit_units::campaign_instrument(p, &files)?, p)),
@@ -286,21 +287,22 @@ fn run_campaign(args: &FitArgs, opts: &FitOptions) -> CliResult {
     );
     let mut opts = opts.clone();
     opts.instrument = inst.as_ref().map(|(i, _)| i.clone());
-    let results = campaign::fit_files(&files, &opts, &|_, _| bar.inc(1));
-    bar.finish_and_clear();
-    // Each file's report as a single-file fit's (its u(K) table and physical checks).
+    // Each file's report as a single-file fit's (its u(K) table and physical checks),
+    // written by the worker that fitted it.
     let inst_ref = inst.as_ref().map(|(i, p)| (i, p.as_path()));
     let residual = residual_name(opts.residual);
     let json = args.json;
     let report = |fam: &FamilyFit| report_bytes(fam, json, residual, inst_ref);
-    let (csv, _) = campaign::write_reports(
-        &args.out,
-        &results,
-        if args.json { "json" } else { "txt" },
-        &report,
-        args.force,
-    )
-    .map_err(CliError::failed)?;
+    let sink = campaign::ReportSink {
+        dir: &args.out,
+        ext,
+        report: &report,
+        force: args.force,
+    };
+    let results = campaign::fit_files(&files, &opts, Some(&sink), &|_, _| bar.inc(1));
+    bar.finish_and_clear();
+    let (csv, js) =
+        campaign::write_summaries(&args.out, &results, args.force).map_err(CliError::failed)?;
     let failed: Vec<&campaign::CampaignFile> =
         results.iter().filter(|f| f.outcome.is_err()).collect();
     for f in &results {
@@ -313,8 +315,7 @@ fn run_campaign(args: &FitArgs, opts: &FitOptions) -> CliResult {
         }
     }
     let text = if args.json {
-        let names = campaign::report_names(&results, "json");
-        let mut summary = campaign::summary_json(&results, &names);
+        let mut summary = campaign::summary_json(&results);
         if let (Some((i, p)), serde_json::Value::Object(m)) = (&inst, &mut summary) {
             m.insert(
                 "instrument".into(),
@@ -332,6 +333,13 @@ fn run_campaign(args: &FitArgs, opts: &FitOptions) -> CliResult {
         t
     };
     write_stdout(text.as_bytes())?;
+    eprintln!(
+        "gonio: {} report(s) in {}; summary: {}, {}",
+        results.len() - failed.len(),
+        args.out.display(),
+        csv.display(),
+        js.display()
+    );
     if failed.is_empty() {
         Ok(())
     } else {

@@ -25,12 +25,14 @@ pub enum FileError {
     Input(String),
     /// The readings are valid but no model could be fitted.
     Fit(String),
+    /// The fit's report could not be written.
+    Output(String),
 }
 
 impl fmt::Display for FileError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            FileError::Input(m) | FileError::Fit(m) => f.write_str(m),
+            FileError::Input(m) | FileError::Fit(m) | FileError::Output(m) => f.write_str(m),
         }
     }
 }
@@ -149,12 +151,101 @@ pub fn fit_sweep_file(path: &Path, opts: &FitOptions) -> Result<SweepFit, FileEr
 pub struct CampaignFile {
     /// The file.
     pub path: PathBuf,
-    /// The fit, or why there is none.
-    pub outcome: Result<SweepFit, FileError>,
+    /// What its summary rows say, or why it has none.
+    pub outcome: Result<FileSummary, FileError>,
+}
+
+/// What a campaign keeps of one fitted file: what the summaries say of it. Its data
+/// and fits are dropped once its report is written, so a campaign's memory does not
+/// grow with the number of files.
+#[derive(Debug, Clone)]
+pub struct FileSummary {
+    /// The member selected.
+    pub selected_member: brdf_core::member::Member,
+    /// Readings fitted.
+    pub readings: usize,
+    /// Incidences fitted.
+    pub incidences: usize,
+    /// The selected member's key parameters ([`KEY_PARAMS`] it has): name, value,
+    /// standard error, held fixed.
+    pub params: Vec<(&'static str, f64, Option<f64>, bool)>,
+    /// The selected member's paper RMSE (Table 3) over all readings.
+    pub rmse: Option<f64>,
+    /// Wall time of the fit (seconds).
+    pub fit_seconds: f64,
+    /// The report's file name in the output directory, when one was written.
+    pub report: Option<String>,
+    /// Things worth telling that did not stop the fit.
+    pub warnings: Vec<String>,
+}
+
+impl FileSummary {
+    /// The summary of `fit`, its report written as `report`.
+    pub fn of(fit: &SweepFit, report: Option<String>) -> Self {
+        let fam = &fit.family;
+        let held = fam
+            .selected_fit()
+            .map_or_else(Vec::new, super::report::held_names);
+        let params = fam.selected_fit().map_or_else(Vec::new, |f| {
+            super::report::member_params(f)
+                .into_iter()
+                .filter_map(|p| {
+                    let key = KEY_PARAMS
+                        .iter()
+                        .find(|&&k| p.theta_i.is_none() && k == p.base)?;
+                    Some((*key, p.value, p.se, held.contains(key)))
+                })
+                .collect()
+        });
+        FileSummary {
+            selected_member: fam.selected_member,
+            readings: fit.data.obs.len(),
+            incidences: fit.data.incidences.len(),
+            params,
+            rmse: fam.candidate(fam.selected_member).and_then(|c| c.rmse),
+            fit_seconds: fam.fit_seconds,
+            report,
+            warnings: fit.warnings.clone(),
+        }
+    }
+}
+
+/// `a` before `b` in natural order: runs of digits compare as numbers (s2 before
+/// s10), everything else as text.
+pub fn natural_cmp(a: &str, b: &str) -> std::cmp::Ordering {
+    use std::cmp::Ordering;
+    let (mut x, mut y) = (a.as_bytes(), b.as_bytes());
+    loop {
+        match (x.first(), y.first()) {
+            (None, None) => return a.cmp(b),
+            (None, _) => return Ordering::Less,
+            (_, None) => return Ordering::Greater,
+            (Some(p), Some(q)) if p.is_ascii_digit() && q.is_ascii_digit() => {
+                let run = |s: &[u8]| s.iter().take_while(|c| c.is_ascii_digit()).count();
+                let (m, n) = (run(x), run(y));
+                let strip = |d: &[u8]| {
+                    let z = d.iter().take_while(|&&c| c == b'0').count();
+                    d[z..].to_vec()
+                };
+                let (u, v) = (strip(&x[..m]), strip(&y[..n]));
+                let o = u.len().cmp(&v.len()).then_with(|| u.cmp(&v));
+                if o != Ordering::Equal {
+                    return o;
+                }
+                (x, y) = (&x[m..], &y[n..]);
+            }
+            (Some(p), Some(q)) => {
+                if p != q {
+                    return p.cmp(q);
+                }
+                (x, y) = (&x[1..], &y[1..]);
+            }
+        }
+    }
 }
 
 /// The sweep files named: files as given, directories expanded to their `*.csv`
-/// files (not recursively), sorted by name. A directory without any is an error; a
+/// files (not recursively), in natural order of their names (s2 before s10). A directory without any is an error; a
 /// file that does not exist is kept (it is reported as a bad file, like any other).
 pub fn expand_inputs(paths: &[PathBuf]) -> Result<Vec<PathBuf>, String> {
     let mut out = Vec::new();
@@ -171,7 +262,7 @@ pub fn expand_inputs(paths: &[PathBuf]) -> Result<Vec<PathBuf>, String> {
             if csv.is_empty() {
                 return Err(format!("{}: no .csv sweep files in it", p.display()));
             }
-            csv.sort();
+            csv.sort_by(|a, b| natural_cmp(&a.to_string_lossy(), &b.to_string_lossy()));
             out.extend(csv);
         } else {
             out.push(p.clone());
@@ -180,27 +271,66 @@ pub fn expand_inputs(paths: &[PathBuf]) -> Result<Vec<PathBuf>, String> {
     Ok(out)
 }
 
-/// Fits every file on all cores, in input order; `done(path, ok)` is called as each
-/// finishes (from worker threads). A panic while fitting one file is caught and
-/// recorded as that file's failure.
+/// Where a campaign writes each file's report: into `dir`, named by
+/// [`report_names`], the bytes `report` makes of its fit, through the one safe writer
+/// ([`outfile`]: existing files only with `force`, never over an input).
+pub struct ReportSink<'a> {
+    /// The output directory (created if missing).
+    pub dir: &'a Path,
+    /// The reports' extension (`txt`, `json`).
+    pub ext: &'a str,
+    /// What a report holds.
+    pub report: &'a Report<'a>,
+    /// Replace existing reports.
+    pub force: bool,
+}
+
+/// Fits every file on all cores, in input order; each worker writes the report of
+/// the file it fitted (with `sink`) and keeps only its [`FileSummary`]. `done(path,
+/// ok)` is called as each finishes (from worker threads). A panic while fitting one
+/// file is caught and recorded as that file's failure; so is a report that cannot be
+/// written.
 pub fn fit_files(
     files: &[PathBuf],
     opts: &FitOptions,
+    sink: Option<&ReportSink<'_>>,
     done: &(dyn Fn(&Path, bool) + Sync),
 ) -> Vec<CampaignFile> {
-    let one = |path: &Path| -> Result<SweepFit, FileError> {
-        let (data, warnings) = read_data(path, opts)?;
-        let family = fit_data(path, &data, opts)?;
-        Ok(SweepFit {
-            data,
-            family,
-            warnings,
-        })
+    let names = sink.map(|s| report_names(files, s.ext));
+    if let Some(s) = sink
+        && let Err(e) = std::fs::create_dir_all(s.dir)
+    {
+        let e = FileError::Output(format!("cannot create {}: {e}", s.dir.display()));
+        return files
+            .iter()
+            .map(|p| CampaignFile {
+                path: p.clone(),
+                outcome: Err(e.clone()),
+            })
+            .collect();
+    }
+    let one = |k: usize, path: &Path| -> Result<FileSummary, FileError> {
+        let fit = fit_sweep_file(path, opts)?;
+        let name = match (sink, &names) {
+            (Some(s), Some(names)) => {
+                let name = names[k].clone();
+                let bytes = (s.report)(&fit.family);
+                outfile::write(
+                    Target::new(&s.dir.join(&name), s.force).inputs(&[path]),
+                    |w| w.write_all(&bytes),
+                )
+                .map_err(|e| FileError::Output(format!("{}: {e}", path.display())))?;
+                Some(name)
+            }
+            _ => None,
+        };
+        Ok(FileSummary::of(&fit, name))
     };
     files
         .par_iter()
-        .map(|path| {
-            let outcome = catch_unwind(AssertUnwindSafe(|| one(path))).unwrap_or_else(|_| {
+        .enumerate()
+        .map(|(k, path)| {
+            let outcome = catch_unwind(AssertUnwindSafe(|| one(k, path))).unwrap_or_else(|_| {
                 Err(FileError::Fit(format!(
                     "{}: internal error while fitting (please report it)",
                     path.display()
@@ -215,17 +345,15 @@ pub fn fit_files(
         .collect()
 }
 
-/// Report file names, one per file (`None` for failures): the file's stem plus
-/// `ext`, made unique with `-2`, `-3`... when stems repeat.
-pub fn report_names(files: &[CampaignFile], ext: &str) -> Vec<Option<String>> {
+/// Report file names, one per input: the file's stem plus `ext`, made unique with
+/// `-2`, `-3`... when stems repeat (in input order; `summary.EXT` is taken).
+pub fn report_names(files: &[PathBuf], ext: &str) -> Vec<String> {
     let mut used = HashSet::new();
     used.insert(format!("summary.{ext}"));
     files
         .iter()
         .map(|f| {
-            f.outcome.as_ref().ok()?;
             let stem = f
-                .path
                 .file_stem()
                 .map_or("sweep".into(), |s| s.to_string_lossy().into_owned());
             let mut name = format!("{stem}.{ext}");
@@ -234,7 +362,7 @@ pub fn report_names(files: &[CampaignFile], ext: &str) -> Vec<Option<String>> {
                 name = format!("{stem}-{k}.{ext}");
                 k += 1;
             }
-            Some(name)
+            name
         })
         .collect()
 }
@@ -244,14 +372,15 @@ pub fn summary_paths(dir: &Path) -> (PathBuf, PathBuf) {
     (dir.join("summary.csv"), dir.join("summary.json"))
 }
 
-/// Checks before any fitting that the summaries can be written into `dir` (the
-/// reports are checked again as each is written): the rules of [`outfile`], the
-/// sweeps being the inputs.
-pub fn check_outputs(dir: &Path, inputs: &[PathBuf], force: bool) -> Result<(), String> {
-    let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
+/// Checks before any fitting that the summaries and every report (named by
+/// [`report_names`] with `ext`) can be written into `dir` (each is checked again as it
+/// is written): the rules of [`outfile`], the sweeps being the inputs.
+pub fn check_outputs(dir: &Path, inputs: &[PathBuf], ext: &str, force: bool) -> Result<(), String> {
+    let paths: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
     let (csv, js) = summary_paths(dir);
-    for p in [&csv, &js] {
-        outfile::check(Target::new(p, force).inputs(&inputs)).map_err(|e| e.to_string())?;
+    let reports = report_names(inputs, ext).into_iter().map(|n| dir.join(n));
+    for p in [csv, js].into_iter().chain(reports) {
+        outfile::check(Target::new(&p, force).inputs(&paths)).map_err(|e| e.to_string())?;
     }
     Ok(())
 }
@@ -270,15 +399,11 @@ pub fn plain_report(fam: &FamilyFit, json: bool, residual: &str) -> Vec<u8> {
     }
 }
 
-/// Writes one report per fitted file into `dir` (`report` of its fit, named
-/// `STEM.ext`; built on all cores), plus `summary.csv` and `summary.json`, each through
-/// the one safe writer ([`outfile`]: existing files only with `force`, never over an
-/// input). Returns the summary paths.
-pub fn write_reports(
+/// Writes `summary.csv` and `summary.json` of `files` into `dir` through the one safe
+/// writer ([`outfile`]). Returns their paths.
+pub fn write_summaries(
     dir: &Path,
     files: &[CampaignFile],
-    ext: &str,
-    report: &Report<'_>,
     force: bool,
 ) -> Result<(PathBuf, PathBuf), String> {
     std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
@@ -289,23 +414,9 @@ pub fn write_reports(
         })
         .map_err(|e| e.to_string())
     };
-    let names = report_names(files, ext);
-    let texts: Vec<Option<Vec<u8>>> = files
-        .par_iter()
-        .zip(&names)
-        .map(|(f, name)| match (&f.outcome, name) {
-            (Ok(fit), Some(_)) => Some(report(&fit.family)),
-            _ => None,
-        })
-        .collect();
-    for (text, name) in texts.iter().zip(&names) {
-        if let (Some(text), Some(name)) = (text, name) {
-            put(&dir.join(name), text)?;
-        }
-    }
     let (csv, js) = summary_paths(dir);
-    put(&csv, summary_csv(files, &names).as_bytes())?;
-    let mut s = serde_json::to_string_pretty(&summary_json(files, &names)).expect("JSON");
+    put(&csv, summary_csv(files).as_bytes())?;
+    let mut s = serde_json::to_string_pretty(&summary_json(files)).expect("JSON");
     s.push('\n');
     put(&js, s.as_bytes())?;
     Ok((csv, js))
@@ -313,34 +424,6 @@ pub fn write_reports(
 
 /// The parameters the summary reports, by name (those the selected member has).
 const KEY_PARAMS: [&str; 6] = ["sigma", "sigma_haze", "sigma_m", "k_dd", "k_id", "k_d"];
-
-/// Name, value and standard error of the selected member's scalar parameters (widths
-/// and scalar weights; not the per-incidence or smooth k_s).
-fn key_params(fam: &FamilyFit) -> Vec<(&'static str, f64, Option<f64>)> {
-    let Some(f) = fam.selected_fit() else {
-        return Vec::new();
-    };
-    super::report::member_params(f)
-        .into_iter()
-        .filter_map(|p| {
-            let key = KEY_PARAMS
-                .iter()
-                .find(|&&k| p.theta_i.is_none() && k == p.base)?;
-            Some((*key, p.value, p.se))
-        })
-        .collect()
-}
-
-/// The names of the selected member's parameters held fixed (`--fix`).
-fn held(fam: &FamilyFit) -> Vec<&'static str> {
-    fam.selected_fit()
-        .map_or_else(Vec::new, super::report::held_names)
-}
-
-/// The selected member's paper RMSE (Table 3) over all readings.
-fn selected_rmse(fam: &FamilyFit) -> Option<f64> {
-    fam.candidate(fam.selected_member).and_then(|c| c.rmse)
-}
 
 fn csv_field(s: &str) -> String {
     if s.contains([',', '"', '\n', '\r']) {
@@ -355,7 +438,7 @@ fn csv_field(s: &str) -> String {
 /// readings, incidences, each key parameter and its standard error (empty when the
 /// member has none), the paper's RMSE, fit seconds, the report's file name, the error
 /// message.
-pub fn summary_csv(files: &[CampaignFile], names: &[Option<String>]) -> String {
+pub fn summary_csv(files: &[CampaignFile]) -> String {
     let mut out = String::from("file,status,selected_member,readings,incidences");
     for p in KEY_PARAMS {
         out.push_str(&format!(",{p},{p}_se"));
@@ -365,24 +448,22 @@ pub fn summary_csv(files: &[CampaignFile], names: &[Option<String>]) -> String {
         x.filter(|v| v.is_finite())
             .map_or(String::new(), |v| format!("{v:e}"))
     };
-    for (f, name) in files.iter().zip(names) {
+    for f in files {
         let mut row = vec![csv_field(&f.path.display().to_string())];
         match &f.outcome {
             Ok(fit) => {
-                let fam = &fit.family;
                 row.push("ok".into());
-                row.push(csv_field(&fam.selected_member.to_string()));
-                row.push(fit.data.obs.len().to_string());
-                row.push(fit.data.incidences.len().to_string());
-                let kp = key_params(fam);
+                row.push(csv_field(&fit.selected_member.to_string()));
+                row.push(fit.readings.to_string());
+                row.push(fit.incidences.to_string());
                 for p in KEY_PARAMS {
-                    let hit = kp.iter().find(|(n, _, _)| *n == p);
+                    let hit = fit.params.iter().find(|h| h.0 == p);
                     row.push(num(hit.map(|h| h.1)));
                     row.push(num(hit.and_then(|h| h.2)));
                 }
-                row.push(num(selected_rmse(fam)));
-                row.push(num(Some(fam.fit_seconds)));
-                row.push(csv_field(name.as_deref().unwrap_or("")));
+                row.push(num(fit.rmse));
+                row.push(num(Some(fit.fit_seconds)));
+                row.push(csv_field(fit.report.as_deref().unwrap_or("")));
                 row.push(String::new());
             }
             Err(e) => {
@@ -405,20 +486,17 @@ pub fn summary_csv(files: &[CampaignFile], names: &[Option<String>]) -> String {
 /// `selected_components` (its components in the README's vocabulary), `readings`,
 /// `incidences`, `params` (`{name: {"value", "se"}}`), `rmse`, `fit_seconds`, `report`,
 /// or `error`.
-pub fn summary_json(files: &[CampaignFile], names: &[Option<String>]) -> Value {
+pub fn summary_json(files: &[CampaignFile]) -> Value {
     let num = |x: f64| if x.is_finite() { json!(x) } else { Value::Null };
     let rows: Vec<Value> = files
         .iter()
-        .zip(names)
-        .map(|(f, name)| match &f.outcome {
+        .map(|f| match &f.outcome {
             Ok(fit) => {
-                let fam = &fit.family;
                 let mut params = serde_json::Map::new();
-                let fixed = held(fam);
-                for (n, v, se) in key_params(fam) {
+                for &(n, v, se, held) in &fit.params {
                     let mut p = json!({"value": num(v), "se": se.map_or(Value::Null, num)});
                     // Held fixed (`--fix`): said, so its null se is not "not determined".
-                    if let (true, Value::Object(m)) = (fixed.contains(&n), &mut p) {
+                    if let (true, Value::Object(m)) = (held, &mut p) {
                         m.insert("fixed".into(), Value::Bool(true));
                     }
                     params.insert(n.into(), p);
@@ -426,14 +504,14 @@ pub fn summary_json(files: &[CampaignFile], names: &[Option<String>]) -> Value {
                 json!({
                     "file": f.path.display().to_string(),
                     "status": "ok",
-                    "selected_member": fam.selected_member.to_string(),
-                    "selected_components": super::report::member_components(fam.selected_member),
-                    "readings": fit.data.obs.len(),
-                    "incidences": fit.data.incidences.len(),
+                    "selected_member": fit.selected_member.to_string(),
+                    "selected_components": super::report::member_components(fit.selected_member),
+                    "readings": fit.readings,
+                    "incidences": fit.incidences,
                     "params": params,
-                    "rmse": selected_rmse(fam).map_or(Value::Null, num),
-                    "fit_seconds": num(fam.fit_seconds),
-                    "report": name,
+                    "rmse": fit.rmse.map_or(Value::Null, num),
+                    "fit_seconds": num(fit.fit_seconds),
+                    "report": fit.report,
                     "warnings": fit.warnings,
                 })
             }
@@ -467,7 +545,7 @@ pub fn summary_table(files: &[CampaignFile]) -> String {
     let sel = files
         .iter()
         .filter_map(|f| f.outcome.as_ref().ok())
-        .map(|f| f.family.selected_member.to_string().len())
+        .map(|f| f.selected_member.to_string().len())
         .max()
         .unwrap_or(0)
         .max(26);
@@ -480,20 +558,18 @@ pub fn summary_table(files: &[CampaignFile]) -> String {
         let name = f.path.display().to_string();
         match &f.outcome {
             Ok(fit) => {
-                let fam = &fit.family;
-                let sigma = key_params(fam).into_iter().find(|p| p.0 == "sigma").map_or(
-                    "-".into(),
-                    |(n, v, se)| {
-                        super::report::fmt_value(v, se, held(fam).contains(&n))
-                            .trim()
-                            .to_string()
-                    },
-                );
-                let rmse = selected_rmse(fam).map_or("n/d".into(), |r| format!("{r:.4}"));
+                let sigma = fit
+                    .params
+                    .iter()
+                    .find(|p| p.0 == "sigma")
+                    .map_or("-".into(), |&(_, v, se, held)| {
+                        super::report::fmt_value(v, se, held).trim().to_string()
+                    });
+                let rmse = fit.rmse.map_or("n/d".into(), |r| format!("{r:.4}"));
                 let _ = writeln!(
                     out,
                     "{name:<width$}  {:<sel$}  {sigma:>22}  {rmse:>8}",
-                    fam.selected_member.to_string()
+                    fit.selected_member.to_string()
                 );
             }
             Err(e) => {
@@ -528,9 +604,8 @@ mod tests {
         let a = write_sweep(&dir, "a.csv", "fe-0.115", 1);
         let mut opts = FitOptions::default();
         opts.fixed.set("sigma=0.115").unwrap();
-        let files = fit_files(&[a], &opts, &|_, _| {});
-        let names = [Some("a.txt".to_string())];
-        let v = summary_json(&files, &names);
+        let files = fit_files(&[a], &opts, None, &|_, _| {});
+        let v = summary_json(&files);
         let sigma = &v["files"][0]["params"]["sigma"];
         assert_eq!(
             (sigma["value"].as_f64(), sigma["fixed"].as_bool()),
@@ -544,6 +619,16 @@ mod tests {
     }
 
     #[test]
+    fn files_are_taken_in_natural_order() {
+        let mut names = vec!["s10.csv", "s2.csv", "s1.csv", "a.csv", "s02b.csv", "S3.csv"];
+        names.sort_by(|a, b| natural_cmp(a, b));
+        assert_eq!(
+            names,
+            ["S3.csv", "a.csv", "s1.csv", "s2.csv", "s02b.csv", "s10.csv"]
+        );
+    }
+
+    #[test]
     fn a_bad_file_is_reported_and_the_others_are_fitted() {
         let dir = crate::outfile::test_dir("campaign");
         std::fs::create_dir_all(dir.join("in")).unwrap();
@@ -552,17 +637,29 @@ mod tests {
         std::fs::write(dir.join("in/bad.csv"), "theta_i,theta_r,brdf\n10,0,-1\n").unwrap();
         let inputs = expand_inputs(&[dir.join("in"), a.clone(), dir.join("missing.csv")]).unwrap();
         assert_eq!(inputs.len(), 5);
-        let files = fit_files(&inputs, &FitOptions::default(), &|_, _| {});
+        let plain = |f: &FamilyFit| plain_report(f, false, "log");
+        let out = dir.join("out");
+        let sink = |force| ReportSink {
+            dir: &out,
+            ext: "txt",
+            report: &plain,
+            force,
+        };
+        let files = fit_files(
+            &inputs,
+            &FitOptions::default(),
+            Some(&sink(false)),
+            &|_, _| {},
+        );
         let status: Vec<bool> = files.iter().map(|f| f.outcome.is_ok()).collect();
         assert_eq!(status, [true, true, false, true, false]);
         let sigma = |i: usize| {
-            let fam = &files[i].outcome.as_ref().unwrap().family;
-            fam.selected_fit().unwrap().sigma().unwrap().0
+            let fit = files[i].outcome.as_ref().unwrap();
+            fit.params.iter().find(|p| p.0 == "sigma").unwrap().1
         };
         assert!((sigma(0) / 0.115 - 1.0).abs() < 0.02);
         assert!((sigma(1) / 0.070 - 1.0).abs() < 0.02);
-        let plain = |f: &FamilyFit| plain_report(f, false, "log");
-        let (csv, js) = write_reports(&dir.join("out"), &files, "txt", &plain, false).unwrap();
+        let (csv, js) = write_summaries(&out, &files, false).unwrap();
         let text = std::fs::read_to_string(csv).unwrap();
         let lines: Vec<&str> = text.lines().collect();
         assert_eq!(lines.len(), 6);
@@ -573,23 +670,40 @@ mod tests {
         );
         assert!(lines[5].contains("cannot read"), "{}", lines[5]);
         // Two inputs share the stem "a": the second report is a-2.txt.
-        assert!(dir.join("out/a.txt").is_file() && dir.join("out/a-2.txt").is_file());
+        assert!(out.join("a.txt").is_file() && out.join("a-2.txt").is_file());
         let v: Value = serde_json::from_str(&std::fs::read_to_string(js).unwrap()).unwrap();
         assert_eq!(
             (v["fitted"].as_u64(), v["failed"].as_u64()),
             (Some(3), Some(2))
         );
         assert!(v["files"][0]["params"]["sigma"]["se"].as_f64().unwrap() > 0.0);
-        // The safe writer's rules: existing reports only with force.
-        let again = write_reports(&dir.join("out"), &files, "txt", &plain, false).unwrap_err();
+        // The safe writer's rules, checked before any fitting: existing reports and
+        // summaries only with force; each report again as it is written.
+        let inputs: Vec<PathBuf> = files.iter().map(|f| f.path.clone()).collect();
+        let again = check_outputs(&out, &inputs, "txt", false).unwrap_err();
         assert!(
             again.contains("exists") && again.contains("--force"),
             "{again}"
         );
-        let inputs: Vec<PathBuf> = files.iter().map(|f| f.path.clone()).collect();
-        assert!(check_outputs(&dir.join("out"), &inputs, false).is_err());
-        assert!(check_outputs(&dir.join("out"), &inputs, true).is_ok());
-        write_reports(&dir.join("out"), &files, "txt", &plain, true).unwrap();
+        assert!(check_outputs(&out, &inputs, "txt", true).is_ok());
+        let refused = fit_files(
+            &inputs[..1],
+            &FitOptions::default(),
+            Some(&sink(false)),
+            &|_, _| {},
+        );
+        let e = refused[0].outcome.as_ref().unwrap_err();
+        assert!(
+            matches!(e, FileError::Output(m) if m.contains("exists")),
+            "{e}"
+        );
+        let forced = fit_files(
+            &inputs[..1],
+            &FitOptions::default(),
+            Some(&sink(true)),
+            &|_, _| {},
+        );
+        assert!(forced[0].outcome.is_ok());
         let _ = std::fs::remove_dir_all(&dir);
         assert!(expand_inputs(&[std::env::temp_dir().join("gonio-no-such-dir-x")]).is_ok());
     }

@@ -9,7 +9,7 @@ use brdf_core::member::Member;
 
 use super::args::parse_export;
 use super::error::{CliError, CliResult};
-use super::output::{write_stdout, write_stdout_with};
+use super::output::{say_written, write_stdout, write_stdout_with};
 use crate::calibrate::Instrument;
 use crate::export::ExportFormat;
 use crate::fit::campaign::{self, FileError};
@@ -282,14 +282,16 @@ fn run_campaign(args: &FitArgs, opts: &FitOptions) -> CliResult {
     let residual = residual_name(opts.residual);
     let json = args.json;
     let report = |fam: &FamilyFit| report_bytes(fam, json, residual, inst_ref);
-    let (csv, _) = campaign::write_reports(
-        &args.out,
-        &results,
-        if args.json { "json" } else { "txt" },
-        &report,
-        args.force,
-    )
-    .map_err(CliError::failed)?;
+    let ext = if args.json { "json" } else { "txt" };
+    let (csv, js) = campaign::write_reports(&args.out, &results, ext, &report, args.force)
+        .map_err(CliError::failed)?;
+    let mut written: Vec<std::path::PathBuf> = campaign::report_names(&results, ext)
+        .into_iter()
+        .flatten()
+        .map(|n| args.out.join(n))
+        .collect();
+    written.extend([csv.clone(), js]);
+    say_written(&written);
     let failed: Vec<&campaign::CampaignFile> =
         results.iter().filter(|f| f.outcome.is_err()).collect();
     for f in &results {
@@ -372,22 +374,31 @@ pub fn run(args: &FitArgs) -> CliResult {
     let inputs = [sweep];
     for (format, path) in &args.export {
         for file in export::targets(*format, path) {
-            outfile::check(Target::new(&file, args.force).inputs(&inputs))?;
+            let target = Target::new(&file, args.force).inputs(&inputs);
+            // mitsuba=DIR is created by the export itself.
+            let target = if *format == ExportFormat::Mitsuba {
+                target.in_made_dir()
+            } else {
+                target
+            };
+            outfile::check(target)?;
         }
     }
     if let Some(dir) = &args.plot {
         plot::check_plots(dir, &data.incidences, args.force)?;
         for f in plot::plot_files(dir, &data.incidences) {
-            outfile::check(Target::new(&f, true).inputs(&inputs))?;
+            outfile::check(Target::new(&f, true).inputs(&inputs).in_made_dir())?;
         }
     }
     let fam = campaign::fit_data(sweep, &data, &opts).map_err(file_error)?;
     let residual = residual_name(opts.residual);
+    let mut written = Vec::new();
     if let Some(dir) = &args.plot {
-        plot::write_plots(dir, &data, &fam, args.force)?;
+        written = plot::write_plots(dir, &data, &fam, args.force)?;
     }
     let member = args.export_model.unwrap_or(fam.selected_member);
     for (format, path) in &args.export {
+        written.extend(export::targets(*format, path));
         let target = Target::new(path, args.force).inputs(&inputs);
         match format {
             ExportFormat::Residuals => {
@@ -400,6 +411,7 @@ pub fn run(args: &FitArgs) -> CliResult {
             _ => export::write_export(*format, target, &fam, member)?,
         }
     }
+    say_written(&written);
     // The fit's buffers, freed in the workers' arenas, go back before the report
     // allocates its own.
     crate::memory::release_freed_memory();

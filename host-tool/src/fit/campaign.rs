@@ -245,7 +245,8 @@ pub fn check_outputs(dir: &Path, inputs: &[PathBuf], force: bool) -> Result<(), 
     let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
     let (csv, js) = summary_paths(dir);
     for p in [&csv, &js] {
-        outfile::check(Target::new(p, force).inputs(&inputs)).map_err(|e| e.to_string())?;
+        outfile::check(Target::new(p, force).inputs(&inputs).in_made_dir())
+            .map_err(|e| e.to_string())?;
     }
     Ok(())
 }

@@ -482,9 +482,9 @@ fn kind_block(out: &mut String, f: &FamilyFit, fit: &Fit, residual: &str) {
     };
     let _ = writeln!(
         out,
-        "{} ({} free parameters){mark}",
+        "{} ({}){mark}",
         fit.kind.name(),
-        fit.k()
+        crate::text::count(fit.k(), "free parameter")
     );
     for c in scalar_coords(fit.kind) {
         let (v, se) = scalar(fit, c);
@@ -516,7 +516,11 @@ fn member_block(out: &mut String, f: &FamilyFit, fit: &MemberFit, residual: &str
     } else {
         ""
     };
-    let _ = writeln!(out, "{m} ({} free parameters){mark}", fit.k());
+    let _ = writeln!(
+        out,
+        "{m} ({}){mark}",
+        crate::text::count(fit.k(), "free parameter")
+    );
     let held = held_names(fit);
     for (name, v, se) in member_params(fit) {
         let fixed = held.contains(&name.as_str());

@@ -93,7 +93,7 @@ gonio fit metal.csv --export residuals=metal-residuals.csv\n  \
 gonio fit sweeps/ extra.csv --out reports/   (a campaign: reports/summary.csv)"
 )]
 pub struct FitArgs {
-    /// The sweep file (CSV with columns theta_i, theta_r, brdf; see the README). Several
+    /// The sweep file (CSV with columns theta_i, theta_r, brdf; see docs/formats.md). Several
     /// files, or directories (their *.csv files), make a campaign: every sweep fitted on
     /// all cores, one report each and a summary in --out.
     #[arg(value_name = "SWEEP.csv|DIR", required = true, num_args = 1..)]

@@ -145,11 +145,14 @@ fn capture_survives_the_firmware_being_killed_mid_sweep() {
         .expect("capture across a restart");
     assert!(plug.done);
     assert_eq!(report.status, SweepStatus::Complete);
-    assert_eq!(report.reconnects, 1);
+    // At least one: under load the restarted firmware may be lost and found again
+    // before the sweep goes on (how often is the scheduler's, not gonio's, to decide).
+    assert!(report.reconnects >= 1, "{} reconnects", report.reconnects);
     let data = read_sweep(&out).unwrap();
     assert_each_point_once(&data.rows, 153, "after QEMU was killed");
     eprintln!(
-        "QEMU killed after 40 readings: complete after 1 reconnect, status {:?}, {:.1} s",
+        "QEMU killed after 40 readings: complete after {} reconnects, status {:?}, {:.1} s",
+        report.reconnects,
         data.counters,
         started.elapsed().as_secs_f64()
     );

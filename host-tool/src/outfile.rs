@@ -3,6 +3,8 @@
 //! name asked for, nor a temporary file after an error or Ctrl-C.
 //!
 //! Rules every writer (exports, plots, the sweep file's creation, `bench`, `demo`) gets:
+//! - a target whose directory does not exist is refused, naming the directory (unless
+//!   the command creates that directory itself: [`Target::in_made_dir`]);
 //! - a target that exists and is not a regular file (a device such as `/dev/null` or
 //!   `/dev/stdout`, a symlink, a directory) is refused: gonio writes only regular files;
 //! - a target that is one of the command's input files is refused
@@ -11,14 +13,16 @@
 //! - the temporary file is created in the target's directory with a random name,
 //!   `O_CREAT|O_EXCL|O_NOFOLLOW` and mode 0600 (the `tempfile` crate), synced, then
 //!   renamed over the target (without `--force`: linked, so a file that appeared
-//!   meanwhile is never replaced);
+//!   meanwhile is never replaced); the finished file then gets the mode a plain
+//!   create would give it (0666 less the umask), so a lab's shared group or world
+//!   read applies to plots, exports and sweeps, while nothing half-written is readable;
 //! - it is removed on any error, and on SIGINT/SIGTERM in commands that do not handle
 //!   Ctrl-C themselves.
 
 use std::fmt;
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
-use std::os::unix::fs::MetadataExt;
+use std::os::unix::fs::{MetadataExt, PermissionsExt};
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, OnceLock};
 
@@ -54,6 +58,9 @@ pub struct Target<'a> {
     pub force: bool,
     /// The command's input files.
     pub inputs: &'a [&'a Path],
+    /// The command creates the target's directory itself (`--plot DIR`,
+    /// `mitsuba=DIR`, a campaign's `--out DIR`): a missing one is not refused.
+    pub in_made_dir: bool,
 }
 
 impl<'a> Target<'a> {
@@ -63,12 +70,29 @@ impl<'a> Target<'a> {
             path,
             force,
             inputs: &[],
+            in_made_dir: false,
         }
     }
 
     /// The same target, never one of `inputs`.
     pub fn inputs(self, inputs: &'a [&'a Path]) -> Self {
         Target { inputs, ..self }
+    }
+
+    /// The same target in a directory the command creates before writing it.
+    pub fn in_made_dir(self) -> Self {
+        Target {
+            in_made_dir: true,
+            ..self
+        }
+    }
+}
+
+/// The directory `path` is written into (`.` for a bare name).
+fn parent_dir(path: &Path) -> &Path {
+    match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
     }
 }
 
@@ -84,7 +108,15 @@ pub fn check(t: Target<'_>) -> Result<(), OutError> {
     }
     let meta = match std::fs::symlink_metadata(path) {
         Ok(m) => m,
-        Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(()),
+        // (Not a directory: a file stands where the target's directory should be.)
+        Err(e)
+            if matches!(
+                e.kind(),
+                io::ErrorKind::NotFound | io::ErrorKind::NotADirectory
+            ) =>
+        {
+            return check_dir(t);
+        }
         Err(e) => return Err(OutError::Io(format!("{}: {e}", path.display()))),
     };
     if !meta.file_type().is_file() {
@@ -122,6 +154,33 @@ pub fn check(t: Target<'_>) -> Result<(), OutError> {
     Ok(())
 }
 
+/// A new target's directory must exist (and be one) unless the command makes it.
+fn check_dir(t: Target<'_>) -> Result<(), OutError> {
+    if t.in_made_dir {
+        return Ok(());
+    }
+    let dir = parent_dir(t.path);
+    match std::fs::metadata(dir) {
+        Ok(m) if m.is_dir() => Ok(()),
+        Ok(_) => Err(OutError::Refused(format!(
+            "cannot write {}: {} is not a directory",
+            t.path.display(),
+            dir.display()
+        ))),
+        Err(e) if e.kind() == io::ErrorKind::NotFound => Err(OutError::Refused(format!(
+            "cannot write {}: the directory {} does not exist (create it with mkdir -p {}, or choose another path)",
+            t.path.display(),
+            dir.display(),
+            dir.display()
+        ))),
+        Err(e) => Err(OutError::Io(format!(
+            "cannot write {}: {}: {e}",
+            t.path.display(),
+            dir.display()
+        ))),
+    }
+}
+
 /// Writes `t` through a buffered writer given to `body` (see the module rules).
 pub fn write(
     t: Target<'_>,
@@ -147,10 +206,7 @@ pub fn write_with(
     check(t)?;
     let path = t.path;
     let fail = |e: io::Error| OutError::Io(format!("cannot write {}: {e}", path.display()));
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
+    let dir = parent_dir(path);
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
@@ -183,12 +239,36 @@ pub fn write_with(
             fail(e.error)
         }
     })?;
+    // Private while written; the user's umask once complete (see the module rules).
+    file.set_permissions(std::fs::Permissions::from_mode(0o666 & !umask()))
+        .map_err(fail)?;
     // The rename itself is durable once the directory is synced.
     if let Ok(d) = File::open(dir) {
         let _ = d.sync_all();
     }
     io::Seek::seek(&mut file, io::SeekFrom::End(0)).map_err(fail)?;
     Ok(file)
+}
+
+/// The process's file-mode creation mask, read once: from /proc (which leaves it
+/// alone), else by setting it to the strictest mask for the instant it is read back.
+fn umask() -> u32 {
+    static MASK: OnceLock<u32> = OnceLock::new();
+    *MASK.get_or_init(|| {
+        std::fs::read_to_string("/proc/self/status")
+            .ok()
+            .and_then(|s| {
+                s.lines()
+                    .find_map(|l| l.strip_prefix("Umask:"))
+                    .and_then(|v| u32::from_str_radix(v.trim(), 8).ok())
+            })
+            .unwrap_or_else(|| {
+                use nix::sys::stat::{Mode, umask};
+                let old = umask(Mode::from_bits_truncate(0o077));
+                umask(old);
+                old.bits()
+            })
+    })
 }
 
 /// Temporary files being written, removed by the signal handler.
@@ -328,5 +408,43 @@ mod tests {
         write(Target::new(&p, false), |w| w.write_all(b"ok")).unwrap();
         assert_eq!(std::fs::read(&p).unwrap(), b"ok");
         assert!(std::fs::symlink_metadata(&planted).unwrap().is_symlink());
+    }
+
+    #[test]
+    fn a_missing_directory_is_named_unless_the_command_makes_it() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("nodir").join("x.csv");
+        let e = write(Target::new(&p, false), |w| w.write_all(b"x")).unwrap_err();
+        let m = e.to_string();
+        assert!(matches!(e, OutError::Refused(_)), "{m}");
+        assert!(
+            m.contains("directory") && m.contains("nodir") && m.contains("mkdir"),
+            "{m}"
+        );
+        assert!(!m.contains(".x.csv."), "names gonio's temporary file: {m}");
+        check(Target::new(&p, false).in_made_dir()).unwrap();
+        let file = d.path().join("file");
+        std::fs::write(&file, b"x").unwrap();
+        let e = check(Target::new(&file.join("x.csv"), false)).unwrap_err();
+        assert!(e.to_string().contains("not a directory"), "{e}");
+    }
+
+    #[test]
+    fn the_temporary_file_is_private_and_the_result_follows_the_umask() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("shared.csv");
+        write_with(Target::new(&p, false), "", |tmp| {
+            let mode = tmp.as_file().metadata()?.permissions().mode() & 0o777;
+            assert_eq!(mode, 0o600, "the temporary file while written");
+            tmp.as_file_mut().write_all(b"x")
+        })
+        .unwrap();
+        let mode = std::fs::metadata(&p).unwrap().permissions().mode() & 0o777;
+        // What File::create would have given, whatever this process's umask is.
+        let plain = d.path().join("plain");
+        File::create(&plain).unwrap();
+        let want = std::fs::metadata(&plain).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode, want, "{mode:o} vs {want:o}");
+        assert_eq!(mode, 0o666 & !umask());
     }
 }

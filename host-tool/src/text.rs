@@ -1,5 +1,5 @@
-//! Text for messages that quote input: [`escape_line`] makes any string one bounded,
-//! printable line.
+//! Text for messages: [`escape_line`] makes any string that quotes input one bounded,
+//! printable line; [`count`] puts a number before a noun in the right number.
 
 /// `s` as one line of at most `max_chars` characters (plus `...` and the count left
 /// out when cut): control characters (NUL, CR, LF, ESC, DEL, C1...) escaped as `\0`,
@@ -32,9 +32,25 @@ pub fn escape_line(s: &str, max_chars: usize) -> String {
     out
 }
 
+/// `n noun`, with an `s` unless `n` is 1: "1 free parameter", "13 free parameters".
+pub fn count(n: usize, noun: &str) -> String {
+    if n == 1 {
+        format!("1 {noun}")
+    } else {
+        format!("{n} {noun}s")
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn counts_in_the_right_number() {
+        assert_eq!(count(1, "free parameter"), "1 free parameter");
+        assert_eq!(count(0, "file"), "0 files");
+        assert_eq!(count(13, "free parameter"), "13 free parameters");
+    }
 
     #[test]
     fn escapes_controls_and_bounds_length() {

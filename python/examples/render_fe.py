@@ -1,7 +1,8 @@
 """Fits the simulated iron sample, plots its curves and renders it in Mitsuba 3 into
 docs/ (python-fe-fit.png, python-fe-sphere.png). Run from the repository root.
 The rendering is of the exported plugin directory (what `gonio fit --export
-mitsuba=DIR` writes), at the display scale since the fit is in relative units."""
+mitsuba=DIR` writes), at the display scale since the fit is in relative units.
+Needs matplotlib and Mitsuba 3: pip install './python[examples,mitsuba]'."""
 
 import pathlib
 import re

@@ -3,7 +3,8 @@
 This one file is both ``gonio.mitsuba`` and the plugin that ``gonio fit --export
 mitsuba=DIR`` writes (as ``DIR/gonio_bsdf.py``, beside ``model.json`` and
 ``sphere.xml``; ``python DIR/gonio_bsdf.py`` renders the sphere). It needs the gonio
-package (``pip install ./python``): the model is evaluated only by brdf-core.
+package with Mitsuba 3 (``pip install './python[mitsuba]'``): the model is evaluated
+only by brdf-core.
 
 ``register()`` registers the plugin ``"gonio"`` with ``mi.register_bsdf`` for the
 current variant: the scalar variants, and the llvm ones (``llvm_ad_rgb``, ...) where the
@@ -55,6 +56,17 @@ SCENE = pathlib.Path(__file__).resolve().with_name("sphere.xml")
 #: The scene's geometry (as ``sphere.xml`` sets it): light angle from the camera's axis
 #: (degrees), camera and light distance, field of view (degrees).
 LIGHT_DEG, DISTANCE, FOV = 40.0, 4.0, 34.0
+
+
+def _mitsuba():
+    """The ``mitsuba`` and ``drjit`` modules, or an ImportError saying how to get them."""
+    try:
+        import drjit as dr
+        import mitsuba as mi
+    except ImportError as e:
+        raise ImportError(f"gonio.mitsuba needs Mitsuba 3: pip install './python[mitsuba]' "
+                          f"(or pip install 'mitsuba>=3.5'): {e}") from e
+    return mi, dr
 
 
 def add_model(key: str, model: "gonio.Model") -> None:
@@ -142,7 +154,7 @@ def _model_of(key: str):
     scene's directory first) or as a path."""
     if key in _MODELS:
         return _MODELS[key]
-    import mitsuba as mi
+    mi, _ = _mitsuba()
 
     resolver = mi.file_resolver() if hasattr(mi, "file_resolver") else mi.Thread.thread().file_resolver()
     path = pathlib.Path(str(resolver.resolve(key)))
@@ -158,8 +170,7 @@ def _model_of(key: str):
 
 def register() -> None:
     """Registers the ``gonio`` BSDF for the current Mitsuba variant."""
-    import drjit as dr
-    import mitsuba as mi
+    mi, dr = _mitsuba()
 
     scalar = mi.variant().startswith("scalar")
     if not scalar:
@@ -371,7 +382,7 @@ def render_sphere(model: "gonio.Model", path=None, *, scale=None, resolution: in
     the image as a float array (H, W, 3); writes it when ``path`` is given (PNG: tone
     mapped). ``scale`` as the plugin takes it; by default "absolute" for a model in
     1/sr and "display" for one in relative units."""
-    import mitsuba as mi
+    mi, _ = _mitsuba()
 
     if mi.variant() is None:
         mi.set_variant("scalar_rgb")
@@ -400,7 +411,7 @@ def main(argv=None) -> int:
     ap.add_argument("--spp", type=int, default=16, help="samples per pixel [default: 16]")
     ap.add_argument("--res", type=int, default=256, help="image width and height [default: 256]")
     args = ap.parse_args(argv)
-    import mitsuba as mi
+    mi, _ = _mitsuba()
 
     variant = args.variant or ("llvm_ad_rgb" if llvm_available() else "scalar_rgb")
     mi.set_variant(variant)

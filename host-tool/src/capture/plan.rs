@@ -161,7 +161,7 @@ impl HostPlan {
         )
     }
 
-    /// Reads a TOML plan file (see the README for its keys).
+    /// Reads a TOML plan file (see docs/formats.md for its keys).
     pub fn from_file(path: &Path, o: &SettingsOverride) -> Result<Self> {
         use std::io::Read;
         let cannot =

@@ -93,7 +93,10 @@ impl ProgressSink for Lines {
     fn start(&mut self, total: u64, done: u64) {
         self.total = total;
         self.started = Some(Instant::now());
-        eprintln!("capture: {done}/{total} readings already in the file");
+        // Said only when it tells something: a resumed file (a fresh one holds none).
+        if done > 0 {
+            eprintln!("capture: resuming: {done}/{total} readings already in the file");
+        }
     }
 
     fn reading(&mut self, done: u64, theta_i: f32, theta_r: f32) {

@@ -18,7 +18,7 @@ use crate::export::ExportFormat;
 #[derive(Debug, Clone, Args)]
 pub struct PlanArgs {
     /// `paper` (the paper's 9 x 17 grid), `adaptive` (readings placed where a prior's
-    /// curve bends; needs --prior), or a TOML plan file (see the README) [default:
+    /// curve bends; needs --prior), or a TOML plan file (see docs/formats.md) [default:
     /// paper; with --resume: the file's plan].
     #[arg(long, value_name = "paper|FILE.toml|adaptive")]
     pub plan: Option<String>,

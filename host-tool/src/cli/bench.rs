@@ -76,6 +76,7 @@ pub fn run(args: &BenchArgs) -> CliResult {
     let rows = bench::run(Duration::from_secs_f64(args.seconds));
     if let Some(png) = &args.plot {
         bench::speed_vs_error(png, &rows, args.force)?;
+        super::output::say_written(std::slice::from_ref(png));
     }
     let plans = if args.study {
         Some(bench::plan_study(3)?)

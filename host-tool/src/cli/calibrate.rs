@@ -145,6 +145,11 @@ pub fn run(args: &CalibrateArgs) -> CliResult {
         if let Some(p) = &args.plot {
             text.push_str(&format!("written: {}\n", p.display()));
         }
+    } else {
+        // stdout is the JSON: the files are named on stderr.
+        let mut written = vec![args.out.clone()];
+        written.extend(args.plot.clone());
+        super::output::say_written(&written);
     }
     write_stdout(text.as_bytes())
 }

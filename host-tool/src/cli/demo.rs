@@ -80,6 +80,15 @@ pub fn run(args: &DemoArgs) -> CliResult {
     let [_, report] = capture_pair(&mut conn, &setup, &standard, prog.as_mut())?;
     drop(prog);
     let (data, fam) = fit_file(&sweep, &FitOptions::default())?;
+    let mut written = write_files(&args.dir, &data, &fam)?;
+    let chain = super::demo_units::absolute_chain(
+        &args.dir,
+        &sweep,
+        &reference_path(&sweep),
+        super::demo_units::DEMO_REFERENCE,
+        cfg.preset,
+    )?;
+    let (truth, worst_param) = truth_table(cfg.preset, &fam);
     let mut out = format!(
         "gonio demo: {} readings of a simulated {} sample ({}% noise per sample, {} samples per reading)\n\
          sweep file: {}\n\n",
@@ -89,16 +98,11 @@ pub fn run(args: &DemoArgs) -> CliResult {
         args.samples,
         sweep.display()
     );
+    // The verdict first; the family's blocks and the comparisons it rests on follow.
+    out.push_str(&verdict(&fam, worst_param, &chain));
+    out.push_str("\nthe fit in full:\n\n");
     out.push_str(&report::family_table(&fam, "log"));
-    out.push_str(&truth_table(cfg.preset, &fam));
-    let mut written = write_files(&args.dir, &data, &fam)?;
-    let chain = super::demo_units::absolute_chain(
-        &args.dir,
-        &sweep,
-        &reference_path(&sweep),
-        super::demo_units::DEMO_REFERENCE,
-        cfg.preset,
-    )?;
+    out.push_str(&truth);
     out.push_str(&chain.text);
     written.push(reference_path(&sweep));
     written.extend(chain.written);
@@ -111,13 +115,42 @@ pub fn run(args: &DemoArgs) -> CliResult {
     write_stdout(out.as_bytes())
 }
 
+/// What the demo found, in three lines: the member selected against the one simulated,
+/// the largest relative error of a recovered parameter (`worst_param`, %), and the
+/// calibration's K and fit in 1/sr against the truth.
+fn verdict(fam: &FamilyFit, worst_param: Option<f64>, chain: &super::demo_units::Chain) -> String {
+    let simulated = Member::THREE_COMPONENT;
+    let mut s = if fam.selected_member == simulated {
+        format!("verdict: the fit selected {simulated}, the model the sample was simulated with\n")
+    } else {
+        format!(
+            "verdict: the fit selected {}, not {simulated}, the model the sample was simulated with\n",
+            fam.selected_member
+        )
+    };
+    if let Some(w) = worst_param {
+        s.push_str(&format!(
+            "  its parameters are within {w:.2} % of the true ones (table below)\n"
+        ));
+    }
+    let k = f64::from(brdf_core::sim::SIM_K);
+    s.push_str(&format!(
+        "  calibrated with the reference standard: K within {:.3} % of the true {k}, the fit in 1/sr within {:.3} % of the true BRDF\n",
+        (chain.instrument.k / k - 1.0).abs() * 100.0,
+        chain.worst * 100.0
+    ));
+    s
+}
+
 /// The three-component member's fit next to the parameters the simulation used (the
-/// demo's sample is that member: the comparison is parameter by parameter).
-fn truth_table(preset: &Preset, fam: &FamilyFit) -> String {
+/// demo's sample is that member: the comparison is parameter by parameter), and the
+/// largest |relative error| of those, in %.
+fn truth_table(preset: &Preset, fam: &FamilyFit) -> (String, Option<f64>) {
     use std::fmt::Write;
     let Some(fit) = fam.member(Member::THREE_COMPONENT) else {
-        return String::new();
+        return (String::new(), None);
     };
+    let mut worst: Option<f64> = None;
     let mut s = String::from("\nrecovered vs true (three-component fit):\n");
     for p in report::member_params(fit) {
         let (name, got) = (p.name(), p.value);
@@ -133,14 +166,15 @@ fn truth_table(preset: &Preset, fam: &FamilyFit) -> String {
                 .and_then(|ti| preset.ks(ti).ok()),
         };
         if let Some(truth) = truth {
+            let pct = (got / truth - 1.0) * 100.0;
+            worst = Some(worst.unwrap_or(0.0).max(pct.abs()));
             let _ = writeln!(
                 s,
-                "  {name:<8} {got:>12.5}  true {truth:<10}  ({:+.2} %)",
-                (got / truth - 1.0) * 100.0
+                "  {name:<8} {got:>12.5}  true {truth:<10}  ({pct:+.2} %)"
             );
         }
     }
-    s
+    (s, worst)
 }
 
 /// What `gonio demo` writes next to its sweep: plots in `dir/plots` and the selected

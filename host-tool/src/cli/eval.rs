@@ -13,6 +13,7 @@ use super::args::{Angles, theta_r_angles};
 use super::error::{CliError, CliResult};
 use super::output::write_stdout;
 use crate::fit::Kind;
+use crate::sweep_file::{angles_look_like_radians, radians_warning};
 
 /// Float precision of the evaluation.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -141,6 +142,14 @@ pub fn run(args: &EvalArgs) -> CliResult {
             fits_f32(args)?;
             rows::<f32>(args, theta_r, &mut csv)?
         }
+    }
+    // As `gonio fit` warns of a sweep's: after the checks, so bad input stays one line.
+    let angles = std::iter::once(args.theta_i).chain(theta_r.iter().copied());
+    if let Some(max) = angles_look_like_radians(theta_r.len(), angles) {
+        eprintln!(
+            "gonio: warning: {}",
+            radians_warning("--theta-i and --theta-r", max)
+        );
     }
     write_stdout(csv.as_bytes())
 }

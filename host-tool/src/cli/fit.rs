@@ -9,7 +9,7 @@ use brdf_core::member::Member;
 
 use super::args::parse_export;
 use super::error::{CliError, CliResult};
-use super::output::{write_stdout, write_stdout_with};
+use super::output::{say_written, write_stdout, write_stdout_with};
 use crate::calibrate::Instrument;
 use crate::export::ExportFormat;
 use crate::fit::campaign::{self, FileError};
@@ -93,7 +93,7 @@ gonio fit metal.csv --export residuals=metal-residuals.csv\n  \
 gonio fit sweeps/ extra.csv --out reports/   (a campaign: reports/summary.csv)"
 )]
 pub struct FitArgs {
-    /// The sweep file (CSV with columns theta_i, theta_r, brdf; see the README). Several
+    /// The sweep file (CSV with columns theta_i, theta_r, brdf; see docs/formats.md). Several
     /// files, or directories (their *.csv files), make a campaign: every sweep fitted on
     /// all cores, one report each and a summary in --out.
     #[arg(value_name = "SWEEP.csv|DIR", required = true, num_args = 1..)]
@@ -303,6 +303,13 @@ fn run_campaign(args: &FitArgs, opts: &FitOptions) -> CliResult {
     bar.finish_and_clear();
     let (csv, js) =
         campaign::write_summaries(&args.out, &results, args.force).map_err(CliError::failed)?;
+    let mut written: Vec<std::path::PathBuf> = results
+        .iter()
+        .filter_map(|f| f.outcome.as_ref().ok()?.report.as_ref())
+        .map(|n| args.out.join(n))
+        .collect();
+    written.extend([csv.clone(), js]);
+    say_written(&written);
     let failed: Vec<&campaign::CampaignFile> =
         results.iter().filter(|f| f.outcome.is_err()).collect();
     for f in &results {
@@ -333,13 +340,6 @@ fn run_campaign(args: &FitArgs, opts: &FitOptions) -> CliResult {
         t
     };
     write_stdout(text.as_bytes())?;
-    eprintln!(
-        "gonio: {} report(s) in {}; summary: {}, {}",
-        results.len() - failed.len(),
-        args.out.display(),
-        csv.display(),
-        js.display()
-    );
     if failed.is_empty() {
         Ok(())
     } else {
@@ -391,22 +391,31 @@ pub fn run(args: &FitArgs) -> CliResult {
     let inputs = [sweep];
     for (format, path) in &args.export {
         for file in export::targets(*format, path) {
-            outfile::check(Target::new(&file, args.force).inputs(&inputs))?;
+            let target = Target::new(&file, args.force).inputs(&inputs);
+            // mitsuba=DIR is created by the export itself.
+            let target = if *format == ExportFormat::Mitsuba {
+                target.in_made_dir()
+            } else {
+                target
+            };
+            outfile::check(target)?;
         }
     }
     if let Some(dir) = &args.plot {
         plot::check_plots(dir, &data.incidences, args.force)?;
         for f in plot::plot_files(dir, &data.incidences) {
-            outfile::check(Target::new(&f, true).inputs(&inputs))?;
+            outfile::check(Target::new(&f, true).inputs(&inputs).in_made_dir())?;
         }
     }
     let fam = campaign::fit_data(sweep, &data, &opts).map_err(file_error)?;
     let residual = residual_name(opts.residual);
+    let mut written = Vec::new();
     if let Some(dir) = &args.plot {
-        plot::write_plots(dir, &data, &fam, args.force)?;
+        written = plot::write_plots(dir, &data, &fam, args.force)?;
     }
     let member = args.export_model.unwrap_or(fam.selected_member);
     for (format, path) in &args.export {
+        written.extend(export::targets(*format, path));
         let target = Target::new(path, args.force).inputs(&inputs);
         match format {
             ExportFormat::Residuals => {
@@ -419,6 +428,7 @@ pub fn run(args: &FitArgs) -> CliResult {
             _ => export::write_export(*format, target, &fam, member)?,
         }
     }
+    say_written(&written);
     // The fit's buffers, freed in the workers' arenas, go back before the report
     // allocates its own.
     crate::memory::release_freed_memory();

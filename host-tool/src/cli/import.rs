@@ -120,6 +120,7 @@ fn run_merl(args: &MerlArgs) -> CliResult {
         |n| n.to_string_lossy().into_owned(),
     );
     merl::write_file(&args.out, &sweep, &source, channel, args.force).map_err(import_error)?;
+    super::output::say_written(std::slice::from_ref(&args.out));
     if sweep.missing > 0 {
         eprintln!(
             "gonio: {} of {} requested points fall on missing MERL cells and were left out",

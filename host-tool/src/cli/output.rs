@@ -20,3 +20,64 @@ pub fn write_stdout_with(write: impl FnOnce(&mut dyn Write) -> std::io::Result<(
         Err(e) => Err(CliError::failed(format!("cannot write to stdout: {e}"))),
     }
 }
+
+/// Says on stderr which files a command wrote (stdout keeps the report, which may be
+/// JSON): one line per file, or one line per directory naming its files when it holds
+/// more than a few (plots: two per incidence).
+pub fn say_written(paths: &[std::path::PathBuf]) {
+    eprint!("{}", written_lines(paths));
+}
+
+/// The lines [`say_written`] prints.
+fn written_lines(paths: &[std::path::PathBuf]) -> String {
+    use std::path::Path;
+    let mut dirs: Vec<(&Path, Vec<&std::path::PathBuf>)> = Vec::new();
+    for p in paths {
+        let dir = p.parent().unwrap_or(Path::new(""));
+        match dirs.iter_mut().find(|(d, _)| *d == dir) {
+            Some((_, files)) => files.push(p),
+            None => dirs.push((dir, vec![p])),
+        }
+    }
+    let mut out = String::new();
+    for (dir, files) in dirs {
+        if files.len() > 3 {
+            let names: Vec<String> = files
+                .iter()
+                .filter_map(|f| f.file_name())
+                .map(|n| n.to_string_lossy().into_owned())
+                .collect();
+            out.push_str(&format!(
+                "gonio: wrote {} files in {}: {}\n",
+                files.len(),
+                dir.display(),
+                names.join(" ")
+            ));
+        } else {
+            for f in files {
+                out.push_str(&format!("gonio: wrote {}\n", f.display()));
+            }
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::PathBuf;
+
+    #[test]
+    fn few_files_one_line_each_many_by_directory() {
+        let p = |s: &str| PathBuf::from(s);
+        let plots: Vec<PathBuf> = ["a.png", "a.svg", "b.png", "b.svg"]
+            .iter()
+            .map(|n| p(&format!("plots/{n}")))
+            .collect();
+        let mut all = plots.clone();
+        all.push(p("fit.json"));
+        assert_eq!(
+            super::written_lines(&all),
+            "gonio: wrote 4 files in plots: a.png a.svg b.png b.svg\ngonio: wrote fit.json\n"
+        );
+    }
+}

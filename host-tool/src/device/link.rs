@@ -19,6 +19,11 @@ pub trait Transport {
     /// Releases the device (a serial port's exclusive lock) before it is opened again;
     /// sending or receiving afterwards fails.
     fn close(&mut self) {}
+    /// Where the device is, for messages (a serial port's path); `None` for devices
+    /// that have no name a user gave.
+    fn port_name(&self) -> Option<&str> {
+        None
+    }
 }
 
 /// Why talking to the device failed.
@@ -35,6 +40,14 @@ pub enum LinkError {
     Io(io::Error),
     /// Nothing arrived in time.
     Timeout(&'static str),
+    /// Nothing answered the handshake: no gonio device at `port`, or its firmware is
+    /// not running.
+    NoAnswer {
+        /// The port, when the transport has one.
+        port: Option<String>,
+        /// How long it was asked, in seconds.
+        secs: u64,
+    },
     /// Writing the raw frame log (`--raw`) failed: an error on the host's side (a full
     /// disk), not the device's. What arrived was decoded before the log was written.
     Log(io::Error),
@@ -55,6 +68,17 @@ impl fmt::Display for LinkError {
             LinkError::Open { path, reason } => write!(f, "cannot open {path}: {reason}"),
             LinkError::Io(e) => write!(f, "device link failed: {e}"),
             LinkError::Timeout(what) => write!(f, "device did not answer: {what}"),
+            LinkError::NoAnswer {
+                port: Some(port),
+                secs,
+            } => write!(
+                f,
+                "nothing answered on {port} within {secs} s: no gonio device there, or its firmware is not running; \
+                 check the port (gonio ports marks gonio devices with '*') and the cable, or flash the firmware (gonio flash)"
+            ),
+            LinkError::NoAnswer { port: None, secs } => {
+                write!(f, "the device did not answer the handshake within {secs} s")
+            }
             LinkError::Log(e) => write!(
                 f,
                 "writing the raw frame log failed on this computer ({e}), not on the device"
@@ -203,7 +227,10 @@ impl<T: Transport> FramedLink<T> {
         let token = 0x676F_6E69; // "goni"
         'ping: loop {
             if Instant::now() >= deadline {
-                return Err(LinkError::Timeout("no Pong to Ping"));
+                return Err(LinkError::NoAnswer {
+                    port: self.transport.port_name().map(str::to_string),
+                    secs: timeout.as_secs_f64().round() as u64,
+                });
             }
             // Flush line noise in front of the first frame.
             self.send_raw(&[0])?;

@@ -32,7 +32,12 @@ impl SerialTransport {
         let port = serialport::new(path, 115_200)
             .timeout(Duration::from_millis(20))
             .open_native()
-            .map_err(|e| cannot(e.to_string()))?;
+            .map_err(|e| match not_a_port(Path::new(path)) {
+                Some(what) => cannot(format!(
+                    "not a serial port ({what}): give the device's port, e.g. /dev/ttyACM0 (gonio ports lists the ports found)"
+                )),
+                None => cannot(e.to_string()),
+            })?;
         flock(port.as_raw_fd(), FlockArg::LockExclusiveNonblock).map_err(|e| {
             cannot(format!(
                 "in use by another program (it holds the port's lock: {e})"
@@ -43,6 +48,33 @@ impl SerialTransport {
             path: path.to_string(),
         })
     }
+}
+
+/// What `path` is when it plainly cannot be a serial port (a regular file, a
+/// directory, a device that is not a terminal such as /dev/null); `None` when it may be
+/// one, or cannot be looked at (the open's own error then says why).
+fn not_a_port(path: &Path) -> Option<&'static str> {
+    use std::io::IsTerminal;
+    use std::os::unix::fs::{FileTypeExt, OpenOptionsExt};
+    let meta = std::fs::metadata(path).ok()?;
+    let kind = meta.file_type();
+    if kind.is_dir() {
+        return Some("a directory");
+    }
+    if kind.is_file() {
+        return Some("a regular file");
+    }
+    if !kind.is_char_device() {
+        return Some("a special file that is not a character device");
+    }
+    // Non-blocking and without becoming the controlling terminal: only asked whether
+    // it is a terminal, never read.
+    let f = std::fs::OpenOptions::new()
+        .read(true)
+        .custom_flags(nix::libc::O_NONBLOCK | nix::libc::O_NOCTTY)
+        .open(path)
+        .ok()?;
+    (!f.is_terminal()).then_some("a device that is not a terminal")
 }
 
 impl SerialTransport {
@@ -82,6 +114,10 @@ impl Transport for SerialTransport {
     fn close(&mut self) {
         // Dropping the port releases its exclusive lock (TIOCEXCL) and descriptor.
         self.port = None;
+    }
+
+    fn port_name(&self) -> Option<&str> {
+        Some(&self.path)
     }
 }
 

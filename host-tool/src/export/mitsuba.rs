@@ -333,11 +333,7 @@ pub fn write_mitsuba(target: Target<'_>, table: &MemberTable) -> Result<(), Expo
     let scene = scene_for(table);
     let paths = files(dir);
     for (path, body) in paths.iter().zip([PLUGIN, &model, &scene]) {
-        let t = Target {
-            path,
-            force: target.force,
-            inputs: target.inputs,
-        };
+        let t = Target { path, ..target };
         write_atomic(t, |w| w.write_all(body.as_bytes()))?;
     }
     Ok(())

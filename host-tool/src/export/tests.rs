@@ -346,9 +346,11 @@ fn an_unwritable_path_fails_naming_it_and_leaves_no_file() {
         Member::THREE_COMPONENT,
     )
     .unwrap_err();
-    assert!(matches!(e, ExportError::Write(_)), "failed: {e}");
+    // A missing directory is bad input, refused naming it (issue 42).
+    assert!(matches!(e, ExportError::Refused(_)), "failed: {e}");
     assert!(
-        e.to_string().contains(&missing.display().to_string()),
+        e.to_string().contains(&missing.display().to_string())
+            && e.to_string().contains("no-such-dir does not exist"),
         "{e}"
     );
     assert!(!e.to_string().contains('\n'));

@@ -16,7 +16,7 @@ use super::options::{FitOptions, Residual};
 use super::report::{family_json_text, family_table};
 use super::stages::fit_family;
 use crate::outfile::{self, Target};
-use crate::sweep_file::{looks_like_radians, read_sweep};
+use crate::sweep_file::{looks_like_radians, radians_warning, read_sweep};
 
 /// Why one file could not be fitted.
 #[derive(Debug, Clone, PartialEq)]
@@ -62,10 +62,7 @@ pub fn read_data(path: &Path, opts: &FitOptions) -> Result<(Dataset, Vec<String>
         return Err(FileError::Input(format!("{}: no readings", path.display())));
     }
     if let Some(max) = looks_like_radians(&sweep.rows) {
-        warnings.push(format!(
-            "every angle in {} is within {max:.3}: are they radians? gonio reads degrees",
-            path.display()
-        ));
+        warnings.push(radians_warning(&path.display().to_string(), max));
     }
     let name = path.display().to_string();
     let mut data = prepare(&sweep.rows, sweep.brdf_units(), opts, &name)
@@ -380,7 +377,8 @@ pub fn check_outputs(dir: &Path, inputs: &[PathBuf], ext: &str, force: bool) -> 
     let (csv, js) = summary_paths(dir);
     let reports = report_names(inputs, ext).into_iter().map(|n| dir.join(n));
     for p in [csv, js].into_iter().chain(reports) {
-        outfile::check(Target::new(&p, force).inputs(&paths)).map_err(|e| e.to_string())?;
+        outfile::check(Target::new(&p, force).inputs(&paths).in_made_dir())
+            .map_err(|e| e.to_string())?;
     }
     Ok(())
 }

@@ -402,9 +402,11 @@ fn member_block(out: &mut String, f: &FamilyFit, fit: &MemberFit, residual: &str
     } else {
         ""
     };
-    let k = fit.k();
-    let plural = if k == 1 { "" } else { "s" };
-    let _ = writeln!(out, "{m} ({k} free parameter{plural}){mark}");
+    let _ = writeln!(
+        out,
+        "{m} ({}){mark}",
+        crate::text::count(fit.k(), "free parameter")
+    );
     for p in member_params(fit) {
         let _ = writeln!(
             out,

@@ -125,7 +125,7 @@ pub fn check_plots(
         )));
     }
     for f in plot_files(dir, incidences) {
-        check(Target::new(&f, force))?;
+        check(Target::new(&f, force).in_made_dir())?;
     }
     Ok(())
 }

@@ -30,8 +30,8 @@ mod units;
 mod write;
 
 pub use read::{
-    ANGLE_UNITS, BRDF_MAX, BRDF_MIN, MAX_SWEEP_BYTES, SweepData, looks_like_radians, parse_sweep,
-    read_sweep,
+    ANGLE_UNITS, BRDF_MAX, BRDF_MIN, MAX_SWEEP_BYTES, SweepData, angles_look_like_radians,
+    looks_like_radians, parse_sweep, radians_warning, read_sweep,
 };
 pub use units::{BRDF_KEY, BrdfUnits, refuse_mixed};
 pub use write::SweepWriter;

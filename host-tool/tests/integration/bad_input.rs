@@ -708,7 +708,7 @@ const CASES: &[Case] = &[
     out(
         &["capture", "--port", "/dev/null", "--out", "{d}/c2.csv"],
         1,
-        "/dev/null",
+        "cannot open /dev/null: not a serial port (a device that is not a terminal): give the device's port",
         "c2.csv",
     ),
     out(
@@ -1046,8 +1046,8 @@ const CASES: &[Case] = &[
             "--out",
             "{d}/plainfile/x.csv",
         ],
-        1,
-        "plainfile",
+        2,
+        "cannot write {d}/plainfile/x.csv: {d}/plainfile is not a directory",
         "plainfile/x.csv",
     ),
     out(
@@ -1568,6 +1568,73 @@ const CASES: &[Case] = &[
         2,
         "invalid value 'xxx",
     ),
+    // Issue 42: each message names the thing and says what to do.
+    out(
+        &["capture", "--port", "{d}/empty.csv", "--out", "{d}/c42.csv"],
+        1,
+        "empty.csv: not a serial port (a regular file)",
+        "c42.csv",
+    ),
+    out(
+        &["capture", "--port", "{pty}", "--out", "{d}/c43.csv"],
+        1,
+        "nothing answered on /dev/pts/",
+        "c43.csv",
+    ),
+    case(
+        &["info", "--port", "{pty}", "--timeout", "1"],
+        1,
+        "within 1 s: no gonio device there, or its firmware is not running; check the port (gonio ports",
+    ),
+    out(
+        &[
+            "capture",
+            "--port",
+            "{d}/no-such-port",
+            "--out",
+            "{d}/nodir/c44.csv",
+        ],
+        2,
+        "the directory {d}/nodir does not exist (create it with mkdir -p",
+        "nodir/c44.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--out",
+            "{d}/nodir/s44.csv",
+        ],
+        2,
+        "cannot write {d}/nodir/s44.csv: the directory {d}/nodir does not exist",
+        "nodir/s44.csv",
+    ),
+    out(
+        &[
+            "fit",
+            "{d}/fe-0.115.csv",
+            "--export",
+            "json={d}/nodir/f44.json",
+        ],
+        2,
+        "the directory {d}/nodir does not exist",
+        "nodir/f44.json",
+    ),
+    // A warning, not a refusal: the evaluation runs, one line says what looks wrong.
+    case(
+        &[
+            "eval",
+            "--material",
+            "fe-0.115",
+            "--theta-i",
+            "0.35",
+            "--theta-r",
+            "-1.2:1.2:0.6",
+        ],
+        0,
+        "warning: every angle in --theta-i and --theta-r is within 1.200: are they radians? gonio reads degrees",
+    ),
     // no subcommand, unknown subcommand
     case(&[], 2, "missing subcommand"),
     case(&["frobnicate"], 2, "frobnicate"),
@@ -1584,6 +1651,27 @@ fn long_value() -> String {
     v
 }
 
+/// A terminal nothing answers on (`{pty}` in a case's arguments): the slave of a
+/// pseudo-terminal whose master is read and discarded, so gonio's pings never fill it.
+fn silent_port() -> &'static str {
+    static PORT: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    PORT.get_or_init(|| {
+        let pty = nix::pty::openpty(None, None).expect("a pseudo-terminal");
+        let name = std::fs::read_link(format!("/proc/self/fd/{}", pty.slave))
+            .expect("the slave's path")
+            .to_string_lossy()
+            .into_owned();
+        // Closing the slave here would hang up the line for gonio's opens: it stays
+        // open (and the master drained) for the whole test binary.
+        let master = pty.master;
+        std::thread::spawn(move || {
+            let mut buf = [0u8; 4096];
+            while nix::unistd::read(master, &mut buf).is_ok_and(|n| n > 0) {}
+        });
+        name
+    })
+}
+
 fn run(d: &Path, c: &Case) {
     let args: Vec<String> = c
         .args
@@ -1591,6 +1679,7 @@ fn run(d: &Path, c: &Case) {
         .map(|a| {
             a.replace("{d}", d.to_str().unwrap())
                 .replace("{long}", &long_value())
+                .replace("{pty}", silent_port())
         })
         .collect();
     let before = c.no_output.and_then(|p| std::fs::read(d.join(p)).ok());
@@ -1602,6 +1691,7 @@ fn run(d: &Path, c: &Case) {
         .into();
     let err = &out.stderr;
     let ctx = format!("gonio {}", args.join(" "));
+    let says = c.says.replace("{d}", d.to_str().unwrap());
     assert!(!err.contains("panicked"), "{ctx}: {err}");
     assert_eq!(out.code, c.code, "{ctx}: {err}");
     if c.code == 2 {
@@ -1615,9 +1705,8 @@ fn run(d: &Path, c: &Case) {
     );
     assert!(err.starts_with("gonio: "), "{ctx}: {err}");
     assert!(
-        err.to_lowercase().contains(&c.says.to_lowercase()),
-        "{ctx}: message lacks '{}': {err}",
-        c.says
+        err.to_lowercase().contains(&says.to_lowercase()),
+        "{ctx}: message lacks '{says}': {err}"
     );
     if let Some(p) = c.no_output {
         let now = std::fs::read(d.join(p)).ok();

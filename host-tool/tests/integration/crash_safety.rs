@@ -10,7 +10,7 @@ use gonio::sweep_file::{parse_sweep, read_sweep};
 use gonio::testing::assert_each_point_once;
 use gonio::testing::faults::Draws;
 
-use crate::util::{Run, gonio_command, scratch};
+use crate::util::{Run, gonio, gonio_command, scratch};
 
 /// Checks that the file reads up to its last complete row, and that cutting it at any
 /// byte after the header also reads (a crash mid-write).
@@ -96,5 +96,51 @@ fn capture_killed_at_random_moments_resumes_without_duplicates() {
     eprintln!(
         "{kills} kills; rows in the file after each: {rows_after_kill:?}; {:.1} s",
         started.elapsed().as_secs_f64()
+    );
+}
+
+/// Progress says what a file already holds only when a capture resumes it, and once; a
+/// fresh capture does not announce "0/153 readings already in the file".
+#[test]
+fn only_a_resumed_capture_says_what_the_file_holds() {
+    let d = scratch("progress");
+    let f = d.join("p.csv");
+    let path = f.to_str().unwrap();
+    let fresh = gonio(&["simulate", "--material", "fe-0.115", "--out", path]);
+    assert!(fresh.ok(), "{}", fresh.stderr);
+    assert!(
+        !fresh.stderr.contains("already in the file"),
+        "{}",
+        fresh.stderr
+    );
+    // Cut the last 10 rows and mark the capture interrupted (same width: the status
+    // line is rewritten in place).
+    let text = std::fs::read_to_string(&f).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    let cut = lines[..lines.len() - 10].join("\n") + "\n";
+    std::fs::write(
+        &f,
+        cut.replace("status: complete   ", "status: interrupted"),
+    )
+    .unwrap();
+    let resumed = gonio(&[
+        "simulate",
+        "--material",
+        "fe-0.115",
+        "--resume",
+        "--out",
+        path,
+    ]);
+    assert!(resumed.ok(), "{}", resumed.stderr);
+    let said: Vec<&str> = resumed
+        .stderr
+        .lines()
+        .filter(|l| l.contains("already in the file"))
+        .collect();
+    assert_eq!(
+        said,
+        ["capture: resuming: 143/153 readings already in the file"],
+        "{}",
+        resumed.stderr
     );
 }

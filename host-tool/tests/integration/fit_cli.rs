@@ -114,6 +114,54 @@ fn table_shows_parameters_and_the_papers_rmse_table() {
     assert!(!t.contains("ideal-diffuse ("), "only the models asked for");
 }
 
+/// What a lab shares: the files `fit --plot --export` writes get the user's umask (here
+/// 027: group read, nothing for others), as a plain `touch` would, and each is named.
+#[test]
+fn written_files_follow_the_umask_and_are_listed() {
+    use std::os::unix::fs::PermissionsExt;
+    let d = scratch("umask");
+    let f = simulated(&d, "fe-0.115");
+    let plots = d.join("plots");
+    let json = d.join("fe.json");
+    let out: crate::util::Run = std::process::Command::new("sh")
+        .arg("-c")
+        .arg("umask 027 && exec \"$0\" \"$@\"")
+        .arg(env!("CARGO_BIN_EXE_gonio"))
+        .args([
+            "fit",
+            f.to_str().unwrap(),
+            "--plot",
+            plots.to_str().unwrap(),
+        ])
+        .arg(format!("--export=json={}", json.display()))
+        .output()
+        .unwrap()
+        .into();
+    assert!(out.ok(), "{}", out.stderr);
+    let mut files: Vec<_> = std::fs::read_dir(&plots)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    assert_eq!(files.len(), 20, "{files:?}");
+    files.push(json.clone());
+    for p in &files {
+        let mode = std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode, 0o640, "{}: {mode:o}", p.display());
+        let name = p.file_name().unwrap().to_str().unwrap();
+        assert!(
+            out.stderr.contains(name),
+            "{name} not listed:\n{}",
+            out.stderr
+        );
+    }
+    assert!(
+        out.stderr
+            .contains(&format!("gonio: wrote {}", json.display())),
+        "{}",
+        out.stderr
+    );
+}
+
 #[test]
 fn demo_recovers_the_sample_it_simulated() {
     let d = scratch("demo");
@@ -131,6 +179,11 @@ fn demo_recovers_the_sample_it_simulated() {
         t.contains("153 readings of a simulated al-0.782 sample"),
         "{t}"
     );
+    // The verdict comes before the family's model blocks.
+    let verdict = t
+        .find("verdict: the fit selected three-component,")
+        .expect(&t);
+    assert!(verdict < t.find("free parameter").unwrap(), "{t}");
     let line = t
         .lines()
         .find(|l| l.trim_start().starts_with("sigma ") && l.contains("true"))

@@ -6,6 +6,7 @@ mod util;
 mod bad_input;
 mod capture_pty;
 mod crash_safety;
+mod docs_examples;
 mod eval_cli;
 mod fault_injection;
 mod fit_cli;

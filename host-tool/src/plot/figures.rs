@@ -57,8 +57,34 @@ pub(super) enum Swatch {
     Marker(RGBColor),
     /// A circle on a line (overview: points and curve of one incidence).
     Both(RGBColor),
-    /// A dashed line of a colour (the components of the selected model).
-    Dashed(RGBColor),
+    /// A dashed line of a colour and dash pattern (one component of the selected
+    /// model).
+    Dashed(RGBColor, Dash),
+}
+
+/// A dash pattern: dash and gap lengths (pixels).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) struct Dash(pub(super) u32, pub(super) u32);
+
+/// Each component's own dash pattern, so the components of the selected model can be
+/// told apart in the plot and in the legend: the core in short dashes, the haze in
+/// long ones, the directional diffuse dotted, the ideal diffuse in sparse long dashes.
+pub(super) fn component_dash(name: &str) -> Dash {
+    match name {
+        "specular core" => Dash(8, 5),
+        "specular haze" => Dash(16, 6),
+        "directional diffuse" => Dash(2, 4),
+        _ => Dash(24, 10),
+    }
+}
+
+/// One component of the selected model drawn on its own.
+#[derive(Debug, Clone)]
+pub(super) struct Lobe {
+    /// Its points and colour.
+    pub(super) curve: Curve,
+    /// Its dash pattern ([`component_dash`]).
+    pub(super) dash: Dash,
 }
 
 /// A lighter shade of `c` (components drawn under their model's curve).
@@ -99,8 +125,9 @@ pub(super) struct Figure {
     pub(super) legend: Vec<(Swatch, String)>,
     /// Small print under the legend.
     pub(super) notes: Vec<String>,
-    /// Each component of the selected model on its own (dashed).
-    pub(super) lobes: Vec<Curve>,
+    /// Each component of the selected model on its own (dashed, each its own way),
+    /// clipped to the chart when drawn.
+    pub(super) lobes: Vec<Lobe>,
     /// The residual panel under the chart: ln(measured / fitted) of the selected model
     /// per reading, against theta_r (empty: no panel).
     pub(super) residuals: Vec<(f64, f64)>,
@@ -309,8 +336,7 @@ pub(super) fn incidence_figure(data: &Dataset, fam: &FamilyFit, j: usize) -> Fig
     let mut curves = Vec::new();
     let mut rmse_parts = Vec::new();
     let mut lobes = Vec::new();
-    let mut lobe_names = Vec::new();
-    let mut lobe_legend = None;
+    let mut lobe_legend = Vec::new();
     let mut residuals = Vec::new();
     for m in wanted {
         let Some(fit) = shown(fam, m) else { continue };
@@ -354,18 +380,16 @@ pub(super) fn incidence_figure(data: &Dataset, fam: &FamilyFit, j: usize) -> Fig
             {
                 let light = lighter(color);
                 for (name, points) in component_curves(&model, ti, norm) {
-                    lobes.push(Curve {
-                        color: light,
-                        width: 2,
-                        points,
+                    let dash = component_dash(name);
+                    lobes.push(Lobe {
+                        curve: Curve {
+                            color: light,
+                            width: 2,
+                            points,
+                        },
+                        dash,
                     });
-                    lobe_names.push(name);
-                }
-                if !lobe_names.is_empty() {
-                    lobe_legend = Some((
-                        Swatch::Dashed(light),
-                        format!("selected, by component: {}", lobe_names.join(", ")),
-                    ));
+                    lobe_legend.push((Swatch::Dashed(light, dash), format!("selected: {name}")));
                 }
             }
             residuals = jd
@@ -419,7 +443,7 @@ pub(super) fn incidence_figure(data: &Dataset, fam: &FamilyFit, j: usize) -> Fig
         notes.push(format!("{hidden} reading(s) <= 0 not shown (log axis)."));
     }
     notes.extend(left_out_note(data));
-    Figure {
+    let mut fig = Figure {
         title: format!(
             "Normalised in-plane BRDF, theta_i = {} degrees",
             angle_text(ti)
@@ -436,7 +460,22 @@ pub(super) fn incidence_figure(data: &Dataset, fam: &FamilyFit, j: usize) -> Fig
         notes,
         lobes,
         residuals,
+    };
+    // A component wholly below the chart is not drawn (no component is above the
+    // model it is part of): its legend entry says where it is instead.
+    let (lo, _) = super::render::y_range(&fig);
+    for (l, (_, text)) in fig.lobes.iter().zip(
+        fig.legend
+            .iter_mut()
+            .filter(|(s, _)| matches!(s, Swatch::Dashed(..))),
+    ) {
+        let top = l.curve.points.iter().map(|p| p.1).fold(0.0, f64::max);
+        if top < lo {
+            let top = super::render::tick_text(top);
+            text.push_str(&format!(" (below the chart: at most {top})"));
+        }
     }
+    fig
 }
 
 /// Colour `k` of `n` along a dark purple -> blue -> teal -> green -> gold -> red scale

@@ -69,7 +69,7 @@ pub(super) fn tick_text(v: f64) -> String {
 }
 
 /// The y range of a figure: every plotted value with some room above and below.
-fn y_range(fig: &Figure) -> (f64, f64) {
+pub(super) fn y_range(fig: &Figure) -> (f64, f64) {
     let ys = fig
         .curves
         .iter()
@@ -83,6 +83,40 @@ fn y_range(fig: &Figure) -> (f64, f64) {
         return (0.1, 10.0);
     }
     (lo / 1.6, hi * 1.8)
+}
+
+/// The parts of a curve (x ascending, y > 0) within [lo, hi] in y, each a run of
+/// points; where it crosses a bound it ends or starts on it (interpolated in ln y), so
+/// nothing outside the range is drawn, nor drawn at the range's edge.
+pub(super) fn clip_runs(points: &[(f64, f64)], lo: f64, hi: f64) -> Vec<Vec<(f64, f64)>> {
+    let inside = |y: f64| (lo..=hi).contains(&y);
+    // Where the segment from a to b meets the bound `at` (in ln y).
+    let cross = |a: (f64, f64), b: (f64, f64), at: f64| {
+        let w = (at.ln() - a.1.ln()) / (b.1.ln() - a.1.ln());
+        (a.0 + w * (b.0 - a.0), at)
+    };
+    let mut runs = Vec::new();
+    let mut run: Vec<(f64, f64)> = Vec::new();
+    for (k, &p) in points.iter().enumerate() {
+        let prev = k.checked_sub(1).map(|i| points[i]);
+        match (prev, inside(p.1)) {
+            (Some(a), true) if !inside(a.1) => {
+                run.push(cross(a, p, if a.1 < lo { lo } else { hi }));
+                run.push(p);
+            }
+            (_, true) => run.push(p),
+            (Some(a), false) if inside(a.1) => {
+                run.push(cross(a, p, if p.1 < lo { lo } else { hi }));
+                runs.push(std::mem::take(&mut run));
+            }
+            _ => {}
+        }
+    }
+    if run.len() > 1 {
+        runs.push(run);
+    }
+    runs.retain(|r| r.len() > 1);
+    runs
 }
 
 /// Saves a figure as `<stem>.png` and `<stem>.svg` in `dir`.
@@ -201,15 +235,19 @@ fn render<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, fig: &Figure) -> Re
             ))
             .map_err(err)?;
     }
-    for c in &fig.lobes {
-        chart
-            .draw_series(DashedLineSeries::new(
-                c.points.iter().copied(),
-                8,
-                5,
-                c.color.stroke_width(c.width),
-            ))
-            .map_err(err)?;
+    for l in &fig.lobes {
+        // Clipped to the chart: a component far below the data is not drawn along the
+        // axis, where it would read as a value it does not have.
+        for run in clip_runs(&l.curve.points, lo, hi) {
+            chart
+                .draw_series(DashedLineSeries::new(
+                    run,
+                    l.dash.0,
+                    l.dash.1,
+                    l.curve.color.stroke_width(l.curve.width),
+                ))
+                .map_err(err)?;
+        }
     }
     for c in &fig.curves {
         chart
@@ -263,11 +301,12 @@ fn render<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, fig: &Figure) -> Re
                         .map_err(err)?;
                 }
             }
-            Swatch::Dashed(c) => {
-                for s in (x0..x1).step_by(13) {
+            Swatch::Dashed(c, dash) => {
+                let step = (dash.0 + dash.1).max(1) as usize;
+                for s in (x0..x1).step_by(step) {
                     legend_area
                         .draw(&PathElement::new(
-                            vec![(s, y), ((s + 8).min(x1), y)],
+                            vec![(s, y), ((s + dash.0 as i32).min(x1), y)],
                             c.stroke_width(2),
                         ))
                         .map_err(err)?;

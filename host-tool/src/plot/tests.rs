@@ -236,3 +236,53 @@ fn the_overview_says_the_fits_units() {
         "BRDF (relative units)"
     );
 }
+
+#[test]
+fn component_curves_are_clipped_to_the_chart_not_drawn_along_its_edge() {
+    use super::render::clip_runs;
+    // A curve falling through the bottom bound and rising back.
+    let pts = [
+        (0.0, 10.0),
+        (1.0, 1.0),
+        (2.0, 0.01),
+        (3.0, 0.001),
+        (4.0, 1.0),
+    ];
+    let runs = clip_runs(&pts, 0.1, 100.0);
+    assert_eq!(runs.len(), 2, "{runs:?}");
+    for r in &runs {
+        assert!(r.iter().all(|p| (0.1..=100.0).contains(&p.1)), "{r:?}");
+    }
+    // The crossings sit on the bound, interpolated in ln y: 1 -> 0.01 meets 0.1 half way.
+    let end = runs[0].last().unwrap();
+    assert!(
+        (end.0 - 1.5).abs() < 1e-12 && (end.1 - 0.1).abs() < 1e-15,
+        "{end:?}"
+    );
+    let start = runs[1][0];
+    assert!((start.0 - (3.0 + 2.0 / 3.0)).abs() < 1e-12, "{start:?}");
+    // Wholly outside: nothing to draw.
+    assert!(clip_runs(&[(0.0, 1e-6), (1.0, 1e-5)], 0.1, 1.0).is_empty());
+}
+
+#[test]
+fn each_component_has_its_own_dash_and_legend_entry() {
+    let (data, fam) = fixture();
+    let fig = incidence_figure(data, fam, 0);
+    assert!(fig.lobes.len() >= 3, "{}", fig.lobes.len());
+    let dashes: Vec<super::figures::Dash> = fig.lobes.iter().map(|l| l.dash).collect();
+    for (i, a) in dashes.iter().enumerate() {
+        assert!(!dashes[i + 1..].contains(a), "{dashes:?}");
+    }
+    let entries: Vec<&String> = fig
+        .legend
+        .iter()
+        .filter(|(s, _)| matches!(s, super::figures::Swatch::Dashed(..)))
+        .map(|(_, t)| t)
+        .collect();
+    assert_eq!(entries.len(), fig.lobes.len(), "{entries:?}");
+    assert!(
+        entries.iter().any(|t| t.contains("ideal diffuse")),
+        "{entries:?}"
+    );
+}

@@ -6,6 +6,7 @@ use std::io::Read;
 use std::path::Path;
 
 use super::format::{COLUMNS, Counters, Row, STATUS_PREFIX, SweepFileError};
+use super::header_row::{header_columns, sniff_delimiter};
 use super::units::{BRDF_KEY, BrdfUnits};
 use crate::text::escape_line;
 
@@ -335,8 +336,10 @@ fn read_table(
         at: 0,
         line: first_line,
     };
+    let delimiter = sniff_delimiter(table);
     let mut rdr = csv::ReaderBuilder::new()
         .has_headers(false)
+        .delimiter(delimiter)
         .flexible(true)
         .trim(csv::Trim::All)
         .from_reader(table);
@@ -382,7 +385,8 @@ fn read_table(
         }
         data.no_final_newline = last_unterminated;
         let Some(idx) = &col else {
-            col = Some(header_columns(&fields, lineno, data)?);
+            data.columns = fields.iter().map(|c| c.to_string()).collect();
+            col = Some(header_columns(&fields, delimiter).map_err(|m| (lineno, m))?);
             continue;
         };
         let row = parse_row(&fields, idx, lineno)?;
@@ -426,38 +430,6 @@ fn read_table(
     Ok(())
 }
 
-/// The header row: where each of [`COLUMNS`] is (the first three required, none twice).
-fn header_columns(
-    fields: &[&str],
-    lineno: usize,
-    data: &mut SweepData,
-) -> Result<[Option<usize>; 7], (usize, String)> {
-    data.columns = fields.iter().map(|c| c.to_string()).collect();
-    let find = |name: &str| data.columns.iter().position(|c| c == name);
-    let idx = COLUMNS.map(find);
-    for (name, i) in COLUMNS.iter().zip(idx).take(3) {
-        if i.is_none() {
-            let shown = fields.join(",");
-            return Err((
-                lineno,
-                format!(
-                    "missing column '{name}' (header: {})",
-                    escape_line(&shown, 2 * QUOTE_CHARS)
-                ),
-            ));
-        }
-    }
-    for name in COLUMNS {
-        if data.columns.iter().filter(|c| *c == name).count() > 1 {
-            return Err((
-                lineno,
-                format!("column '{name}' appears more than once: which one is meant?"),
-            ));
-        }
-    }
-    Ok(idx)
-}
-
 /// One row from its fields (`idx`: where each of [`COLUMNS`] is).
 fn parse_row(
     fields: &[&str],
@@ -481,10 +453,19 @@ fn parse_row(
             None => Ok(None),
             Some(s) => match s.parse::<f64>() {
                 Ok(v) if v.is_finite() => Ok(Some(v)),
-                _ => Err((
-                    lineno,
-                    format!("{name} {} is not a finite number", quoted(s)),
-                )),
+                _ => {
+                    // A ';' or tab table may write decimals with a comma.
+                    let hint = if s.contains(',') && s.replacen(',', ".", 1).parse::<f64>().is_ok()
+                    {
+                        " (a decimal comma? gonio import table FILE --decimal-comma converts such a table)"
+                    } else {
+                        ""
+                    };
+                    Err((
+                        lineno,
+                        format!("{name} {} is not a finite number{hint}", quoted(s)),
+                    ))
+                }
             },
         }
     };

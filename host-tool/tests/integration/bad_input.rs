@@ -91,6 +91,7 @@ fn fixtures() -> Scratch {
     w("exists.csv", b"precious\n");
     w("plainfile", b"not a directory\n");
     w("fit-cols.csv", b"theta_i,brdf\n1,2\n");
+    w("fit-aoi.csv", b"AOI;AOS;BRDF\n20;20;5\n20;30;4\n20;40;3\n");
     w("fit-nan.csv", b"theta_i,theta_r,brdf\n10,0,1\n10,5,nan\n");
     w("fit-bin.csv", b"\x00\x01\x02\xff\n");
     w("fit-few.csv", b"theta_i,theta_r,brdf\n10,0,1\n10,5,2\n");
@@ -201,6 +202,15 @@ fn accepted_fixtures(d: &Path, text: &str) {
     w(
         "ok-big.csv",
         b"theta_i,theta_r,brdf\n20,20,1e30\n20,30,4\n20,40,1e-30\n",
+    );
+    // Another tool's delimiters (sniffed) and column names in another case.
+    w(
+        "ok-semicolon.csv",
+        b"Theta_i;Theta_r;BRDF\n20;20;5\n20;30;4\n20;40;3\n",
+    );
+    w(
+        "ok-tab.csv",
+        b"# brdf: relative\nTHETA_I\tTHETA_R\tBrdf\n20\t20\t5\n20\t30\t4\n20\t40\t3\n",
     );
     // A symlink where a predictable temporary name would be: never written through.
     std::os::unix::fs::symlink(d.join("exists.csv"), d.join("out.json.tmp")).unwrap();
@@ -468,6 +478,11 @@ const CASES: &[Case] = &[
     case(&["fit", "/nonexistent.csv"], 2, "cannot read"),
     case(&["fit", "{d}/empty.csv"], 2, "no readings"),
     case(&["fit", "{d}/fit-cols.csv"], 2, "missing column 'theta_r'"),
+    case(
+        &["fit", "{d}/fit-aoi.csv"],
+        2,
+        "3 column(s) separated by ';': 'AOI' 'AOS' 'BRDF'; gonio reads theta_i, theta_r, brdf (any case); for other names use gonio import table",
+    ),
     case(&["fit", "{d}/fit-nan.csv"], 2, ":3: brdf 'nan'"),
     case(&["fit", "{d}/fit-bin.csv"], 2, "not UTF-8"),
     case(
@@ -1724,6 +1739,16 @@ const ACCEPTED: &[Accepted] = &[
     },
     Accepted {
         file: "ok-big.csv",
+        n: 3,
+        warns: "",
+    },
+    Accepted {
+        file: "ok-semicolon.csv",
+        n: 3,
+        warns: "",
+    },
+    Accepted {
+        file: "ok-tab.csv",
         n: 3,
         warns: "",
     },

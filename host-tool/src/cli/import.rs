@@ -1,5 +1,5 @@
 //! `gonio import`: measurements made elsewhere into gonio's sweep-file format
-//! (`gonio import merl`).
+//! (`gonio import merl`, `gonio import table`).
 
 use std::path::PathBuf;
 
@@ -7,7 +7,8 @@ use clap::{Args, Subcommand, ValueEnum};
 
 use super::args::{Angles, parse_angles, theta_r_angles};
 use super::error::{CliError, CliResult};
-use crate::import::merl::{self, Channel, ImportError, MerlFile};
+use crate::import::ImportError;
+use crate::import::merl::{self, Channel, MerlFile};
 
 /// `gonio import`.
 #[derive(Debug, Args)]
@@ -23,6 +24,8 @@ pub struct ImportArgs {
 pub enum ImportFormat {
     /// A MERL BRDF database file (.binary).
     Merl(MerlArgs),
+    /// Another instrument's in-plane table (columns named with --columns).
+    Table(super::import_table::TableArgs),
 }
 
 /// Colour channel on the command line.
@@ -88,6 +91,7 @@ pub struct MerlArgs {
 pub fn run(args: &ImportArgs) -> CliResult {
     match &args.format {
         ImportFormat::Merl(a) => run_merl(a),
+        ImportFormat::Table(a) => super::import_table::run(a),
     }
 }
 
@@ -130,7 +134,8 @@ fn run_merl(args: &MerlArgs) -> CliResult {
     Ok(())
 }
 
-fn import_error(e: ImportError) -> CliError {
+/// An import's error as the CLI's: bad input (exit 2) or a failed write (exit 1).
+pub fn import_error(e: ImportError) -> CliError {
     match e {
         ImportError::Invalid(m) => CliError::usage(m),
         ImportError::Write(m) => CliError::failed(m),

@@ -31,9 +31,10 @@ mod read;
 mod units;
 mod write;
 
+pub use header_row::{DELIMITERS, delimiter_name, sniff_delimiter};
 pub use read::{
     ANGLE_UNITS, BRDF_MAX, BRDF_MIN, MAX_SWEEP_BYTES, SweepData, looks_like_radians, parse_sweep,
-    read_sweep,
+    read_input, read_sweep,
 };
 pub use units::{BRDF_KEY, BrdfUnits, refuse_mixed};
 pub use write::SweepWriter;

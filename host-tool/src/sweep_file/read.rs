@@ -136,18 +136,24 @@ pub(super) fn parse_named(bytes: &[u8], path: &Path) -> Result<SweepData, SweepF
 /// Reads a sweep file: a regular file of at most [`MAX_SWEEP_BYTES`] (a device, FIFO
 /// or directory is refused before anything is read). See [`parse_sweep`].
 pub fn read_sweep(path: &Path) -> Result<SweepData, SweepFileError> {
+    let bytes = read_input(path, "sweep files")?;
+    parse_named(&bytes, path)
+}
+
+/// The bytes of an input file: a regular file of at most [`MAX_SWEEP_BYTES`] (a device,
+/// FIFO or directory is refused before anything is read, naming `what` gonio reads).
+pub fn read_input(path: &Path, what: &str) -> Result<Vec<u8>, SweepFileError> {
     let cannot =
         |e: std::io::Error| SweepFileError::Invalid(format!("cannot read {}: {e}", path.display()));
     let meta = std::fs::metadata(path).map_err(cannot)?;
     if !meta.is_file() {
         return Err(SweepFileError::Invalid(format!(
-            "{}: not a regular file (a device, FIFO or directory): gonio reads sweep files",
+            "{}: not a regular file (a device, FIFO or directory): gonio reads {what}",
             path.display()
         )));
     }
     let mut file = std::fs::File::open(path).map_err(cannot)?;
-    let bytes = read_capped(&mut file, path)?;
-    parse_named(&bytes, path)
+    read_capped(&mut file, path)
 }
 
 /// The angle units a file may declare (`# units: ...`); anything else is refused rather

@@ -9,6 +9,7 @@ mod crash_safety;
 mod eval_cli;
 mod fault_injection;
 mod fit_cli;
+mod formats_cli;
 mod golden;
 mod hostile;
 mod module_graph;

@@ -7,7 +7,6 @@ use clap::{Args, Subcommand, ValueEnum};
 
 use super::args::{Angles, parse_angles, theta_r_angles};
 use super::error::{CliError, CliResult};
-use crate::import::ImportError;
 use crate::import::merl::{self, Channel, MerlFile};
 
 /// `gonio import`.
@@ -109,10 +108,10 @@ fn run_merl(args: &MerlArgs) -> CliResult {
             args.out.display()
         )));
     }
-    let table = MerlFile::read(&args.file).map_err(import_error)?;
+    let table = MerlFile::read(&args.file).map_err(CliError::from)?;
     let sweep = table
         .in_plane(channel, &theta_i, &args.theta_r.0)
-        .map_err(import_error)?;
+        .map_err(CliError::from)?;
     if sweep.rows.is_empty() {
         return Err(CliError::usage(format!(
             "{}: every requested point falls on a missing cell; nothing written",
@@ -123,7 +122,7 @@ fn run_merl(args: &MerlArgs) -> CliResult {
         || args.file.display().to_string(),
         |n| n.to_string_lossy().into_owned(),
     );
-    merl::write_file(&args.out, &sweep, &source, channel, args.force).map_err(import_error)?;
+    merl::write_file(&args.out, &sweep, &source, channel, args.force).map_err(CliError::from)?;
     if sweep.missing > 0 {
         eprintln!(
             "gonio: {} of {} requested points fall on missing MERL cells and were left out",
@@ -132,12 +131,4 @@ fn run_merl(args: &MerlArgs) -> CliResult {
         );
     }
     Ok(())
-}
-
-/// An import's error as the CLI's: bad input (exit 2) or a failed write (exit 1).
-pub fn import_error(e: ImportError) -> CliError {
-    match e {
-        ImportError::Invalid(m) => CliError::usage(m),
-        ImportError::Write(m) => CliError::failed(m),
-    }
 }

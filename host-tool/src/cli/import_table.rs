@@ -5,7 +5,6 @@ use std::path::PathBuf;
 use clap::{Args, ValueEnum};
 
 use super::error::{CliError, CliResult};
-use super::import::import_error;
 use crate::import::table::{
     ColumnRef, Delimiter, QUANTITIES, TableSpec, ThetaRSign, delimiter_name, parse_columns,
     read_table,
@@ -100,7 +99,7 @@ fn parse_delimiter(s: &str) -> Result<Delimiter, String> {
 pub fn run(args: &TableArgs) -> CliResult {
     let inputs = [args.file.as_path()];
     let target = Target::new(&args.out, args.force).inputs(&inputs);
-    crate::outfile::check(target).map_err(|e| import_error(e.into()))?;
+    crate::outfile::check(target).map_err(CliError::from)?;
     let bytes =
         read_input(&args.file, "tables of text").map_err(|e| CliError::usage(e.to_string()))?;
     let name = args.file.display();
@@ -180,6 +179,6 @@ pub fn run(args: &TableArgs) -> CliResult {
         "units: degrees".to_string(),
         format!("brdf: {}", spec.units),
     ];
-    write_file(target, &meta, &table.rows).map_err(import_error)?;
+    write_file(target, &meta, &table.rows).map_err(CliError::from)?;
     Ok(())
 }

@@ -20,7 +20,7 @@
 use std::io::{self, Read, Write};
 use std::path::Path;
 
-pub use super::ImportError;
+pub use super::error::ImportError;
 pub use crate::export::MERL_SCALE;
 use crate::export::{MERL_DIMS, MERL_LEN};
 
@@ -211,7 +211,7 @@ pub struct InPlaneSweep {
     pub missing: usize,
 }
 
-/// Writes `sweep` in the sweep-file format ([`super::write_sweep`]): `#` lines saying
+/// Writes `sweep` in the sweep-file format ([`super::write::write_sweep`]): `#` lines saying
 /// where it came from, that the brdf column is in 1/sr and how many points were left
 /// out, then `theta_i,theta_r,brdf`.
 pub fn write_sweep(
@@ -220,7 +220,7 @@ pub fn write_sweep(
     source: &str,
     channel: Channel,
 ) -> io::Result<()> {
-    super::write_sweep(w, &merl_meta(source, channel, sweep.missing), &sweep.rows)
+    super::write::write_sweep(w, &merl_meta(source, channel, sweep.missing), &sweep.rows)
 }
 
 /// The `#` lines of a MERL import.
@@ -253,7 +253,7 @@ pub fn write_file(
     channel: Channel,
     force: bool,
 ) -> Result<(), ImportError> {
-    super::write_file(
+    super::write::write_file(
         crate::outfile::Target::new(path, force),
         &merl_meta(source, channel, sweep.missing),
         &sweep.rows,

@@ -1,5 +1,5 @@
 //! `gonio import`: measurements made elsewhere into gonio's sweep-file format
-//! (`gonio import merl`, `gonio import table`).
+//! (`gonio import merl`, `astm`, `table`).
 
 use std::path::PathBuf;
 
@@ -23,6 +23,8 @@ pub struct ImportArgs {
 pub enum ImportFormat {
     /// A MERL BRDF database file (.binary).
     Merl(MerlArgs),
+    /// An ASTM E1392-style BRDF table (its plane of incidence).
+    Astm(super::import_astm::AstmArgs),
     /// Another instrument's in-plane table (columns named with --columns).
     Table(super::import_table::TableArgs),
 }
@@ -90,6 +92,7 @@ pub struct MerlArgs {
 pub fn run(args: &ImportArgs) -> CliResult {
     match &args.format {
         ImportFormat::Merl(a) => run_merl(a),
+        ImportFormat::Astm(a) => super::import_astm::run(a),
         ImportFormat::Table(a) => super::import_table::run(a),
     }
 }

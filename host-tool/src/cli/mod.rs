@@ -17,6 +17,7 @@ pub mod fit;
 pub mod fit_units;
 pub mod flash;
 pub mod import;
+pub mod import_astm;
 pub mod import_table;
 pub mod info;
 pub mod output;

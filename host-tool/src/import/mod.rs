@@ -1,7 +1,8 @@
 //! Importing measurements made elsewhere into the sweep-file format: MERL BRDF database
-//! tables ([`merl`]) and other instruments' tables ([`table`]); the one writer of an
+//! tables ([`merl`]), ASTM E1392-style tables ([`astm`]) and other instruments' tables ([`table`]); the one writer of an
 //! imported sweep ([`write_sweep`], [`write_file`]) and [`ImportError`].
 
+pub mod astm;
 mod error;
 pub mod merl;
 pub mod table;

@@ -93,6 +93,22 @@ fn fixtures() -> Scratch {
     w("fit-cols.csv", b"theta_i,brdf\n1,2\n");
     w("fit-aoi.csv", b"AOI;AOS;BRDF\n20;20;5\n20;30;4\n20;40;3\n");
     w("table-comma.csv", b"AOI;AOS;BRDF\n20;20;0,5\n");
+    w(
+        "astm-count.astm",
+        b"NUM_POINTS 3\nVARS theta_i,phi_i,theta_s,phi_s,BRDF\n0.5,0,0.5,3.14159,1\n0.5,0,0.4,3.14159,1\n",
+    );
+    w(
+        "astm-rgb.astm",
+        b"VARS theta_i,phi_i,theta_s,phi_s,R,G,B\n0.5,0,0.5,3.14159,1,2,3\n",
+    );
+    w(
+        "astm-nan.astm",
+        b"VARS theta_i,phi_i,theta_s,phi_s,BRDF\n0.5,0,0.5,3.14159,nan\n",
+    );
+    w(
+        "astm-btdf.astm",
+        b"VARS theta_i,phi_i,theta_s,phi_s,BRDF\n0.5,0,2.5,3.14159,1\n",
+    );
     w("table-nan.csv", b"AOI,AOS,BRDF\n20,20,5\n20,30,NaN\n");
     w("table-short.csv", b"AOI,AOS,BRDF\n20,20,5\n20,30\n");
     w("table-theta.csv", b"AOI,AOS,BRDF\n20,20,5\n95,30,1\n");
@@ -477,6 +493,63 @@ const CASES: &[Case] = &[
         ],
         2,
         "--model ts uses --kd",
+    ),
+    // import astm: the header, then each row
+    out(
+        &["import", "astm", "{d}/fit-aoi.csv", "--out", "{d}/a.csv"],
+        2,
+        "no VARS line: not an ASTM E1392 table",
+        "a.csv",
+    ),
+    out(
+        &[
+            "import",
+            "astm",
+            "{d}/astm-count.astm",
+            "--out",
+            "{d}/a.csv",
+        ],
+        2,
+        "astm-count.astm:1: NUM_POINTS 3 but the file holds 2 rows",
+        "a.csv",
+    ),
+    out(
+        &["import", "astm", "{d}/astm-rgb.astm", "--out", "{d}/a.csv"],
+        2,
+        "3 channels (R, G, B): choose one with --channel",
+        "a.csv",
+    ),
+    out(
+        &[
+            "import",
+            "astm",
+            "{d}/astm-rgb.astm",
+            "--out",
+            "{d}/a.csv",
+            "--channel",
+            "Y",
+        ],
+        2,
+        "no channel 'Y' in VARS (it names R, G, B)",
+        "a.csv",
+    ),
+    out(
+        &["import", "astm", "{d}/astm-nan.astm", "--out", "{d}/a.csv"],
+        2,
+        "astm-nan.astm:2: BRDF 'nan' is not a finite number",
+        "a.csv",
+    ),
+    out(
+        &["import", "astm", "{d}/astm-btdf.astm", "--out", "{d}/a.csv"],
+        2,
+        "theta_s 2.5 rad is outside [0, pi/2]",
+        "a.csv",
+    ),
+    out(
+        &["import", "astm", "/dev/zero", "--out", "{d}/a.csv"],
+        2,
+        "not a regular file",
+        "a.csv",
     ),
     // import table: the column mapping, then each row
     out(

@@ -102,3 +102,59 @@ fn another_instruments_table_imports_to_the_same_fit() {
     }
     assert!(compared >= 3, "{compared} parameters compared");
 }
+
+/// An ASTM hemisphere grid (theta_i 30 degrees, theta_s 0..80 by 10, phi_s 0..350 by
+/// 10, angles in radians) whose value tells where it was read: f = 1 + theta_s/100 +
+/// phi_s/1000 (degrees; at theta_s = 0 without the phi_s term). In the plane: the 36
+/// rows at theta_s = 0 (theta_r 0, f 1), phi_s = 180 (theta_r = +theta_s, f + 0.18) and
+/// phi_s = 0 (theta_r = -theta_s): 36 + 2 * 8 = 52 of 324 rows; 272 are left out.
+#[test]
+fn an_astm_hemisphere_imports_its_plane_of_incidence() {
+    let d = scratch("astm");
+    let mut text =
+        String::from("SOURCE hand-made\nNUM_POINTS 324\nVARS theta_i,phi_i,theta_s,phi_s,BRDF\n");
+    for ts in (0..90).step_by(10) {
+        for ps in (0..360).step_by(10) {
+            let f = 1.0 + ts as f64 / 100.0 + if ts > 0 { ps as f64 / 1000.0 } else { 0.0 };
+            let r = |deg: i32| (deg as f64).to_radians();
+            text.push_str(&format!("{},0,{},{},{f}\n", r(30), r(ts), r(ps)));
+        }
+    }
+    let src = d.join("grid.astm");
+    std::fs::write(&src, text).unwrap();
+    let out_path = d.join("grid.csv");
+    let out = gonio(&[
+        "import",
+        "astm",
+        src.to_str().unwrap(),
+        "--out",
+        out_path.to_str().unwrap(),
+    ]);
+    assert!(out.ok(), "{}", out.stderr);
+    assert!(out.stderr.contains("272 of 324 rows"), "{}", out.stderr);
+    let sweep = std::fs::read_to_string(&out_path).unwrap();
+    assert!(
+        sweep.contains("# brdf: 1/sr\n") && sweep.contains("# out-of-plane: 272 rows"),
+        "{sweep}"
+    );
+    let rows: Vec<(f64, f64, f64)> = sweep
+        .lines()
+        .skip_while(|l| !l.starts_with("theta_i"))
+        .skip(1)
+        .map(|l| {
+            let v: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();
+            (v[0], v[1], v[2])
+        })
+        .collect();
+    assert_eq!(rows.len(), 52);
+    for &(ti, tr, f) in &rows {
+        assert!((ti - 30.0).abs() < 1e-9, "{ti}");
+        let ts = tr.abs();
+        let want = 1.0 + ts / 100.0 + if tr > 0.0 { 0.18 } else { 0.0 };
+        assert!((f - want).abs() < 1e-9, "theta_r {tr}: {f} vs {want}");
+    }
+    assert_eq!(rows.iter().filter(|r| r.1 > 0.0).count(), 8);
+    assert_eq!(rows.iter().filter(|r| r.1 < 0.0).count(), 8);
+    let fit = gonio(&["fit", out_path.to_str().unwrap(), "--models", "ideal"]);
+    assert!(fit.ok(), "{}", fit.stderr);
+}

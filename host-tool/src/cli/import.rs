@@ -1,5 +1,5 @@
 //! `gonio import`: measurements made elsewhere into gonio's sweep-file format
-//! (`gonio import merl`, `astm`, `table`).
+//! (`gonio import merl`, `astm`, `rgl`, `table`).
 
 use std::path::PathBuf;
 
@@ -25,6 +25,8 @@ pub enum ImportFormat {
     Merl(MerlArgs),
     /// An ASTM E1392-style BRDF table (its plane of incidence).
     Astm(super::import_astm::AstmArgs),
+    /// An RGL-EPFL measured material (RGB tensor file), in the plane of incidence.
+    Rgl(super::import_rgl::RglArgs),
     /// Another instrument's in-plane table (columns named with --columns).
     Table(super::import_table::TableArgs),
 }
@@ -93,6 +95,7 @@ pub fn run(args: &ImportArgs) -> CliResult {
     match &args.format {
         ImportFormat::Merl(a) => run_merl(a),
         ImportFormat::Astm(a) => super::import_astm::run(a),
+        ImportFormat::Rgl(a) => super::import_rgl::run(a),
         ImportFormat::Table(a) => super::import_table::run(a),
     }
 }

@@ -18,6 +18,7 @@ pub mod fit_units;
 pub mod flash;
 pub mod import;
 pub mod import_astm;
+pub mod import_rgl;
 pub mod import_table;
 pub mod info;
 pub mod output;

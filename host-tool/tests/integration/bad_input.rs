@@ -93,6 +93,12 @@ fn fixtures() -> Scratch {
     w("fit-cols.csv", b"theta_i,brdf\n1,2\n");
     w("fit-aoi.csv", b"AOI;AOS;BRDF\n20;20;5\n20;30;4\n20;40;3\n");
     w("table-comma.csv", b"AOI;AOS;BRDF\n20;20;0,5\n");
+    let rgl = std::fs::read(
+        crate::util::repo_root().join("host-tool/tests/data/rgl_ilm_l3_37_metallic_rgb.bsdf"),
+    )
+    .unwrap();
+    w("rgl.bsdf", &rgl);
+    w("rgl-cut.bsdf", &rgl[..rgl.len() - 1000]);
     w(
         "astm-count.astm",
         b"NUM_POINTS 3\nVARS theta_i,phi_i,theta_s,phi_s,BRDF\n0.5,0,0.5,3.14159,1\n0.5,0,0.4,3.14159,1\n",
@@ -550,6 +556,60 @@ const CASES: &[Case] = &[
         2,
         "not a regular file",
         "a.csv",
+    ),
+    // import rgl: the tensor file, then the grid
+    out(
+        &["import", "rgl", "{d}/fit-aoi.csv", "--out", "{d}/r.csv"],
+        2,
+        "not an RGL tensor file",
+        "r.csv",
+    ),
+    out(
+        &["import", "rgl", "{d}/empty.csv", "--out", "{d}/r.csv"],
+        2,
+        "cut short in the header",
+        "r.csv",
+    ),
+    out(
+        &["import", "rgl", "/dev/zero", "--out", "{d}/r.csv"],
+        2,
+        "not a regular file",
+        "r.csv",
+    ),
+    out(
+        &[
+            "import",
+            "rgl",
+            "{d}/rgl.bsdf",
+            "--out",
+            "{d}/r.csv",
+            "--theta-i",
+            "95",
+        ],
+        2,
+        "--theta-i 95: an incidence lies in [0, 90) degrees",
+        "r.csv",
+    ),
+    out(
+        &[
+            "import",
+            "rgl",
+            "{d}/rgl.bsdf",
+            "--out",
+            "{d}/r.csv",
+            "--theta-i",
+            "0:89:0.0001",
+            "--theta-r=-90:90:0.001",
+        ],
+        2,
+        "more than 1000000: choose coarser",
+        "r.csv",
+    ),
+    out(
+        &["import", "rgl", "{d}/rgl-cut.bsdf", "--out", "{d}/r.csv"],
+        2,
+        "does not fit in the file",
+        "r.csv",
     ),
     // import table: the column mapping, then each row
     out(

@@ -158,3 +158,60 @@ fn an_astm_hemisphere_imports_its_plane_of_incidence() {
     let fit = gonio(&["fit", out_path.to_str().unwrap(), "--models", "ideal"]);
     assert!(fit.ok(), "{}", fit.stderr);
 }
+
+/// The committed RGL material imported on a few points gives the values the
+/// independent Python evaluation printed (host-tool/tests/data/rgl_reference.py; the
+/// same table as the unit test), in 1/sr.
+#[test]
+fn an_rgl_material_imports_as_the_reference_evaluates_it() {
+    let d = scratch("rgl");
+    let file =
+        crate::util::repo_root().join("host-tool/tests/data/rgl_ilm_l3_37_metallic_rgb.bsdf");
+    let out_path = d.join("l3.csv");
+    let out = gonio(&[
+        "import",
+        "rgl",
+        file.to_str().unwrap(),
+        "--out",
+        out_path.to_str().unwrap(),
+        "--channel",
+        "g",
+        "--theta-i",
+        "20",
+        "--theta-r=-60,19.5,20",
+    ]);
+    assert!(out.ok() && out.stderr.is_empty(), "{}", out.stderr);
+    let text = std::fs::read_to_string(&out_path).unwrap();
+    assert!(
+        text.contains("# brdf: 1/sr\n") && text.contains("channel g"),
+        "{text}"
+    );
+    let got: Vec<f64> = text
+        .lines()
+        .skip_while(|l| !l.starts_with("theta_i"))
+        .skip(1)
+        .map(|l| l.rsplit(',').next().unwrap().parse().unwrap())
+        .collect();
+    let want = [0.0045988137576509335, 64.72360915251467, 72.0614879833187];
+    assert_eq!(got.len(), 3);
+    for (g, w) in got.iter().zip(want) {
+        assert!((g - w).abs() <= 1e-9 * w, "{g} vs {w}");
+    }
+    // The default grid: the file's 7 incidences below 90 degrees x theta_r -89..89.
+    let all = d.join("all.csv");
+    let out = gonio(&[
+        "import",
+        "rgl",
+        file.to_str().unwrap(),
+        "--out",
+        all.to_str().unwrap(),
+    ]);
+    assert!(out.ok(), "{}", out.stderr);
+    let rows = std::fs::read_to_string(&all)
+        .unwrap()
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .count()
+        - 1;
+    assert_eq!(rows, 7 * 179);
+}

@@ -237,6 +237,16 @@ pub fn parse_export(spec: &str) -> Result<(ExportFormat, PathBuf), String> {
     Ok((format, PathBuf::from(path)))
 }
 
+/// `--scale S` (1/sr per relative unit): a finite number above 0.
+pub fn parse_scale(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!(
+            "'{s}': the scale is 1/sr per relative unit, a finite number above 0"
+        )),
+    }
+}
+
 /// A list of angles in degrees, as `--theta-r` gives it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Angles(pub Vec<f64>);

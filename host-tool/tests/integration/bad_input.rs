@@ -93,6 +93,10 @@ fn fixtures() -> Scratch {
     w("fit-cols.csv", b"theta_i,brdf\n1,2\n");
     w("fit-aoi.csv", b"AOI;AOS;BRDF\n20;20;5\n20;30;4\n20;40;3\n");
     w("table-comma.csv", b"AOI;AOS;BRDF\n20;20;0,5\n");
+    w(
+        "persr.csv",
+        b"# brdf: 1/sr\ntheta_i,theta_r,brdf\n20,20,5\n20,30,4\n20,40,3\n",
+    );
     let rgl = std::fs::read(
         crate::util::repo_root().join("host-tool/tests/data/rgl_ilm_l3_37_metallic_rgb.bsdf"),
     )
@@ -556,6 +560,55 @@ const CASES: &[Case] = &[
         2,
         "not a regular file",
         "a.csv",
+    ),
+    // the 1/sr gate: a MERL table of a relative-unit fit needs a scale (issue #37)
+    out(
+        &["fit", "{d}/fe-0.115.csv", "--export", "merl={d}/fe.binary"],
+        2,
+        "fe.binary: a merl file holds the BRDF in 1/sr but the fit is in relative units (the instrument's): give --scale S",
+        "fe.binary",
+    ),
+    out(
+        &[
+            "fit",
+            "{d}/ok-tab.csv",
+            "--export",
+            "merl={d}/fe.binary",
+            "--scale",
+            "0",
+        ],
+        2,
+        "the scale is 1/sr per relative unit, a finite number above 0",
+        "fe.binary",
+    ),
+    case(
+        &["fit", "{d}/fe-0.115.csv", "--scale", "0.002"],
+        2,
+        "--scale S converts the exports to 1/sr: give --export FORMAT=PATH too",
+    ),
+    out(
+        &[
+            "fit",
+            "{d}/persr.csv",
+            "--export",
+            "merl={d}/fe.binary",
+            "--scale",
+            "0.002",
+        ],
+        2,
+        "--scale 0.002: the fit is already in 1/sr",
+        "fe.binary",
+    ),
+    case(
+        &[
+            "fit",
+            "{d}/fe-0.115.csv",
+            "{d}/ok-tab.csv",
+            "--scale",
+            "0.002",
+        ],
+        2,
+        "--plot, --export and --scale take one sweep file",
     ),
     // import rgl: the tensor file, then the grid
     out(

@@ -215,3 +215,39 @@ fn an_rgl_material_imports_as_the_reference_evaluates_it() {
         - 1;
     assert_eq!(rows, 7 * 179);
 }
+
+/// The 1/sr gate (issue #37): a relative-unit capture's MERL export is refused without
+/// a scale (the bad-input table has that case), and with `--scale S` every cell is S
+/// times the cell of `--scale 1`.
+#[test]
+fn a_scale_multiplies_the_merl_table() {
+    let d = scratch("scale");
+    let sweep = simulated(&d, "fe-0.115");
+    let export = |scale: &str| {
+        let path = d.join(format!("fe-{scale}.binary"));
+        let out = gonio(&[
+            "fit",
+            sweep.to_str().unwrap(),
+            "--models",
+            "ideal",
+            "--export-model",
+            "ideal",
+            "--export",
+            &format!("merl={}", path.display()),
+            "--scale",
+            scale,
+        ]);
+        assert!(out.ok(), "{}", out.stderr);
+        let bytes = std::fs::read(&path).unwrap();
+        bytes[12..]
+            .chunks_exact(8)
+            .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
+            .collect::<Vec<f64>>()
+    };
+    let (one, two) = (export("1"), export("2.5"));
+    assert_eq!(one.len(), two.len());
+    assert!(one.iter().any(|&v| v > 0.0));
+    for (a, b) in one.iter().zip(&two) {
+        assert!((b - 2.5 * a).abs() <= 1e-12 * b.abs(), "{a} {b}");
+    }
+}

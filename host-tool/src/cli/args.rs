@@ -213,7 +213,8 @@ pub fn parse_speed(s: &str) -> Result<f64, String> {
 /// Parses `json=PATH`, `merl=PATH`, `csv=PATH`, `residuals=PATH` or `mitsuba=DIR` (format
 /// case-insensitive; a clap value parser).
 pub fn parse_export(spec: &str) -> Result<(ExportFormat, PathBuf), String> {
-    let expected = "expected json=PATH, merl=PATH, csv=PATH, residuals=PATH or mitsuba=DIR";
+    let expected =
+        "expected json=PATH, merl=PATH, csv=PATH, residuals=PATH, mitsuba=DIR or zemax=PATH";
     let (format, path) = spec
         .split_once('=')
         .ok_or_else(|| format!("export '{spec}': {expected}"))?;
@@ -223,6 +224,7 @@ pub fn parse_export(spec: &str) -> Result<(ExportFormat, PathBuf), String> {
         "csv" => ExportFormat::Csv,
         "residuals" => ExportFormat::Residuals,
         "mitsuba" => ExportFormat::Mitsuba,
+        "zemax" => ExportFormat::Zemax,
         other => {
             return Err(format!(
                 "export '{spec}': unknown format '{other}' ({expected})"
@@ -401,7 +403,9 @@ mod tests {
             let e = parse_export(bad).unwrap_err();
             // A value parser's error: clap reports it as bad usage (exit 2).
             assert!(
-                e.contains("json=PATH, merl=PATH, csv=PATH, residuals=PATH or mitsuba=DIR"),
+                e.contains(
+                    "json=PATH, merl=PATH, csv=PATH, residuals=PATH, mitsuba=DIR or zemax=PATH"
+                ),
                 "{bad}: {e}"
             );
         }

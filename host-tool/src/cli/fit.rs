@@ -115,7 +115,8 @@ pub struct FitArgs {
     /// theta_i,theta_r,measured,fitted,residual per reading, in the file's order, the
     /// residual in --residual's kind), mitsuba=DIR (a Mitsuba 3 BSDF plugin, the
     /// model's parameters and a sphere scene: `python DIR/gonio_bsdf.py` renders it;
-    /// needs `pip install ./python`). Repeatable.
+    /// needs `pip install ./python`), zemax=PATH (a Zemax tabular BSDF file with the TIS
+    /// per incidence; 1/sr, like merl: a relative fit needs --scale). Repeatable.
     #[arg(long, value_name = "FORMAT=PATH", value_parser = parse_export)]
     pub export: Vec<(ExportFormat, PathBuf)>,
     /// Overwrite existing --export and --plot files (never the sweep file itself, a

@@ -1,5 +1,6 @@
 //! Exporting a fitted model: its parameters as JSON, a MERL-format BRDF table, an
-//! in-plane CSV grid, or a Mitsuba 3 plugin directory ([`mitsuba`]).
+//! in-plane CSV grid, a Mitsuba 3 plugin directory ([`mitsuba`]), or a Zemax tabular
+//! BSDF file ([`zemax`]).
 //!
 //! Any fitted member of the lattice can be exported, whatever its components: every
 //! export goes through [`fitted_table`] (the member's brdf-core parameters at each
@@ -45,6 +46,7 @@ mod json;
 mod merl;
 pub mod mitsuba;
 mod residuals;
+pub mod zemax;
 
 pub use merl::{MERL_DIMS, MERL_INVALID, MERL_LEN, MERL_MAX_RATIO, MERL_SCALE, MerlTable};
 pub use mitsuba::MemberTable;
@@ -68,13 +70,15 @@ pub enum ExportFormat {
     /// A directory with a Mitsuba 3 BSDF plugin, the model's parameters and a sphere
     /// scene (see [`mitsuba`]).
     Mitsuba,
+    /// A Zemax OpticStudio tabular BSDF file with the TIS per incidence (see [`zemax`]).
+    Zemax,
 }
 
 impl ExportFormat {
     /// Whether the file holds the BRDF in 1/sr (a relative fit needs a scale: see
     /// [`require_per_sr`]).
     pub fn holds_per_sr(self) -> bool {
-        matches!(self, ExportFormat::Merl)
+        matches!(self, ExportFormat::Merl | ExportFormat::Zemax)
     }
 
     /// The name used in `FORMAT=PATH`.
@@ -85,6 +89,7 @@ impl ExportFormat {
             ExportFormat::Csv => "csv",
             ExportFormat::Residuals => "residuals",
             ExportFormat::Mitsuba => "mitsuba",
+            ExportFormat::Zemax => "zemax",
         }
     }
 }
@@ -120,6 +125,15 @@ pub fn write_export(
         ExportFormat::Merl => write_merl_export(target, fam, member, scale).map(drop),
         ExportFormat::Csv => write_atomic(target, |mut w| csv::write_csv(&mut w, &table)),
         ExportFormat::Mitsuba => mitsuba::write_mitsuba(target, &table),
+        ExportFormat::Zemax => {
+            let to_per_sr = require_per_sr(table.to_per_sr, path, format)?;
+            outfile::check(target)?;
+            let grid = zemax::zemax_grid(&table, to_per_sr)
+                .map_err(|m| ExportError::Write(format!("{}: {m}", path.display())))?;
+            write_atomic(target, |w| {
+                zemax::write_zemax(w, &grid, &member.to_string())
+            })
+        }
         ExportFormat::Residuals => Err(ExportError::Write(format!(
             "{}: residuals need the fitted data (write_residuals)",
             path.display()

@@ -581,6 +581,12 @@ const CASES: &[Case] = &[
         "the scale is 1/sr per relative unit, a finite number above 0",
         "fe.binary",
     ),
+    out(
+        &["fit", "{d}/fe-0.115.csv", "--export", "zemax={d}/fe.zmx"],
+        2,
+        "fe.zmx: a zemax file holds the BRDF in 1/sr but the fit is in relative units",
+        "fe.zmx",
+    ),
     case(
         &["fit", "{d}/fe-0.115.csv", "--scale", "0.002"],
         2,

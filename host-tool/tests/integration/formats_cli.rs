@@ -251,3 +251,54 @@ fn a_scale_multiplies_the_merl_table() {
         assert!((b - 2.5 * a).abs() <= 1e-12 * b.abs(), "{a} {b}");
     }
 }
+
+/// `--export zemax=PATH` end to end: a relative capture with `--scale` writes a file
+/// whose header says what the format needs and whose TIS lines are the albedos times
+/// the scale (the lib tests read it back value by value).
+#[test]
+fn a_zemax_export_is_written_in_1_per_sr() {
+    let d = scratch("zemax");
+    let sweep = simulated(&d, "fe-0.115");
+    let path = d.join("fe.zmx");
+    let out = gonio(&[
+        "fit",
+        sweep.to_str().unwrap(),
+        "--export",
+        &format!("zemax={}", path.display()),
+        "--scale",
+        "0.0005",
+        "--json",
+    ]);
+    assert!(out.ok(), "{}", out.stderr);
+    let text = std::fs::read_to_string(&path).unwrap();
+    for line in [
+        "Symmetry\tPlaneSymmetrical",
+        "ScatterType\tBRDF",
+        "SampleRotation\t1",
+        "DataBegin",
+        "DataEnd",
+    ] {
+        assert!(text.contains(line), "{line}");
+    }
+    let tis: Vec<f64> = text
+        .lines()
+        .filter_map(|l| l.strip_prefix("TIS\t"))
+        .map(|v| v.parse().unwrap())
+        .collect();
+    assert_eq!(tis.len(), 9);
+    // The selected member's albedo (the physical checks' rho) times the scale: the
+    // same quantity by the same code path.
+    let v: serde_json::Value = serde_json::from_str(&out.stdout).unwrap();
+    let sel = v["selected"].as_str().unwrap();
+    let checks = v["physical_checks"].as_array().unwrap();
+    let rho = checks.iter().find(|c| c["name"] == sel).unwrap()["albedo"]
+        .as_array()
+        .unwrap();
+    assert_eq!(rho.len(), tis.len());
+    for (t, r) in tis.iter().zip(rho) {
+        let want = 0.0005 * r[1].as_f64().unwrap();
+        // The file prints TIS to 6 decimals.
+        assert!((t - want).abs() <= 1e-6 + 1e-6 * want, "{t} vs {want}");
+    }
+    assert!(tis.iter().all(|&t| t > 0.0 && t < 1.0), "{tis:?}");
+}

@@ -213,8 +213,7 @@ pub fn parse_speed(s: &str) -> Result<f64, String> {
 /// Parses `json=PATH`, `merl=PATH`, `csv=PATH`, `residuals=PATH` or `mitsuba=DIR` (format
 /// case-insensitive; a clap value parser).
 pub fn parse_export(spec: &str) -> Result<(ExportFormat, PathBuf), String> {
-    let expected =
-        "expected json=PATH, merl=PATH, csv=PATH, residuals=PATH, mitsuba=DIR or zemax=PATH";
+    let expected = "expected json=PATH, merl=PATH, csv=PATH, residuals=PATH, mitsuba=DIR, zemax=PATH or astm=PATH";
     let (format, path) = spec
         .split_once('=')
         .ok_or_else(|| format!("export '{spec}': {expected}"))?;
@@ -225,6 +224,7 @@ pub fn parse_export(spec: &str) -> Result<(ExportFormat, PathBuf), String> {
         "residuals" => ExportFormat::Residuals,
         "mitsuba" => ExportFormat::Mitsuba,
         "zemax" => ExportFormat::Zemax,
+        "astm" => ExportFormat::Astm,
         other => {
             return Err(format!(
                 "export '{spec}': unknown format '{other}' ({expected})"
@@ -404,7 +404,7 @@ mod tests {
             // A value parser's error: clap reports it as bad usage (exit 2).
             assert!(
                 e.contains(
-                    "json=PATH, merl=PATH, csv=PATH, residuals=PATH, mitsuba=DIR or zemax=PATH"
+                    "json=PATH, merl=PATH, csv=PATH, residuals=PATH, mitsuba=DIR, zemax=PATH or astm=PATH"
                 ),
                 "{bad}: {e}"
             );

@@ -116,7 +116,8 @@ pub struct FitArgs {
     /// residual in --residual's kind), mitsuba=DIR (a Mitsuba 3 BSDF plugin, the
     /// model's parameters and a sphere scene: `python DIR/gonio_bsdf.py` renders it;
     /// needs `pip install ./python`), zemax=PATH (a Zemax tabular BSDF file with the TIS
-    /// per incidence; 1/sr, like merl: a relative fit needs --scale). Repeatable.
+    /// per incidence), astm=PATH (ASTM E1392-style rows over a hemisphere grid); merl,
+    /// zemax and astm hold 1/sr: a relative fit needs --scale. Repeatable.
     #[arg(long, value_name = "FORMAT=PATH", value_parser = parse_export)]
     pub export: Vec<(ExportFormat, PathBuf)>,
     /// Overwrite existing --export and --plot files (never the sweep file itself, a

@@ -1,6 +1,6 @@
 //! Exporting a fitted model: its parameters as JSON, a MERL-format BRDF table, an
-//! in-plane CSV grid, a Mitsuba 3 plugin directory ([`mitsuba`]), or a Zemax tabular
-//! BSDF file ([`zemax`]).
+//! in-plane CSV grid, a Mitsuba 3 plugin directory ([`mitsuba`]), a Zemax tabular
+//! BSDF file ([`zemax`]), or an ASTM E1392-style table ([`astm`]).
 //!
 //! Any fitted member of the lattice can be exported, whatever its components: every
 //! export goes through [`fitted_table`] (the member's brdf-core parameters at each
@@ -40,6 +40,7 @@ use brdf_core::member::Member;
 use crate::fit::FamilyFit;
 use crate::outfile::{self, Target};
 
+pub mod astm;
 mod csv;
 mod error;
 mod json;
@@ -72,13 +73,18 @@ pub enum ExportFormat {
     Mitsuba,
     /// A Zemax OpticStudio tabular BSDF file with the TIS per incidence (see [`zemax`]).
     Zemax,
+    /// An ASTM E1392-style table over a hemisphere grid (see [`astm`]).
+    Astm,
 }
 
 impl ExportFormat {
     /// Whether the file holds the BRDF in 1/sr (a relative fit needs a scale: see
     /// [`require_per_sr`]).
     pub fn holds_per_sr(self) -> bool {
-        matches!(self, ExportFormat::Merl | ExportFormat::Zemax)
+        matches!(
+            self,
+            ExportFormat::Merl | ExportFormat::Zemax | ExportFormat::Astm
+        )
     }
 
     /// The name used in `FORMAT=PATH`.
@@ -90,6 +96,7 @@ impl ExportFormat {
             ExportFormat::Residuals => "residuals",
             ExportFormat::Mitsuba => "mitsuba",
             ExportFormat::Zemax => "zemax",
+            ExportFormat::Astm => "astm",
         }
     }
 }
@@ -125,6 +132,13 @@ pub fn write_export(
         ExportFormat::Merl => write_merl_export(target, fam, member, scale).map(drop),
         ExportFormat::Csv => write_atomic(target, |mut w| csv::write_csv(&mut w, &table)),
         ExportFormat::Mitsuba => mitsuba::write_mitsuba(target, &table),
+        ExportFormat::Astm => {
+            let to_per_sr = require_per_sr(table.to_per_sr, path, format)?;
+            outfile::check(target)?;
+            let rows = astm::astm_rows(&table, to_per_sr)
+                .map_err(|m| ExportError::Write(format!("{}: {m}", path.display())))?;
+            write_atomic(target, |w| astm::write_astm(w, &rows, &member.to_string()))
+        }
         ExportFormat::Zemax => {
             let to_per_sr = require_per_sr(table.to_per_sr, path, format)?;
             outfile::check(target)?;

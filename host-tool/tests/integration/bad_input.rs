@@ -587,6 +587,12 @@ const CASES: &[Case] = &[
         "fe.zmx: a zemax file holds the BRDF in 1/sr but the fit is in relative units",
         "fe.zmx",
     ),
+    out(
+        &["fit", "{d}/fe-0.115.csv", "--export", "astm={d}/fe.astm"],
+        2,
+        "fe.astm: a astm file holds the BRDF in 1/sr but the fit is in relative units",
+        "fe.astm",
+    ),
     case(
         &["fit", "{d}/fe-0.115.csv", "--scale", "0.002"],
         2,

@@ -9,7 +9,7 @@
 //! | [`sweep_file`] | the sweep file format: reading, writing row by row, resuming |
 //! | [`fit`] | fitting the nested model family to a sweep, reports |
 //! | [`export`] | a fitted model as JSON, a MERL table or an in-plane CSV grid |
-//! | [`import`] | measurements from elsewhere (MERL BRDF tables) as sweep files |
+//! | [`import`] | measurements from elsewhere (MERL BRDF tables, other instruments' tables) as sweep files |
 //! | [`plot`] | PNG and SVG figures of a fit against its data |
 //! | [`bench`] | evaluation variants, the slower studies, their tables and chart |
 //! | [`outfile`] | the one way an output file is written: checked target, private temporary file, sync, rename |

@@ -213,7 +213,7 @@ pub fn parse_speed(s: &str) -> Result<f64, String> {
 /// Parses `json=PATH`, `merl=PATH`, `csv=PATH`, `residuals=PATH` or `mitsuba=DIR` (format
 /// case-insensitive; a clap value parser).
 pub fn parse_export(spec: &str) -> Result<(ExportFormat, PathBuf), String> {
-    let expected = "expected json=PATH, merl=PATH, csv=PATH, residuals=PATH or mitsuba=DIR";
+    let expected = "expected json=PATH, merl=PATH, csv=PATH, residuals=PATH, mitsuba=DIR, zemax=PATH or astm=PATH";
     let (format, path) = spec
         .split_once('=')
         .ok_or_else(|| format!("export '{spec}': {expected}"))?;
@@ -223,6 +223,8 @@ pub fn parse_export(spec: &str) -> Result<(ExportFormat, PathBuf), String> {
         "csv" => ExportFormat::Csv,
         "residuals" => ExportFormat::Residuals,
         "mitsuba" => ExportFormat::Mitsuba,
+        "zemax" => ExportFormat::Zemax,
+        "astm" => ExportFormat::Astm,
         other => {
             return Err(format!(
                 "export '{spec}': unknown format '{other}' ({expected})"
@@ -235,6 +237,16 @@ pub fn parse_export(spec: &str) -> Result<(ExportFormat, PathBuf), String> {
         ));
     }
     Ok((format, PathBuf::from(path)))
+}
+
+/// `--scale S` (1/sr per relative unit): a finite number above 0.
+pub fn parse_scale(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!(
+            "'{s}': the scale is 1/sr per relative unit, a finite number above 0"
+        )),
+    }
 }
 
 /// A list of angles in degrees, as `--theta-r` gives it.
@@ -391,7 +403,9 @@ mod tests {
             let e = parse_export(bad).unwrap_err();
             // A value parser's error: clap reports it as bad usage (exit 2).
             assert!(
-                e.contains("json=PATH, merl=PATH, csv=PATH, residuals=PATH or mitsuba=DIR"),
+                e.contains(
+                    "json=PATH, merl=PATH, csv=PATH, residuals=PATH, mitsuba=DIR, zemax=PATH or astm=PATH"
+                ),
                 "{bad}: {e}"
             );
         }

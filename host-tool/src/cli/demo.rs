@@ -189,6 +189,7 @@ fn write_files(dir: &std::path::Path, data: &Dataset, fam: &FamilyFit) -> CliRes
         Target::new(&params, true),
         fam,
         fam.selected_member,
+        None,
     )?;
     written.push(params);
     Ok(written)

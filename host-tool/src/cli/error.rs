@@ -87,6 +87,15 @@ impl From<CaptureError> for CliError {
     }
 }
 
+impl From<crate::import::ImportError> for CliError {
+    fn from(e: crate::import::ImportError) -> Self {
+        match e {
+            crate::import::ImportError::Invalid(m) => CliError::usage(m),
+            crate::import::ImportError::Write(m) => CliError::failed(m),
+        }
+    }
+}
+
 impl From<ExportError> for CliError {
     fn from(e: ExportError) -> Self {
         match e {

@@ -7,7 +7,7 @@ use clap::{Args, ValueEnum};
 
 use brdf_core::member::Member;
 
-use super::args::parse_export;
+use super::args::{parse_export, parse_scale};
 use super::error::{CliError, CliResult};
 use super::output::{say_written, write_stdout, write_stdout_with};
 use crate::calibrate::Instrument;
@@ -86,7 +86,7 @@ Angles in degrees, sigma_m in radians, BRDF in the file's units (its `# brdf:` l
 --checks says so): the directional albedo rho(theta_i) at each incidence (rho > 1 in 1/sr is flagged \
 non-physical) and the largest reciprocity ratio f(i->o)/f(o->i).",
     after_help = "Examples:\n  gonio fit fe.csv\n  gonio fit fe.csv --json > fe-fit.json\n  \
-gonio fit fe.csv --plot plots/ --export merl=fe.binary --export json=fe-params.json\n  \
+gonio fit fe.csv --instrument instrument.toml --plot plots/ --export merl=fe.binary --export json=fe-params.json\n  \
 gonio fit fe.csv --fix sigma_m=0.7 --fix kdd=900 --loss cauchy:0.05\n  \
 gonio fit metal.csv --models torrance-sparrow,specular:ggx+specular-haze+ideal-diffuse --aperture 0.5\n  \
 gonio fit metal.csv --export residuals=metal-residuals.csv\n  \
@@ -115,13 +115,20 @@ pub struct FitArgs {
     /// theta_i,theta_r,measured,fitted,residual per reading, in the file's order, the
     /// residual in --residual's kind), mitsuba=DIR (a Mitsuba 3 BSDF plugin, the
     /// model's parameters and a sphere scene: `python DIR/gonio_bsdf.py` renders it;
-    /// needs `pip install ./python`). Repeatable.
+    /// needs `pip install ./python`), zemax=PATH (a Zemax tabular BSDF file with the TIS
+    /// per incidence), astm=PATH (ASTM E1392-style rows over a hemisphere grid); merl,
+    /// zemax and astm hold 1/sr: a relative fit needs --scale. Repeatable.
     #[arg(long, value_name = "FORMAT=PATH", value_parser = parse_export)]
     pub export: Vec<(ExportFormat, PathBuf)>,
     /// Overwrite existing --export and --plot files (never the sweep file itself, a
     /// device, a symlink or a directory).
     #[arg(long)]
     pub force: bool,
+    /// The factor from a relative-unit fit to 1/sr (1/sr per relative unit, from a
+    /// calibration) for the exports: those that hold 1/sr (merl) refuse a relative fit
+    /// without it; json says it; a mitsuba plugin renders with it.
+    #[arg(long, value_name = "S", value_parser = parse_scale)]
+    pub scale: Option<f64>,
     /// Which fitted model to export [default: the selected one]: a name as --models
     /// takes; any fitted member, whatever its components (a member the family did not
     /// fit can be fitted with --models).
@@ -266,9 +273,13 @@ fn residual_name(r: Residual) -> &'static str {
 /// writes the reports and summary into --out, prints the summary; exit 1 if any
 /// sweep failed (each named on stderr), after all the others were fitted.
 fn run_campaign(args: &FitArgs, opts: &FitOptions) -> CliResult {
-    if args.plot.is_some() || !args.export.is_empty() || args.export_model.is_some() {
+    if args.plot.is_some()
+        || !args.export.is_empty()
+        || args.export_model.is_some()
+        || args.scale.is_some()
+    {
         return Err(CliError::usage(
-            "--plot and --export take one sweep file; a campaign writes its reports to --out",
+            "--plot, --export and --scale take one sweep file; a campaign writes its reports to --out",
         ));
     }
     let files = campaign::expand_inputs(&args.sweeps).map_err(CliError::usage)?;
@@ -388,6 +399,15 @@ pub fn run(args: &FitArgs) -> CliResult {
     }
     let inst = inst.as_ref().map(|(i, p)| (i, *p));
     // Every output is checked before the fit: nothing is computed for a refused one.
+    if args.scale.is_some() && args.export.is_empty() {
+        return Err(CliError::usage(
+            "--scale S converts the exports to 1/sr: give --export FORMAT=PATH too",
+        ));
+    }
+    let to_per_sr = export::per_sr_factor(data.units, args.scale)?;
+    for (format, path) in args.export.iter().filter(|(f, _)| f.holds_per_sr()) {
+        export::require_per_sr(to_per_sr, path, *format)?;
+    }
     let inputs = [sweep];
     for (format, path) in &args.export {
         for file in export::targets(*format, path) {
@@ -422,10 +442,10 @@ pub fn run(args: &FitArgs) -> CliResult {
                 export::write_residuals(target, &data, &fam, member, opts.residual)?;
             }
             ExportFormat::Merl => {
-                let note = export::write_merl_export(target, &fam, member)?;
+                let note = export::write_merl_export(target, &fam, member, args.scale)?;
                 eprintln!("gonio: note: {}: {note}", path.display());
             }
-            _ => export::write_export(*format, target, &fam, member)?,
+            _ => export::write_export(*format, target, &fam, member, args.scale)?,
         }
     }
     say_written(&written);

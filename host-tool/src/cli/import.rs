@@ -1,5 +1,5 @@
 //! `gonio import`: measurements made elsewhere into gonio's sweep-file format
-//! (`gonio import merl`).
+//! (`gonio import merl`, `astm`, `rgl`, `table`).
 
 use std::path::PathBuf;
 
@@ -7,7 +7,7 @@ use clap::{Args, Subcommand, ValueEnum};
 
 use super::args::{Angles, parse_angles, theta_r_angles};
 use super::error::{CliError, CliResult};
-use crate::import::merl::{self, Channel, ImportError, MerlFile};
+use crate::import::merl::{self, Channel, MerlFile};
 
 /// `gonio import`.
 #[derive(Debug, Args)]
@@ -23,6 +23,12 @@ pub struct ImportArgs {
 pub enum ImportFormat {
     /// A MERL BRDF database file (.binary).
     Merl(MerlArgs),
+    /// An ASTM E1392-style BRDF table (its plane of incidence).
+    Astm(super::import_astm::AstmArgs),
+    /// An RGL-EPFL measured material (RGB tensor file), in the plane of incidence.
+    Rgl(super::import_rgl::RglArgs),
+    /// Another instrument's in-plane table (columns named with --columns).
+    Table(super::import_table::TableArgs),
 }
 
 /// Colour channel on the command line.
@@ -88,6 +94,9 @@ pub struct MerlArgs {
 pub fn run(args: &ImportArgs) -> CliResult {
     match &args.format {
         ImportFormat::Merl(a) => run_merl(a),
+        ImportFormat::Astm(a) => super::import_astm::run(a),
+        ImportFormat::Rgl(a) => super::import_rgl::run(a),
+        ImportFormat::Table(a) => super::import_table::run(a),
     }
 }
 
@@ -105,10 +114,10 @@ fn run_merl(args: &MerlArgs) -> CliResult {
             args.out.display()
         )));
     }
-    let table = MerlFile::read(&args.file).map_err(import_error)?;
+    let table = MerlFile::read(&args.file).map_err(CliError::from)?;
     let sweep = table
         .in_plane(channel, &theta_i, &args.theta_r.0)
-        .map_err(import_error)?;
+        .map_err(CliError::from)?;
     if sweep.rows.is_empty() {
         return Err(CliError::usage(format!(
             "{}: every requested point falls on a missing cell; nothing written",
@@ -119,7 +128,7 @@ fn run_merl(args: &MerlArgs) -> CliResult {
         || args.file.display().to_string(),
         |n| n.to_string_lossy().into_owned(),
     );
-    merl::write_file(&args.out, &sweep, &source, channel, args.force).map_err(import_error)?;
+    merl::write_file(&args.out, &sweep, &source, channel, args.force).map_err(CliError::from)?;
     super::output::say_written(std::slice::from_ref(&args.out));
     if sweep.missing > 0 {
         eprintln!(
@@ -129,11 +138,4 @@ fn run_merl(args: &MerlArgs) -> CliResult {
         );
     }
     Ok(())
-}
-
-fn import_error(e: ImportError) -> CliError {
-    match e {
-        ImportError::Invalid(m) => CliError::usage(m),
-        ImportError::Write(m) => CliError::failed(m),
-    }
 }

@@ -1,5 +1,6 @@
 //! Exporting a fitted model: its parameters as JSON, a MERL-format BRDF table, an
-//! in-plane CSV grid, or a Mitsuba 3 plugin directory ([`mitsuba`]).
+//! in-plane CSV grid, a Mitsuba 3 plugin directory ([`mitsuba`]), a Zemax tabular
+//! BSDF file ([`zemax`]), or an ASTM E1392-style table ([`astm`]).
 //!
 //! Any fitted member of the lattice can be exported, whatever its components: every
 //! export goes through [`fitted_table`] (the member's brdf-core parameters at each
@@ -39,12 +40,14 @@ use brdf_core::member::Member;
 use crate::fit::FamilyFit;
 use crate::outfile::{self, Target};
 
+pub mod astm;
 mod csv;
 mod error;
 mod json;
 mod merl;
 pub mod mitsuba;
 mod residuals;
+pub mod zemax;
 
 pub use merl::{MERL_DIMS, MERL_INVALID, MERL_LEN, MERL_MAX_RATIO, MERL_SCALE, MerlTable};
 pub use mitsuba::MemberTable;
@@ -68,9 +71,22 @@ pub enum ExportFormat {
     /// A directory with a Mitsuba 3 BSDF plugin, the model's parameters and a sphere
     /// scene (see [`mitsuba`]).
     Mitsuba,
+    /// A Zemax OpticStudio tabular BSDF file with the TIS per incidence (see [`zemax`]).
+    Zemax,
+    /// An ASTM E1392-style table over a hemisphere grid (see [`astm`]).
+    Astm,
 }
 
 impl ExportFormat {
+    /// Whether the file holds the BRDF in 1/sr (a relative fit needs a scale: see
+    /// [`require_per_sr`]).
+    pub fn holds_per_sr(self) -> bool {
+        matches!(
+            self,
+            ExportFormat::Merl | ExportFormat::Zemax | ExportFormat::Astm
+        )
+    }
+
     /// The name used in `FORMAT=PATH`.
     pub fn name(self) -> &'static str {
         match self {
@@ -79,6 +95,8 @@ impl ExportFormat {
             ExportFormat::Csv => "csv",
             ExportFormat::Residuals => "residuals",
             ExportFormat::Mitsuba => "mitsuba",
+            ExportFormat::Zemax => "zemax",
+            ExportFormat::Astm => "astm",
         }
     }
 }
@@ -89,13 +107,18 @@ impl ExportFormat {
 /// [`ExportError::NotFitted`] naming those; a target [`outfile::check`] refuses is
 /// [`ExportError::Refused`]; a file that cannot be written is [`ExportError::Write`]
 /// naming it.
+///
+/// `scale` (1/sr per relative unit, e.g. from a calibration) gives a fit in relative
+/// units its factor to 1/sr (see [`fitted_table_scaled`]); the formats that hold 1/sr
+/// refuse a relative fit without one ([`require_per_sr`]).
 pub fn write_export(
     format: ExportFormat,
     target: Target<'_>,
     fam: &FamilyFit,
     member: Member,
+    scale: Option<f64>,
 ) -> Result<(), ExportError> {
-    let table = fitted_table(fam, member)?;
+    let table = fitted_table_scaled(fam, member, scale)?;
     let path = target.path;
     match format {
         ExportFormat::Json => {
@@ -106,9 +129,25 @@ pub fn write_export(
             text.push('\n');
             write_atomic(target, |w| w.write_all(text.as_bytes()))
         }
-        ExportFormat::Merl => write_merl_export(target, fam, member).map(drop),
+        ExportFormat::Merl => write_merl_export(target, fam, member, scale).map(drop),
         ExportFormat::Csv => write_atomic(target, |mut w| csv::write_csv(&mut w, &table)),
         ExportFormat::Mitsuba => mitsuba::write_mitsuba(target, &table),
+        ExportFormat::Astm => {
+            let to_per_sr = require_per_sr(table.to_per_sr, path, format)?;
+            outfile::check(target)?;
+            let rows = astm::astm_rows(&table, to_per_sr)
+                .map_err(|m| ExportError::Write(format!("{}: {m}", path.display())))?;
+            write_atomic(target, |w| astm::write_astm(w, &rows, &member.to_string()))
+        }
+        ExportFormat::Zemax => {
+            let to_per_sr = require_per_sr(table.to_per_sr, path, format)?;
+            outfile::check(target)?;
+            let grid = zemax::zemax_grid(&table, to_per_sr)
+                .map_err(|m| ExportError::Write(format!("{}: {m}", path.display())))?;
+            write_atomic(target, |w| {
+                zemax::write_zemax(w, &grid, &member.to_string())
+            })
+        }
         ExportFormat::Residuals => Err(ExportError::Write(format!(
             "{}: residuals need the fitted data (write_residuals)",
             path.display()
@@ -123,10 +162,14 @@ pub fn write_merl_export(
     target: Target<'_>,
     fam: &FamilyFit,
     member: Member,
+    scale: Option<f64>,
 ) -> Result<String, ExportError> {
-    let table = fitted_table(fam, member)?;
+    let table = fitted_table_scaled(fam, member, scale)?;
+    let to_per_sr = require_per_sr(table.to_per_sr, target.path, ExportFormat::Merl)?;
     outfile::check(target)?;
-    let (values, ratio) = merl::merl_values(&table);
+    let (mut values, ratio) = merl::merl_values(&table);
+    // The table is in the fit's units; MERL holds 1/sr (MERL_INVALID, 0, stays 0).
+    values.iter_mut().for_each(|v| *v *= to_per_sr);
     if ratio.is_nan() || ratio > MERL_MAX_RATIO {
         return Err(ExportError::Refused(format!(
             "{}: the {member} fit is far from reciprocal (f(i->o)/f(o->i) up to {ratio:.3} over the MERL cells, above {MERL_MAX_RATIO}): a MERL table looked up both ways cannot represent it",
@@ -151,6 +194,54 @@ pub fn fitted_table(fam: &FamilyFit, member: Member) -> Result<MemberTable, Expo
     };
     table.to_per_sr = (fam.units == crate::sweep_file::BrdfUnits::PerSr).then_some(1.0);
     Ok(table)
+}
+
+/// [`fitted_table`] with `scale` (1/sr per relative unit) as the factor to 1/sr of a
+/// fit in relative units ([`per_sr_factor`]).
+pub fn fitted_table_scaled(
+    fam: &FamilyFit,
+    member: Member,
+    scale: Option<f64>,
+) -> Result<MemberTable, ExportError> {
+    let mut table = fitted_table(fam, member)?;
+    table.to_per_sr = per_sr_factor(fam.units, scale)?;
+    Ok(table)
+}
+
+/// The factor from a fit's BRDF unit to 1/sr: 1 for a fit in 1/sr, `scale` (1/sr per
+/// relative unit) for one in relative units, `None` without a scale. A scale for a fit
+/// already in 1/sr is refused ([`ExportError::Refused`]): it would scale 1/sr again.
+/// `scale` must be finite and positive (the CLI's parser checks it).
+pub fn per_sr_factor(
+    units: crate::sweep_file::BrdfUnits,
+    scale: Option<f64>,
+) -> Result<Option<f64>, ExportError> {
+    match (units, scale) {
+        (crate::sweep_file::BrdfUnits::PerSr, Some(s)) => Err(ExportError::Refused(format!(
+            "--scale {s}: the fit is already in 1/sr (the sweep's '# brdf:' line or --instrument): leave --scale out"
+        ))),
+        (crate::sweep_file::BrdfUnits::PerSr, None) => Ok(Some(1.0)),
+        (crate::sweep_file::BrdfUnits::Relative, s) => Ok(s),
+    }
+}
+
+/// The one gate of every export whose file holds the BRDF in 1/sr
+/// ([`ExportFormat::holds_per_sr`]): the factor to 1/sr ([`per_sr_factor`]), or, for a
+/// fit in relative units with no scale, [`ExportError::Refused`] in one line saying how
+/// to give one. `gonio fit` asks it before fitting and every such writer when writing.
+/// (The Mitsuba plugin applies the same rule when it renders: a scale, or absolute.)
+pub fn require_per_sr(
+    to_per_sr: Option<f64>,
+    path: &std::path::Path,
+    format: ExportFormat,
+) -> Result<f64, ExportError> {
+    to_per_sr.ok_or_else(|| {
+        ExportError::Refused(format!(
+            "{}: a {} file holds the BRDF in 1/sr but the fit is in relative units (the instrument's): give --scale S (1/sr per relative unit, from a calibration) or fit with --instrument FILE",
+            path.display(),
+            format.name()
+        ))
+    })
 }
 
 /// The files an export to `path` writes: `path` itself, or for a Mitsuba export the

@@ -54,6 +54,7 @@ fn an_unfitted_model_is_a_usage_error_naming_the_fitted_ones() {
         Target::new(&path, false),
         &fam,
         Member::THREE_COMPONENT,
+        None,
     )
     .unwrap_err();
     assert!(matches!(e, ExportError::NotFitted(_)), "bad input: {e}");
@@ -76,6 +77,7 @@ fn json_has_parameters_units_and_incidences() {
         Target::new(&path, false),
         fam,
         Member::THREE_COMPONENT,
+        None,
     )
     .unwrap();
     let v: Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
@@ -124,6 +126,7 @@ fn csv_grid_reads_back_as_a_sweep_file() {
         Target::new(&path, false),
         fam,
         Member::THREE_COMPONENT,
+        None,
     )
     .unwrap();
     let data = read_sweep(&path).unwrap();
@@ -209,11 +212,28 @@ fn merl_file_layout_scales_and_read_back() {
     let fit = fam.member(Member::THREE_COMPONENT).unwrap();
     let dir = tempdir("merl");
     let path = dir.join("fe.binary");
+    // The fit is in relative units: MERL holds 1/sr, so without a scale it is refused
+    // (the one gate, require_per_sr) and nothing is written.
+    let e = write_export(
+        ExportFormat::Merl,
+        Target::new(&path, false),
+        fam,
+        Member::THREE_COMPONENT,
+        None,
+    )
+    .unwrap_err();
+    assert!(
+        matches!(e, ExportError::Refused(_)) && e.to_string().contains("give --scale S"),
+        "{e}"
+    );
+    assert!(!path.exists());
+    // With a scale of 1 (1/sr per unit) the values below are the model's own.
     write_export(
         ExportFormat::Merl,
         Target::new(&path, false),
         fam,
         Member::THREE_COMPONENT,
+        Some(1.0),
     )
     .unwrap();
     let bytes = std::fs::read(&path).unwrap();
@@ -344,6 +364,7 @@ fn an_unwritable_path_fails_naming_it_and_leaves_no_file() {
         Target::new(&missing, false),
         fam,
         Member::THREE_COMPONENT,
+        None,
     )
     .unwrap_err();
     // A missing directory is bad input, refused naming it (issue 42).
@@ -362,6 +383,7 @@ fn an_unwritable_path_fails_naming_it_and_leaves_no_file() {
         Target::new(&target, false),
         fam,
         Member::THREE_COMPONENT,
+        None,
     )
     .unwrap_err();
     assert!(matches!(e, ExportError::Refused(_)), "refused: {e}");
@@ -441,7 +463,14 @@ fn a_ggx_haze_members_json_export_reads_back_as_the_cores_model() {
     let member = Member::parse(HAZE_MEMBER).unwrap();
     let dir = tempdir("haze-json");
     let path = dir.join("m.json");
-    write_export(ExportFormat::Json, Target::new(&path, false), fam, member).unwrap();
+    write_export(
+        ExportFormat::Json,
+        Target::new(&path, false),
+        fam,
+        member,
+        None,
+    )
+    .unwrap();
     let v: Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
     assert_eq!(v["model"], HAZE_MEMBER);
     assert_eq!(v["name"], HAZE_MEMBER);
@@ -486,6 +515,7 @@ fn a_ggx_haze_members_csv_and_merl_exports_equal_the_cores_evaluation() {
         Target::new(&csv_path, false),
         fam,
         member,
+        None,
     )
     .unwrap();
     let grid = read_sweep(&csv_path).unwrap();
@@ -517,7 +547,7 @@ fn a_ggx_haze_members_csv_and_merl_exports_equal_the_cores_evaluation() {
     // MERL: the in-plane cells (phi_d = 0) hold the reciprocal mean of the core's
     // evaluation both ways round, and the note says how far from reciprocal it is.
     let merl_path = dir.join("m.binary");
-    let note = write_merl_export(Target::new(&merl_path, false), fam, member).unwrap();
+    let note = write_merl_export(Target::new(&merl_path, false), fam, member, Some(1.0)).unwrap();
     assert!(
         note.contains(HAZE_MEMBER) && note.contains("reciprocal mean"),
         "{note}"
@@ -548,6 +578,7 @@ fn an_unfitted_member_names_the_fitted_ones() {
         Target::new(&path, false),
         fam,
         Member::THREE_COMPONENT,
+        None,
     )
     .unwrap_err();
     assert!(matches!(e, ExportError::NotFitted(_)), "{e}");

@@ -20,30 +20,12 @@
 use std::io::{self, Read, Write};
 use std::path::Path;
 
+pub use super::error::ImportError;
 pub use crate::export::MERL_SCALE;
 use crate::export::{MERL_DIMS, MERL_LEN};
 
 /// Bytes of a complete MERL file: the 12-byte header and three channels of f64.
 pub const MERL_FILE_LEN: u64 = 12 + 3 * 8 * MERL_LEN as u64;
-
-/// Why an import failed.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum ImportError {
-    /// The input is not a usable MERL file, or the request is wrong (bad input): one line.
-    Invalid(String),
-    /// The output could not be written: one line naming it.
-    Write(String),
-}
-
-impl std::fmt::Display for ImportError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            ImportError::Invalid(m) | ImportError::Write(m) => f.write_str(m),
-        }
-    }
-}
-
-impl std::error::Error for ImportError {}
 
 /// Which BRDF to take from the three colour channels.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -229,37 +211,37 @@ pub struct InPlaneSweep {
     pub missing: usize,
 }
 
-/// Writes `sweep` in the sweep-file format: `#` lines saying where it came from, that
-/// the brdf column is in 1/sr and how many points were left out, then
-/// `theta_i,theta_r,brdf` with each value in its shortest exact (round-trip) form.
+/// Writes `sweep` in the sweep-file format ([`super::write::write_sweep`]): `#` lines saying
+/// where it came from, that the brdf column is in 1/sr and how many points were left
+/// out, then `theta_i,theta_r,brdf`.
 pub fn write_sweep(
     w: &mut impl Write,
     sweep: &InPlaneSweep,
     source: &str,
     channel: Channel,
 ) -> io::Result<()> {
-    writeln!(w, "# gonio sweep v1")?;
-    writeln!(
-        w,
-        "# source: MERL BRDF database file {source}, channel {} ({}), cells by truncation, no interpolation",
-        channel.name(),
-        match channel {
-            Channel::Mean => "average of the scaled red, green and blue",
-            _ => "scaled as the reference reader",
-        }
-    )?;
-    writeln!(w, "# units: degrees")?;
-    writeln!(w, "# brdf: 1/sr")?;
-    writeln!(
-        w,
-        "# missing: {} requested points fall on missing (negative) MERL cells and are left out",
-        sweep.missing
-    )?;
-    writeln!(w, "theta_i,theta_r,brdf")?;
-    for &(ti, tr, f) in &sweep.rows {
-        writeln!(w, "{ti},{tr},{f}")?;
-    }
-    Ok(())
+    super::write::write_sweep(w, &merl_meta(source, channel, sweep.missing), &sweep.rows)
+}
+
+/// The `#` lines of a MERL import.
+fn merl_meta(source: &str, channel: Channel, missing: usize) -> Vec<String> {
+    vec![
+        format!(
+            "source: MERL BRDF database file {source}, channel {} ({}), cells by truncation, no interpolation",
+            channel.name(),
+            match channel {
+                Channel::Mean => "average of the scaled red, green and blue",
+                _ => "scaled as the reference reader",
+            }
+        ),
+        "units: degrees".into(),
+        crate::sweep_file::BrdfUnits::PerSr.header_line()[2..]
+            .trim_end()
+            .to_string(),
+        format!(
+            "missing: {missing} requested points fall on missing (negative) MERL cells and are left out"
+        ),
+    ]
 }
 
 /// Writes `sweep` to `path` through the export's atomic writer (nothing is left under
@@ -271,16 +253,11 @@ pub fn write_file(
     channel: Channel,
     force: bool,
 ) -> Result<(), ImportError> {
-    if !force && path.exists() {
-        return Err(ImportError::Invalid(format!(
-            "{} exists: use --force to overwrite it",
-            path.display()
-        )));
-    }
-    crate::outfile::write(crate::outfile::Target::new(path, force), |mut w| {
-        write_sweep(&mut w, sweep, source, channel)
-    })
-    .map_err(|e| ImportError::Write(e.to_string()))
+    super::write::write_file(
+        crate::outfile::Target::new(path, force),
+        &merl_meta(source, channel, sweep.missing),
+        &sweep.rows,
+    )
 }
 
 #[cfg(test)]

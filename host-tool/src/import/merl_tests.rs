@@ -189,6 +189,7 @@ fn the_merl_export_reads_back_at_bin_edges() {
         crate::outfile::Target::new(&path, false),
         &fam,
         brdf_core::member::Member::THREE_COMPONENT,
+        Some(1.0),
     )
     .unwrap();
     let m = MerlFile::read(&path).unwrap();

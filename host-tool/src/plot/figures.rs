@@ -133,6 +133,25 @@ pub(super) struct Figure {
     pub(super) residuals: Vec<(f64, f64)>,
 }
 
+impl Figure {
+    /// The y range of a figure: every plotted value with some room above and below.
+    pub(super) fn y_range(&self) -> (f64, f64) {
+        let ys = self
+            .curves
+            .iter()
+            .flat_map(|c| c.points.iter())
+            .chain(self.markers.iter().flat_map(|m| m.points.iter()))
+            .map(|p| p.1);
+        let (lo, hi) = ys.fold((f64::INFINITY, 0.0f64), |(lo, hi), y| {
+            (lo.min(y), hi.max(y))
+        });
+        if !(lo.is_finite() && hi > 0.0) {
+            return (0.1, 10.0);
+        }
+        (lo / 1.6, hi * 1.8)
+    }
+}
+
 /// A fitted member as the figures draw it.
 #[derive(Clone, Copy)]
 pub(super) struct Shown<'a>(&'a MemberFit);
@@ -463,7 +482,7 @@ pub(super) fn incidence_figure(data: &Dataset, fam: &FamilyFit, j: usize) -> Fig
     };
     // A component wholly below the chart is not drawn (no component is above the
     // model it is part of): its legend entry says where it is instead.
-    let (lo, _) = super::render::y_range(&fig);
+    let (lo, _) = fig.y_range();
     for (l, (_, text)) in fig.lobes.iter().zip(
         fig.legend
             .iter_mut()
@@ -471,8 +490,7 @@ pub(super) fn incidence_figure(data: &Dataset, fam: &FamilyFit, j: usize) -> Fig
     ) {
         let top = l.curve.points.iter().map(|p| p.1).fold(0.0, f64::max);
         if top < lo {
-            let top = super::render::tick_text(top);
-            text.push_str(&format!(" (below the chart: at most {top})"));
+            text.push_str(&format!(" (below the chart: at most {top:.2e})"));
         }
     }
     fig

@@ -68,23 +68,6 @@ pub(super) fn tick_text(v: f64) -> String {
     }
 }
 
-/// The y range of a figure: every plotted value with some room above and below.
-pub(super) fn y_range(fig: &Figure) -> (f64, f64) {
-    let ys = fig
-        .curves
-        .iter()
-        .flat_map(|c| c.points.iter())
-        .chain(fig.markers.iter().flat_map(|m| m.points.iter()))
-        .map(|p| p.1);
-    let (lo, hi) = ys.fold((f64::INFINITY, 0.0f64), |(lo, hi), y| {
-        (lo.min(y), hi.max(y))
-    });
-    if !(lo.is_finite() && hi > 0.0) {
-        return (0.1, 10.0);
-    }
-    (lo / 1.6, hi * 1.8)
-}
-
 /// The parts of a curve (x ascending, y > 0) within [lo, hi] in y, each a run of
 /// points; where it crosses a bound it ends or starts on it (interpolated in ln y), so
 /// nothing outside the range is drawn, nor drawn at the range's edge.
@@ -193,7 +176,7 @@ fn render<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, fig: &Figure) -> Re
         (a, Some(b))
     };
 
-    let (lo, hi) = y_range(fig);
+    let (lo, hi) = fig.y_range();
     let (y_bold, y_light) = log_ticks(lo, hi);
     let mut chart = ChartBuilder::on(&plot_area)
         .margin_top(10)

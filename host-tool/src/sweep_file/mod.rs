@@ -20,18 +20,21 @@
 //! Angles in degrees (theta_r signed, positive on the specular side), brdf (and std) in
 //! the units of the `# brdf:` line: `relative` (the instrument's units, what a capture
 //! writes; also assumed when the line is absent) or `1/sr` (after `gonio convert`).
-//! Readers find columns by name; only `theta_i,theta_r,brdf` are required. The `status` line has a fixed width and is
+//! Readers find columns by name, in any case; only `theta_i,theta_r,brdf` are required;
+//! the table's delimiter is `,` `;` or tab, sniffed from the header row. The `status` line has a fixed width and is
 //! rewritten in place when the capture ends; `points` lists the whole plan (after the
 //! exclusion zone) so `--resume` knows what is missing; `seq` indexes it.
 
 mod format;
+mod header_row;
 mod read;
 mod units;
 mod write;
 
+pub use header_row::{DELIMITERS, delimiter_name, sniff_delimiter};
 pub use read::{
     ANGLE_UNITS, BRDF_MAX, BRDF_MIN, MAX_SWEEP_BYTES, SweepData, angles_look_like_radians,
-    looks_like_radians, parse_sweep, radians_warning, read_sweep,
+    looks_like_radians, parse_sweep, radians_warning, read_input, read_sweep,
 };
 pub use units::{BRDF_KEY, BrdfUnits, refuse_mixed};
 pub use write::SweepWriter;

@@ -6,6 +6,7 @@ use std::io::Read;
 use std::path::Path;
 
 use super::format::{COLUMNS, Counters, Row, STATUS_PREFIX, SweepFileError};
+use super::header_row::{header_columns, sniff_delimiter};
 use super::units::{BRDF_KEY, BrdfUnits};
 use crate::text::escape_line;
 
@@ -135,18 +136,24 @@ pub(super) fn parse_named(bytes: &[u8], path: &Path) -> Result<SweepData, SweepF
 /// Reads a sweep file: a regular file of at most [`MAX_SWEEP_BYTES`] (a device, FIFO
 /// or directory is refused before anything is read). See [`parse_sweep`].
 pub fn read_sweep(path: &Path) -> Result<SweepData, SweepFileError> {
+    let bytes = read_input(path, "sweep files")?;
+    parse_named(&bytes, path)
+}
+
+/// The bytes of an input file: a regular file of at most [`MAX_SWEEP_BYTES`] (a device,
+/// FIFO or directory is refused before anything is read, naming `what` gonio reads).
+pub fn read_input(path: &Path, what: &str) -> Result<Vec<u8>, SweepFileError> {
     let cannot =
         |e: std::io::Error| SweepFileError::Invalid(format!("cannot read {}: {e}", path.display()));
     let meta = std::fs::metadata(path).map_err(cannot)?;
     if !meta.is_file() {
         return Err(SweepFileError::Invalid(format!(
-            "{}: not a regular file (a device, FIFO or directory): gonio reads sweep files",
+            "{}: not a regular file (a device, FIFO or directory): gonio reads {what}",
             path.display()
         )));
     }
     let mut file = std::fs::File::open(path).map_err(cannot)?;
-    let bytes = read_capped(&mut file, path)?;
-    parse_named(&bytes, path)
+    read_capped(&mut file, path)
 }
 
 /// The angle units a file may declare (`# units: ...`); anything else is refused rather
@@ -348,8 +355,10 @@ fn read_table(
         at: 0,
         line: first_line,
     };
+    let delimiter = sniff_delimiter(table);
     let mut rdr = csv::ReaderBuilder::new()
         .has_headers(false)
+        .delimiter(delimiter)
         .flexible(true)
         .trim(csv::Trim::All)
         .from_reader(table);
@@ -395,7 +404,8 @@ fn read_table(
         }
         data.no_final_newline = last_unterminated;
         let Some(idx) = &col else {
-            col = Some(header_columns(&fields, lineno, data)?);
+            data.columns = fields.iter().map(|c| c.to_string()).collect();
+            col = Some(header_columns(&fields, delimiter).map_err(|m| (lineno, m))?);
             continue;
         };
         let row = parse_row(&fields, idx, lineno)?;
@@ -439,38 +449,6 @@ fn read_table(
     Ok(())
 }
 
-/// The header row: where each of [`COLUMNS`] is (the first three required, none twice).
-fn header_columns(
-    fields: &[&str],
-    lineno: usize,
-    data: &mut SweepData,
-) -> Result<[Option<usize>; 7], (usize, String)> {
-    data.columns = fields.iter().map(|c| c.to_string()).collect();
-    let find = |name: &str| data.columns.iter().position(|c| c == name);
-    let idx = COLUMNS.map(find);
-    for (name, i) in COLUMNS.iter().zip(idx).take(3) {
-        if i.is_none() {
-            let shown = fields.join(",");
-            return Err((
-                lineno,
-                format!(
-                    "missing column '{name}' (header: {})",
-                    escape_line(&shown, 2 * QUOTE_CHARS)
-                ),
-            ));
-        }
-    }
-    for name in COLUMNS {
-        if data.columns.iter().filter(|c| *c == name).count() > 1 {
-            return Err((
-                lineno,
-                format!("column '{name}' appears more than once: which one is meant?"),
-            ));
-        }
-    }
-    Ok(idx)
-}
-
 /// One row from its fields (`idx`: where each of [`COLUMNS`] is).
 fn parse_row(
     fields: &[&str],
@@ -494,10 +472,19 @@ fn parse_row(
             None => Ok(None),
             Some(s) => match s.parse::<f64>() {
                 Ok(v) if v.is_finite() => Ok(Some(v)),
-                _ => Err((
-                    lineno,
-                    format!("{name} {} is not a finite number", quoted(s)),
-                )),
+                _ => {
+                    // A ';' or tab table may write decimals with a comma.
+                    let hint = if s.contains(',') && s.replacen(',', ".", 1).parse::<f64>().is_ok()
+                    {
+                        " (a decimal comma? gonio import table FILE --decimal-comma converts such a table)"
+                    } else {
+                        ""
+                    };
+                    Err((
+                        lineno,
+                        format!("{name} {} is not a finite number{hint}", quoted(s)),
+                    ))
+                }
             },
         }
     };

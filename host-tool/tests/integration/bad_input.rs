@@ -91,6 +91,37 @@ fn fixtures() -> Scratch {
     w("exists.csv", b"precious\n");
     w("plainfile", b"not a directory\n");
     w("fit-cols.csv", b"theta_i,brdf\n1,2\n");
+    w("fit-aoi.csv", b"AOI;AOS;BRDF\n20;20;5\n20;30;4\n20;40;3\n");
+    w("table-comma.csv", b"AOI;AOS;BRDF\n20;20;0,5\n");
+    w(
+        "persr.csv",
+        b"# brdf: 1/sr\ntheta_i,theta_r,brdf\n20,20,5\n20,30,4\n20,40,3\n",
+    );
+    let rgl = std::fs::read(
+        crate::util::repo_root().join("host-tool/tests/data/rgl_ilm_l3_37_metallic_rgb.bsdf"),
+    )
+    .unwrap();
+    w("rgl.bsdf", &rgl);
+    w("rgl-cut.bsdf", &rgl[..rgl.len() - 1000]);
+    w(
+        "astm-count.astm",
+        b"NUM_POINTS 3\nVARS theta_i,phi_i,theta_s,phi_s,BRDF\n0.5,0,0.5,3.14159,1\n0.5,0,0.4,3.14159,1\n",
+    );
+    w(
+        "astm-rgb.astm",
+        b"VARS theta_i,phi_i,theta_s,phi_s,R,G,B\n0.5,0,0.5,3.14159,1,2,3\n",
+    );
+    w(
+        "astm-nan.astm",
+        b"VARS theta_i,phi_i,theta_s,phi_s,BRDF\n0.5,0,0.5,3.14159,nan\n",
+    );
+    w(
+        "astm-btdf.astm",
+        b"VARS theta_i,phi_i,theta_s,phi_s,BRDF\n0.5,0,2.5,3.14159,1\n",
+    );
+    w("table-nan.csv", b"AOI,AOS,BRDF\n20,20,5\n20,30,NaN\n");
+    w("table-short.csv", b"AOI,AOS,BRDF\n20,20,5\n20,30\n");
+    w("table-theta.csv", b"AOI,AOS,BRDF\n20,20,5\n95,30,1\n");
     w("fit-nan.csv", b"theta_i,theta_r,brdf\n10,0,1\n10,5,nan\n");
     w("fit-bin.csv", b"\x00\x01\x02\xff\n");
     w("fit-few.csv", b"theta_i,theta_r,brdf\n10,0,1\n10,5,2\n");
@@ -201,6 +232,15 @@ fn accepted_fixtures(d: &Path, text: &str) {
     w(
         "ok-big.csv",
         b"theta_i,theta_r,brdf\n20,20,1e30\n20,30,4\n20,40,1e-30\n",
+    );
+    // Another tool's delimiters (sniffed) and column names in another case.
+    w(
+        "ok-semicolon.csv",
+        b"Theta_i;Theta_r;BRDF\n20;20;5\n20;30;4\n20;40;3\n",
+    );
+    w(
+        "ok-tab.csv",
+        b"# brdf: relative\nTHETA_I\tTHETA_R\tBrdf\n20\t20\t5\n20\t30\t4\n20\t40\t3\n",
     );
     // A symlink where a predictable temporary name would be: never written through.
     std::os::unix::fs::symlink(d.join("exists.csv"), d.join("out.json.tmp")).unwrap();
@@ -464,10 +504,396 @@ const CASES: &[Case] = &[
         2,
         "--model ts uses --kd",
     ),
+    // import astm: the header, then each row
+    out(
+        &["import", "astm", "{d}/fit-aoi.csv", "--out", "{d}/a.csv"],
+        2,
+        "no VARS line: not an ASTM E1392 table",
+        "a.csv",
+    ),
+    out(
+        &[
+            "import",
+            "astm",
+            "{d}/astm-count.astm",
+            "--out",
+            "{d}/a.csv",
+        ],
+        2,
+        "astm-count.astm:1: NUM_POINTS 3 but the file holds 2 rows",
+        "a.csv",
+    ),
+    out(
+        &["import", "astm", "{d}/astm-rgb.astm", "--out", "{d}/a.csv"],
+        2,
+        "3 channels (R, G, B): choose one with --channel",
+        "a.csv",
+    ),
+    out(
+        &[
+            "import",
+            "astm",
+            "{d}/astm-rgb.astm",
+            "--out",
+            "{d}/a.csv",
+            "--channel",
+            "Y",
+        ],
+        2,
+        "no channel 'Y' in VARS (it names R, G, B)",
+        "a.csv",
+    ),
+    out(
+        &["import", "astm", "{d}/astm-nan.astm", "--out", "{d}/a.csv"],
+        2,
+        "astm-nan.astm:2: BRDF 'nan' is not a finite number",
+        "a.csv",
+    ),
+    out(
+        &["import", "astm", "{d}/astm-btdf.astm", "--out", "{d}/a.csv"],
+        2,
+        "theta_s 2.5 rad is outside [0, pi/2]",
+        "a.csv",
+    ),
+    out(
+        &["import", "astm", "/dev/zero", "--out", "{d}/a.csv"],
+        2,
+        "not a regular file",
+        "a.csv",
+    ),
+    // the 1/sr gate: a MERL table of a relative-unit fit needs a scale (issue #37)
+    out(
+        &["fit", "{d}/fe-0.115.csv", "--export", "merl={d}/fe.binary"],
+        2,
+        "fe.binary: a merl file holds the BRDF in 1/sr but the fit is in relative units (the instrument's): give --scale S",
+        "fe.binary",
+    ),
+    out(
+        &[
+            "fit",
+            "{d}/ok-tab.csv",
+            "--export",
+            "merl={d}/fe.binary",
+            "--scale",
+            "0",
+        ],
+        2,
+        "the scale is 1/sr per relative unit, a finite number above 0",
+        "fe.binary",
+    ),
+    out(
+        &["fit", "{d}/fe-0.115.csv", "--export", "zemax={d}/fe.zmx"],
+        2,
+        "fe.zmx: a zemax file holds the BRDF in 1/sr but the fit is in relative units",
+        "fe.zmx",
+    ),
+    out(
+        &["fit", "{d}/fe-0.115.csv", "--export", "astm={d}/fe.astm"],
+        2,
+        "fe.astm: a astm file holds the BRDF in 1/sr but the fit is in relative units",
+        "fe.astm",
+    ),
+    case(
+        &["fit", "{d}/fe-0.115.csv", "--scale", "0.002"],
+        2,
+        "--scale S converts the exports to 1/sr: give --export FORMAT=PATH too",
+    ),
+    out(
+        &[
+            "fit",
+            "{d}/persr.csv",
+            "--export",
+            "merl={d}/fe.binary",
+            "--scale",
+            "0.002",
+        ],
+        2,
+        "--scale 0.002: the fit is already in 1/sr",
+        "fe.binary",
+    ),
+    case(
+        &[
+            "fit",
+            "{d}/fe-0.115.csv",
+            "{d}/ok-tab.csv",
+            "--scale",
+            "0.002",
+        ],
+        2,
+        "--plot, --export and --scale take one sweep file",
+    ),
+    // import rgl: the tensor file, then the grid
+    out(
+        &["import", "rgl", "{d}/fit-aoi.csv", "--out", "{d}/r.csv"],
+        2,
+        "not an RGL tensor file",
+        "r.csv",
+    ),
+    out(
+        &["import", "rgl", "{d}/empty.csv", "--out", "{d}/r.csv"],
+        2,
+        "cut short in the header",
+        "r.csv",
+    ),
+    out(
+        &["import", "rgl", "/dev/zero", "--out", "{d}/r.csv"],
+        2,
+        "not a regular file",
+        "r.csv",
+    ),
+    out(
+        &[
+            "import",
+            "rgl",
+            "{d}/rgl.bsdf",
+            "--out",
+            "{d}/r.csv",
+            "--theta-i",
+            "95",
+        ],
+        2,
+        "--theta-i 95: an incidence lies in [0, 90) degrees",
+        "r.csv",
+    ),
+    out(
+        &[
+            "import",
+            "rgl",
+            "{d}/rgl.bsdf",
+            "--out",
+            "{d}/r.csv",
+            "--theta-i",
+            "0:89:0.0001",
+            "--theta-r=-90:90:0.001",
+        ],
+        2,
+        "more than 1000000: choose coarser",
+        "r.csv",
+    ),
+    out(
+        &["import", "rgl", "{d}/rgl-cut.bsdf", "--out", "{d}/r.csv"],
+        2,
+        "does not fit in the file",
+        "r.csv",
+    ),
+    // import table: the column mapping, then each row
+    out(
+        &[
+            "import",
+            "table",
+            "{d}/fit-aoi.csv",
+            "--out",
+            "{d}/t.csv",
+            "--columns",
+            "theta_i=AOI,theta_r=AOS,brdf=Value",
+            "--brdf",
+            "1/sr",
+        ],
+        2,
+        "no column 'Value' for brdf: the header row holds 3 column(s) separated by ';': 'AOI' 'AOS' 'BRDF'",
+        "t.csv",
+    ),
+    out(
+        &[
+            "import",
+            "table",
+            "{d}/fit-aoi.csv",
+            "--out",
+            "{d}/t.csv",
+            "--columns",
+            "theta_i=AOI,theta_r=AOS",
+            "--brdf",
+            "1/sr",
+        ],
+        2,
+        "--columns needs theta_i=..., theta_r=... and brdf=...",
+        "t.csv",
+    ),
+    out(
+        &[
+            "import",
+            "table",
+            "{d}/fit-aoi.csv",
+            "--out",
+            "{d}/t.csv",
+            "--columns",
+            "theta_i=AOI,theta_r=AOS,brdf=BRDF",
+        ],
+        2,
+        "--brdf",
+        "t.csv",
+    ),
+    out(
+        &[
+            "import",
+            "table",
+            "{d}/fit-aoi.csv",
+            "--out",
+            "{d}/t.csv",
+            "--columns",
+            "theta_i=AOI,theta_r=AOS,brdf=BRDF",
+            "--brdf",
+            "W",
+        ],
+        2,
+        "brdf units 'W'",
+        "t.csv",
+    ),
+    out(
+        &[
+            "import",
+            "table",
+            "{d}/table-comma.csv",
+            "--out",
+            "{d}/t.csv",
+            "--columns",
+            "theta_i=AOI,theta_r=AOS,brdf=BRDF",
+            "--brdf",
+            "1/sr",
+        ],
+        2,
+        "table-comma.csv:2: brdf '0,5' is not a finite number (a decimal comma? give --decimal-comma)",
+        "t.csv",
+    ),
+    out(
+        &[
+            "import",
+            "table",
+            "{d}/table-nan.csv",
+            "--out",
+            "{d}/t.csv",
+            "--columns",
+            "theta_i=AOI,theta_r=AOS,brdf=BRDF",
+            "--brdf",
+            "1/sr",
+            "--decimal-comma",
+        ],
+        2,
+        "--decimal-comma with ',' as the delimiter",
+        "t.csv",
+    ),
+    out(
+        &[
+            "import",
+            "table",
+            "{d}/table-nan.csv",
+            "--out",
+            "{d}/t.csv",
+            "--columns",
+            "theta_i=AOI,theta_r=AOS,brdf=BRDF",
+            "--brdf",
+            "1/sr",
+        ],
+        2,
+        "table-nan.csv:3: brdf 'NaN' is not a finite number",
+        "t.csv",
+    ),
+    out(
+        &[
+            "import",
+            "table",
+            "{d}/table-short.csv",
+            "--out",
+            "{d}/t.csv",
+            "--columns",
+            "theta_i=AOI,theta_r=AOS,brdf=BRDF",
+            "--brdf",
+            "1/sr",
+        ],
+        2,
+        "table-short.csv:3: 2 fields, the brdf column is number 3",
+        "t.csv",
+    ),
+    out(
+        &[
+            "import",
+            "table",
+            "{d}/table-theta.csv",
+            "--out",
+            "{d}/t.csv",
+            "--columns",
+            "theta_i=AOI,theta_r=AOS,brdf=BRDF",
+            "--brdf",
+            "1/sr",
+        ],
+        2,
+        "theta_i 95 degrees is outside [0, 90]",
+        "t.csv",
+    ),
+    out(
+        &[
+            "import",
+            "table",
+            "/dev/zero",
+            "--out",
+            "{d}/t.csv",
+            "--columns",
+            "theta_i=AOI,theta_r=AOS,brdf=BRDF",
+            "--brdf",
+            "1/sr",
+        ],
+        2,
+        "not a regular file",
+        "t.csv",
+    ),
+    out(
+        &[
+            "import",
+            "table",
+            "{d}/garbage.csv",
+            "--out",
+            "{d}/t.csv",
+            "--columns",
+            "theta_i=AOI,theta_r=AOS,brdf=BRDF",
+            "--brdf",
+            "1/sr",
+        ],
+        2,
+        "not UTF-8 text",
+        "t.csv",
+    ),
+    out(
+        &[
+            "import",
+            "table",
+            "{d}/header.csv",
+            "--out",
+            "{d}/t.csv",
+            "--columns",
+            "theta_i=1,theta_r=2,brdf=3",
+            "--brdf",
+            "1/sr",
+            "--no-header",
+        ],
+        2,
+        "theta_i 'theta_i' is not a finite number",
+        "t.csv",
+    ),
+    case(
+        &[
+            "import",
+            "table",
+            "{d}/fit-aoi.csv",
+            "--out",
+            "{d}/fit-aoi.csv",
+            "--force",
+            "--columns",
+            "theta_i=AOI,theta_r=AOS,brdf=BRDF",
+            "--brdf",
+            "1/sr",
+        ],
+        2,
+        "is the input file",
+    ),
     // fit: reading the sweep file, then the options
     case(&["fit", "/nonexistent.csv"], 2, "cannot read"),
     case(&["fit", "{d}/empty.csv"], 2, "no readings"),
     case(&["fit", "{d}/fit-cols.csv"], 2, "missing column 'theta_r'"),
+    case(
+        &["fit", "{d}/fit-aoi.csv"],
+        2,
+        "3 column(s) separated by ';': 'AOI' 'AOS' 'BRDF'; gonio reads theta_i, theta_r, brdf (any case); for other names use gonio import table",
+    ),
     case(&["fit", "{d}/fit-nan.csv"], 2, ":3: brdf 'nan'"),
     case(&["fit", "{d}/fit-bin.csv"], 2, "not UTF-8"),
     case(
@@ -1813,6 +2239,16 @@ const ACCEPTED: &[Accepted] = &[
     },
     Accepted {
         file: "ok-big.csv",
+        n: 3,
+        warns: "",
+    },
+    Accepted {
+        file: "ok-semicolon.csv",
+        n: 3,
+        warns: "",
+    },
+    Accepted {
+        file: "ok-tab.csv",
         n: 3,
         warns: "",
     },

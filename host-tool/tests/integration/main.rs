@@ -10,6 +10,7 @@ mod docs_examples;
 mod eval_cli;
 mod fault_injection;
 mod fit_cli;
+mod formats_cli;
 mod golden;
 mod honest_answers;
 mod hostile;

@@ -1,0 +1,141 @@
+//! `gonio import rgl`: an RGL-EPFL measured material in the plane of incidence as a sweep file.
+
+use std::path::PathBuf;
+
+use clap::{Args, ValueEnum};
+
+use super::args::{Angles, parse_angles, theta_r_angles};
+use super::error::{CliError, CliResult};
+use crate::import::rgl::{RglBrdf, RglChannel};
+use crate::import::write_file;
+use crate::outfile::Target;
+use crate::sweep_file::{BRDF_MIN, BrdfUnits, read_input};
+
+/// Most rows one import writes (theta_i x theta_r): a sweep gonio reads back whole.
+pub const MAX_IMPORT_ROWS: usize = 1_000_000;
+
+/// A file's incidence this close to 90 degrees is its grazing one (pi/2 rounded to f32
+/// reads 89.999996): not a default incidence.
+const GRAZING_DEG: f64 = 1e-3;
+
+/// The channel on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum RglChannelArg {
+    /// Red.
+    R,
+    /// Green.
+    G,
+    /// Blue.
+    B,
+    /// Rec. 709 luminance (0.2126 R + 0.7152 G + 0.0722 B).
+    Y,
+}
+
+/// `gonio import rgl`.
+#[derive(Debug, Args)]
+#[command(
+    allow_negative_numbers = true,
+    about = "Evaluate an RGL-EPFL measured material in the plane of incidence into a sweep file",
+    long_about = "Evaluate an RGL-EPFL measured material (an RGB tensor_file, *_rgb.bsdf, Dupuy & \
+Jakob 2018) in the plane of incidence as the reference reader rgl-epfl/brdf-loader \
+(powitacq_rgb BRDF::eval) does, and write a sweep file theta_i,theta_r,brdf with the BRDF f_r \
+in 1/sr (the reference's eval is f_r cos(theta_r); gonio divides the cosine out).\n\n\
+Angles in degrees: theta_i in [0, 90); theta_r signed in [-90, 90], positive on the specular \
+side (0 at grazing exit). See docs/formats.md.",
+    after_help = "Examples:\n  gonio import rgl ilm_l3_37_metallic_rgb.bsdf --out l3.csv\n  \
+gonio import rgl paint_rgb.bsdf --out paint-r.csv --channel r --theta-i 0,20,40,60 --theta-r=-85:85:0.5"
+)]
+pub struct RglArgs {
+    /// The RGL material (RGB tensor file).
+    #[arg(value_name = "FILE.bsdf")]
+    pub file: PathBuf,
+    /// The sweep file to write.
+    #[arg(long, value_name = "SWEEP.csv")]
+    pub out: PathBuf,
+    /// Which channel: r, g, b or y (luminance).
+    #[arg(long, value_enum, default_value_t = RglChannelArg::Y)]
+    pub channel: RglChannelArg,
+    /// Incidences in degrees: `a,b,c` or `start:stop:step` [default: the file's measured
+    /// incidences below 90].
+    #[arg(long = "theta-i", value_name = "LIST")]
+    pub theta_i: Option<String>,
+    /// Detector angles in degrees, signed: `a,b,c` or `start:stop:step`.
+    #[arg(long = "theta-r", value_name = "SPEC", allow_hyphen_values = true, default_value = "-89:89:1", value_parser = theta_r_angles)]
+    pub theta_r: Angles,
+    /// Overwrite --out if it exists.
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// Runs `gonio import rgl`.
+pub fn run(args: &RglArgs) -> CliResult {
+    let inputs = [args.file.as_path()];
+    let target = Target::new(&args.out, args.force).inputs(&inputs);
+    crate::outfile::check(target)?;
+    let name = args.file.display();
+    let bytes = read_input(&args.file, "RGL tensor files")?;
+    let brdf = crate::import::tensor::read_tensor(&bytes)
+        .and_then(|f| RglBrdf::from_fields(&f))
+        .map_err(|m| CliError::usage(format!("{name}: {m}")))?;
+    let theta_i = match &args.theta_i {
+        Some(s) => parse_angles("--theta-i", s)?,
+        None => brdf
+            .theta_i
+            .iter()
+            .map(|t| t.to_degrees())
+            .filter(|&t| t < 90.0 - GRAZING_DEG)
+            .collect(),
+    };
+    for &t in &theta_i {
+        if !(0.0..90.0).contains(&t) {
+            return Err(CliError::usage(format!(
+                "--theta-i {t}: an incidence lies in [0, 90) degrees"
+            )));
+        }
+    }
+    for &t in &args.theta_r.0 {
+        if !(-90.0..=90.0).contains(&t) {
+            return Err(CliError::usage(format!(
+                "--theta-r {t}: a detector angle lies in [-90, 90] degrees"
+            )));
+        }
+    }
+    let n = theta_i.len().saturating_mul(args.theta_r.0.len());
+    if n > MAX_IMPORT_ROWS {
+        return Err(CliError::usage(format!(
+            "{} incidences x {} detector angles = {n} rows, more than {MAX_IMPORT_ROWS}: choose coarser --theta-i/--theta-r",
+            theta_i.len(),
+            args.theta_r.0.len()
+        )));
+    }
+    let channel = match args.channel {
+        RglChannelArg::R => RglChannel::R,
+        RglChannelArg::G => RglChannel::G,
+        RglChannelArg::B => RglChannel::B,
+        RglChannelArg::Y => RglChannel::Y,
+    };
+    let mut rows = Vec::with_capacity(n);
+    for &ti in &theta_i {
+        for &tr in &args.theta_r.0 {
+            let f = brdf.in_plane(channel, ti, tr);
+            // Below the sweep's smallest magnitude is no reading (f32 round-off): 0.
+            rows.push((ti, tr, if f.abs() < BRDF_MIN { 0.0 } else { f }));
+        }
+    }
+    let source = args
+        .file
+        .file_name()
+        .map_or_else(|| name.to_string(), |n| n.to_string_lossy().into_owned());
+    let meta = vec![
+        format!(
+            "source: RGL-EPFL material {source} ({}), channel {}, evaluated in the plane as powitacq_rgb BRDF::eval / cos(theta_r), imported with gonio import rgl",
+            crate::text::escape_line(brdf.description.trim(), 120),
+            channel.name()
+        ),
+        "units: degrees".to_string(),
+        format!("brdf: {}", BrdfUnits::PerSr),
+    ];
+    write_file(target, &meta, &rows)?;
+    super::output::say_written(std::slice::from_ref(&args.out));
+    Ok(())
+}

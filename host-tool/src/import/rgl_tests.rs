@@ -1,0 +1,264 @@
+//! Tests of the RGL reader: the committed real material against an independent
+//! evaluation (tests/data/rgl_reference.py, plain Python from the reference reader),
+//! a hand-made tensor whose value is derived by hand, and damaged files.
+
+use super::super::tensor::read_tensor;
+use super::*;
+
+fn real() -> RglBrdf {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/rgl_ilm_l3_37_metallic_rgb.bsdf");
+    RglBrdf::from_fields(&read_tensor(&std::fs::read(path).unwrap()).unwrap()).unwrap()
+}
+
+/// (theta_i, theta_r, f_r of R, G, B, Y) printed by rgl_reference.py (see
+/// tests/data/README.md): on the mirror, off it, between measured incidences (33), at
+/// grazing exit.
+const REFERENCE: [(f64, f64, [f64; 4]); 12] = [
+    (
+        0.0,
+        0.0,
+        [
+            77.80634788004683,
+            79.05331352644134,
+            78.02917051804252,
+            78.71426550481148,
+        ],
+    ),
+    (
+        0.0,
+        -45.0,
+        [
+            0.03165852938303092,
+            0.03292278919180226,
+            0.03308303642727294,
+            0.03266557740685846,
+        ],
+    ),
+    (
+        20.0,
+        20.0,
+        [
+            71.08244648121196,
+            72.0614879833187,
+            71.61149423724135,
+            71.82085421150401,
+        ],
+    ),
+    (
+        20.0,
+        19.5,
+        [
+            63.77958901293596,
+            64.72360915251467,
+            64.15781366215649,
+            64.48206003643637,
+        ],
+    ),
+    (
+        20.0,
+        -60.0,
+        [
+            0.0044373442161456875,
+            0.0045988137576509335,
+            0.00461570126365051,
+            0.004565704611060087,
+        ],
+    ),
+    (
+        40.0,
+        41.0,
+        [
+            61.290444291037865,
+            62.40937694655812,
+            62.314822023687675,
+            62.16466499856327,
+        ],
+    ),
+    (
+        40.0,
+        10.0,
+        [
+            0.1405354106512458,
+            0.14415524362421808,
+            0.1428980582466581,
+            0.14329489834990433,
+        ],
+    ),
+    (
+        60.0,
+        60.0,
+        [
+            168.9085704010242,
+            170.08052920095056,
+            169.58281408924725,
+            169.79543572902125,
+        ],
+    ),
+    (
+        60.0,
+        -30.0,
+        [
+            0.002308865729092664,
+            0.0023850702083008275,
+            0.002363477206477951,
+            0.00236731012128956,
+        ],
+    ),
+    (
+        75.0,
+        80.0,
+        [
+            22.467162150989722,
+            22.622937888598326,
+            22.414995169029332,
+            22.574806502429855,
+        ],
+    ),
+    (
+        33.0,
+        -89.0,
+        [
+            0.004522207152828202,
+            0.004682155465372778,
+            0.004692956494679561,
+            0.00464893028844175,
+        ],
+    ),
+    (
+        0.0,
+        89.0,
+        [
+            0.08605521351106057,
+            0.08828441846081797,
+            0.08727814695624031,
+            0.08773783668586903,
+        ],
+    ),
+];
+
+#[test]
+fn the_real_material_matches_an_independent_evaluation() {
+    let m = real();
+    assert_eq!(m.theta_i.len(), 8);
+    assert!(
+        m.description.starts_with("Metallic paint from L3-37"),
+        "{}",
+        m.description
+    );
+    for (ti, tr, want) in REFERENCE {
+        for (c, w) in [RglChannel::R, RglChannel::G, RglChannel::B, RglChannel::Y]
+            .into_iter()
+            .zip(want)
+        {
+            let got = m.in_plane(c, ti, tr);
+            assert!(
+                (got - w).abs() <= 1e-9 * w,
+                "{ti} {tr} {}: {got} vs {w}",
+                c.name()
+            );
+        }
+    }
+    // Below the horizon: nothing.
+    assert_eq!(m.in_plane(RglChannel::Y, 20.0, 90.0), 0.0);
+}
+
+/// Bytes of a tensor file holding `fields` (name, shape, f32 values).
+fn tensor_bytes(fields: &[(&str, Vec<u64>, Vec<f32>)]) -> Vec<u8> {
+    let mut head = b"tensor_file\0\x01\x00".to_vec();
+    head.extend((fields.len() as u32).to_le_bytes());
+    let header_len: usize = head.len()
+        + fields
+            .iter()
+            .map(|(n, s, _)| 2 + n.len() + 2 + 1 + 8 + 8 * s.len())
+            .sum::<usize>();
+    let mut data = Vec::new();
+    for (name, shape, values) in fields {
+        head.extend((name.len() as u16).to_le_bytes());
+        head.extend(name.as_bytes());
+        head.extend((shape.len() as u16).to_le_bytes());
+        head.push(10);
+        head.extend(((header_len + data.len()) as u64).to_le_bytes());
+        for s in shape {
+            head.extend(s.to_le_bytes());
+        }
+        for v in values {
+            data.extend(v.to_le_bytes());
+        }
+    }
+    head.extend(data);
+    head
+}
+
+/// A material whose every table is constant: rgb (0.5, 1, 2), ndf 3, sigma 1.5, and a
+/// uniform VNDF (whose inversion lands anywhere: rgb is the same there). eval =
+/// rgb * ndf / (4 sigma) = rgb * 0.5, and f_r = eval / cos(theta_o): at theta_o = 60
+/// degrees (cos 0.5), f_r = rgb; Y = 0.2126 * 0.5 + 0.7152 + 0.0722 * 2 = 0.9659.
+fn constant_material() -> Vec<(&'static str, Vec<u64>, Vec<f32>)> {
+    let n = 4;
+    vec![
+        ("theta_i", vec![2], vec![0.0, 1.5]),
+        ("phi_i", vec![1], vec![0.0]),
+        ("ndf", vec![n, n], vec![3.0; 16]),
+        ("sigma", vec![n, n], vec![1.5; 16]),
+        ("vndf", vec![1, 2, n, n], vec![1.0; 32]),
+        (
+            "rgb",
+            vec![1, 2, 3, n, n],
+            [[0.5f32; 16], [1.0; 16], [2.0; 16]].concat().repeat(2),
+        ),
+    ]
+}
+
+#[test]
+fn a_constant_material_gives_its_hand_derived_value() {
+    let m =
+        RglBrdf::from_fields(&read_tensor(&tensor_bytes(&constant_material())).unwrap()).unwrap();
+    for (c, want) in [
+        (RglChannel::R, 0.5),
+        (RglChannel::G, 1.0),
+        (RglChannel::B, 2.0),
+        (RglChannel::Y, 0.9659),
+    ] {
+        for ti in [0.0, 25.0, 80.0] {
+            let got = m.in_plane(c, ti, -60.0);
+            assert!((got - want).abs() < 1e-12, "{} at {ti}: {got}", c.name());
+            let got = m.in_plane(c, ti, 60.0);
+            assert!((got - want).abs() < 1e-12, "{} at {ti}: {got}", c.name());
+        }
+    }
+}
+
+#[test]
+fn damaged_files_are_refused_in_one_line() {
+    let good = tensor_bytes(&constant_material());
+    let mut lying = good.clone();
+    // The first field's first dimension (after magic, version, count, name length 2,
+    // "theta_i" 7, rank 2, type 1, offset 8) claims 2^40 elements.
+    let at = 12 + 2 + 4 + 2 + 7 + 2 + 1 + 8;
+    lying[at..at + 8].copy_from_slice(&(1u64 << 40).to_le_bytes());
+    let mut nan = constant_material();
+    nan[3].2[5] = f32::NAN;
+    let mut no_rgb = constant_material();
+    no_rgb.pop();
+    let mut wrong_shape = constant_material();
+    wrong_shape[4].1 = vec![1, 3, 4, 4];
+    wrong_shape[4].2 = vec![1.0; 48];
+    let check = |bytes: &[u8], says: &str| {
+        let e = read_tensor(bytes)
+            .and_then(|f| RglBrdf::from_fields(&f).map(drop))
+            .unwrap_err();
+        assert!(e.contains(says) && !e.contains('\n'), "{says}: {e}");
+    };
+    check(&good[..good.len() - 3], "does not fit in the file");
+    check(&good[..30], "cut short");
+    check(b"tensor_filX\0\x01\x00\0\0\0\0", "not an RGL tensor file");
+    check(b"tensor_file\0\x02\x00\0\0\0\0", "version 2.0");
+    check(&lying, "does not fit in the file");
+    check(&tensor_bytes(&nan), "not finite");
+    check(&tensor_bytes(&no_rgb), "no 'rgb' field");
+    check(
+        &tensor_bytes(&wrong_shape),
+        "do not match 1 phi_i x 2 theta_i",
+    );
+}

@@ -1,0 +1,38 @@
+//! The one writer of an imported sweep file: `#` lines, the header row, the rows.
+
+use std::io::{self, Write};
+
+use super::error::ImportError;
+
+/// Writes an imported sweep: `# gonio sweep v1`, each of `meta` as a `# ` line (the
+/// caller's `source:`, `units: degrees` and `brdf:` lines among them), the header row
+/// `theta_i,theta_r,brdf`, then `rows` (degrees, degrees signed, BRDF) each value in its
+/// shortest exact (round-trip) form.
+pub fn write_sweep(
+    w: &mut impl Write,
+    meta: &[String],
+    rows: &[(f64, f64, f64)],
+) -> io::Result<()> {
+    writeln!(w, "# gonio sweep v1")?;
+    for line in meta {
+        writeln!(w, "# {line}")?;
+    }
+    writeln!(w, "theta_i,theta_r,brdf")?;
+    for &(ti, tr, f) in rows {
+        writeln!(w, "{ti},{tr},{f}")?;
+    }
+    Ok(())
+}
+
+/// [`write_sweep`] to `target` through [`crate::outfile::write`] (checked, temporary
+/// file, synced, renamed: nothing is left under the name on failure; an existing file
+/// only with `force`, never an input).
+pub fn write_file(
+    target: crate::outfile::Target<'_>,
+    meta: &[String],
+    rows: &[(f64, f64, f64)],
+) -> Result<(), ImportError> {
+    Ok(crate::outfile::write(target, |mut w| {
+        write_sweep(&mut w, meta, rows)
+    })?)
+}

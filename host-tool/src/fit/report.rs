@@ -256,6 +256,18 @@ pub fn member_fit_json(f: &FamilyFit, fit: &MemberFit) -> Value {
     if let (Value::Object(map), false) = (&mut v, held.is_empty()) {
         map.insert("fixed".into(), json!(held));
     }
+    // The total integrated scatter per incidence, [theta_i, TIS] (the BRDF's units x
+    // sr): the physical checks' directional albedo, one quadrature, when they cover
+    // this member (`--checks`).
+    let name = m.to_string();
+    if let (Value::Object(map), Some(c)) = (&mut v, f.physical.iter().find(|c| c.name == name)) {
+        let tis: Vec<Value> = c
+            .albedo
+            .iter()
+            .map(|&(t, rho, _)| json!([num(t), num(rho)]))
+            .collect();
+        map.insert("tis".into(), Value::Array(tis));
+    }
     v
 }
 

@@ -11,9 +11,6 @@ use crate::import::write_file;
 use crate::outfile::Target;
 use crate::sweep_file::{BRDF_MIN, BrdfUnits, read_input};
 
-/// Most rows one import writes (theta_i x theta_r): a sweep gonio reads back whole.
-pub const MAX_IMPORT_ROWS: usize = 1_000_000;
-
 /// A file's incidence this close to 90 degrees is its grazing one (pi/2 rounded to f32
 /// reads 89.999996): not a default incidence.
 const GRAZING_DEG: f64 = 1e-3;
@@ -100,21 +97,14 @@ pub fn run(args: &RglArgs) -> CliResult {
             )));
         }
     }
-    let n = theta_i.len().saturating_mul(args.theta_r.0.len());
-    if n > MAX_IMPORT_ROWS {
-        return Err(CliError::usage(format!(
-            "{} incidences x {} detector angles = {n} rows, more than {MAX_IMPORT_ROWS}: choose coarser --theta-i/--theta-r",
-            theta_i.len(),
-            args.theta_r.0.len()
-        )));
-    }
+    super::import::check_grid(theta_i.len(), args.theta_r.0.len())?;
     let channel = match args.channel {
         RglChannelArg::R => RglChannel::R,
         RglChannelArg::G => RglChannel::G,
         RglChannelArg::B => RglChannel::B,
         RglChannelArg::Y => RglChannel::Y,
     };
-    let mut rows = Vec::with_capacity(n);
+    let mut rows = Vec::with_capacity(theta_i.len() * args.theta_r.0.len());
     for &ti in &theta_i {
         for &tr in &args.theta_r.0 {
             let f = brdf.in_plane(channel, ti, tr);

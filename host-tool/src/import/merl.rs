@@ -67,6 +67,13 @@ impl MerlFile {
     pub fn read(path: &Path) -> Result<MerlFile, ImportError> {
         let name = path.display();
         let bad = |m: String| ImportError::Invalid(format!("{name}: {m}"));
+        // Checked before opening: opening a FIFO would wait for a writer for ever.
+        let meta = std::fs::metadata(path).map_err(|e| bad(format!("cannot read: {e}")))?;
+        if !meta.is_file() {
+            return Err(bad(
+                "not a regular file (a MERL table is a file of 3 x 90 x 90 x 180 doubles)".into(),
+            ));
+        }
         let mut file = std::fs::File::open(path).map_err(|e| bad(format!("cannot read: {e}")))?;
         let len = file
             .metadata()

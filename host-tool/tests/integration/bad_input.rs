@@ -55,6 +55,8 @@ fn fixtures() -> Scratch {
         .collect::<Vec<u8>>();
     merl.resize(12 + 3 * 8 * 90 * 90 * 180, 0);
     w("gold.binary", &merl);
+    // A FIFO named like a MERL table: opening it would wait for a writer for ever.
+    nix::unistd::mkfifo(&d.join("pipe.binary"), nix::sys::stat::Mode::S_IRWXU).unwrap();
     let mut garbage = Vec::new();
     let mut rng = XorShift32::new(0x1234_5678);
     for _ in 0..4096 {
@@ -503,6 +505,28 @@ const CASES: &[Case] = &[
         ],
         2,
         "--model ts uses --kd",
+    ),
+    // import merl: special files and grids too large as a whole
+    out(
+        &["import", "merl", "{d}/pipe.binary", "--out", "{d}/m.csv"],
+        2,
+        "pipe.binary: not a regular file",
+        "m.csv",
+    ),
+    out(
+        &[
+            "import",
+            "merl",
+            "{d}/gold.binary",
+            "--theta-i",
+            "0:80:0.01",
+            "--theta-r=-89:89:0.1",
+            "--out",
+            "{d}/m.csv",
+        ],
+        2,
+        "8001 incidences x 1781 detector angles = 14249781 rows, more than 1000000",
+        "m.csv",
     ),
     // import astm: the header, then each row
     out(

@@ -155,9 +155,13 @@ pub fn plan_study(seeds: u32) -> Result<Vec<PlanResult>> {
     Ok(out)
 }
 
+/// A temporary directory only its owner can enter (mode 0700 whatever the umask: the
+/// study's sweeps are nobody else's business).
 fn private_dir() -> Result<tempfile::TempDir> {
+    use std::os::unix::fs::PermissionsExt;
     tempfile::Builder::new()
         .prefix("gonio-study-")
+        .permissions(std::fs::Permissions::from_mode(0o700))
         .tempdir()
         .map_err(|e| StudyError::Failed(format!("cannot create a temporary directory: {e}")))
 }
@@ -372,4 +376,17 @@ fn member_study_here() -> Result<(Vec<MemberRow>, f64)> {
         });
     }
     Ok((out, family_ms))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_study_works_in_a_private_directory() {
+        use std::os::unix::fs::PermissionsExt;
+        let d = private_dir().unwrap();
+        let mode = std::fs::metadata(d.path()).unwrap().permissions().mode();
+        assert_eq!(mode & 0o777, 0o700);
+    }
 }

@@ -145,6 +145,17 @@ pub fn check(t: Target<'_>) -> Result<(), OutError> {
             )));
         }
     }
+    // A sweep file a capture is writing (it holds the file's lock) is never replaced,
+    // --force or not: the capture would go on writing into the replaced file's inode.
+    if let Some(pid) = locked_by(path, &meta) {
+        let who = pid.map_or("a running capture".to_string(), |p| {
+            format!("a running capture (process {p})")
+        });
+        return Err(OutError::Refused(format!(
+            "{} is being written by {who}: wait for it to end, or choose another output name",
+            path.display()
+        )));
+    }
     if !t.force {
         return Err(OutError::Refused(format!(
             "{} exists: use --force to overwrite it",
@@ -152,6 +163,35 @@ pub fn check(t: Target<'_>) -> Result<(), OutError> {
         )));
     }
     Ok(())
+}
+
+/// Whether a process holds the lock a capture takes on the regular file `path`
+/// (`Some`), and which when /proc/locks says (`Some(Some(pid))`).
+fn locked_by(path: &Path, meta: &std::fs::Metadata) -> Option<Option<u32>> {
+    use nix::fcntl::{FlockArg, flock};
+    use std::os::fd::AsRawFd;
+    let file = File::open(path).ok()?;
+    match flock(file.as_raw_fd(), FlockArg::LockSharedNonblock) {
+        // Ours for a moment; closing the file releases it.
+        Ok(()) => None,
+        Err(nix::errno::Errno::EWOULDBLOCK) => Some(lock_holder(meta.ino())),
+        Err(_) => None,
+    }
+}
+
+/// The process holding an flock on inode `ino`, from /proc/locks (Linux): lines such
+/// as `1: FLOCK  ADVISORY  WRITE 4242 fd:01:1234567 0 EOF`.
+fn lock_holder(ino: u64) -> Option<u32> {
+    let text = std::fs::read_to_string("/proc/locks").ok()?;
+    text.lines().find_map(|line| {
+        let f: Vec<&str> = line.split_whitespace().collect();
+        // Waiting requests are marked "->" and shift the fields: skip them.
+        if f.len() < 6 || f[1] != "FLOCK" {
+            return None;
+        }
+        let inode = f[5].rsplit(':').next()?.parse::<u64>().ok()?;
+        (inode == ino).then(|| f[4].parse().ok()).flatten()
+    })
 }
 
 /// A new target's directory must exist (and be one) unless the command makes it.
@@ -336,6 +376,35 @@ mod tests {
             .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
             .filter(|n| n.contains(".tmp"))
             .collect()
+    }
+
+    #[test]
+    fn a_file_a_capture_holds_is_never_replaced_even_with_force() {
+        use nix::fcntl::{FlockArg, flock};
+        use std::os::fd::AsRawFd;
+        let dir = test_dir("locked");
+        let path = dir.join("fe.csv");
+        std::fs::write(&path, "theta_i,theta_r,brdf\n").unwrap();
+        // The lock a capture's SweepWriter holds (another open file description).
+        let holder = File::open(&path).unwrap();
+        flock(holder.as_raw_fd(), FlockArg::LockExclusiveNonblock).unwrap();
+        for force in [false, true] {
+            let e = check(Target::new(&path, force)).unwrap_err().to_string();
+            assert!(
+                e.contains("being written by a running capture")
+                    && e.contains(&format!("process {}", std::process::id())),
+                "{e}"
+            );
+            let w = write(Target::new(&path, force), |w| w.write_all(b"x"));
+            assert!(w.is_err());
+        }
+        assert_eq!(
+            std::fs::read_to_string(&path).unwrap(),
+            "theta_i,theta_r,brdf\n"
+        );
+        drop(holder);
+        write(Target::new(&path, true), |w| w.write_all(b"x")).unwrap();
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]

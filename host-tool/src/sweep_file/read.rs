@@ -300,6 +300,21 @@ fn read_metadata(bytes: &[u8], data: &mut SweepData) -> Result<(usize, usize), (
             if key == super::units::BRDF_KEY {
                 super::units::BrdfUnits::parse(value).map_err(|m| (lineno, m))?;
             }
+            // A line a fit reads, given twice with different values: which was meant
+            // is not for gonio to guess (the last one used to win silently).
+            if ["brdf", "aperture", "offset", "units"].contains(&key)
+                && let Some(old) = data.meta.get(key)
+                && old != value
+            {
+                return Err((
+                    lineno,
+                    format!(
+                        "'# {key}:' is given twice, '{}' and '{}': keep the one that is meant",
+                        escape_line(old, QUOTE_CHARS),
+                        escape_line(value, QUOTE_CHARS)
+                    ),
+                ));
+            }
             data.meta.insert(key.to_string(), value.to_string());
         }
     }

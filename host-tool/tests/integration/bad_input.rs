@@ -99,6 +99,10 @@ fn fixtures() -> Scratch {
         "persr.csv",
         b"# brdf: 1/sr\ntheta_i,theta_r,brdf\n20,20,5\n20,30,4\n20,40,3\n",
     );
+    w(
+        "brdf-twice.csv",
+        b"# brdf: relative\n# brdf: 1/sr\ntheta_i,theta_r,brdf\n20,20,5\n20,30,4\n20,40,3\n",
+    );
     let rgl = std::fs::read(
         crate::util::repo_root().join("host-tool/tests/data/rgl_ilm_l3_37_metallic_rgb.bsdf"),
     )
@@ -505,6 +509,12 @@ const CASES: &[Case] = &[
         ],
         2,
         "--model ts uses --kd",
+    ),
+    // metadata a fit reads, given twice and not the same
+    case(
+        &["fit", "{d}/brdf-twice.csv"],
+        2,
+        "'# brdf:' is given twice, 'relative' and '1/sr': keep the one that is meant",
     ),
     // import merl: special files and grids too large as a whole
     out(

@@ -423,11 +423,19 @@ pub fn write_summaries(
 /// The parameters the summary reports, by name (those the selected member has).
 const KEY_PARAMS: [&str; 6] = ["sigma", "sigma_haze", "sigma_m", "k_dd", "k_id", "k_d"];
 
+/// A CSV cell: quoted as RFC 4180 asks, and a text that a spreadsheet would run as a
+/// formula (starting with `=`, `+`, `-`, `@`, tab or CR: a file named `=cmd|calc.csv`)
+/// prefixed with `'` so it stays text.
 fn csv_field(s: &str) -> String {
+    let s = if s.starts_with(['=', '+', '-', '@', '\t', '\r']) {
+        format!("'{s}")
+    } else {
+        s.to_string()
+    };
     if s.contains([',', '"', '\n', '\r']) {
         format!("\"{}\"", s.replace('"', "\"\""))
     } else {
-        s.to_string()
+        s
     }
 }
 
@@ -553,7 +561,8 @@ pub fn summary_table(files: &[CampaignFile]) -> String {
         "file", "selected", "sigma", "RMSE"
     );
     for f in files {
-        let name = f.path.display().to_string();
+        // Escaped: a file name with control characters or a newline stays one cell.
+        let name = crate::text::escape_line(&f.path.display().to_string(), 200);
         match &f.outcome {
             Ok(fit) => {
                 let sigma = fit
@@ -614,6 +623,20 @@ mod tests {
         let table = summary_table(&files);
         assert!(table.contains("0.115000   (fixed)"), "{table}");
         assert!(!table.contains("(n/d)"), "{table}");
+    }
+
+    #[test]
+    fn file_names_cannot_become_formulas_or_break_the_table() {
+        assert_eq!(csv_field("=cmd|calc.csv"), "'=cmd|calc.csv");
+        assert_eq!(csv_field("-2.csv"), "'-2.csv");
+        assert_eq!(csv_field("a,b.csv"), "\"a,b.csv\"");
+        assert_eq!(csv_field("plain.csv"), "plain.csv");
+        let files = [CampaignFile {
+            path: PathBuf::from("a\nb.csv"),
+            outcome: Err(FileError::Input("bad".into())),
+        }];
+        let table = summary_table(&files);
+        assert_eq!(table.lines().count(), 2, "{table}");
     }
 
     #[test]

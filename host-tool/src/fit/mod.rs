@@ -14,7 +14,8 @@
 //! - the family: its stages in [`family`], [`fit_family`] in [`stages`], the model
 //!   selection in [`select`] (AICc and BIC in [`criteria`]), the result [`FamilyFit`];
 //! - assessing a fit: [`goodness`] (against the readings' noise), [`paper_rmse`]
-//!   (Table 3), [`peak`], [`physical`] (albedo, reciprocity);
+//!   (Table 3), [`peak`], [`misses`] (regions the selected member misses),
+//!   [`physical`] (albedo, reciprocity); instrument angles in [`offset`];
 //! - reading and preparing data: [`data`], [`campaign`] (floor, instrument units);
 //!   what a fit is asked: [`options`]; the paper's model names: [`paper`];
 //! - writing results: [`report`] (text and JSON).
@@ -35,6 +36,7 @@ pub mod family_fit;
 pub mod goodness;
 pub mod lm;
 pub mod member_fit;
+pub mod misses;
 pub mod notes;
 pub mod offset;
 pub mod options;

@@ -1,6 +1,7 @@
 //! The notes a family fit reports, in the order reported: what the selection says of
 //! each component and of the lobe shape, BIC's choice when it differs, goodness against
-//! the noise, the detection floor, the peak's position, what could not be fitted or
+//! the noise, the detection floor, the peak's position, where the selected member
+//! misses and another follows, what could not be fitted or
 //! determined, and how the data were compared.
 
 use brdf_core::member::Member;
@@ -49,6 +50,9 @@ pub fn family_notes(
         && let (Some(core), Some((sigma, _))) = (selected_member.core, f.sigma())
     {
         summary.extend(peak::unresolved_core_note(data, core.dist, sigma));
+    }
+    if let Some(f) = members.iter().find(|f| f.member() == selected_member) {
+        summary.extend(super::misses::miss_notes(data, f, members));
     }
     summary.append(&mut fitting);
     let mut notes = summary;

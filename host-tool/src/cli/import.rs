@@ -100,24 +100,9 @@ pub fn run(args: &ImportArgs) -> CliResult {
     }
 }
 
-/// Most rows one import writes (theta_i x theta_r): a sweep gonio reads back whole.
-pub const MAX_IMPORT_ROWS: usize = 1_000_000;
-
-/// Refuses a grid of more than [`MAX_IMPORT_ROWS`] points, before any work (each angle
-/// list is bounded on its own; their product must be too).
-pub(super) fn check_grid(incidences: usize, detectors: usize) -> CliResult {
-    let n = incidences.saturating_mul(detectors);
-    if n > MAX_IMPORT_ROWS {
-        return Err(CliError::usage(format!(
-            "{incidences} incidences x {detectors} detector angles = {n} rows, more than {MAX_IMPORT_ROWS}: choose coarser --theta-i/--theta-r"
-        )));
-    }
-    Ok(())
-}
-
 fn run_merl(args: &MerlArgs) -> CliResult {
     let theta_i = parse_angles("--theta-i", &args.theta_i)?;
-    check_grid(theta_i.len(), args.theta_r.0.len())?;
+    crate::import::check_grid(theta_i.len(), args.theta_r.0.len()).map_err(CliError::usage)?;
     let channel = match args.channel {
         ChannelArg::Red => Channel::Red,
         ChannelArg::Green => Channel::Green,

@@ -97,7 +97,7 @@ pub fn run(args: &RglArgs) -> CliResult {
             )));
         }
     }
-    super::import::check_grid(theta_i.len(), args.theta_r.0.len())?;
+    crate::import::check_grid(theta_i.len(), args.theta_r.0.len()).map_err(CliError::usage)?;
     let channel = match args.channel {
         RglChannelArg::R => RglChannel::R,
         RglChannelArg::G => RglChannel::G,

@@ -13,3 +13,18 @@ mod write;
 pub use error::ImportError;
 pub use merl::{Channel, InPlaneSweep, MerlFile};
 pub use write::{write_file, write_sweep};
+
+/// Most rows one import writes (theta_i x theta_r): a sweep gonio reads back whole.
+pub const MAX_IMPORT_ROWS: usize = 1_000_000;
+
+/// Refuses a grid of more than [`MAX_IMPORT_ROWS`] points, before any work (each angle
+/// list is bounded on its own; their product must be too).
+pub fn check_grid(incidences: usize, detectors: usize) -> Result<(), String> {
+    let n = incidences.saturating_mul(detectors);
+    if n > MAX_IMPORT_ROWS {
+        return Err(format!(
+            "{incidences} incidences x {detectors} detector angles = {n} rows, more than {MAX_IMPORT_ROWS}: choose coarser --theta-i/--theta-r"
+        ));
+    }
+    Ok(())
+}

@@ -24,15 +24,7 @@ pub const PHI_STEP_DEG: f64 = 5.0;
 /// times `to_per_sr`) of `table` on the grid (module docs). No incidence below 90
 /// degrees, or a model that cannot be evaluated, is an error.
 pub fn astm_rows(table: &MemberTable, to_per_sr: f64) -> Result<Vec<[f64; 5]>, String> {
-    let incidences: Vec<f64> = table
-        .incidences
-        .iter()
-        .copied()
-        .filter(|&t| (0.0..90.0).contains(&t))
-        .collect();
-    if incidences.is_empty() {
-        return Err("no fitted incidence below 90 degrees: nothing to tabulate".into());
-    }
+    let incidences = table.incidences_below_90()?;
     let n_theta = (88.0 / THETA_STEP_DEG).round() as usize;
     let n_phi = (360.0 / PHI_STEP_DEG).round() as usize;
     let mut rows = Vec::new();

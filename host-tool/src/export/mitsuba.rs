@@ -52,6 +52,21 @@ pub struct MemberTable {
 }
 
 impl MemberTable {
+    /// The fitted incidences below 90 degrees (what tabulated exports sample), or the
+    /// one-line reason there is none.
+    pub fn incidences_below_90(&self) -> Result<Vec<f64>, String> {
+        let out: Vec<f64> = self
+            .incidences
+            .iter()
+            .copied()
+            .filter(|&t| (0.0..90.0).contains(&t))
+            .collect();
+        if out.is_empty() {
+            return Err("no fitted incidence below 90 degrees: nothing to tabulate".into());
+        }
+        Ok(out)
+    }
+
     /// Any fitted member of the lattice, in relative units.
     pub fn of_member_fit(f: &MemberFit) -> Self {
         MemberTable {

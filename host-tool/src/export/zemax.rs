@@ -78,15 +78,8 @@ pub struct ZemaxGrid {
 /// Samples `table` for the file. Incidences at or above 90 degrees are left out (none
 /// left: an error); a model that cannot be built or evaluated is an error naming it.
 pub fn zemax_grid(table: &MemberTable, to_per_sr: f64) -> Result<ZemaxGrid, String> {
-    let incidences: Vec<f64> = table
-        .incidences
-        .iter()
-        .copied()
-        .filter(|&t| (0.0..90.0).contains(&t))
-        .collect();
-    let Some(&max) = incidences.iter().max_by(|a, b| a.total_cmp(b)) else {
-        return Err("no fitted incidence below 90 degrees: nothing to tabulate".into());
-    };
+    let incidences = table.incidences_below_90()?;
+    let max = incidences.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let n_az = (180.0 / AZIMUTH_STEP_DEG).round() as usize;
     let azimuths: Vec<f64> = (0..=n_az).map(|k| k as f64 * AZIMUTH_STEP_DEG).collect();
     let radials = radial_grid(max);

@@ -7,22 +7,10 @@ use std::path::{Path, PathBuf};
 
 use serde_json::Value;
 
-use crate::util::{gonio, scratch};
+use crate::util::{gonio, scratch, simulated_seed};
 
 fn simulate(dir: &Path, material: &str, seed: &str) -> PathBuf {
-    let f = dir.join(format!("{material}.csv"));
-    let out = gonio(&[
-        "simulate",
-        "--material",
-        material,
-        "--seed",
-        seed,
-        "--out",
-        f.to_str().unwrap(),
-        "-q",
-    ]);
-    assert!(out.ok(), "{}", out.stderr);
-    f
+    simulated_seed(dir, material, seed)
 }
 
 fn fit_json(args: &[&str]) -> Value {

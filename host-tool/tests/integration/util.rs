@@ -157,11 +157,18 @@ pub fn repo_root() -> PathBuf {
 
 /// A sweep file of `material` captured by `gonio simulate` into `dir`.
 pub fn simulated(dir: &Path, material: &str) -> PathBuf {
+    simulated_seed(dir, material, "1")
+}
+
+/// [`simulated`] with the simulation's noise seed.
+pub fn simulated_seed(dir: &Path, material: &str, seed: &str) -> PathBuf {
     let f = dir.join(format!("{material}.csv"));
     let out = gonio(&[
         "simulate",
         "--material",
         material,
+        "--seed",
+        seed,
         "--out",
         f.to_str().unwrap(),
         "-q",

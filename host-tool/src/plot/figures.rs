@@ -462,6 +462,12 @@ pub(super) fn incidence_figure(data: &Dataset, fam: &FamilyFit, j: usize) -> Fig
         notes.push(format!("{hidden} reading(s) <= 0 not shown (log axis)."));
     }
     notes.extend(left_out_note(data));
+    if let Some(a) = &fam.angles {
+        notes.push(format!(
+            "Angles at the sample (corrected for a detector offset of {:+.3} deg and a tilt of {:+.3} deg).",
+            a.detector, a.tilt
+        ));
+    }
     let mut fig = Figure {
         title: format!(
             "Normalised in-plane BRDF, theta_i = {} degrees",

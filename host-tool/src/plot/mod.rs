@@ -75,6 +75,16 @@ pub fn write_plots(
             dir.display()
         )))
     })?;
+    // With instrument angles (`--offset`) the figures are drawn at the sample's local
+    // angles: the readings as the family was fitted to them.
+    let local;
+    let data = match &fam.angles {
+        Some(a) => {
+            local = a.apply(data).map_err(|e| PlotError(one_line(&e)))?.0;
+            &local
+        }
+        None => data,
+    };
     let mut written = Vec::new();
     for j in 0..fam.incidences.len() {
         let fig = figures::incidence_figure(data, fam, j);

@@ -286,3 +286,27 @@ fn each_component_has_its_own_dash_and_legend_entry() {
         "{entries:?}"
     );
 }
+
+#[test]
+fn with_instrument_angles_the_figures_are_drawn_at_the_sample() {
+    let (data, _) = fixture();
+    let opts = FitOptions {
+        offset: Some(crate::fit::offset::OffsetSpec::Detector(0.5)),
+        ..FitOptions::default()
+    };
+    let fam = fit_family(data, &opts).unwrap();
+    let dir = tempdir("angles");
+    write_plots(&dir, data, &fam, false).unwrap();
+    let svg = std::fs::read_to_string(dir.join("theta_i_20.svg")).unwrap();
+    assert!(svg.contains("Angles at the sample"), "the note says so");
+    // The readings sit where the fit saw them: 0.5 degrees below their labels.
+    let (local, _) = fam.angles.as_ref().unwrap().apply(data).unwrap();
+    let fig = incidence_figure(&local, &fam, 2);
+    assert!(
+        fig.markers[0]
+            .points
+            .iter()
+            .any(|p| (p.0 - 19.5).abs() < 1e-9)
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}

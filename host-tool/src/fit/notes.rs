@@ -37,22 +37,18 @@ pub fn family_notes(
     }
     summary.push(goodness_note(data, candidates, selected_member));
     summary.extend(data.floor.notes());
-    let fitted = members
-        .iter()
-        .find(|f| f.member() == selected_member)
-        .map(|f| goodness::member_fitted(f, data));
-    if let Some(note) =
-        fitted.and_then(|v| peak::offset_note(data, &v, &selected_member.to_string()))
-    {
-        summary.push(note);
-    }
-    if let Some(f) = members.iter().find(|f| f.member() == selected_member)
-        && let (Some(core), Some((sigma, _))) = (selected_member.core, f.sigma())
-    {
-        summary.extend(peak::unresolved_core_note(data, core.dist, sigma));
-    }
+    // The selected member's fitted values, once, for the peak's and the misses' notes.
     if let Some(f) = members.iter().find(|f| f.member() == selected_member) {
-        summary.extend(super::misses::miss_notes(data, f, members));
+        let fitted = goodness::member_fitted(f, data);
+        summary.extend(peak::offset_note(
+            data,
+            &fitted,
+            &selected_member.to_string(),
+        ));
+        if let (Some(core), Some((sigma, _))) = (selected_member.core, f.sigma()) {
+            summary.extend(peak::unresolved_core_note(data, core.dist, sigma));
+        }
+        summary.extend(super::misses::miss_notes(data, f, &fitted, members));
     }
     summary.append(&mut fitting);
     let mut notes = summary;

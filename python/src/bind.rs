@@ -69,19 +69,6 @@ pub fn write_sweep(
     w.set_status(Status::Complete).map_err(|e| e.to_string())
 }
 
-/// A row with only the three required columns.
-pub fn row(theta_i: f64, theta_r: f64, brdf: f64) -> Row {
-    Row {
-        theta_i,
-        theta_r,
-        brdf,
-        std: None,
-        n: None,
-        seq: None,
-        t_ms: None,
-    }
-}
-
 /// `gonio fit`'s options, as the command line spells them.
 pub struct FitRequest<'a> {
     /// `--residual`: log, rel or abs.

@@ -14,6 +14,7 @@ use brdf_core::lobe::Distribution;
 use brdf_core::member::{Component, KsForm, Member};
 use brdf_core::model::{KDD_PAPER, KID_PAPER, SIGMA_M_PAPER};
 use brdf_core::{ModelError, PRESETS, Preset};
+use gonio::sweep_file::Row;
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1};
 use pyo3::create_exception;
 use pyo3::exceptions::PyValueError;
@@ -526,7 +527,7 @@ fn _write_sweep(
     if a.len() != b.len() || a.len() != c.len() {
         return Err(err("theta_i, theta_r and brdf must have the same length"));
     }
-    let rows: Vec<_> = (0..a.len()).map(|k| bind::row(a[k], b[k], c[k])).collect();
+    let rows: Vec<_> = (0..a.len()).map(|k| Row::new(a[k], b[k], c[k])).collect();
     py.detach(|| bind::write_sweep(&path, &rows, device, plan, settings, force))
         .map_err(err)
 }
@@ -630,7 +631,7 @@ fn _fit(
         return Err(err("theta_i, theta_r and brdf must have the same length"));
     }
     let rows: Vec<_> = (0..theta_i.len())
-        .map(|k| bind::row(theta_i[k], theta_r[k], brdf[k]))
+        .map(|k| Row::new(theta_i[k], theta_r[k], brdf[k]))
         .collect();
     let req = bind::FitRequest {
         residual: &residual,

@@ -126,15 +126,7 @@ pub fn run(args: &TableArgs) -> CliResult {
     let rows: Vec<Row> = table
         .rows
         .iter()
-        .map(|&(theta_i, theta_r, brdf)| Row {
-            theta_i,
-            theta_r,
-            brdf,
-            std: None,
-            n: None,
-            seq: None,
-            t_ms: None,
-        })
+        .map(|&(theta_i, theta_r, brdf)| Row::new(theta_i, theta_r, brdf))
         .collect();
     if !spec.radians
         && let Some(max) = looks_like_radians(&rows)

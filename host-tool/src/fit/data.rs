@@ -35,15 +35,7 @@ pub fn synthetic_sweep(
         for tr in detectors(ti) {
             let f = m.eval_in_plane(ti, tr).map_or(f64::NAN, |e| e.f);
             let y = f * (1.0 + noise * rng.normal() as f64);
-            rows.push(Row {
-                theta_i: ti,
-                theta_r: tr,
-                brdf: y,
-                std: None,
-                n: None,
-                seq: None,
-                t_ms: None,
-            });
+            rows.push(Row::new(ti, tr, y));
         }
     }
     rows

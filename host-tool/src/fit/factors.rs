@@ -93,15 +93,7 @@ mod tests {
         for ti in [0.0, 30.0, 60.0] {
             for k in 0..33 {
                 let tr = -80.0 + 5.0 * k as f64;
-                rows.push(Row {
-                    theta_i: ti,
-                    theta_r: tr,
-                    brdf: 1.0 + k as f64,
-                    std: None,
-                    n: None,
-                    seq: None,
-                    t_ms: None,
-                });
+                rows.push(Row::new(ti, tr, 1.0 + k as f64));
             }
         }
         rows[40].theta_i = 30.0 + 4e-7;

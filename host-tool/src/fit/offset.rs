@@ -333,15 +333,11 @@ mod tests {
                 // The surface at its local angles, read at the instrument's.
                 let (li, lr) = (ti + t, tr - d - t);
                 let f = p.model(li).unwrap().eval_in_plane(li, lr).unwrap().f;
-                rows.push(Row {
-                    theta_i: ti,
-                    theta_r: tr,
-                    brdf: f * (1.0 + noise * f64::from(rng.normal())),
-                    std: None,
-                    n: None,
-                    seq: None,
-                    t_ms: None,
-                });
+                rows.push(Row::new(
+                    ti,
+                    tr,
+                    f * (1.0 + noise * f64::from(rng.normal())),
+                ));
             }
         }
         Dataset::from_rows(&rows, true).unwrap()

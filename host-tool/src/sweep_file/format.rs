@@ -45,6 +45,22 @@ pub struct Row {
     pub t_ms: Option<u64>,
 }
 
+impl Row {
+    /// A reading with only the three required columns (angles in degrees, theta_r
+    /// signed; brdf in the file's units).
+    pub fn new(theta_i: f64, theta_r: f64, brdf: f64) -> Self {
+        Row {
+            theta_i,
+            theta_r,
+            brdf,
+            std: None,
+            n: None,
+            seq: None,
+            t_ms: None,
+        }
+    }
+}
+
 /// How a capture ended, as the status line says.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum SweepStatus {

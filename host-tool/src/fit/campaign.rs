@@ -180,9 +180,6 @@ impl FileSummary {
     /// The summary of `fit`, its report written as `report`.
     pub fn of(fit: &SweepFit, report: Option<String>) -> Self {
         let fam = &fit.family;
-        let held = fam
-            .selected_fit()
-            .map_or_else(Vec::new, super::report::held_names);
         let params = fam.selected_fit().map_or_else(Vec::new, |f| {
             super::report::member_params(f)
                 .into_iter()
@@ -190,7 +187,7 @@ impl FileSummary {
                     let key = KEY_PARAMS
                         .iter()
                         .find(|&&k| p.theta_i.is_none() && k == p.base)?;
-                    Some((*key, p.value, p.se, held.contains(key)))
+                    Some((*key, p.value, p.se, p.held))
                 })
                 .collect()
         });

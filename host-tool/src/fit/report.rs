@@ -130,16 +130,6 @@ pub fn member_params(fit: &MemberFit) -> Vec<Param> {
     out
 }
 
-/// The names of a member's parameters held fixed (`--fix`), in report order; the
-/// JSON lists them as `fixed` and the table marks them.
-pub fn held_names(fit: &MemberFit) -> Vec<&'static str> {
-    member_params(fit)
-        .into_iter()
-        .filter(|p| p.held)
-        .map(|p| p.base)
-        .collect()
-}
-
 /// A member's widths and scalar weights: where each sits in its parameter vector (if
 /// the member has it) and its report name, in report order (`k_d` for the paper's
 /// Torrance–Sparrow ideal diffuse, `k_id` for every other member's).

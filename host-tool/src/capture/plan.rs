@@ -483,14 +483,17 @@ impl HostPlan {
 pub const MAX_HOST_PLAN_POINTS: usize = 1_000_000;
 
 /// Whether a grid of `incidences` over detector range `d` is one device plan (a compact
-/// `Custom` grid); a bad range is (its error is then the device plan's).
+/// `Custom` grid); a bad range is when the incidences fit (its error is then the
+/// device plan's), else the expansion states it.
 fn device_takes(incidences: usize, d: &DetectorRange) -> bool {
-    let legs = match leg_len(d.start, d.stop, d.step) {
-        Ok(n) => n as usize,
-        Err(brdf_core::plan::PlanError::TooManyPoints) => return false,
-        Err(_) => return true,
-    };
-    incidences <= MAX_INCIDENCES && legs * incidences <= usize::from(MAX_SWEEP_POINTS)
+    if incidences > MAX_INCIDENCES {
+        return false;
+    }
+    match leg_len(d.start, d.stop, d.step) {
+        Ok(n) => n as usize * incidences <= usize::from(MAX_SWEEP_POINTS),
+        Err(brdf_core::plan::PlanError::TooManyPoints) => false,
+        Err(_) => true,
+    }
 }
 
 fn one_line(s: &str) -> String {

@@ -154,6 +154,19 @@ fn a_limit_that_remains_is_named_with_its_number() {
     .unwrap_err()
     .to_string();
     assert!(e.contains(" points, more than 1000000, the most"), "{e}");
+    // A bad range over more incidences than a device grid holds: the range's error.
+    let e = HostPlan::from_toml_str(
+        "incidences = [0, 5, 10, 15, 20, 25, 30, 35, 40, 45, 50, 55, 60, 65, 70, 75, 80]\n\
+         detector = { start = 10, stop = -10, step = 1 }\n",
+        "backwards.toml",
+        &Default::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("backwards.toml") && e.contains("step must be > 0"),
+        "{e}"
+    );
     // What a device plan holds, in brdf-core's words.
     let e = brdf_core::plan::PlanError::TooManyPoints.to_string();
     assert!(

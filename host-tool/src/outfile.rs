@@ -245,49 +245,224 @@ pub fn write_with(
 ) -> Result<File, OutError> {
     check(t)?;
     let path = t.path;
-    let fail = |e: io::Error| OutError::Io(format!("cannot write {}: {e}", path.display()));
-    let dir = parent_dir(path);
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let mut tmp = tempfile::Builder::new()
-        .prefix(&format!(".{name}."))
-        .suffix(&format!(".tmp{suffix}"))
-        .tempfile_in(dir)
-        .map_err(fail)?;
-    let guard = Pending::register(tmp.path());
+    let fail = |e: io::Error| write_error(path, e);
+    let (mut tmp, guard) = temp_beside(path, suffix)?;
     let result = fill(&mut tmp).and_then(|()| tmp.as_file().sync_all());
     if let Err(e) = result {
         drop(tmp); // removes the file
         drop(guard);
         return Err(fail(e));
     }
+    // Private while written; the user's umask once complete (see the module rules).
+    tmp.as_file()
+        .set_permissions(finished_mode())
+        .map_err(fail)?;
     let persisted = if t.force {
         tmp.persist(path)
     } else {
         tmp.persist_noclobber(path)
     };
     drop(guard);
-    let mut file = persisted.map_err(|e| {
-        if e.error.kind() == io::ErrorKind::AlreadyExists {
-            OutError::Refused(format!(
-                "{} exists: use --force to overwrite it",
-                path.display()
-            ))
-        } else {
-            fail(e.error)
-        }
-    })?;
-    // Private while written; the user's umask once complete (see the module rules).
-    file.set_permissions(std::fs::Permissions::from_mode(0o666 & !umask()))
-        .map_err(fail)?;
+    let mut file = persisted.map_err(|e| rename_error(path, e.error))?;
     // The rename itself is durable once the directory is synced.
-    if let Ok(d) = File::open(dir) {
+    if let Ok(d) = File::open(parent_dir(path)) {
         let _ = d.sync_all();
     }
     io::Seek::seek(&mut file, io::SeekFrom::End(0)).map_err(fail)?;
     Ok(file)
+}
+
+/// The one-line error of a failed write of `path`.
+fn write_error(path: &Path, e: io::Error) -> OutError {
+    OutError::Io(format!("cannot write {}: {e}", path.display()))
+}
+
+/// The error of a failed rename onto `path`: a file that appeared meanwhile is refused.
+fn rename_error(path: &Path, e: io::Error) -> OutError {
+    if e.kind() == io::ErrorKind::AlreadyExists {
+        OutError::Refused(format!(
+            "{} exists: use --force to overwrite it",
+            path.display()
+        ))
+    } else {
+        write_error(path, e)
+    }
+}
+
+/// The mode a finished file gets: what a plain create would give it.
+fn finished_mode() -> std::fs::Permissions {
+    std::fs::Permissions::from_mode(0o666 & !umask())
+}
+
+/// A new private temporary file beside `path` (see the module rules), registered for
+/// removal on a signal.
+fn temp_beside(path: &Path, suffix: &str) -> Result<(NamedTempFile, Pending), OutError> {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    // Created and listed under the list's lock, which the signal handler holds while
+    // it removes the files and exits: no temporary file is made that it misses.
+    let mut list = pending().lock().unwrap_or_else(|p| p.into_inner());
+    let tmp = tempfile::Builder::new()
+        .prefix(&format!(".{name}."))
+        .suffix(&format!(".tmp{suffix}"))
+        .tempfile_in(parent_dir(path))
+        .map_err(|e| write_error(path, e))?;
+    list.push(tmp.path().to_path_buf());
+    let guard = Pending(tmp.path().to_path_buf());
+    Ok((tmp, guard))
+}
+
+/// Many files written as one batch: each lands whole under its name, as with
+/// [`write`], but the syncs are shared. Each file is written to its private temporary
+/// file and closed; every `size` files (or at [`Batch::finish`]) the batch's contents
+/// are made durable together (Linux: one `syncfs` of the filesystem holding them;
+/// elsewhere an fsync per file), only then renamed to their names, and then each
+/// directory synced once. So a name never shows a file half-written, not even after a
+/// crash; an interrupted batch leaves nothing under its names (the temporary files are
+/// removed, as [`write`]'s are), and once [`Batch::finish`] returns every file is durable.
+/// A campaign of 400 reports syncs a few times instead of 800.
+pub struct Batch {
+    size: usize,
+    staged: Mutex<Vec<Staged>>,
+    failed: Mutex<Vec<(usize, OutError)>>,
+}
+
+/// A file of a [`Batch`] written to its temporary file, not yet renamed.
+struct Staged {
+    key: usize,
+    tmp: tempfile::TempPath,
+    path: PathBuf,
+    force: bool,
+    _pending: Pending,
+}
+
+impl Batch {
+    /// A batch synced every `size` files (at least 1).
+    pub fn new(size: usize) -> Self {
+        Batch {
+            size: size.max(1),
+            staged: Mutex::new(Vec::new()),
+            failed: Mutex::new(Vec::new()),
+        }
+    }
+
+    /// Checks `t` (the module rules) and writes it through `body` into its temporary
+    /// file; it is renamed when its part of the batch is synced. A rename refused
+    /// then (a file that appeared meanwhile) or a failed sync is returned by
+    /// [`Batch::finish`] under `key`. Callable from many threads.
+    pub fn write(
+        &self,
+        key: usize,
+        t: Target<'_>,
+        body: impl FnOnce(&mut dyn Write) -> io::Result<()>,
+    ) -> Result<(), OutError> {
+        check(t)?;
+        let (tmp, guard) = temp_beside(t.path, "")?;
+        let written = {
+            let mut w = BufWriter::new(tmp.as_file());
+            body(&mut w).and_then(|()| w.flush())
+        };
+        if let Err(e) = written {
+            return Err(write_error(t.path, e)); // (dropping tmp removes the file)
+        }
+        let staged = Staged {
+            key,
+            tmp: tmp.into_temp_path(),
+            path: t.path.to_path_buf(),
+            force: t.force,
+            _pending: guard,
+        };
+        let full = {
+            let mut s = self.staged.lock().unwrap_or_else(|p| p.into_inner());
+            s.push(staged);
+            (s.len() >= self.size).then(|| std::mem::take(&mut *s))
+        };
+        if let Some(files) = full {
+            self.commit(files);
+        }
+        Ok(())
+    }
+
+    /// Syncs, renames and syncs the directories of the files not yet committed; the
+    /// files that could not be committed, by key.
+    pub fn finish(self) -> Vec<(usize, OutError)> {
+        let rest = std::mem::take(&mut *self.staged.lock().unwrap_or_else(|p| p.into_inner()));
+        self.commit(rest);
+        std::mem::take(&mut *self.failed.lock().unwrap_or_else(|p| p.into_inner()))
+    }
+
+    /// The contents made durable, then the renames, then each directory synced once.
+    fn commit(&self, files: Vec<Staged>) {
+        if files.is_empty() {
+            return;
+        }
+        let mut failed = Vec::new();
+        let mut dirs: Vec<PathBuf> = Vec::new();
+        for f in &files {
+            let d = parent_dir(&f.path);
+            if !dirs.iter().any(|x| x == d) {
+                dirs.push(d.to_path_buf());
+            }
+        }
+        let synced = sync_contents(&files, &dirs);
+        for f in files {
+            let path = f.path.clone();
+            let done = synced
+                .as_ref()
+                .map_err(|e| write_error(&path, io::Error::new(e.kind(), e.to_string())))
+                .and_then(|()| {
+                    std::fs::set_permissions(&f.tmp, finished_mode())
+                        .map_err(|e| write_error(&path, e))?;
+                    let renamed = if f.force {
+                        f.tmp.persist(&path)
+                    } else {
+                        f.tmp.persist_noclobber(&path)
+                    };
+                    renamed.map_err(|e| rename_error(&path, e.error))
+                });
+            if let Err(e) = done {
+                failed.push((f.key, e));
+            }
+        }
+        for d in &dirs {
+            if let Ok(d) = File::open(d) {
+                let _ = d.sync_all();
+            }
+        }
+        if !failed.is_empty() {
+            let mut all = self.failed.lock().unwrap_or_else(|p| p.into_inner());
+            all.extend(failed);
+        }
+    }
+}
+
+/// Makes the staged files' contents durable: one `syncfs` per directory's filesystem
+/// on Linux (one call for the batch), an fsync per file elsewhere.
+fn sync_contents(files: &[Staged], dirs: &[PathBuf]) -> io::Result<()> {
+    #[cfg(target_os = "linux")]
+    {
+        use std::os::fd::AsRawFd;
+        let _ = files;
+        let mut devices = Vec::new();
+        for d in dirs {
+            let dir = File::open(d)?;
+            let dev = dir.metadata()?.dev();
+            if !devices.contains(&dev) {
+                devices.push(dev);
+                nix::unistd::syncfs(dir.as_raw_fd()).map_err(io::Error::from)?;
+            }
+        }
+        Ok(())
+    }
+    #[cfg(not(target_os = "linux"))]
+    {
+        let _ = dirs;
+        files
+            .iter()
+            .try_for_each(|f| File::open(&f.tmp)?.sync_all())
+    }
 }
 
 /// The process's file-mode creation mask, read once: from /proc (which leaves it
@@ -319,7 +494,11 @@ fn pending() -> &'static Mutex<Vec<PathBuf>> {
         // handler first; then this one is not installed and their temporaries are
         // removed when the stopped command unwinds normally.
         let _ = ctrlc::set_handler(|| {
-            remove_pending();
+            // Exits holding the lock: no temporary file is created after these.
+            let list = pending().lock().unwrap_or_else(|p| p.into_inner());
+            for p in list.iter() {
+                let _ = std::fs::remove_file(p);
+            }
             eprintln!("gonio: interrupted; no partial output left");
             std::process::exit(130);
         });
@@ -327,25 +506,8 @@ fn pending() -> &'static Mutex<Vec<PathBuf>> {
     })
 }
 
-fn remove_pending() {
-    if let Ok(list) = pending().lock() {
-        for p in list.iter() {
-            let _ = std::fs::remove_file(p);
-        }
-    }
-}
-
 /// A registered temporary file, unregistered when dropped.
 struct Pending(PathBuf);
-
-impl Pending {
-    fn register(p: &Path) -> Self {
-        if let Ok(mut list) = pending().lock() {
-            list.push(p.to_path_buf());
-        }
-        Pending(p.to_path_buf())
-    }
-}
 
 impl Drop for Pending {
     fn drop(&mut self) {
@@ -405,6 +567,56 @@ mod tests {
         drop(holder);
         write(Target::new(&path, true), |w| w.write_all(b"x")).unwrap();
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_batch_renames_only_synced_files_and_an_unfinished_one_leaves_nothing() {
+        let d = tempfile::tempdir().unwrap();
+        let name = |k: usize| d.path().join(format!("r{k}.txt"));
+        let batch = Batch::new(3);
+        for k in 0..5 {
+            let body = format!("report {k}\n");
+            batch
+                .write(k, Target::new(&name(k), false), |w| {
+                    w.write_all(body.as_bytes())
+                })
+                .unwrap();
+        }
+        // The first three were committed together; the last two wait, unnamed.
+        assert!((0..3).all(|k| name(k).is_file()));
+        assert!(!name(3).exists() && !name(4).exists());
+        assert_eq!(leftovers(d.path()).len(), 2);
+        // One appears meanwhile under a batch file's name: refused, left alone.
+        std::fs::write(name(4), b"theirs").unwrap();
+        let failed = batch.finish();
+        assert_eq!(failed.len(), 1, "{failed:?}");
+        assert_eq!(failed[0].0, 4);
+        assert!(matches!(&failed[0].1, OutError::Refused(m) if m.contains("exists")));
+        assert_eq!(std::fs::read(name(4)).unwrap(), b"theirs");
+        for k in 0..4 {
+            assert_eq!(
+                std::fs::read_to_string(name(k)).unwrap(),
+                format!("report {k}\n")
+            );
+            let mode = std::fs::metadata(name(k)).unwrap().permissions().mode() & 0o777;
+            assert_eq!(mode, 0o666 & !umask());
+        }
+        assert!(leftovers(d.path()).is_empty());
+        // Interrupted (dropped before finish): nothing under any name, no temporary file.
+        let e = tempfile::tempdir().unwrap();
+        let batch = Batch::new(10);
+        batch
+            .write(0, Target::new(&e.path().join("a.txt"), false), |w| {
+                w.write_all(b"a")
+            })
+            .unwrap();
+        let e2 = batch.write(1, Target::new(&e.path().join("b.txt"), false), |w| {
+            w.write_all(b"partial")?;
+            Err(io::Error::other("disk full"))
+        });
+        assert!(matches!(e2, Err(OutError::Io(m)) if m.contains("disk full")));
+        drop(batch);
+        assert_eq!(std::fs::read_dir(e.path()).unwrap().count(), 0);
     }
 
     #[test]

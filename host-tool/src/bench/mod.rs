@@ -2,8 +2,10 @@
 //! [`variants`] (speed against error), the slower [`study`] runs (readings against fit
 //! error, fit time against error), the three-component fit timed for the comparison
 //! with scipy ([`versus`]), the multi-start's speed against its accuracy ([`starts`]),
-//! their text [`table`]s and the speed-against-error [`chart`].
+//! a campaign's wall time against its CPU time and memory ([`campaign`]), their text
+//! [`table`]s and the speed-against-error [`chart`].
 
+pub mod campaign;
 pub mod chart;
 pub mod starts;
 pub mod study;
@@ -11,6 +13,7 @@ pub mod table;
 pub mod variants;
 pub mod versus;
 
+pub use campaign::{CampaignRow, CampaignStudy, campaign_study, default_threads};
 pub use chart::speed_vs_error;
 pub use starts::{StartsRow, starts_study};
 pub use study::{

@@ -1,6 +1,7 @@
 //! The text tables `gonio bench` prints: variants, the studies when run, and the
 //! comparison fits of `--fit-vs`.
 
+use super::campaign::CampaignStudy;
 use super::starts::StartsRow;
 use super::study::{MemberRow, PlanResult, ScaleRow};
 use super::variants::VariantResult;
@@ -158,6 +159,32 @@ pub fn versus_table(v: &Versus) -> String {
         v.repeat,
         v.one_lm.iterations.unwrap_or(0),
         v.one_lm.evaluations.unwrap_or(0)
+    ));
+    t
+}
+
+/// The campaign study's table (`gonio bench --campaign N`).
+pub fn campaign_table(c: &CampaignStudy) -> String {
+    let mut t = format!(
+        "{:>8} {:>8} {:>10} {:>10} {:>20} {:>10}\n",
+        "threads", "sweeps", "wall s", "CPU s", "wall / (CPU/threads)", "speed-up"
+    );
+    for r in &c.rows {
+        t.push_str(&format!(
+            "{:>8} {:>8} {:>10.3} {:>10.3} {:>20.3} {:>9.2}x\n",
+            r.threads, r.sweeps, r.wall_s, r.cpu_s, r.wall_over_cpu_per_thread, r.speedup
+        ));
+    }
+    let rss = c
+        .peak_rss_mb
+        .map_or("not reported on this system".into(), |m| {
+            format!("{m:.1} MB")
+        });
+    t.push_str(&format!(
+        "`gonio fit DIR --out OUT` as one process per row (reading, fitting, reports synced, \
+         summaries); speed-up: the first row's wall over this row's; peak resident memory, \
+         largest run: {rss}; reports and summaries of one run: {:.1} MB\n",
+        c.output_mb
     ));
     t
 }

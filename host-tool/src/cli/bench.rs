@@ -57,6 +57,20 @@ pub struct BenchArgs {
         allow_hyphen_values = true
     )]
     pub start: Option<String>,
+    /// Instead of the variants: a campaign of N simulated paper-grid sweeps (9 x 17,
+    /// 0.5 % noise, the presets in turn; written to a private temporary directory)
+    /// fitted by `gonio fit DIR --out OUT` itself, once per --threads count: wall time,
+    /// CPU time, wall over CPU per thread (1 when no thread waits), speed-up over the
+    /// first count, and the largest peak resident memory of the runs (e.g. --campaign
+    /// 100000 --threads 2 for the memory of 10^5 sweeps). Timings need an idle machine.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=1_000_000),
+          conflicts_with_all = ["study", "plot", "fit_vs"])]
+    pub campaign: Option<u32>,
+    /// With --campaign: the thread counts, comma-separated [default: 1, 2, 4, ... and
+    /// every core].
+    #[arg(long, value_name = "LIST", value_delimiter = ',', requires = "campaign",
+          value_parser = clap::value_parser!(u32).range(1..=4096))]
+    pub threads: Vec<u32>,
     /// With --fit-vs: timed runs of each fit (1 to 10000).
     #[arg(long, value_name = "N", default_value_t = 15, requires = "fit_vs")]
     pub repeat: usize,
@@ -66,6 +80,9 @@ pub struct BenchArgs {
 pub fn run(args: &BenchArgs) -> CliResult {
     if let Some(sweep) = &args.fit_vs {
         return fit_vs(args, sweep);
+    }
+    if let Some(n) = args.campaign {
+        return campaign(args, n as usize);
     }
     if !(args.seconds.is_finite() && args.seconds > 0.0 && args.seconds <= 60.0) {
         return Err(CliError::usage("--seconds must be in (0, 60]"));
@@ -134,6 +151,24 @@ fn fit_vs(args: &BenchArgs, sweep: &std::path::Path) -> CliResult {
         serde_json::to_string_pretty(&v).expect("JSON of numbers") + "\n"
     } else {
         table::versus_table(&v)
+    };
+    write_stdout(text.as_bytes())
+}
+
+/// `gonio bench --campaign N [--threads LIST]`.
+fn campaign(args: &BenchArgs, n: usize) -> CliResult {
+    let threads: Vec<usize> = if args.threads.is_empty() {
+        bench::default_threads()
+    } else {
+        args.threads.iter().map(|&t| t as usize).collect()
+    };
+    let gonio = std::env::current_exe()
+        .map_err(|e| CliError::failed(format!("cannot find the gonio binary: {e}")))?;
+    let study = bench::campaign_study(&gonio, n, &threads)?;
+    let text = if args.json {
+        serde_json::to_string_pretty(&study).expect("JSON of numbers") + "\n"
+    } else {
+        table::campaign_table(&study)
     };
     write_stdout(text.as_bytes())
 }

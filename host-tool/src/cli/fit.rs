@@ -285,9 +285,10 @@ fn run_campaign(args: &FitArgs, opts: &FitOptions) -> CliResult {
     let files = campaign::expand_inputs(&args.sweeps).map_err(CliError::usage)?;
     let ext = if args.json { "json" } else { "txt" };
     campaign::check_outputs(&args.out, &files, ext, args.force).map_err(CliError::usage)?;
-    super::fit_units::check_campaign_units(&files)?;
+    let units = super::fit_units::campaign_units(&files);
+    super::fit_units::check_campaign_units(&files, &units)?;
     let inst = match &args.instrument {
-        Some(p) => Some((super::fit_units::campaign_instrument(p, &files)?, p)),
+        Some(p) => Some((super::fit_units::campaign_instrument(p, &files, &units)?, p)),
         None => None,
     };
     let bar = indicatif::ProgressBar::new(files.len() as u64).with_style(

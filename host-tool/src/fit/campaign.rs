@@ -280,7 +280,9 @@ pub struct ReportSink<'a> {
 }
 
 /// Fits every file on all cores, in input order; each worker writes the report of
-/// the file it fitted (with `sink`) and keeps only its [`FileSummary`]. `done(path,
+/// the file it fitted (with `sink`) and keeps only its [`FileSummary`]. The reports
+/// are synced [`REPORT_BATCH`] at a time ([`outfile::Batch`]: each under its name only
+/// once whole and synced), all of them by the time this returns. `done(path,
 /// ok)` is called as each finishes (from worker threads). A panic while fitting one
 /// file is caught and recorded as that file's failure; so is a report that cannot be
 /// written.
@@ -303,24 +305,28 @@ pub fn fit_files(
             })
             .collect();
     }
+    // The reports are synced in batches, not one by one (each still lands whole).
+    let batch = outfile::Batch::new(REPORT_BATCH);
     let one = |k: usize, path: &Path| -> Result<FileSummary, FileError> {
         let fit = fit_sweep_file(path, opts)?;
         let name = match (sink, &names) {
             (Some(s), Some(names)) => {
                 let name = names[k].clone();
                 let bytes = (s.report)(&fit.family);
-                outfile::write(
-                    Target::new(&s.dir.join(&name), s.force).inputs(&[path]),
-                    |w| w.write_all(&bytes),
-                )
-                .map_err(|e| FileError::Output(format!("{}: {e}", path.display())))?;
+                batch
+                    .write(
+                        k,
+                        Target::new(&s.dir.join(&name), s.force).inputs(&[path]),
+                        |w| w.write_all(&bytes),
+                    )
+                    .map_err(|e| output_error(path, e))?;
                 Some(name)
             }
             _ => None,
         };
         Ok(FileSummary::of(&fit, name))
     };
-    files
+    let mut out: Vec<CampaignFile> = files
         .par_iter()
         .enumerate()
         .map(|(k, path)| {
@@ -336,7 +342,21 @@ pub fn fit_files(
                 outcome,
             }
         })
-        .collect()
+        .collect();
+    // A report whose batch could not be synced or renamed is that file's failure.
+    for (k, e) in batch.finish() {
+        out[k].outcome = Err(output_error(&out[k].path, e));
+    }
+    out
+}
+
+/// Reports a campaign syncs together ([`outfile::Batch`]): a few syncs for hundreds
+/// of reports, and a report under its name within this many files of being fitted.
+pub const REPORT_BATCH: usize = 128;
+
+/// A report of `path` that could not be written.
+fn output_error(path: &Path, e: outfile::OutError) -> FileError {
+    FileError::Output(format!("{}: {e}", path.display()))
 }
 
 /// Report file names, one per input: the file's stem plus `ext`, made unique with

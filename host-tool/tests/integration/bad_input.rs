@@ -1708,6 +1708,12 @@ const CASES: &[Case] = &[
         "directory",
     ),
     case(&["bench", "--plot", "{d}/exists.csv"], 2, "use --force"),
+    case(&["bench", "--campaign", "0"], 2, "not in 1..=1000000"),
+    case(
+        &["bench", "--campaign", "2", "--threads", "1,0"],
+        2,
+        "not in 1..=4096",
+    ),
     out(
         &[
             "capture",

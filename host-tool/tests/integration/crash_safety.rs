@@ -10,7 +10,7 @@ use gonio::sweep_file::{parse_sweep, read_sweep};
 use gonio::testing::assert_each_point_once;
 use gonio::testing::faults::Draws;
 
-use crate::util::{Run, gonio, gonio_command, scratch};
+use crate::util::{Run, gonio, gonio_command, scratch, simulated};
 
 /// Checks that the file reads up to its last complete row, and that cutting it at any
 /// byte after the header also reads (a crash mid-write).
@@ -143,4 +143,75 @@ fn only_a_resumed_capture_says_what_the_file_holds() {
         "{}",
         resumed.stderr
     );
+}
+
+/// The reports under their names in `out` (not the summaries): each must be whole
+/// JSON, the report of a fit. Returns (reports, temporary files left).
+fn whole_reports(out: &Path, ctx: &str) -> (usize, usize) {
+    let (mut reports, mut temps) = (0, 0);
+    for e in std::fs::read_dir(out).unwrap() {
+        let name = e.unwrap().file_name().to_string_lossy().into_owned();
+        if name.contains(".tmp") {
+            temps += 1;
+            continue;
+        }
+        if name.starts_with("summary.") {
+            continue;
+        }
+        let text = std::fs::read_to_string(out.join(&name)).unwrap();
+        let v: serde_json::Value = serde_json::from_str(&text)
+            .unwrap_or_else(|e| panic!("{ctx}: {name} is not whole: {e}"));
+        assert!(
+            v["models"].is_array() && v["selected"].is_string(),
+            "{ctx}: {name}"
+        );
+        reports += 1;
+    }
+    (reports, temps)
+}
+
+#[test]
+fn an_interrupted_campaign_leaves_only_whole_reports() {
+    use nix::sys::signal::{Signal, kill};
+    use nix::unistd::Pid;
+    let d = scratch("campaign-stop");
+    let sweeps = d.join("sweeps");
+    std::fs::create_dir_all(&sweeps).unwrap();
+    let one = simulated(&d, "fe-0.115");
+    for k in 0..400 {
+        std::fs::copy(&one, sweeps.join(format!("s{k}.csv"))).unwrap();
+    }
+    // Stopped by Ctrl-C (temporary files removed) and killed outright (they stay,
+    // hidden): either way no report is under its name unless it is whole.
+    for (signal, leaves_temps) in [(Signal::SIGINT, false), (Signal::SIGKILL, true)] {
+        let out = d.join(format!("out-{signal}"));
+        let mut child = gonio_command()
+            .args(["fit", sweeps.to_str().unwrap(), "--json", "--out"])
+            .arg(&out)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        // Stopped once the first reports are under their names (or it ended).
+        let deadline = Instant::now() + Duration::from_secs(120);
+        while child.try_wait().unwrap().is_none()
+            && Instant::now() < deadline
+            && !out.join("s0.json").exists()
+        {
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        let _ = kill(Pid::from_raw(child.id() as i32), signal);
+        let status = child.wait().unwrap();
+        let ctx = format!("{signal} ({status})");
+        let (reports, temps) = whole_reports(&out, &ctx);
+        assert!(reports <= 400, "{ctx}");
+        if !leaves_temps {
+            assert_eq!(temps, 0, "{ctx}");
+        }
+        if status.success() {
+            // It finished first: every report and the summary are there.
+            assert_eq!((reports, temps), (400, 0), "{ctx}");
+            assert!(out.join("summary.json").is_file(), "{ctx}");
+        }
+    }
 }

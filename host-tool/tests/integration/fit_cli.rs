@@ -434,6 +434,32 @@ fn bench_fit_vs_times_both_fits_to_the_same_optimum() {
 }
 
 #[test]
+fn bench_campaign_runs_gonio_fit_per_thread_count() {
+    let out = gonio(&["bench", "--campaign", "6", "--threads", "1,2", "--json"]);
+    assert!(out.ok(), "{}", out.stderr);
+    let v: serde_json::Value = serde_json::from_str(&out.stdout).unwrap();
+    let rows = v["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 2, "{v}");
+    for (r, t) in rows.iter().zip([1, 2]) {
+        assert_eq!(
+            (r["threads"].as_u64(), r["sweeps"].as_u64()),
+            (Some(t), Some(6))
+        );
+        let (wall, cpu) = (r["wall_s"].as_f64().unwrap(), r["cpu_s"].as_f64().unwrap());
+        assert!(wall > 0.0 && cpu > 0.0, "{r}");
+        let ratio = r["wall_over_cpu_per_thread"].as_f64().unwrap();
+        assert!(
+            (ratio - wall / (cpu / t as f64)).abs() < 1e-9 * ratio,
+            "{r}"
+        );
+    }
+    assert_eq!(rows[0]["speedup"].as_f64(), Some(1.0));
+    // Reports and summaries were written (and removed with the scratch directory).
+    assert!(v["output_mb"].as_f64().unwrap() > 0.0, "{v}");
+    assert!(v["peak_rss_mb"].as_f64().unwrap() > 1.0, "{v}");
+}
+
+#[test]
 fn bench_fit_vs_refuses_a_bad_start() {
     let d = scratch("fitvs-bad");
     let f = simulated(&d, "fe-0.115");

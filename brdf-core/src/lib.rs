@@ -6,6 +6,8 @@
 //!   components (Beckmann and GGX lobes, a haze lobe, the diffuse terms, smooth k_s),
 //!   its names, its evaluation with basis and gradient, and detector-aperture averaging.
 //! - [`geometry`]: in-plane and 3-D measurement geometry.
+//! - [`fresnel`]: unpolarised Fresnel reflectance (conductor n + ik, dielectric n)
+//!   and tabulated optical constants of Al, Cu, Fe, Au, Ag.
 //! - [`presets`]: the paper's materials.
 //! - [`fast`]: fast f32 evaluation (polynomial exp/sin, culling, batch grids).
 //! - [`protocol`] and [`frame`]: the wire protocol and its framing.
@@ -31,6 +33,7 @@ pub mod error;
 pub mod fast;
 pub mod float;
 pub mod frame;
+pub mod fresnel;
 pub mod geometry;
 pub mod identity;
 pub mod lobe;

@@ -1,5 +1,6 @@
 //! Text for messages: [`escape_line`] makes any string that quotes input one bounded,
-//! printable line; [`count`] puts a number before a noun in the right number.
+//! printable line; [`count`] puts a number before a noun in the right number;
+//! [`angle`] prints an angle in a label or a note.
 
 /// `s` as one line of at most `max_chars` characters (plus `...` and the count left
 /// out when cut): control characters (NUL, CR, LF, ESC, DEL, C1...) escaped as `\0`,
@@ -41,9 +42,41 @@ pub fn count(n: usize, noun: &str) -> String {
     }
 }
 
+/// An angle (degrees) as labels and notes print it: rounded to 0.01 degree in its
+/// shortest form (`20`, `22.5`, `30.16`, never `-0`), so an incidence read from a file
+/// (30.15640533663018) or an angle corrected by `--offset` (29.98826066030085) reads
+/// as a person would write it. Only for text people read: JSON, exports and file names
+/// keep every digit.
+pub fn angle(t: f64) -> String {
+    let r = (t * 100.0).round() / 100.0;
+    // -0.004 rounds to -0: printed as 0.
+    let r = if r == 0.0 { 0.0 } else { r };
+    if r.is_finite() {
+        format!("{r}")
+    } else {
+        format!("{t}")
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn angles_print_to_a_hundredth_of_a_degree() {
+        for (t, s) in [
+            (20.0, "20"),
+            (22.5, "22.5"),
+            (41.4, "41.4"),
+            (30.15640533663018, "30.16"),
+            (29.98826066030085, "29.99"),
+            (-0.004, "0"),
+            (-12.345678, "-12.35"),
+            (89.999996, "90"),
+        ] {
+            assert_eq!(angle(t), s, "{t}");
+        }
+    }
 
     #[test]
     fn counts_in_the_right_number() {

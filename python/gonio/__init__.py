@@ -277,7 +277,8 @@ def fit(source, theta_r=None, brdf=None, *, residual: str = "log", loss: str = "
         fix: Union[None, Mapping[str, float], Iterable[str]] = None,
         models: Union[None, str, Sequence[str]] = None, aperture: Optional[float] = None,
         instrument: Union[None, str, os.PathLike] = None,
-        floor: Union[None, str, float] = None, all_starts: bool = False) -> FitResult:
+        floor: Union[None, str, float] = None, all_starts: bool = False,
+        offset: Union[None, str, float] = None) -> FitResult:
     """Fits the model family like ``gonio fit`` fits one sweep.
 
     ``source`` is a sweep file path, or the theta_i array with ``theta_r`` and ``brdf``.
@@ -290,7 +291,10 @@ def fit(source, theta_r=None, brdf=None, *, residual: str = "log", loss: str = "
     or a value in the data's units: readings at or below a detection floor are left out
     (``"auto"``: the smallest value when at least 3 readings repeat it exactly);
     ``all_starts`` refines every one of each member's best grid starts to its end
-    (``--all-starts``: slower, but no start is stopped near an optimum already found).
+    (``--all-starts``: slower, but no start is stopped near an optimum already found);
+    ``offset`` ``"fit"`` fits a detector zero offset in theta_r and an in-plane sample
+    tilt (``--offset fit``), a number is a known detector zero offset in degrees (``None``:
+    the sweep's ``# offset:`` line, else none).
     """
     if isinstance(fix, Mapping):
         fix = [f"{k}={v!r}" for k, v in fix.items()]
@@ -301,7 +305,8 @@ def fit(source, theta_r=None, brdf=None, *, residual: str = "log", loss: str = "
     extra = {"aperture": None if aperture is None else float(aperture),
              "instrument": None if instrument is None else os.fspath(instrument),
              "floor": None if floor is None else (floor if isinstance(floor, str) else repr(float(floor))),
-             "all_starts": all_starts}
+             "all_starts": all_starts,
+             "offset": None if offset is None else (offset if isinstance(offset, str) else repr(float(offset)))}
     if theta_r is None and brdf is None:
         raw = _gonio._fit(os.fspath(source), [], [], [], residual, loss, fix, models, **extra)
     else:

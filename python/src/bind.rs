@@ -7,7 +7,7 @@ use brdf_core::member::Member;
 use gonio::calibrate::Instrument;
 use gonio::cli::fit_units;
 use gonio::export::mitsuba::{self, MemberTable};
-use gonio::fit::data::{check_aperture, parse_floor};
+use gonio::fit::data::{OffsetSpec, check_aperture, parse_floor};
 use gonio::fit::paper::member_by_name;
 use gonio::fit::{self, Dataset, FamilyFit, FitOptions, Loss, Residual, campaign};
 use gonio::outfile::Target;
@@ -90,6 +90,9 @@ pub struct FitRequest<'a> {
     pub floor: Option<&'a str>,
     /// `--all-starts`: refine every one of each member's best grid starts to its end.
     pub all_starts: bool,
+    /// `--offset`: `fit` (fit a detector zero offset and a sample tilt) or a known
+    /// detector zero offset in degrees (`None`: the sweep's `# offset:` line).
+    pub offset: Option<&'a str>,
 }
 
 /// The engine's fit options from a request, by the parsers `gonio fit` uses for the
@@ -121,6 +124,9 @@ fn fit_options(req: &FitRequest) -> Result<(FitOptions, Option<(Instrument, Path
     }
     if let Some(f) = req.floor {
         opts.floor = Some(parse_floor(f).map_err(|e| format!("--{e}"))?);
+    }
+    if let Some(o) = req.offset {
+        opts.offset = Some(OffsetSpec::parse(o).map_err(|e| format!("--{e}"))?);
     }
     let instrument = match req.instrument {
         Some(p) => Some((Instrument::read(p)?, p.to_path_buf())),

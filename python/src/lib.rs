@@ -608,9 +608,10 @@ impl PyFit {
 /// Fits the model family with `gonio fit`'s options: a sweep file path, or rows
 /// (theta_i, theta_r, brdf arrays) when path is None; aperture in degrees (None: the
 /// file's line), instrument an instrument file (None: relative units), floor `auto` or
-/// a value (None: every reading fitted), all_starts `--all-starts`.
+/// a value (None: every reading fitted), all_starts `--all-starts`, offset `--offset`:
+/// `fit` or a detector zero offset in degrees (None: the file's `# offset:` line).
 #[pyfunction]
-#[pyo3(signature = (path, theta_i, theta_r, brdf, residual, loss, fix, models, aperture=None, instrument=None, floor=None, all_starts=false))]
+#[pyo3(signature = (path, theta_i, theta_r, brdf, residual, loss, fix, models, aperture=None, instrument=None, floor=None, all_starts=false, offset=None))]
 #[allow(clippy::too_many_arguments)]
 fn _fit(
     py: Python<'_>,
@@ -626,6 +627,7 @@ fn _fit(
     instrument: Option<PathBuf>,
     floor: Option<String>,
     all_starts: bool,
+    offset: Option<String>,
 ) -> PyResult<PyFit> {
     if theta_i.len() != theta_r.len() || theta_i.len() != brdf.len() {
         return Err(err("theta_i, theta_r and brdf must have the same length"));
@@ -642,6 +644,7 @@ fn _fit(
         instrument: instrument.as_deref(),
         floor: floor.as_deref(),
         all_starts,
+        offset: offset.as_deref(),
     };
     let outcome = py
         .detach(|| bind::fit(path.as_deref(), &rows, &req))

@@ -207,3 +207,24 @@ def test_fit_all_starts_as_on_the_command_line(gonio_bin, tmp_path):
     # A flag, as on the command line: "no" is not read as true.
     with pytest.raises(TypeError):
         gonio.fit(path, all_starts="no")
+
+
+def test_fit_offset_as_on_the_command_line(gonio_bin, tmp_path):
+    # The iron sweep with every detector angle read 2 degrees high: a detector zero offset.
+    s = gonio.read_sweep(FE_SWEEP)
+    path = tmp_path / "fe-off.csv"
+    gonio.write_sweep(path, s.theta_i, s.theta_r + 2.0, s.brdf)
+    for value, argv in (("fit", ["--offset", "fit"]), (2.0, ["--offset", "2.0"])):
+        ours = json.loads(gonio.fit(path, offset=value).to_json())
+        cli = json.loads(subprocess.run([gonio_bin, "fit", str(path), "--json", *argv],
+                                        check=True, capture_output=True, text=True).stdout)
+        for d in (cli, ours):
+            d.pop("fit_seconds")
+        assert_same_json(ours, cli)
+        assert abs(ours["angles"]["detector_offset_deg"] - 2.0) < 0.05, ours["angles"]
+        assert ours["angles"]["fitted"] == (value == "fit")
+    assert "angles" not in json.loads(gonio.fit(path).to_json())
+    with pytest.raises(gonio.GonioError, match="--offset 'often': expected 'fit'"):
+        gonio.fit(path, offset="often")
+    with pytest.raises(gonio.GonioError, match="within"):
+        gonio.fit(path, offset=11)

@@ -65,7 +65,10 @@ pub fn miss_notes(
         .incidences
         .iter()
         .enumerate()
-        .map(|(j, t)| (format!("theta_i {t}"), data.rows_of(j)))
+        .map(|(j, &t)| {
+            let t = crate::text::angle(t);
+            (format!("theta_i {t}"), data.rows_of(j))
+        })
         .chain(std::iter::once((
             format!("|theta_r| >= {GRAZING} deg"),
             grazing.as_slice(),

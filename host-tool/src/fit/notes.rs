@@ -70,7 +70,8 @@ pub fn family_notes(
         .filter_map(|j| match data.specular_reference(j) {
             Some((k, false)) => Some(format!(
                 "{} (at {})",
-                data.incidences[j], data.obs[k].theta_r
+                crate::text::angle(data.incidences[j]),
+                crate::text::angle(data.obs[k].theta_r)
             )),
             _ => None,
         })

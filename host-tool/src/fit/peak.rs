@@ -86,7 +86,10 @@ pub fn offset_note(data: &Dataset, fitted: &[Option<f64>], member: &str) -> Opti
     }
     let (mean, se) = mean_offset(data, fitted)?;
     let se = se.map_or(String::new(), |s| format!(" ± {s:.2}"));
-    let each: Vec<String> = d.iter().map(|(t, o)| format!("{t}: {o:+.2}")).collect();
+    let each: Vec<String> = d
+        .iter()
+        .map(|&(t, o)| format!("{}: {o:+.2}", crate::text::angle(t)))
+        .collect();
     Some(format!(
         "the measured specular peak sits {mean:+.2}{se} deg in theta_r from {member}'s (per theta_i: {}): \
          an angle offset or a tilted sample? Left as it is, it widens the fitted core; rerun with \

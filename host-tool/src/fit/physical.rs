@@ -233,7 +233,7 @@ pub fn checks_text(
         let rho: Vec<String> = c
             .albedo
             .iter()
-            .map(|(t, r, _)| format!("{t}: {}", short(*r)))
+            .map(|(t, r, _)| format!("{}: {}", crate::text::angle(*t), short(*r)))
             .collect();
         let verdict = match units {
             BrdfUnits::PerSr if c.max_rho() > 1.0 => "  NON-PHYSICAL (rho > 1: creates energy)",

@@ -50,6 +50,15 @@ impl Param {
             None => self.base.to_string(),
         }
     }
+
+    /// Its name in the text report: [`Param::name`] with the incidence as labels
+    /// print angles ([`crate::text::angle`]: `k_s(30.16)`); the JSON keeps `name`.
+    pub fn label(&self) -> String {
+        match self.theta_i {
+            Some(t) => format!("{}({})", self.base, crate::text::angle(t)),
+            None => self.base.to_string(),
+        }
+    }
 }
 
 /// The parameters of a fitted member, in report order: widths and scalar weights,
@@ -413,7 +422,7 @@ fn member_block(out: &mut String, f: &FamilyFit, fit: &MemberFit, residual: &str
         let _ = writeln!(
             out,
             "  {:<12} {}",
-            p.name(),
+            p.label(),
             fmt_value(p.value, p.se, p.held)
         );
     }
@@ -464,7 +473,7 @@ pub fn family_table(f: &FamilyFit, residual: &str) -> String {
         let _ = writeln!(
             out,
             "  {:>8}  {:>12}  {:>16}{}{}",
-            t,
+            crate::text::angle(*t),
             cell(ts, j),
             cell(three, j),
             if sel.is_some() {
@@ -472,7 +481,9 @@ pub fn family_table(f: &FamilyFit, residual: &str) -> String {
             } else {
                 String::new()
             },
-            mark.map_or(String::new(), |r| format!("  * at theta_r {r}"))
+            mark.map_or(String::new(), |r| {
+                format!("  * at theta_r {}", crate::text::angle(r))
+            })
         );
     }
     let all = |c: Col<'_>| {

@@ -22,8 +22,14 @@ pub(super) fn y_desc_absolute(units: crate::sweep_file::BrdfUnits) -> &'static s
     }
 }
 
-/// An angle for a file name or a label: `20`, `22.5`.
+/// An angle for a label: [`crate::text::angle`] (`20`, `22.5`, `30.16`).
 pub(super) fn angle_text(t: f64) -> String {
+    crate::text::angle(t)
+}
+
+/// An angle for a file name, every digit kept (two incidences closer than a label's
+/// rounding still name two files): `20`, `22.5`, `30.15640533663018`.
+pub(super) fn angle_file_text(t: f64) -> String {
     if t == t.round() && t.abs() < 1e9 {
         format!("{}", t.round() as i64)
     } else {

@@ -88,7 +88,7 @@ pub fn write_plots(
     let mut written = Vec::new();
     for j in 0..fam.incidences.len() {
         let fig = figures::incidence_figure(data, fam, j);
-        let stem = format!("theta_i_{}", figures::angle_text(fam.incidences[j]));
+        let stem = format!("theta_i_{}", figures::angle_file_text(fam.incidences[j]));
         render::save_both(dir, &stem, &fig, INCIDENCE_SIZE, force, &mut written)?;
     }
     let fig = figures::overview_figure(data, fam);
@@ -104,7 +104,7 @@ pub const MAX_PLOT_INCIDENCES: usize = 90;
 pub fn plot_files(dir: &Path, incidences: &[f64]) -> Vec<PathBuf> {
     let mut stems: Vec<String> = incidences
         .iter()
-        .map(|&t| format!("theta_i_{}", figures::angle_text(t)))
+        .map(|&t| format!("theta_i_{}", figures::angle_file_text(t)))
         .collect();
     stems.push("overview".into());
     stems

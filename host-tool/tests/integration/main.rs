@@ -16,6 +16,7 @@ mod honest_answers;
 mod hostile;
 mod module_graph;
 mod ports_flash;
+mod real_sweeps;
 mod units_chain;
 mod units_cli;
 mod units_session;

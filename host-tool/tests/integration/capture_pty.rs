@@ -30,6 +30,12 @@ fn device(speed: Option<f64>) -> PtyDevice {
     PtyDevice::start(&cfg).unwrap()
 }
 
+/// The simulated device's pace (times real time) in the tests that unplug it after a few
+/// readings: [`small_plan`]'s 200 ms settle is then 25 ms a reading, so the rest of the
+/// sweep takes far longer than the test needs to notice the rows and unplug it, even on
+/// a loaded machine (at 40x a loaded run once saw the capture finish first).
+const PACE_MID_SWEEP: f64 = 8.0;
+
 /// A small plan: 2 incidences x 17 detector angles.
 fn small_plan(d: &Path) -> PathBuf {
     let p = d.join("plan.toml");
@@ -268,7 +274,8 @@ fn a_device_that_goes_away_and_comes_back_is_reconnected() {
         std::os::unix::fs::symlink(dev.path(), &tmp).unwrap();
         std::fs::rename(&tmp, &link).unwrap(); // atomic re-point, like udev's by-id links
     };
-    let first = device(Some(40.0));
+    // Paced (PACE_MID_SWEEP) so that the unplug comes mid-sweep even under load.
+    let first = device(Some(PACE_MID_SWEEP));
     point(&first);
     let mut child = gonio_command()
         .args([
@@ -318,7 +325,7 @@ fn a_device_that_does_not_come_back_ends_with_a_clear_message() {
     let d = scratch("gone");
     let file = d.join("s.csv");
     let plan = small_plan(&d);
-    let dev = device(Some(40.0));
+    let dev = device(Some(PACE_MID_SWEEP));
     let mut child = gonio_command()
         .args([
             "capture",

@@ -434,7 +434,8 @@ pub fn write_summaries(
     // Streamed a file at a time: the whole summary as one JSON value took 10^5
     // sweeps' campaign to 1 GB.
     outfile::write(Target::new(&js, force).inputs(&inputs), |w| {
-        serde_json::to_writer_pretty(&mut *w, &SummaryJson(files)).map_err(std::io::Error::from)?;
+        serde_json::to_writer_pretty(&mut *w, &SummaryJson(files, None))
+            .map_err(std::io::Error::from)?;
         w.write_all(b"\n")
     })
     .map_err(|e| e.to_string())?;
@@ -514,11 +515,12 @@ pub fn summary_csv(files: &[CampaignFile]) -> String {
 /// `incidences`, `params` (`{name: {"value", "se"}}`), `rmse`, `fit_seconds`, `report`,
 /// or `error`.
 pub fn summary_json(files: &[CampaignFile]) -> Value {
-    serde_json::to_value(SummaryJson(files)).expect("JSON of numbers and text")
+    serde_json::to_value(SummaryJson(files, None)).expect("JSON of numbers and text")
 }
 
-/// [`summary_json`] serialised as it is written, one file's entry at a time.
-pub struct SummaryJson<'a>(pub &'a [CampaignFile]);
+/// [`summary_json`] serialised as it is written, one file's entry at a time, with
+/// one more entry at its end when given (`gonio fit --json`'s `instrument`).
+pub struct SummaryJson<'a>(pub &'a [CampaignFile], pub Option<(&'a str, Value)>);
 
 impl serde::Serialize for SummaryJson<'_> {
     fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
@@ -531,10 +533,13 @@ impl serde::Serialize for SummaryJson<'_> {
             }
         }
         let failed = self.0.iter().filter(|f| f.outcome.is_err()).count();
-        let mut m = s.serialize_map(Some(3))?;
+        let mut m = s.serialize_map(Some(3 + usize::from(self.1.is_some())))?;
         m.serialize_entry("files", &Entries(self.0))?;
         m.serialize_entry("fitted", &(self.0.len() - failed))?;
         m.serialize_entry("failed", &failed)?;
+        if let Some((k, v)) = &self.1 {
+            m.serialize_entry(k, v)?;
+        }
         m.end()
     }
 }

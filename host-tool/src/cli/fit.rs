@@ -333,25 +333,26 @@ fn run_campaign(args: &FitArgs, opts: &FitOptions) -> CliResult {
             Err(e) => eprintln!("gonio: skipped {e}"),
         }
     }
-    let text = if args.json {
-        let mut summary = campaign::summary_json(&results);
-        if let (Some((i, p)), serde_json::Value::Object(m)) = (&inst, &mut summary) {
-            m.insert(
-                "instrument".into(),
+    if args.json {
+        // Streamed a file at a time, as summary.json is (10^5 sweeps).
+        let inst_json = inst.as_ref().map(|(i, p)| {
+            (
+                "instrument",
                 super::fit_units::campaign_instrument_json(i, p),
-            );
-        }
-        let mut s = serde_json::to_string_pretty(&summary).expect("JSON of numbers");
-        s.push('\n');
-        s
+            )
+        });
+        write_stdout_with(|w| {
+            serde_json::to_writer_pretty(&mut *w, &campaign::SummaryJson(&results, inst_json))
+                .map_err(std::io::Error::from)?;
+            w.write_all(b"\n")
+        })?;
     } else {
         let mut t = campaign::summary_table(&results);
         if let Some((i, p)) = &inst {
             t.push_str(&super::fit_units::campaign_instrument_text(i, p));
         }
-        t
-    };
-    write_stdout(text.as_bytes())?;
+        write_stdout(t.as_bytes())?;
+    }
     if failed.is_empty() {
         Ok(())
     } else {

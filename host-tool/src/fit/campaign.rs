@@ -431,9 +431,14 @@ pub fn write_summaries(
     };
     let (csv, js) = summary_paths(dir);
     put(&csv, summary_csv(files).as_bytes())?;
-    let mut s = serde_json::to_string_pretty(&summary_json(files)).expect("JSON");
-    s.push('\n');
-    put(&js, s.as_bytes())?;
+    // Streamed a file at a time: the whole summary as one JSON value took 10^5
+    // sweeps' campaign to 1 GB.
+    outfile::write(Target::new(&js, force).inputs(&inputs), |w| {
+        serde_json::to_writer_pretty(&mut *w, &SummaryJson(files, None))
+            .map_err(std::io::Error::from)?;
+        w.write_all(b"\n")
+    })
+    .map_err(|e| e.to_string())?;
     Ok((csv, js))
 }
 
@@ -510,47 +515,69 @@ pub fn summary_csv(files: &[CampaignFile]) -> String {
 /// `incidences`, `params` (`{name: {"value", "se"}}`), `rmse`, `fit_seconds`, `report`,
 /// or `error`.
 pub fn summary_json(files: &[CampaignFile]) -> Value {
-    let num = |x: f64| if x.is_finite() { json!(x) } else { Value::Null };
-    let rows: Vec<Value> = files
-        .iter()
-        .map(|f| match &f.outcome {
-            Ok(fit) => {
-                let mut params = serde_json::Map::new();
-                for &(n, v, se, held) in &fit.params {
-                    let mut p = json!({"value": num(v), "se": se.map_or(Value::Null, num)});
-                    // Held fixed (`--fix`): said, so its null se is not "not determined".
-                    if let (true, Value::Object(m)) = (held, &mut p) {
-                        m.insert("fixed".into(), Value::Bool(true));
-                    }
-                    params.insert(n.into(), p);
-                }
-                json!({
-                    "file": f.path.display().to_string(),
-                    "status": "ok",
-                    "selected_member": fit.selected_member.to_string(),
-                    "selected_components": super::report::member_components(fit.selected_member),
-                    "readings": fit.readings,
-                    "incidences": fit.incidences,
-                    "params": params,
-                    "rmse": fit.rmse.map_or(Value::Null, num),
-                    "fit_seconds": num(fit.fit_seconds),
-                    "report": fit.report,
-                    "warnings": fit.warnings,
-                })
+    serde_json::to_value(SummaryJson(files, None)).expect("JSON of numbers and text")
+}
+
+/// [`summary_json`] serialised as it is written, one file's entry at a time, with
+/// one more entry at its end when given (`gonio fit --json`'s `instrument`).
+pub struct SummaryJson<'a>(pub &'a [CampaignFile], pub Option<(&'a str, Value)>);
+
+impl serde::Serialize for SummaryJson<'_> {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap;
+        /// The files' entries, each made when serialised.
+        struct Entries<'a>(&'a [CampaignFile]);
+        impl serde::Serialize for Entries<'_> {
+            fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+                s.collect_seq(self.0.iter().map(file_json))
             }
-            Err(e) => json!({
+        }
+        let failed = self.0.iter().filter(|f| f.outcome.is_err()).count();
+        let mut m = s.serialize_map(Some(3 + usize::from(self.1.is_some())))?;
+        m.serialize_entry("files", &Entries(self.0))?;
+        m.serialize_entry("fitted", &(self.0.len() - failed))?;
+        m.serialize_entry("failed", &failed)?;
+        if let Some((k, v)) = &self.1 {
+            m.serialize_entry(k, v)?;
+        }
+        m.end()
+    }
+}
+
+/// One file's entry in [`summary_json`].
+fn file_json(f: &CampaignFile) -> Value {
+    let num = |x: f64| if x.is_finite() { json!(x) } else { Value::Null };
+    match &f.outcome {
+        Ok(fit) => {
+            let mut params = serde_json::Map::new();
+            for &(n, v, se, held) in &fit.params {
+                let mut p = json!({"value": num(v), "se": se.map_or(Value::Null, num)});
+                // Held fixed (`--fix`): said, so its null se is not "not determined".
+                if let (true, Value::Object(m)) = (held, &mut p) {
+                    m.insert("fixed".into(), Value::Bool(true));
+                }
+                params.insert(n.into(), p);
+            }
+            json!({
                 "file": f.path.display().to_string(),
-                "status": "error",
-                "error": e.to_string(),
-            }),
-        })
-        .collect();
-    let failed = files.iter().filter(|f| f.outcome.is_err()).count();
-    json!({
-        "files": rows,
-        "fitted": files.len() - failed,
-        "failed": failed,
-    })
+                "status": "ok",
+                "selected_member": fit.selected_member.to_string(),
+                "selected_components": super::report::member_components(fit.selected_member),
+                "readings": fit.readings,
+                "incidences": fit.incidences,
+                "params": params,
+                "rmse": fit.rmse.map_or(Value::Null, num),
+                "fit_seconds": num(fit.fit_seconds),
+                "report": fit.report,
+                "warnings": fit.warnings,
+            })
+        }
+        Err(e) => json!({
+            "file": f.path.display().to_string(),
+            "status": "error",
+            "error": e.to_string(),
+        }),
+    }
 }
 
 /// A short aligned table of the summary for a terminal.

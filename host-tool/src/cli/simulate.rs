@@ -108,7 +108,7 @@ pub fn run(args: &SimulateArgs) -> CliResult {
             args.material,
             setup.out.display()
         );
-        return run_session(conn, &setup, spec, args.out.quiet, &resume);
+        return run_session(conn, &setup, spec, &args.out, &resume);
     }
     setup.specimen = Some(resumed_specimen(&setup)?);
     if setup.specimen == Some(brdf_core::protocol::Specimen::Reference) {
@@ -127,7 +127,7 @@ pub fn run(args: &SimulateArgs) -> CliResult {
         setup.out.display()
     );
     let conn = InProcessConnector::new(InProcessDevice::new(&cfg));
-    run_with(conn, &setup, args.out.quiet, &resume)
+    run_with(conn, &setup, &args.out, &resume)
 }
 
 /// A certified-table standard must cover every point of the plan (the simulated

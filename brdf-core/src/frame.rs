@@ -21,7 +21,8 @@ pub const MAX_FRAME_LEN: usize = MAX_MESSAGE_LEN + MAX_MESSAGE_LEN / 254 + 2;
 pub enum FrameError {
     /// The output buffer is too small for the encoded frame.
     BufferFull,
-    /// The frame exceeded the decoder's buffer; it was dropped up to the next 0x00.
+    /// The frame exceeded the decoder's buffer (it was dropped up to the next 0x00), or
+    /// its COBS-decoded body exceeds [`MAX_MESSAGE_LEN`] bytes.
     TooLong,
     /// The bytes between two 0x00 are not valid COBS.
     Cobs,
@@ -50,6 +51,11 @@ pub fn decode_body<T: DeserializeOwned>(body: &mut [u8]) -> Result<T, FrameError
 /// payload is then `body[..len]`).
 fn check_body(body: &mut [u8]) -> Result<usize, FrameError> {
     let n = cobs::decode_in_place(body).map_err(|_| FrameError::Cobs)?;
+    // A body longer than any message is too long, whatever its CRC says: one length
+    // rule, not "fits the buffer" (the buffer holds a few bytes more).
+    if n > MAX_MESSAGE_LEN {
+        return Err(FrameError::TooLong);
+    }
     if n < 4 {
         return Err(if n == 0 {
             FrameError::Cobs

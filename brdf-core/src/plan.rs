@@ -51,7 +51,13 @@ impl fmt::Display for PlanError {
             PlanError::NotFinite => f.write_str("plan has a non-finite angle"),
             PlanError::BadStep => f.write_str("detector step must be > 0 with stop >= start"),
             PlanError::Empty => f.write_str("plan has no point to measure"),
-            PlanError::TooManyPoints => f.write_str("plan has too many points"),
+            PlanError::TooManyPoints => write!(
+                f,
+                "plan has too many points for one device plan (at most {} per incidence of a grid, {} in a point list, {} in all)",
+                MAX_LEG_POINTS - 1,
+                MAX_PLAN_POINTS,
+                MAX_SWEEP_POINTS
+            ),
             PlanError::NoSamples => f.write_str("samples per point must be >= 1"),
             PlanError::BadExclusion => f.write_str("exclusion width must be >= 0"),
             PlanError::OutOfLimits { source, deg } => {
@@ -180,25 +186,36 @@ impl SweepPlan {
 /// Number of detector positions from `start` to `stop` (included when on the grid,
 /// see [`STOP_TOLERANCE_STEPS`]).
 pub fn leg_len(start: f32, stop: f32, step: f32) -> Result<u32, PlanError> {
+    leg_len_below(start, stop, step, MAX_LEG_POINTS)
+}
+
+/// [`leg_len`] with another bound: `TooManyPoints` when `(stop - start) / step` (plus
+/// the tolerance) reaches `max`. The same rule, for a host that expands legs longer
+/// than a device takes into point lists.
+pub fn leg_len_below(start: f32, stop: f32, step: f32, max: u32) -> Result<u32, PlanError> {
     if !(start.is_finite() && stop.is_finite() && step.is_finite()) {
         return Err(PlanError::NotFinite);
     }
     if step <= 0.0 || stop < start {
         return Err(PlanError::BadStep);
     }
+    // In f32, in this order: the quotient, then the tolerance added, then truncated.
     let n = (stop - start) / step + STOP_TOLERANCE_STEPS;
-    if n >= MAX_LEG_POINTS as f32 {
+    if n >= max as f32 {
         return Err(PlanError::TooManyPoints);
     }
     Ok(n as u32 + 1)
 }
 
 /// Detector position `k` of a leg of `n` positions (`n` from [`leg_len`]):
-/// `start + step * k`, except that the last is `stop` itself when it lies within
-/// [`STOP_TOLERANCE_STEPS`] of a step of it.
+/// `start + step * k` (f32: the product, then the sum), except that the last is `stop`
+/// itself when it lies beyond `stop` or within [`STOP_TOLERANCE_STEPS`] of a step
+/// below it. So no position is ever past `stop`: where [`leg_len`]'s f32 sum just
+/// admits a last position (`0..1.999 step 1`), that position is `stop`, although
+/// `|2 - 1.999|` computed in f32 is a little over `1e-3 * step`.
 pub fn leg_position(start: f32, stop: f32, step: f32, k: u32, n: u32) -> f32 {
     let theta_r = start + step * k as f32;
-    if k + 1 == n && (theta_r - stop).abs() <= STOP_TOLERANCE_STEPS * step {
+    if k + 1 == n && stop - theta_r <= STOP_TOLERANCE_STEPS * step {
         stop
     } else {
         theta_r

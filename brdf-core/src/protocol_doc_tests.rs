@@ -92,7 +92,9 @@ fn the_longest_frame_is_the_documented_one() {
         (0..n).for_each(|_| assert!(dec.push::<Event>(1).is_none()));
         dec.push::<Event>(0).unwrap()
     };
-    assert_ne!(feed(2058).unwrap_err(), FrameError::TooLong);
+    // 2058 bytes of 0x01 fit the buffer (they decode to 2057 zero bytes, too long a
+    // body); 2059 overflow it. Both are too long.
+    assert_eq!(feed(2058).unwrap_err(), FrameError::TooLong);
     assert_eq!(feed(2059).unwrap_err(), FrameError::TooLong);
 }
 
@@ -349,7 +351,7 @@ fn homing_position_jog_and_laser_are_as_documented() {
     let d = doc();
     assert!(d.contains("`StartSweep` and `Jog` need both arms homed (else `Error(NotHomed)`)"));
     assert!(d.contains(
-        "`GetInfo`, `Ping`, `Abort`, `Home`, `SetLaser` and `Mount` are served at any time"
+        "when idle, `GetInfo`, `Ping`, `Abort`, `Home`, `SetLaser` and `Mount` are served whether or not the arms are homed"
     ));
     assert!(d.contains(
         "source at `Info.source.min_deg`, detector at `Info.detector.min_deg` (0 and -90)"
@@ -380,4 +382,194 @@ fn progress_done_counts_skipped_points() {
         [150, 151, 152]
     );
     assert!(doc().contains("`done` counts the skipped points"));
+}
+
+/// A frame of a body of `len` bytes (postcard part of 0x07s, then its CRC), as a
+/// sender would encode it.
+fn framed_body(len: usize) -> std::vec::Vec<u8> {
+    let mut raw = std::vec![7u8; len - 4];
+    let crc = crate::frame::CRC.checksum(&raw);
+    raw.extend(crc.to_le_bytes());
+    let mut out = cobs::encode_vec(&raw);
+    out.push(0);
+    out
+}
+
+#[test]
+fn a_body_over_2048_bytes_is_too_long_whatever_its_crc() {
+    let feed = |bytes: &[u8]| {
+        let mut dec = FrameDecoder::<MAX_FRAME_LEN>::new();
+        let (last, rest) = bytes.split_last().unwrap();
+        rest.iter()
+            .for_each(|&b| assert!(dec.push::<Command>(b).is_none()));
+        assert_eq!(*last, 0);
+        (dec.push::<Command>(0).unwrap().map(|_| ()), dec.stats())
+    };
+    // 2048 bytes: intact (CRC fine), just not a command (variant 7 with junk after).
+    let ok = framed_body(2048);
+    assert_eq!(ok.len(), MAX_FRAME_LEN);
+    assert_eq!(feed(&ok).0, Err(FrameError::Decode));
+    // 2049 bytes fit the buffer (2058 encoded bytes before the 0x00) and pass COBS and
+    // CRC: too long all the same, and answered CorruptFrame.
+    let long = framed_body(2049);
+    assert_eq!(long.len(), MAX_FRAME_LEN + 1);
+    let (r, stats) = feed(&long);
+    assert_eq!(
+        (r, stats.too_long, stats.crc),
+        (Err(FrameError::TooLong), 1, 0)
+    );
+    let mut rig = rig();
+    rig.c.receive(&long, 0);
+    rig.drain();
+    assert_eq!(errors(&rig.take()), [ErrorCode::CorruptFrame]);
+    assert!(doc().contains(
+        "whose COBS-decoded body is over 2048 bytes is too long as well, whatever its CRC"
+    ));
+}
+
+#[test]
+fn the_stop_rules_bound_includes_its_boundary_in_f32() {
+    // 0..1.999 step 1: (1.999 - 0) / 1 + 1e-3 rounds to 2.0 in f32: three positions,
+    // the last reported as stop (not 2, which f32 puts just over 1e-3 steps away).
+    let pts: Vec<Point> = custom(&[20.0], 0.0, 1.999, 1.0, 0.0).points().collect();
+    assert_eq!(
+        pts.iter().map(|p| p.theta_r).collect::<Vec<_>>(),
+        [0.0, 1.0, 1.999]
+    );
+    assert!((2.0f32 - 1.999).abs() > crate::plan::STOP_TOLERANCE_STEPS * 1.0);
+    // One f32 below: the sum rounds below 2.0: two positions.
+    let below = f32::from_bits(1.999f32.to_bits() - 1);
+    assert_eq!(custom(&[20.0], 0.0, below, 1.0, 0.0).total(), 2);
+    // The order: (stop - start) / step, then + 1e-3, each rounded to f32.
+    for (start, stop, step) in [
+        (0.0f32, 1.999f32, 1.0f32),
+        (0.0, below, 1.0),
+        (-80.0, 79.9975, 5.0),
+    ] {
+        let x = (stop - start) / step + 1e-3f32;
+        assert_eq!(crate::plan::leg_len(start, stop, step), Ok(x as u32 + 1));
+    }
+    // No position is ever past stop.
+    for stop in [1.999f32, 1.9995, 2.0, 2.0005, 79.9975] {
+        let p = custom(&[20.0], 0.0, stop, 1.0, 0.0);
+        assert!(p.points().all(|q| q.theta_r <= stop), "{stop}");
+    }
+    let d = doc();
+    assert!(d.contains("`d = stop - start`, `q = d / step`, `x = q + 1e-3`"));
+    assert!(d.contains("`0..1.999 step 1` has 3 positions"));
+    assert!(d.contains("no position is ever beyond `stop`"));
+}
+
+#[test]
+fn a_stop_reported_as_such_is_read_at_its_microstep() {
+    let mut rig = rig();
+    rig.home();
+    let p = custom(&[20.0], -80.0, 79.9975, 5.0, 0.0);
+    assert_eq!(p.points().last().unwrap().theta_r, 79.9975);
+    rig.send(&Command::StartSweep(p));
+    rig.run();
+    let got = readings(&rig.take());
+    assert_eq!(got.len(), 33);
+    // The plan's point 32 is 79.9975; the reading of seq 32 says the microstep, 80.
+    assert_eq!((got[32].seq, got[32].theta_r), (32, 80.0));
+    assert!(
+        doc().contains("79.9975 is 6399.8 microsteps at 80 per degree, so the reading says 80")
+    );
+}
+
+#[test]
+fn mount_is_busy_during_a_sweep_and_served_before_homing() {
+    let mut rig = rig();
+    rig.send(&Command::Mount(Specimen::Sample));
+    assert!(matches!(
+        &rig.take()[..],
+        [Event::Status(Status { homed: false, .. })]
+    ));
+    rig.home();
+    rig.send(&Command::StartSweep(SweepPlan::paper(4, SETTINGS)));
+    rig.run_until(|ev| !readings(ev).is_empty());
+    rig.take();
+    for cmd in [Command::Mount(Specimen::Sample), Command::SetLaser(false)] {
+        rig.send(&cmd);
+        assert_eq!(errors(&rig.take()), [ErrorCode::Busy], "{cmd:?}");
+    }
+    rig.send(&Command::Abort);
+    rig.take();
+    assert!(doc().contains(
+        "anything else, `Mount` and `SetLaser` included, is answered with `Error(Busy)`"
+    ));
+}
+
+#[test]
+fn max_points_counts_the_skipped_points() {
+    let mut rig = rig();
+    rig.home();
+    // 16 x 4097 = 65,552 points: one plan too long, whatever its skip.
+    let inc: Vec<f32> = (0..16).map(|k| k as f32 * 5.0).collect();
+    let mut p = custom(&inc, -80.0, 80.0, 160.0 / 4096.0, 0.0);
+    p.skip = 65_000;
+    rig.send(&Command::StartSweep(p));
+    assert_eq!(errors(&rig.take()), [ErrorCode::BadPlan]);
+    assert!(doc().contains("counted before `skip`: the skipped points count"));
+}
+
+#[test]
+fn a_point_list_that_returns_to_an_incidence_sends_progress_at_each_change() {
+    let mut rig = rig();
+    rig.home();
+    let pts = [
+        (20.0, 10.0),
+        (20.0, 30.0),
+        (40.0, 10.0),
+        (20.0, 0.0),
+        (20.0, 5.0),
+    ];
+    let plan = SweepPlan {
+        sweep_id: 9,
+        grid: Grid::Points(
+            pts.iter()
+                .map(|&(theta_i, theta_r)| Point { theta_i, theta_r })
+                .collect(),
+        ),
+        exclude_retro_deg: 0.0,
+        settings: SETTINGS,
+        skip: 0,
+    };
+    rig.send(&Command::StartSweep(plan));
+    rig.run();
+    let progress: Vec<(u32, f32)> = rig
+        .take()
+        .iter()
+        .filter_map(|e| match e {
+            Event::Progress(p) => Some((p.done, p.theta_i)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(progress, [(0, 20.0), (2, 40.0), (3, 20.0)]);
+    assert!(doc().contains("a `Points` list that returns to an earlier `theta_i` (20, 40, 20) sends a `Progress` at each change (three in all)"));
+}
+
+#[test]
+fn abort_during_a_jog_draws_one_status() {
+    let mut rig = rig();
+    rig.home();
+    rig.send(&Command::Jog {
+        arm: Arm::Detector,
+        degrees: 80.0,
+    });
+    // Some steps on the way, then Abort.
+    for _ in 0..200 {
+        if let Tick::Wait(us) = rig.c.tick(rig.now) {
+            rig.now += us.max(1) as u64;
+        }
+    }
+    rig.drain();
+    assert!(rig.take().is_empty(), "the jog has not arrived");
+    rig.send(&Command::Abort);
+    rig.run();
+    let ev = rig.take();
+    assert_eq!(ev.len(), 1, "{ev:?}");
+    let s = status(&ev);
+    assert!(s.detector_deg > -90.0 && s.detector_deg < 80.0, "{s:?}");
+    assert!(doc().contains("`Abort` during a jog draws exactly one `Status`, the abort's"));
 }

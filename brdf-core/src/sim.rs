@@ -164,15 +164,40 @@ impl XorShift32 {
     }
 }
 
-/// A virtual sample: the preset's three-component model evaluated in f32 at the arms'
-/// angles, times `(1 + noise * n)` with `n` deterministic pseudo-random standard-normal
+/// What a virtual sample shows the detector with the laser on: a preset's model, or on
+/// the host a replayed measured sweep. One virtual sample, several sources.
+pub trait SampleSource {
+    /// The noiseless reading at the arms' angles `theta_i`, `theta_r` (degrees), in
+    /// reading units (K times the BRDF in 1/sr, [`SIM_K`]); an error where the source
+    /// has no value (the detector faults, as a real one outside its range).
+    fn reading(&self, theta_i: f32, theta_r: f32) -> Result<f32, DetectorError>;
+
+    /// The relative noise of one detector sample here, where the source knows it (a
+    /// measured sweep's scatter); `None`: the virtual sample's own `noise`.
+    fn noise(&self, _theta_i: f32, _theta_r: f32) -> Option<f32> {
+        None
+    }
+}
+
+impl SampleSource for &'static Preset {
+    fn reading(&self, theta_i: f32, theta_r: f32) -> Result<f32, DetectorError> {
+        let model = self.model(theta_i).map_err(|_| DetectorError)?;
+        Ok(model
+            .eval_in_plane(theta_i, theta_r)
+            .map_err(|_| DetectorError)?
+            .f)
+    }
+}
+
+/// A virtual sample: its source's reading (by default a preset's three-component model
+/// evaluated in f32) at the arms' angles, times `(1 + noise * n)` with `n` deterministic pseudo-random standard-normal
 /// noise. With the laser off it reads a dark level `dark` (plus the same relative
 /// noise on it). With a reference standard ([`VirtualSample::with_reference`]) and
 /// `Mount(Reference)` it reads the standard instead, in the same units ([`SIM_K`]).
 #[derive(Debug, Clone, Copy)]
-pub struct VirtualSample {
-    /// The material.
-    pub preset: &'static Preset,
+pub struct VirtualSample<S = &'static Preset> {
+    /// What the sample shows the detector (a preset: the material).
+    pub source: S,
     /// Relative noise (0.005 = 0.5 %).
     pub noise: f32,
     /// Reading with the laser off.
@@ -189,11 +214,12 @@ pub struct VirtualSample {
     pub reference_rng: XorShift32,
 }
 
-impl VirtualSample {
-    /// A virtual sample of `preset` with relative `noise` and a given seed; dark level 0.
-    pub fn new(preset: &'static Preset, noise: f32, seed: u32) -> Self {
+impl<S: SampleSource> VirtualSample<S> {
+    /// A virtual sample of `source` (a preset) with relative `noise` and a given seed;
+    /// dark level 0.
+    pub fn new(source: S, noise: f32, seed: u32) -> Self {
         VirtualSample {
-            preset,
+            source,
             noise,
             dark: 0.0,
             rng: XorShift32::new(seed),
@@ -216,7 +242,7 @@ impl VirtualSample {
     }
 }
 
-impl Detector for VirtualSample {
+impl<S: SampleSource> Detector for VirtualSample<S> {
     fn sample(&mut self, theta_i: f32, theta_r: f32, laser_on: bool) -> Result<f32, DetectorError> {
         if self.mounted == Specimen::Reference {
             let clean = if laser_on {
@@ -227,16 +253,12 @@ impl Detector for VirtualSample {
             return Ok(clean * (1.0 + self.noise * self.reference_rng.normal()));
         }
         let clean = if laser_on {
-            let model = self.preset.model(theta_i).map_err(|_| DetectorError)?;
-            model
-                .eval_in_plane(theta_i, theta_r)
-                .map_err(|_| DetectorError)?
-                .f
-                + self.dark
+            self.source.reading(theta_i, theta_r)? + self.dark
         } else {
             self.dark
         };
-        Ok(clean * (1.0 + self.noise * self.rng.normal()))
+        let noise = self.source.noise(theta_i, theta_r).unwrap_or(self.noise);
+        Ok(clean * (1.0 + noise * self.rng.normal()))
     }
 
     fn mount(&mut self, specimen: Specimen) -> Result<(), DetectorError> {

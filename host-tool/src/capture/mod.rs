@@ -44,3 +44,6 @@ pub(crate) fn protocol_doc_words() -> String {
 
 #[cfg(test)]
 mod tests;
+
+#[cfg(test)]
+mod split_tests;

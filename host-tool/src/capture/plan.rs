@@ -8,9 +8,10 @@ use std::path::Path;
 
 use brdf_core::Preset;
 use brdf_core::identity::PAPER_INCIDENCES;
-use brdf_core::plan::adaptive;
+use brdf_core::plan::{adaptive, leg_len, leg_len_below, leg_position};
 use brdf_core::protocol::{
-    ArmLimits, Grid, MAX_INCIDENCES, MAX_PLAN_POINTS, Point, PointSettings, SweepPlan,
+    ArmLimits, Grid, MAX_INCIDENCES, MAX_PLAN_POINTS, MAX_SWEEP_POINTS, Point, PointSettings,
+    SweepPlan,
 };
 use serde::Deserialize;
 
@@ -199,10 +200,8 @@ impl HostPlan {
         let description = format!("file {name}");
         match (&f.incidences, &f.detector, &f.points) {
             (Some(inc), Some(d), None) => {
-                if inc.len() > MAX_INCIDENCES {
-                    return Err(PlanError::from(format!(
-                        "plan {name}: at most {MAX_INCIDENCES} incidences"
-                    )));
+                if !device_takes(inc.len(), d) {
+                    return Self::from_long_grid(name, description, inc, d, s, e);
                 }
                 let grid = Grid::Custom {
                     incidences: heapless::Vec::from_slice(inc).expect("length checked"),
@@ -226,6 +225,47 @@ impl HostPlan {
                 "plan {name}: give either `incidences` and `detector = {{ start, stop, step }}`, or `points`"
             ))),
         }
+    }
+
+    /// A grid no device plan holds (more than [`MAX_INCIDENCES`] incidences, a leg of
+    /// [`brdf_core::plan::MAX_LEG_POINTS`] positions or more, more than [`MAX_SWEEP_POINTS`] points):
+    /// expanded here by brdf-core's own leg rule into a point list, which
+    /// [`HostPlan::sweeps_for`] sends as device plans of what the device takes. At most
+    /// [`MAX_HOST_PLAN_POINTS`].
+    fn from_long_grid(
+        name: &str,
+        description: String,
+        incidences: &[f32],
+        d: &DetectorRange,
+        s: PointSettings,
+        e: f32,
+    ) -> Result<Self> {
+        let what = format!("plan {name}");
+        let n = leg_len_below(d.start, d.stop, d.step, MAX_HOST_PLAN_POINTS as u32).map_err(|err| {
+            PlanError(match err {
+                brdf_core::plan::PlanError::TooManyPoints => format!(
+                    "{what}: a leg of {}..{} step {} is more than {MAX_HOST_PLAN_POINTS} points, the most gonio measures in one sweep file",
+                    d.start, d.stop, d.step
+                ),
+                err => format!("{what}: {err}"),
+            })
+        })?;
+        let total = n as usize * incidences.len();
+        if total > MAX_HOST_PLAN_POINTS {
+            return Err(PlanError(format!(
+                "{what}: {total} points, more than {MAX_HOST_PLAN_POINTS}, the most gonio measures in one sweep file"
+            )));
+        }
+        let points = incidences
+            .iter()
+            .flat_map(|&theta_i| {
+                (0..n).map(move |k| Point {
+                    theta_i,
+                    theta_r: leg_position(d.start, d.stop, d.step, k, n),
+                })
+            })
+            .collect();
+        Self::from_points(&what, description, points, s, e)
     }
 
     /// An adaptive plan: readings placed densely where the prior's curve bends.
@@ -435,6 +475,24 @@ impl HostPlan {
             }
         }
         Ok(plan)
+    }
+}
+
+/// Most points of one host plan (one sweep file): its `# points:` line is then about
+/// 10 MB, well within a sweep file's 64 MiB.
+pub const MAX_HOST_PLAN_POINTS: usize = 1_000_000;
+
+/// Whether a grid of `incidences` over detector range `d` is one device plan (a compact
+/// `Custom` grid); a bad range is when the incidences fit (its error is then the
+/// device plan's), else the expansion states it.
+fn device_takes(incidences: usize, d: &DetectorRange) -> bool {
+    if incidences > MAX_INCIDENCES {
+        return false;
+    }
+    match leg_len(d.start, d.stop, d.step) {
+        Ok(n) => n as usize * incidences <= usize::from(MAX_SWEEP_POINTS),
+        Err(brdf_core::plan::PlanError::TooManyPoints) => false,
+        Err(_) => true,
     }
 }
 

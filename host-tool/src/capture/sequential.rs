@@ -30,14 +30,29 @@ const WORD: &str = "sequential";
 /// The sequential plan's candidates (see the module doc), at most `budget` of them
 /// measured.
 pub fn plan(budget: usize, o: &SettingsOverride) -> Result<HostPlan, PlanError> {
-    let incidences: Vec<String> = brdf_core::identity::PAPER_INCIDENCES
+    plan_over(&brdf_core::identity::PAPER_INCIDENCES, budget, o, |_, _| {
+        true
+    })
+}
+
+/// The sequential plan at other `incidences` (degrees): the candidates every
+/// [`CANDIDATE_STEP`] degrees of theta_r in -80..80 at each, less those `keep` refuses
+/// (a replayed sweep serves only its measured spans), the retro-reflection zone of `o`
+/// left out.
+pub fn plan_over(
+    incidences: &[f32],
+    budget: usize,
+    o: &SettingsOverride,
+    keep: impl Fn(f32, f32) -> bool,
+) -> Result<HostPlan, PlanError> {
+    let steps = (160.0 / CANDIDATE_STEP) as u32;
+    let points: Vec<String> = incidences
         .iter()
-        .map(|t| t.to_string())
+        .flat_map(|&ti| (0..=steps).map(move |k| (ti, -80.0 + k as f32 * CANDIDATE_STEP)))
+        .filter(|&(ti, tr)| keep(ti, tr))
+        .map(|(ti, tr)| format!("[{ti}, {tr}]"))
         .collect();
-    let toml = format!(
-        "incidences = [{}]\ndetector = {{ start = -80, stop = 80, step = {CANDIDATE_STEP} }}\n",
-        incidences.join(", ")
-    );
+    let toml = format!("points = [{}]\n", points.join(", "));
     let mut plan = HostPlan::from_toml_str(&toml, WORD, o)?;
     plan.description = format!("{WORD} budget={budget}");
     Ok(plan)

@@ -194,6 +194,11 @@ pub struct OutArgs {
 pub fn sim_config(material: &str, noise: f32, seed: u32) -> CliResult<SimConfig> {
     let preset = Preset::by_name(material)
         .map_err(|e| CliError::usage(format!("--material '{material}': {e}")))?;
+    Ok(SimConfig::new(preset, noise_level(noise)?, seed))
+}
+
+/// `--noise REL` checked: in [0, 0.5).
+pub fn noise_level(noise: f32) -> CliResult<f32> {
     if !(noise.is_finite() && (0.0..0.5).contains(&noise)) {
         return Err(CliError::usage(format!(
             "--noise must be in [0, 0.5) (got {})",
@@ -201,7 +206,7 @@ pub fn sim_config(material: &str, noise: f32, seed: u32) -> CliResult<SimConfig>
             brdf_core::error::Short(noise.to_string().parse().unwrap_or(f64::NAN))
         )));
     }
-    Ok(SimConfig::new(preset, noise, seed))
+    Ok(noise)
 }
 
 /// The reference standard `SPEC` of `option` (`--standard`, `--reference`):

@@ -60,6 +60,7 @@ pub struct DemoArgs {
 /// Runs `gonio demo`.
 pub fn run(args: &DemoArgs) -> CliResult {
     let mut cfg = sim_config(&args.material, args.noise, args.seed)?;
+    let preset = Preset::by_name(&args.material).map_err(|e| CliError::usage(e.to_string()))?;
     cfg.reference = Some(super::demo_units::DEMO_REFERENCE as f32);
     if args.samples == 0 {
         return Err(CliError::usage("--samples must be >= 1"));
@@ -86,9 +87,9 @@ pub fn run(args: &DemoArgs) -> CliResult {
         &sweep,
         &reference_path(&sweep),
         super::demo_units::DEMO_REFERENCE,
-        cfg.preset,
+        preset,
     )?;
-    let (truth, worst_param) = truth_table(cfg.preset, &fam);
+    let (truth, worst_param) = truth_table(preset, &fam);
     let mut out = format!(
         "gonio demo: {} readings of a simulated {} sample ({}% noise per sample, {} samples per reading)\n\
          sweep file: {}\n\n",

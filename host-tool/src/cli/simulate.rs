@@ -1,19 +1,25 @@
 //! `gonio simulate`: the same capture against a simulated goniometer, in-process or
 //! served on a pseudo-terminal.
 
+use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use std::time::Duration;
 
 use clap::Args;
 
-use super::args::{OutArgs, PlanArgs, sim_config};
+use super::args::{OutArgs, PlanArgs, noise_level, sim_config};
 use super::capture_steps::{interrupt_flag, run_session, run_with, setup_from};
 use super::error::{CliError, CliResult};
 use super::output::write_stdout;
 use crate::capture::reference::{recorded_standard, resumed_specimen};
+use crate::device::replay::Replay;
 use crate::device::{
-    InProcessConnector, InProcessDevice, PtyDevice, SharedInProcessConnector, SimConfig,
+    InProcessConnector, InProcessDevice, PtyDevice, Sample, SharedInProcessConnector, SimConfig,
 };
+
+/// Relative noise of each detector sample when neither `--noise` nor a replayed file's
+/// std column says.
+pub const DEFAULT_NOISE: f32 = 0.005;
 
 /// `gonio simulate`.
 #[derive(Debug, Args)]
@@ -24,19 +30,30 @@ use crate::device::{
 simulated arms and a virtual sample (a preset's three-component model times Gaussian noise), through the same \
 capture code as a real device. Simulated time: motion and settle times cost nothing.\n\n\
 With --pty the simulated device serves a pseudo-terminal instead, until Ctrl-C, so that `gonio capture --port` \
-can be tried against it; its path is printed on stdout.",
+can be tried against it; its path is printed on stdout.\n\n\
+With --replay SWEEP.csv the virtual sample is a measured sweep instead of a preset (rehearsing a plan on real \
+data): within each of the file's incidences, ln BRDF is interpolated linearly in theta_r between the two \
+bracketing readings. The plan's incidences must be the file's (within 0.05 degrees) and its theta_r within each \
+incidence's measured span: nothing is extrapolated, another plan is refused before anything is measured. A file \
+in 1/sr reads K times its values (K = 2000, the simulated instrument's constant), a relative one its own values. \
+Noise: --noise, else the file's std column (std/BRDF of one sample), else 0.005.",
     after_help = "Examples:\n  gonio simulate --material fe-0.115 --out fe-sim.csv\n  \
 gonio simulate --material cu-0.070 --noise 0.01 --seed 7 --plan adaptive --prior cu-0.070 --out cu.csv\n  \
 gonio simulate --material al-0.782 --pty\n  \
+gonio simulate --replay solar.sweep.csv --plan plan.toml --out rehearsal.csv\n  \
 gonio simulate --material fe-0.115 --reference lambertian:0.99 --out fe.csv   (also writes fe.reference.csv)"
 )]
 pub struct SimulateArgs {
     /// The virtual sample: al-0.087, al-0.142, al-0.782, cu-0.070 or fe-0.115.
-    #[arg(long, value_name = "PRESET")]
-    pub material: String,
-    /// Relative noise of each detector sample (0.005 = 0.5 %).
-    #[arg(long, default_value_t = 0.005, value_name = "REL")]
-    pub noise: f32,
+    #[arg(long, value_name = "PRESET", required_unless_present = "replay")]
+    pub material: Option<String>,
+    /// The virtual sample is this measured sweep file, replayed (see above).
+    #[arg(long, value_name = "SWEEP.csv", conflicts_with = "material")]
+    pub replay: Option<std::path::PathBuf>,
+    /// Relative noise of each detector sample (0.005 = 0.5 %) [default: 0.005, or with
+    /// --replay the file's std column where it has one].
+    #[arg(long, value_name = "REL")]
+    pub noise: Option<f32>,
     /// Seed of the deterministic noise.
     #[arg(long, default_value_t = 1)]
     pub seed: u32,
@@ -67,7 +84,41 @@ pub struct SimulateArgs {
 
 /// Runs `gonio simulate`.
 pub fn run(args: &SimulateArgs) -> CliResult {
-    let mut cfg = sim_config(&args.material, args.noise, args.seed)?;
+    let noise = args.noise.unwrap_or(DEFAULT_NOISE);
+    // The device, and what the sweep's `# sample:` line and the resume command name.
+    let (mut cfg, replay, what, source_arg, sample_noise) = match (&args.material, &args.replay) {
+        (Some(m), _) => {
+            let cfg = sim_config(m, noise, args.seed)?;
+            (
+                cfg,
+                None,
+                m.clone(),
+                format!("--material {m}"),
+                noise.to_string(),
+            )
+        }
+        (None, Some(path)) => {
+            let r = Replay::read(path, args.noise.is_some())
+                .map_err(|e| CliError::usage(format!("--replay: {e}")))?;
+            let sample_noise = if r.uses_std() {
+                "std column".to_string()
+            } else {
+                noise.to_string()
+            };
+            let (what, arg) = (
+                format!("replay of {}", r.name),
+                format!("--replay {}", r.name),
+            );
+            let r = Arc::new(r);
+            let cfg = SimConfig::of(Sample::Replay(r.clone()), noise_level(noise)?, args.seed);
+            (cfg, Some(r), what, arg, sample_noise)
+        }
+        (None, None) => {
+            return Err(CliError::usage(
+                "give --material PRESET or --replay SWEEP.csv",
+            ));
+        }
+    };
     if let Some(speed) = args.speed {
         if !(speed.is_finite() && speed > 0.0) {
             return Err(CliError::usage(format!(
@@ -85,7 +136,7 @@ pub fn run(args: &SimulateArgs) -> CliResult {
         write_stdout(format!("{}\n", dev.path().display()).as_bytes())?;
         eprintln!(
             "gonio: simulated {} goniometer on {}; Ctrl-C to stop",
-            args.material,
+            what,
             dev.path().display()
         );
         let flag = interrupt_flag();
@@ -95,7 +146,28 @@ pub fn run(args: &SimulateArgs) -> CliResult {
         return Ok(());
     }
     let mut setup = setup_from(&args.plan, &args.out, args.reference.is_some())?;
-    let mut sample = format!("simulated {} noise={}", args.material, args.noise);
+    if let (Some(r), Some(plan)) = (&replay, &mut setup.plan)
+        && let Some(budget) = crate::capture::sequential::budget_of(plan)
+    {
+        // Rehearsed on a replay, a sequential plan's candidates are at the file's
+        // incidences, within their measured spans.
+        let o = crate::capture::SettingsOverride {
+            samples: Some(plan.settings.samples),
+            settle_ms: Some(plan.settings.settle_ms),
+            exclude_retro: Some(plan.exclude_retro_deg),
+            dark: plan.settings.dark,
+        };
+        let incidences: Vec<f32> = r.incidences().iter().map(|&t| t as f32).collect();
+        *plan = crate::capture::sequential::plan_over(&incidences, budget, &o, |ti, tr| {
+            r.check_points(&[(ti, tr)]).is_ok()
+        })?;
+    }
+    if let (Some(r), Some(plan)) = (&replay, &setup.plan) {
+        let points: Vec<(f32, f32)> = plan.points.iter().map(|p| (p.theta_i, p.theta_r)).collect();
+        r.check_points(&points)
+            .map_err(|e| CliError::usage(format!("--replay: {e}")))?;
+    }
+    let mut sample = format!("simulated {what} noise={sample_noise}");
     if let Some(spec) = &args.reference {
         check_table_covers(&cfg, &setup, spec)?;
         if setup.resume && setup.out.exists() {
@@ -104,8 +176,7 @@ pub fn run(args: &SimulateArgs) -> CliResult {
         setup.sample = Some(sample);
         let conn = &mut SharedInProcessConnector::new(InProcessDevice::new(&cfg));
         let resume = format!(
-            "gonio simulate --material {} --reference {spec} --resume --out {}",
-            args.material,
+            "gonio simulate {source_arg} --reference {spec} --resume --out {}",
             setup.out.display()
         );
         return run_session(conn, &setup, spec, &args.out, &resume);
@@ -122,8 +193,7 @@ pub fn run(args: &SimulateArgs) -> CliResult {
     }
     setup.sample = Some(sample);
     let resume = format!(
-        "gonio simulate --material {} --resume --out {}",
-        args.material,
+        "gonio simulate {source_arg} --resume --out {}",
         setup.out.display()
     );
     let conn = InProcessConnector::new(InProcessDevice::new(&cfg));
@@ -155,7 +225,7 @@ fn check_sample(path: &std::path::Path, sample: &str) -> CliResult {
     let data = crate::sweep_file::read_sweep(path)?;
     match data.meta.get("sample") {
         Some(recorded) if recorded != sample => Err(CliError::usage(format!(
-            "--resume: {} holds readings of '{}', not '{sample}': give the same --material and --noise, or capture into a new file",
+            "--resume: {} holds readings of '{}', not '{sample}': give the same --material (or --replay) and --noise, or capture into a new file",
             path.display(),
             crate::text::escape_line(recorded, 80)
         ))),

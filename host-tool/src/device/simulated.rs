@@ -19,9 +19,10 @@ use brdf_core::identity::FIRMWARE_VERSION;
 use brdf_core::presets::Preset;
 use brdf_core::protocol::Specimen;
 use brdf_core::service::{Link, Service};
-use brdf_core::sim::{SIM_K, SimArm, SimPin, VirtualSample, simulated_controller};
+use brdf_core::sim::{SIM_K, SampleSource, SimArm, SimPin, VirtualSample, simulated_controller};
 
 use super::link::{Connector, FramedLink, LinkError, Transport};
+use super::replay::Replay;
 
 /// The simulated controller type.
 pub type SimService = Service<SimArm, SimArm, SimPin, SimDetector>;
@@ -36,7 +37,7 @@ const TABLE_EDGE_TOL_DEG: f64 = 0.05;
 /// standard, so `gonio calibrate --standard table:FILE` on its sweep recovers K.
 #[derive(Debug, Clone)]
 pub struct SimDetector {
-    sample: VirtualSample,
+    sample: VirtualSample<Sample>,
     table: Option<Arc<crate::calibrate::Standard>>,
 }
 
@@ -68,11 +69,37 @@ impl Detector for SimDetector {
     }
 }
 
+/// What the simulated device's sample shows the detector: one virtual sample, two
+/// sources.
+#[derive(Debug, Clone)]
+pub enum Sample {
+    /// A preset's model (`gonio simulate --material`).
+    Preset(&'static Preset),
+    /// A measured sweep, replayed (`gonio simulate --replay`).
+    Replay(Arc<Replay>),
+}
+
+impl SampleSource for Sample {
+    fn reading(&self, theta_i: f32, theta_r: f32) -> Result<f32, DetectorError> {
+        match self {
+            Sample::Preset(p) => p.reading(theta_i, theta_r),
+            Sample::Replay(r) => r.as_ref().reading(theta_i, theta_r),
+        }
+    }
+
+    fn noise(&self, theta_i: f32, theta_r: f32) -> Option<f32> {
+        match self {
+            Sample::Preset(p) => p.noise(theta_i, theta_r),
+            Sample::Replay(r) => r.as_ref().noise(theta_i, theta_r),
+        }
+    }
+}
+
 /// What the simulated device measures.
 #[derive(Debug, Clone)]
 pub struct SimConfig {
-    /// The sample's material.
-    pub preset: &'static Preset,
+    /// The sample.
+    pub sample: Sample,
     /// Relative noise of each detector sample (0.005 = 0.5 %).
     pub noise: f32,
     /// Seed of the deterministic noise.
@@ -95,8 +122,14 @@ pub struct SimConfig {
 impl SimConfig {
     /// A simulated device measuring `preset` with relative `noise`.
     pub fn new(preset: &'static Preset, noise: f32, seed: u32) -> Self {
+        Self::of(Sample::Preset(preset), noise, seed)
+    }
+
+    /// A simulated device measuring `sample` with relative `noise` (where the sample
+    /// states none).
+    pub fn of(sample: Sample, noise: f32, seed: u32) -> Self {
         SimConfig {
-            preset,
+            sample,
             noise,
             seed,
             firmware: FIRMWARE_VERSION,
@@ -107,7 +140,7 @@ impl SimConfig {
     }
 
     fn service(&self) -> SimService {
-        let mut sample = VirtualSample::new(self.preset, self.noise, self.seed);
+        let mut sample = VirtualSample::new(self.sample.clone(), self.noise, self.seed);
         if let Some(r) = self.reference {
             sample = sample.with_reference(r);
         }

@@ -168,6 +168,15 @@ fn fixtures() -> Scratch {
         "new.toml",
         b"incidences = [20]\ndetector = { start = -80, stop = 80, step = 10 }\n",
     );
+    // A measured sweep to replay (one incidence, theta_r -10..10) and a plan beyond it.
+    w(
+        "replay-src.csv",
+        b"theta_i,theta_r,brdf\n30,-10,5\n30,10,4\n",
+    );
+    w(
+        "replay-span.toml",
+        b"incidences = [30]\ndetector = { start = -20, stop = 20, step = 10 }\n",
+    );
     let sim = simulated(&d, "fe-0.115");
     // A capture file whose status line was shortened by hand.
     let text = std::fs::read_to_string(&sim).unwrap();
@@ -1258,6 +1267,58 @@ const CASES: &[Case] = &[
         2,
         "a sequential plan takes 1 to",
         "u4.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--replay",
+            "{d}/replay-src.csv",
+            "--out",
+            "{d}/sr1.csv",
+        ],
+        2,
+        "incidence 0 is not in",
+        "sr1.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--replay",
+            "{d}/replay-src.csv",
+            "--plan",
+            "{d}/replay-span.toml",
+            "--out",
+            "{d}/sr2.csv",
+        ],
+        2,
+        "outside",
+        "sr2.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--replay",
+            "{d}/header.csv",
+            "--out",
+            "{d}/sr3.csv",
+        ],
+        2,
+        "no reading to replay",
+        "sr3.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--replay",
+            "{d}/replay-src.csv",
+            "--material",
+            "fe-0.115",
+            "--out",
+            "{d}/sr4.csv",
+        ],
+        2,
+        "--material",
+        "sr4.csv",
     ),
     out(
         &[

@@ -147,3 +147,32 @@ fn a_sequential_plan_places_batches_until_the_target_or_its_budget() {
     let data = gonio::sweep_file::read_sweep(&g).unwrap();
     assert_eq!((data.status_word(), data.rows.len()), (Some("budget"), 90));
 }
+
+#[test]
+fn a_sequential_plan_rehearsed_on_a_replay_stays_at_the_files_incidences() {
+    let d = scratch("sequential-replay");
+    let f = d.join("solar.csv");
+    let solar = crate::util::repo_root()
+        .join("host-tool/tests/data/scatterworks-solar-array-532nm.sweep.csv");
+    let run = gonio(&[
+        "simulate",
+        "--replay",
+        solar.to_str().unwrap(),
+        "--plan",
+        "sequential",
+        "--budget",
+        "60",
+        "--out",
+        f.to_str().unwrap(),
+    ]);
+    assert!(run.ok(), "{}", run.stderr);
+    let data = gonio::sweep_file::read_sweep(&f).unwrap();
+    assert_eq!((data.status_word(), data.rows.len()), (Some("budget"), 60));
+    let incidences: std::collections::BTreeSet<String> =
+        data.rows.iter().map(|r| r.theta_i.to_string()).collect();
+    assert_eq!(
+        incidences.into_iter().collect::<Vec<_>>(),
+        ["41.4", "5", "60", "75"],
+        "the coarse batch spreads over the file's incidences"
+    );
+}

@@ -1,0 +1,176 @@
+//! Plans larger than one device plan (issue #38): a grid of more incidences, or more
+//! points, than the device takes is measured whole as several device plans, numbered
+//! as one sweep file, and resumed across them.
+
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use brdf_core::Preset;
+
+use super::*;
+use crate::device::{InProcessConnector, InProcessDevice, SimConfig};
+use crate::sweep_file::{Counters, SweepStatus, read_sweep};
+
+fn sim() -> InProcessConnector {
+    let fe = Preset::by_name("fe-0.115").unwrap();
+    InProcessConnector::new(InProcessDevice::new(&SimConfig::new(fe, 0.005, 3)))
+}
+
+/// A scratch file on tmpfs where there is one: every reading is synced to disk, and
+/// 100,000 syncs on a disk take minutes.
+fn out(name: &str) -> PathBuf {
+    let shm = std::path::Path::new("/dev/shm");
+    let dir = if shm.is_dir() {
+        tempfile::Builder::new()
+            .prefix("gonio-split-")
+            .tempdir_in(shm)
+            .unwrap()
+            .keep()
+    } else {
+        crate::outfile::test_dir("split")
+    };
+    dir.join(name)
+}
+
+fn plan(toml: &str) -> HostPlan {
+    HostPlan::from_toml_str(toml, "split.toml", &Default::default()).unwrap()
+}
+
+const EIGHTEEN: &str = "incidences = [0, 5, 10, 15, 20, 25, 30, 35, 40, 45, 50, 55, 60, 65, 70, 75, 80, 85]\n\
+                        detector = { start = -80, stop = 80, step = 10 }\nsamples = 1\n";
+
+/// Sets the interrupt flag after `n` readings (what Ctrl-C does).
+struct InterruptAfter<'a>(u64, &'a AtomicBool);
+
+impl ProgressSink for InterruptAfter<'_> {
+    fn start(&mut self, _: u64, _: u64) {}
+    fn reading(&mut self, done: u64, _: f32, _: f32) {
+        if done >= self.0 {
+            self.1.store(true, Ordering::Relaxed);
+        }
+    }
+    fn note(&mut self, _: &str) {}
+    fn finish(&mut self) {}
+}
+
+/// The file holds every point of `plan` once, in plan order, at its angles, with
+/// continuous seq and counters that say so.
+fn assert_whole(path: &std::path::Path, plan: &HostPlan) {
+    let data = read_sweep(path).unwrap();
+    let n = plan.points.len();
+    assert_eq!(data.rows.len(), n);
+    for (k, (r, p)) in data.rows.iter().zip(&plan.points).enumerate() {
+        assert_eq!(r.seq, Some(k as u32));
+        assert!(
+            (r.theta_i - f64::from(p.theta_i)).abs() < 0.01
+                && (r.theta_r - f64::from(p.theta_r)).abs() < 0.01,
+            "{r:?} vs {p:?}"
+        );
+    }
+    assert_eq!(
+        data.counters,
+        Counters {
+            readings: n as u64,
+            ..Counters::default()
+        }
+    );
+    assert!(data.meta["status"].starts_with("complete"));
+}
+
+#[test]
+fn eighteen_incidences_are_one_sweep_file_of_several_device_plans() {
+    let p = plan(EIGHTEEN);
+    assert_eq!(p.points.len(), 18 * 17);
+    // More than 16 incidences: sent as point lists of what the device takes.
+    let sweeps = p.sweeps_for(&Default::default(), 1, 240);
+    assert_eq!(
+        sweeps.iter().map(|s| s.map.len()).collect::<Vec<_>>(),
+        [240, 66]
+    );
+    let path = out("eighteen.csv");
+    let setup = CaptureSetup::new(Some(p.clone()), path.clone());
+    let report = capture(&mut sim(), &setup, &mut Quiet, &AtomicBool::new(false)).unwrap();
+    assert_eq!(
+        (report.status, report.total, report.missing.len()),
+        (SweepStatus::Complete, 306, 0)
+    );
+    assert_whole(&path, &p);
+}
+
+#[test]
+fn a_capture_interrupted_between_or_inside_device_plans_resumes_whole() {
+    let p = plan(EIGHTEEN);
+    // After 240 readings: at the end of the first device plan (the interrupt is seen
+    // there or just after); after 100: inside it.
+    for stop in [240, 100] {
+        let path = out(&format!("eighteen-{stop}.csv"));
+        let flag = AtomicBool::new(false);
+        let setup = CaptureSetup::new(Some(p.clone()), path.clone());
+        let report = capture(&mut sim(), &setup, &mut InterruptAfter(stop, &flag), &flag).unwrap();
+        assert_eq!(report.status, SweepStatus::Interrupted);
+        let got = 306 - report.missing.len();
+        assert!(got >= stop as usize && got < 306, "{stop}: {got}");
+        // A fresh device, as after a power cycle: only the rest is measured.
+        let mut setup = CaptureSetup::new(None, path.clone());
+        setup.resume = true;
+        let report = capture(&mut sim(), &setup, &mut Quiet, &AtomicBool::new(false)).unwrap();
+        assert_eq!(report.status, SweepStatus::Complete, "{stop}");
+        assert_whole(&path, &p);
+    }
+}
+
+#[test]
+fn a_hundred_thousand_points_are_captured_whole() {
+    // Three incidences, a leg of 33,334 detector positions (more than a device grid's
+    // 9,999, more than 65,535 in all): the host expands it by brdf-core's leg rule.
+    let p = plan(
+        "incidences = [20, 40, 60]\ndetector = { start = -80, stop = 80, step = 0.0048 }\n\
+         samples = 1\nsettle_ms = 0\n",
+    );
+    assert!(p.points.len() >= 100_000, "{}", p.points.len());
+    let path = out("hundred-thousand.csv");
+    let setup = CaptureSetup::new(Some(p.clone()), path.clone());
+    let report = capture(&mut sim(), &setup, &mut Quiet, &AtomicBool::new(false)).unwrap();
+    assert_eq!(report.status, SweepStatus::Complete);
+    assert_whole(&path, &p);
+    let _ = std::fs::remove_file(&path);
+}
+
+#[test]
+fn a_limit_that_remains_is_named_with_its_number() {
+    let e = HostPlan::from_toml_str(
+        "incidences = [20, 40]\ndetector = { start = -80, stop = 80, step = 0.0001 }\n",
+        "big.toml",
+        &Default::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("1000000") && e.contains("big.toml"), "{e}");
+    let e = HostPlan::from_toml_str(
+        "incidences = [0, 10, 20, 30, 40, 50, 60, 70, 80]\ndetector = { start = -80, stop = 80, step = 0.0013 }\n",
+        "wide.toml",
+        &Default::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains(" points, more than 1000000, the most"), "{e}");
+    // A bad range over more incidences than a device grid holds: the range's error.
+    let e = HostPlan::from_toml_str(
+        "incidences = [0, 5, 10, 15, 20, 25, 30, 35, 40, 45, 50, 55, 60, 65, 70, 75, 80]\n\
+         detector = { start = 10, stop = -10, step = 1 }\n",
+        "backwards.toml",
+        &Default::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("backwards.toml") && e.contains("step must be > 0"),
+        "{e}"
+    );
+    // What a device plan holds, in brdf-core's words.
+    let e = brdf_core::plan::PlanError::TooManyPoints.to_string();
+    assert!(
+        e.contains("9999") && e.contains("240") && e.contains("65535"),
+        "{e}"
+    );
+}

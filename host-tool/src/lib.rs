@@ -10,6 +10,7 @@
 //! | [`fit`] | fitting the nested model family to a sweep, reports |
 //! | [`export`] | a fitted model as JSON, a MERL table or an in-plane CSV grid |
 //! | [`import`] | measurements from elsewhere (MERL BRDF tables, other instruments' tables) as sweep files |
+//! | [`live`] | the live panel of a capture on a terminal: readings, the online fit, warnings |
 //! | [`plot`] | PNG and SVG figures of a fit against its data |
 //! | [`bench`] | evaluation variants, the slower studies, their tables and chart |
 //! | [`outfile`] | the one way an output file is written: checked target, private temporary file, sync, rename |
@@ -31,6 +32,7 @@ pub mod export;
 pub mod fit;
 pub mod flash;
 pub mod import;
+pub mod live;
 pub mod memory;
 pub mod outfile;
 pub mod plot;

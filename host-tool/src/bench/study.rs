@@ -109,9 +109,10 @@ fn measure(
     Ok((rows.len(), (sum / n as f64).sqrt()))
 }
 
-/// Uniform grids (detector steps 40, 20, 10, 5 degrees at the paper's incidences) and
+/// Uniform grids (detector steps 40, 20, 10, 5 degrees at the paper's incidences),
 /// adaptive plans (budgets 45..153) built from a prior of a *different* material, as
-/// when the sample is not known yet; 0.5 % noise, averaged over `seeds` seeds.
+/// when the sample is not known yet, and sequential plans (the same budgets, no prior);
+/// 0.5 % noise, averaged over `seeds` seeds.
 pub fn plan_study(seeds: u32) -> Result<Vec<PlanResult>> {
     // A private directory (random name, mode 0700), removed when dropped.
     let tmp = private_dir()?;
@@ -136,6 +137,11 @@ pub fn plan_study(seeds: u32) -> Result<Vec<PlanResult>> {
         for budget in [45, 60, 77, 100, 153] {
             let plan = HostPlan::adaptive(prior, budget, &SettingsOverride::default())?;
             plans.push((format!("adaptive, budget {budget}, prior {prior}"), plan));
+        }
+        // No prior: each batch placed by the fit of the readings so far.
+        for budget in [45, 60, 77, 100, 153] {
+            let plan = crate::capture::sequential::plan(budget, &SettingsOverride::default())?;
+            plans.push((format!("sequential, budget {budget}"), plan));
         }
         for (name, plan) in plans {
             let (mut err, mut readings) = (0.0, 0);

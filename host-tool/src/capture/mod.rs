@@ -15,8 +15,11 @@ pub mod plan;
 pub mod progress;
 pub mod reference;
 pub mod run;
+pub mod sequential;
 pub mod setup;
 mod sweep;
+pub mod until;
+pub mod watch;
 
 pub use check::{ANGLE_TOLERANCE_DEG, Tolerance};
 pub use connect::DEVICE_TEXT_MAX;

@@ -7,6 +7,10 @@ use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressStyle};
 
+use super::until::Until;
+use crate::fit::online::Estimate;
+use crate::sweep_file::{Counters, Row};
+
 /// Receives progress of a capture.
 pub trait ProgressSink {
     /// A capture of `total` points starts with `done` already in the file.
@@ -17,6 +21,35 @@ pub trait ProgressSink {
     fn note(&mut self, text: &str);
     /// The capture ended.
     fn finish(&mut self);
+    /// Whether this sink shows the online fit (refits are made only when something
+    /// uses them).
+    fn wants_fit(&self) -> bool {
+        false
+    }
+    /// A reading as written to the file (angles in degrees, brdf relative), and the
+    /// link's counters then.
+    fn row(&mut self, _row: &Row, _counters: &Counters) {}
+    /// The online fit after a completed incidence (or why there is none yet), with
+    /// the capture's `--until` targets if any.
+    fn estimate(&mut self, _est: Result<&Estimate, &str>, _until: Option<&Until>) {}
+}
+
+/// The line telling a refit: the selected member's scalar parameters with their
+/// standard errors, and how the targets stand (`None`: nothing worth a line).
+pub fn estimate_line(est: Result<&Estimate, &str>, until: Option<&Until>) -> Option<String> {
+    let until = until?;
+    Some(match est {
+        Ok(e) => format!(
+            "capture: fit of {} readings: {}; {}",
+            e.readings,
+            e.member(),
+            until.describe(e)
+        ),
+        Err(why) => format!(
+            "capture: no fit yet ({})",
+            crate::text::escape_line(why, 120)
+        ),
+    })
 }
 
 /// Nothing when `quiet`; else the bar when stderr is a terminal, plain lines otherwise.
@@ -79,6 +112,12 @@ impl ProgressSink for Bar {
             b.finish_and_clear();
         }
     }
+
+    fn estimate(&mut self, est: Result<&Estimate, &str>, until: Option<&Until>) {
+        if let Some(line) = estimate_line(est, until) {
+            self.note(&line);
+        }
+    }
 }
 
 /// Plain progress lines on stderr: at most one every two seconds, and at the end.
@@ -118,4 +157,10 @@ impl ProgressSink for Lines {
     }
 
     fn finish(&mut self) {}
+
+    fn estimate(&mut self, est: Result<&Estimate, &str>, until: Option<&Until>) {
+        if let Some(line) = estimate_line(est, until) {
+            eprintln!("{line}");
+        }
+    }
 }

@@ -16,6 +16,7 @@ use super::plan::{DeviceSweep, HostPlan, PlanError};
 use super::progress::ProgressSink;
 use super::setup::{CaptureReport, CaptureSetup};
 use super::sweep::{Outcome, Step, SweepState};
+use super::watch::Watch;
 use crate::device::{Connector, FramedLink, LinkError};
 use crate::sweep_file::{Header, Row, SweepStatus, SweepWriter};
 
@@ -34,6 +35,10 @@ struct Run<'a, C: Connector> {
     tol: Tolerance,
     /// The device's `Info.max_points`: no plan sent is longer.
     max_points: u16,
+    /// The online fit and the `--until` targets.
+    watch: Watch,
+    /// A sequential plan's readings budget (its rounds measure one batch each).
+    sequential: Option<usize>,
 }
 
 /// How long the Abort sent to a stalled device may go unanswered.
@@ -78,7 +83,7 @@ pub fn capture<C: Connector>(
             data.meta.get("settings").map(String::as_str).unwrap_or(""),
         )?;
         let present: BTreeSet<u32> = data.rows.iter().filter_map(|r| r.seq).collect();
-        (writer, plan, present)
+        (writer, plan, (present, data.rows))
     } else {
         let plan = setup
             .plan
@@ -95,9 +100,17 @@ pub fn capture<C: Connector>(
         (
             SweepWriter::create(&setup.out, &header, setup.force)?,
             plan,
-            BTreeSet::new(),
+            (BTreeSet::new(), Vec::new()),
         )
     };
+    let (present, rows) = present;
+    let sequential = super::sequential::budget_of(&plan);
+    let watch = Watch::new(
+        &plan,
+        rows,
+        setup.until.clone(),
+        progress.wants_fit() || sequential.is_some(),
+    );
     plan.check_limits(&info.source, &info.detector)?;
     let first_id = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
@@ -116,6 +129,8 @@ pub fn capture<C: Connector>(
         dropped_before: 0,
         tol: Tolerance::for_device(&info),
         max_points: info.max_points,
+        watch,
+        sequential,
     };
     if run.plan.points.len() > usize::from(info.max_points) {
         run.progress.note(&format!(
@@ -127,6 +142,8 @@ pub fn capture<C: Connector>(
     }
     run.progress
         .start(run.plan.points.len() as u64, run.present.len() as u64);
+    // A resumed file's readings may already meet the targets.
+    run.watch.refit(run.progress);
     let status = run.all_rounds(&mut link);
     run.progress.finish();
     let status = status?;
@@ -142,6 +159,7 @@ pub fn capture<C: Connector>(
         total: run.plan.points.len(),
         info,
         reconnects: run.reconnects,
+        until: run.watch.standing(),
     })
 }
 
@@ -151,12 +169,39 @@ impl<C: Connector> Run<'_, C> {
         // Reconnects in a row after which no new reading arrived, and the count then.
         let mut fruitless = 0;
         let mut mark = self.present.len();
+        let mut batch_mark = self.present.len();
         loop {
-            let sweeps = self
-                .plan
-                .sweeps_for(&self.present, self.next_id, self.max_points);
+            let batch_done;
+            let done = match self.sequential {
+                Some(budget) => {
+                    // Each batch is a new round: retries count within a batch.
+                    if self.present.len() > batch_mark {
+                        round = 0;
+                        batch_mark = self.present.len();
+                    }
+                    batch_done = super::sequential::round_done(
+                        &self.plan,
+                        &self.present,
+                        &self.watch,
+                        budget,
+                    );
+                    &batch_done
+                }
+                None => &self.present,
+            };
+            let sweeps = self.plan.sweeps_for(done, self.next_id, self.max_points);
             if sweeps.is_empty() {
-                return Ok(SweepStatus::Complete);
+                // Only a sequential plan stops with points missing: at its budget.
+                return Ok(if self.present.len() == self.plan.points.len() {
+                    SweepStatus::Complete
+                } else if self.watch.met() {
+                    SweepStatus::Until
+                } else {
+                    SweepStatus::Budget
+                });
+            }
+            if self.watch.met() {
+                return Ok(SweepStatus::Until);
             }
             if round > self.setup.retries {
                 self.progress.note(&format!(
@@ -176,8 +221,15 @@ impl<C: Connector> Run<'_, C> {
             for sw in sweeps {
                 self.next_id = sw.plan.sweep_id + 1;
                 match self.one_sweep(link, &sw)? {
+                    Outcome::Done if self.sequential.is_some() => {
+                        self.watch.refit(self.progress);
+                    }
                     Outcome::Done => {}
-                    Outcome::Interrupted => return Ok(SweepStatus::Interrupted),
+                    Outcome::Interrupted if self.interrupt.load(Ordering::Relaxed) => {
+                        return Ok(SweepStatus::Interrupted);
+                    }
+                    // Stopped at the targets (the Abort below), not by the user.
+                    Outcome::Interrupted => return Ok(SweepStatus::Until),
                     Outcome::Lost(why) => {
                         if self.present.len() > mark {
                             fruitless = 0;
@@ -322,7 +374,9 @@ impl<C: Connector> Run<'_, C> {
         // The device is lost, but what arrived while pinging is recorded first.
         let mut lost: Option<String> = None;
         loop {
-            if state.abort_sent_at.is_none() && self.interrupt.load(Ordering::Relaxed) {
+            if state.abort_sent_at.is_none()
+                && (self.interrupt.load(Ordering::Relaxed) || self.watch.met())
+            {
                 if let Err(e) = self.send(link, &Command::Abort) {
                     return Ok(Outcome::Lost(e));
                 }
@@ -543,7 +597,7 @@ impl<C: Connector> Run<'_, C> {
         if !self.present.insert(seq) {
             return Ok(()); // a duplicate: already in the file
         }
-        self.writer.append(&Row {
+        let row = Row {
             theta_i: shortest(r.theta_i),
             theta_r: shortest(r.theta_r),
             brdf: shortest(r.value),
@@ -551,9 +605,12 @@ impl<C: Connector> Run<'_, C> {
             n: Some(r.n as u32),
             seq: Some(seq),
             t_ms: Some(r.t_ms as u64),
-        })?;
+        };
+        self.writer.append(&row)?;
         self.progress
             .reading(self.present.len() as u64, r.theta_i, r.theta_r);
+        self.progress.row(&row, self.writer.counters());
+        self.watch.on_row(row, want.theta_i, self.progress);
         Ok(())
     }
 }

@@ -6,6 +6,7 @@ use std::time::Duration;
 use brdf_core::protocol::{Info, Specimen};
 
 use super::plan::HostPlan;
+use super::until::Until;
 use crate::sweep_file::{Counters, SweepStatus};
 
 /// How to run a capture.
@@ -36,6 +37,9 @@ pub struct CaptureSetup {
     /// Put this specimen on the stage before measuring (`Mount`, sent again after every
     /// reconnect); `None` sends nothing (the device measures what it holds).
     pub specimen: Option<Specimen>,
+    /// End the capture once the selected member's relative standard errors meet these
+    /// targets (`--until`; refitted after each completed incidence).
+    pub until: Option<Until>,
 }
 
 impl CaptureSetup {
@@ -54,6 +58,7 @@ impl CaptureSetup {
             home_timeout: Duration::from_secs(180),
             sample: None,
             specimen: None,
+            until: None,
         }
     }
 }
@@ -73,4 +78,6 @@ pub struct CaptureReport {
     pub info: Info,
     /// Times the link was re-established.
     pub reconnects: u32,
+    /// How the `--until` targets stand in the last refit (`None` without targets).
+    pub until: Option<String>,
 }

@@ -18,14 +18,17 @@ use crate::export::ExportFormat;
 #[derive(Debug, Clone, Args)]
 pub struct PlanArgs {
     /// `paper` (the paper's 9 x 17 grid), `adaptive` (readings placed where a prior's
-    /// curve bends; needs --prior), or a TOML plan file (see docs/formats.md) [default:
+    /// curve bends; needs --prior), `sequential` (each next batch of readings placed
+    /// where the current fit says it shrinks the --until parameters' variance most; at
+    /// most --budget readings), or a TOML plan file (see docs/formats.md) [default:
     /// paper; with --resume: the file's plan].
-    #[arg(long, value_name = "paper|FILE.toml|adaptive")]
+    #[arg(long, value_name = "paper|FILE.toml|adaptive|sequential")]
     pub plan: Option<String>,
     /// Prior material for `--plan adaptive` (al-0.087, al-0.142, al-0.782, cu-0.070, fe-0.115).
     #[arg(long, value_name = "PRESET")]
     pub prior: Option<String>,
-    /// Readings budget of `--plan adaptive` (at most 240).
+    /// Readings budget of `--plan adaptive` (at most 240) or `--plan sequential` (at
+    /// most its candidates, 729 less the retro-reflection zone).
     #[arg(long, value_name = "N", default_value_t = DEFAULT_ADAPTIVE_BUDGET)]
     pub budget: usize,
     /// Half-width (degrees) of the zone around retro-reflection (theta_r = -theta_i)
@@ -41,6 +44,12 @@ pub struct PlanArgs {
     /// Also sample with the laser off at every point and subtract that dark level.
     #[arg(long)]
     pub dark: bool,
+    /// End the capture once the fit knows these parameters: the selected member's
+    /// relative standard errors at most REL (e.g. `sigma:2%,k_id:5%`; names as the fit
+    /// report gives them: sigma, sigma_haze, sigma_m, k_dd, k_id). The family is
+    /// refitted after each completed incidence; the file's status then reads `until`.
+    #[arg(long, value_name = "PARAM:REL[,...]", value_parser = crate::capture::until::Until::parse)]
+    pub until: Option<crate::capture::until::Until>,
 }
 
 impl PlanArgs {
@@ -54,6 +63,17 @@ impl PlanArgs {
         };
         match self.plan.as_deref().unwrap_or("paper") {
             "paper" => Ok(HostPlan::paper(&o)?),
+            "sequential" => {
+                let plan = crate::capture::sequential::plan(self.budget, &o)?;
+                if self.budget == 0 || self.budget > plan.points.len() {
+                    return Err(CliError::usage(format!(
+                        "--budget {}: a sequential plan takes 1 to {} readings (its candidates)",
+                        self.budget,
+                        plan.points.len()
+                    )));
+                }
+                Ok(plan)
+            }
             "adaptive" => {
                 let prior = self.prior.as_deref().ok_or_else(|| {
                     CliError::usage(
@@ -164,6 +184,10 @@ pub struct OutArgs {
     /// No progress output.
     #[arg(long, short)]
     pub quiet: bool,
+    /// On a terminal, show progress as a line (the bar) instead of the live panel (the
+    /// readings on a log axis, the fit refitted after each incidence, warnings).
+    #[arg(long = "no-live")]
+    pub no_live: bool,
 }
 
 /// The simulated device's configuration from `--material/--noise/--seed`.

@@ -80,7 +80,7 @@ pub fn run(args: &CaptureArgs) -> CliResult {
             &mut SerialConnector::new(&args.port),
             &setup,
             spec,
-            args.out.quiet,
+            &args.out,
             &resume,
         );
     }
@@ -90,10 +90,5 @@ pub fn run(args: &CaptureArgs) -> CliResult {
         args.port,
         setup.out.display()
     );
-    run_with(
-        SerialConnector::new(&args.port),
-        &setup,
-        args.out.quiet,
-        &resume,
-    )
+    run_with(SerialConnector::new(&args.port), &setup, &args.out, &resume)
 }

@@ -8,7 +8,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use super::args::{OutArgs, PlanArgs};
 use super::error::{CliError, CliResult};
 use crate::capture::reference::{reference_path, session_setups};
-use crate::capture::{CaptureReport, CaptureSetup, capture, progress};
+use crate::capture::{CaptureReport, CaptureSetup, ProgressSink, capture};
 use crate::device::Connector;
 use crate::sweep_file::SweepStatus;
 
@@ -57,6 +57,7 @@ pub(super) fn setup_from(plan: &PlanArgs, out: &OutArgs, session: bool) -> CliRe
     setup.resume = out.resume;
     setup.force = out.force;
     setup.raw = out.raw.clone();
+    setup.until = plan_args.until.clone();
     Ok(setup)
 }
 
@@ -88,6 +89,29 @@ pub(super) fn finish(report: &CaptureReport, out: &std::path::Path, resume: &str
                 report.total,
                 out.display()
             );
+            if let Some(until) = &report.until {
+                eprintln!("gonio: the plan ended before --until was met: {until}");
+            }
+            Ok(())
+        }
+        SweepStatus::Until => {
+            eprintln!(
+                "gonio: --until met after {done}/{} readings in {} (status 'until'; --resume measures the rest) ({links}): {}",
+                report.total,
+                out.display(),
+                report.until.as_deref().unwrap_or("")
+            );
+            Ok(())
+        }
+        SweepStatus::Budget => {
+            eprintln!(
+                "gonio: the sequential plan spent its budget: {done} readings in {} (status 'budget') ({links}){}",
+                out.display(),
+                report
+                    .until
+                    .as_ref()
+                    .map_or(String::new(), |u| format!("; --until not met: {u}"))
+            );
             Ok(())
         }
         SweepStatus::Interrupted => Err(CliError::failed(format!(
@@ -104,20 +128,26 @@ pub(super) fn finish(report: &CaptureReport, out: &std::path::Path, resume: &str
     }
 }
 
+/// The progress of a capture into `setup.out` for `out`'s options: the live panel on
+/// a terminal (unless `--no-live`), the bar or plain lines, or nothing (`--quiet`).
+fn progress_for(setup: &CaptureSetup, out: &OutArgs) -> Box<dyn ProgressSink> {
+    let title = format!(
+        "gonio: {} -> {}",
+        setup.sample.as_deref().unwrap_or("capture"),
+        setup.out.display()
+    );
+    crate::live::sink(out.quiet, !out.no_live, &title)
+}
+
 /// Captures through `conn` with Ctrl-C handling and progress, then reports.
 pub(super) fn run_with<C: Connector>(
     mut conn: C,
     setup: &CaptureSetup,
-    quiet: bool,
+    out: &OutArgs,
     resume: &str,
 ) -> CliResult {
     let flag = interrupt_flag();
-    let report = capture(
-        &mut conn,
-        setup,
-        progress::for_stderr(quiet).as_mut(),
-        &flag,
-    )?;
+    let report = capture(&mut conn, setup, progress_for(setup, out).as_mut(), &flag)?;
     finish(&report, &setup.out, resume)
 }
 
@@ -129,9 +159,10 @@ pub(super) fn run_session<C: Connector>(
     conn: &mut C,
     setup: &CaptureSetup,
     standard: &str,
-    quiet: bool,
+    out: &OutArgs,
     resume: &str,
 ) -> CliResult {
+    let quiet = out.quiet;
     let [reference, sample] = session_setups(setup, standard)?;
     let flag = interrupt_flag();
     for (i, s) in [reference, sample].iter().enumerate() {
@@ -148,7 +179,7 @@ pub(super) fn run_session<C: Connector>(
                 if s.resume { " (continued)" } else { "" }
             );
         }
-        let report = capture(conn, s, progress::for_stderr(quiet).as_mut(), &flag)?;
+        let report = capture(conn, s, progress_for(s, out).as_mut(), &flag)?;
         finish(&report, &s.out, resume)?;
         if flag.load(Ordering::Relaxed) {
             return Err(CliError::failed("interrupted"));

@@ -146,6 +146,22 @@ pub fn run(args: &SimulateArgs) -> CliResult {
         return Ok(());
     }
     let mut setup = setup_from(&args.plan, &args.out, args.reference.is_some())?;
+    if let (Some(r), Some(plan)) = (&replay, &mut setup.plan)
+        && let Some(budget) = crate::capture::sequential::budget_of(plan)
+    {
+        // Rehearsed on a replay, a sequential plan's candidates are at the file's
+        // incidences, within their measured spans.
+        let o = crate::capture::SettingsOverride {
+            samples: Some(plan.settings.samples),
+            settle_ms: Some(plan.settings.settle_ms),
+            exclude_retro: Some(plan.exclude_retro_deg),
+            dark: plan.settings.dark,
+        };
+        let incidences: Vec<f32> = r.incidences().iter().map(|&t| t as f32).collect();
+        *plan = crate::capture::sequential::plan_over(&incidences, budget, &o, |ti, tr| {
+            r.check_points(&[(ti, tr)]).is_ok()
+        })?;
+    }
     if let (Some(r), Some(plan)) = (&replay, &setup.plan) {
         let points: Vec<(f32, f32)> = plan.points.iter().map(|p| (p.theta_i, p.theta_r)).collect();
         r.check_points(&points)
@@ -163,7 +179,7 @@ pub fn run(args: &SimulateArgs) -> CliResult {
             "gonio simulate {source_arg} --reference {spec} --resume --out {}",
             setup.out.display()
         );
-        return run_session(conn, &setup, spec, args.out.quiet, &resume);
+        return run_session(conn, &setup, spec, &args.out, &resume);
     }
     setup.specimen = Some(resumed_specimen(&setup)?);
     if setup.specimen == Some(brdf_core::protocol::Specimen::Reference) {
@@ -181,7 +197,7 @@ pub fn run(args: &SimulateArgs) -> CliResult {
         setup.out.display()
     );
     let conn = InProcessConnector::new(InProcessDevice::new(&cfg));
-    run_with(conn, &setup, args.out.quiet, &resume)
+    run_with(conn, &setup, &args.out, &resume)
 }
 
 /// A certified-table standard must cover every point of the plan (the simulated

@@ -39,6 +39,7 @@ pub mod member_fit;
 pub mod misses;
 pub mod notes;
 pub mod offset;
+pub mod online;
 pub mod options;
 pub mod paper;
 pub mod paper_rmse;

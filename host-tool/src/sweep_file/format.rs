@@ -72,6 +72,12 @@ pub enum SweepStatus {
     Interrupted,
     /// Stopped by an error; `--resume` continues.
     Failed,
+    /// Ended early because the fit's parameters met the capture's `--until` targets;
+    /// the plan points not measured are missing as intended (`--resume` measures them).
+    Until,
+    /// A sequential plan spent its `--budget` of readings before any `--until` target
+    /// was met; its other candidate points are missing as intended.
+    Budget,
 }
 
 impl SweepStatus {
@@ -82,6 +88,8 @@ impl SweepStatus {
             SweepStatus::Complete => "complete",
             SweepStatus::Interrupted => "interrupted",
             SweepStatus::Failed => "failed",
+            SweepStatus::Until => "until",
+            SweepStatus::Budget => "budget",
         }
     }
 }

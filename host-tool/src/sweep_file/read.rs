@@ -82,6 +82,14 @@ impl SweepData {
                     "the status says complete but {missing} of {} plan points have no reading",
                     self.points.len()
                 )),
+                Some("budget") if missing > 0 => w.push(format!(
+                    "the capture spent its --budget: {missing} of {} candidate points were not measured",
+                    self.points.len()
+                )),
+                Some("until") if missing > 0 => w.push(format!(
+                    "the capture ended at its --until targets: {missing} of {} plan points were not measured (--resume measures them)",
+                    self.points.len()
+                )),
                 Some(s @ ("failed" | "interrupted" | "running")) if missing > 0 => {
                     let how = match s {
                         "failed" => "failed",

@@ -336,3 +336,27 @@ fn repeated_angle_pairs_with_other_values_are_warned_about() {
         "{w:?}"
     );
 }
+
+#[test]
+fn an_until_ending_reads_back_with_its_reason_and_resumes() {
+    let dir = tempdir();
+    let path = dir.join("until.csv");
+    let mut w = SweepWriter::create(&path, &header(), false).unwrap();
+    w.append(&row(0)).unwrap();
+    w.set_status(SweepStatus::Until).unwrap();
+    drop(w);
+    let data = read_sweep(&path).unwrap();
+    assert_eq!(data.status_word(), Some("until"));
+    assert_eq!(data.counters.missing, 2);
+    let warnings = data.warnings().join("\n");
+    assert!(
+        warnings.contains("ended at its --until targets: 2 of 3 plan points were not measured"),
+        "{warnings}"
+    );
+    // The status line kept its width: a resume rewrites it in place.
+    let (mut w, data) = SweepWriter::resume(&path).unwrap();
+    assert_eq!(data.rows.len(), 1);
+    w.append(&row(1)).unwrap();
+    w.set_status(SweepStatus::Complete).unwrap();
+    assert_eq!(read_sweep(&path).unwrap().status_word(), Some("complete"));
+}

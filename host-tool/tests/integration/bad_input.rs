@@ -1209,6 +1209,65 @@ const CASES: &[Case] = &[
         "c4.csv",
     ),
     // simulate (the same capture code, without hardware)
+    // --until: a parameter the fit does not report, a target that is no relative error
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--until",
+            "sigmaa:2%",
+            "--out",
+            "{d}/u1.csv",
+        ],
+        2,
+        "unknown parameter 'sigmaa' (valid: sigma, sigma_haze, sigma_m, k_dd, k_id",
+        "u1.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--until",
+            "sigma:0%",
+            "--out",
+            "{d}/u2.csv",
+        ],
+        2,
+        "above 0 and at most 100%",
+        "u2.csv",
+    ),
+    out(
+        &[
+            "capture",
+            "--port",
+            "/dev/null",
+            "--until",
+            "sigma",
+            "--out",
+            "{d}/u3.csv",
+        ],
+        2,
+        "is not PARAM:REL",
+        "u3.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--plan",
+            "sequential",
+            "--budget",
+            "0",
+            "--out",
+            "{d}/u4.csv",
+        ],
+        2,
+        "a sequential plan takes 1 to",
+        "u4.csv",
+    ),
     out(
         &[
             "simulate",

@@ -395,6 +395,7 @@ fn members_meet_the_stated_error_with_the_rule_for_their_width() {
             haze: None,
             directional: None,
             ideal: None,
+            abg: None,
         },
         MemberParams {
             core: lobe(Distribution::Ggx, 2.0, 0.004),
@@ -404,6 +405,7 @@ fn members_meet_the_stated_error_with_the_rule_for_their_width() {
                 sigma_m: 0.7,
             }),
             ideal: Some(1e-3),
+            abg: None,
         },
         MemberParams {
             core: lobe(Distribution::Beckmann, 1.0, 0.02),
@@ -416,12 +418,14 @@ fn members_meet_the_stated_error_with_the_rule_for_their_width() {
             }),
             directional: None,
             ideal: None,
+            abg: None,
         },
         MemberParams {
             core: lobe(Distribution::Ggx, 0.8, 0.4),
             haze: None,
             directional: None,
             ideal: Some(0.01),
+            abg: None,
         },
     ];
     for p in &cases {

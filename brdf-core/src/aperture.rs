@@ -244,6 +244,7 @@ impl<T: Real> Aperture<T> {
                 basis.haze = basis.haze + wk * e.basis.haze;
                 basis.directional = basis.directional + wk * e.basis.directional;
                 basis.ideal = basis.ideal + wk * e.basis.ideal;
+                basis.abg = basis.abg + wk * e.basis.abg;
             }
         }
         if !f.is_finite() {

@@ -16,6 +16,7 @@ fn single(dist: Distribution, sigma: f64) -> MemberModel<f64> {
         haze: None,
         directional: None,
         ideal: None,
+        abg: None,
     })
     .unwrap()
 }
@@ -37,6 +38,7 @@ fn full() -> MemberModel<f64> {
             sigma_m: 0.6,
         }),
         ideal: Some(0.01),
+        abg: None,
     })
     .unwrap()
 }
@@ -61,6 +63,7 @@ fn a_constant_is_averaged_exactly() {
         haze: None,
         directional: None,
         ideal: Some(3.5f64),
+        abg: None,
     })
     .unwrap();
     for (n_r, n_a) in [(1, 1), (7, 13), (48, 48)] {
@@ -213,6 +216,7 @@ fn finite_near_the_horizon_and_in_f32() {
             sigma_m: 1e-4,
         }),
         ideal: Some(1.0f32),
+        abg: None,
     })
     .unwrap();
     let ap = Aperture::for_model(1.0f32, &m32).unwrap();

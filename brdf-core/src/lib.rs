@@ -4,7 +4,8 @@
 //!   Torrance–Sparrow baseline, generic over `f32`/`f64`.
 //! - [`member`], [`member_model`], [`lobe`], [`aperture`]: the model family built from
 //!   components (Beckmann and GGX lobes, a haze lobe, the diffuse terms, smooth k_s),
-//!   its names, its evaluation with basis and gradient, and detector-aperture averaging.
+//!   its names, its evaluation with basis and gradient, and detector-aperture averaging;
+//!   [`abg`]: the optics programs' ABg model, the member `abg`.
 //! - [`geometry`]: in-plane and 3-D measurement geometry.
 //! - [`fresnel`]: unpolarised Fresnel reflectance (conductor n + ik, dielectric n)
 //!   and tabulated optical constants of Al, Cu, Fe, Au, Ag.
@@ -25,6 +26,7 @@
 #![cfg_attr(not(test), no_std)]
 #![deny(missing_docs)]
 
+pub mod abg;
 pub mod albedo;
 pub mod aperture;
 pub mod axis;

@@ -7,7 +7,10 @@
 //! directional-diffuse, ideal-diffuse; a lobe carries its distribution after `:` and,
 //! when its k_s is the smooth k_s(theta_i), `:smooth-ks`. For example
 //! `specular:ggx+specular-haze:beckmann+ideal-diffuse` or
-//! `specular:beckmann:smooth-ks+directional-diffuse+ideal-diffuse`.
+//! `specular:beckmann:smooth-ks+directional-diffuse+ideal-diffuse`. The optics
+//! programs' ABg model ([`crate::abg`]) is the member `abg`, alone: it is a whole
+//! scatter model of its own, not a part of the paper's family, so it is in no lattice
+//! and is fitted when asked for.
 
 use core::fmt;
 
@@ -24,15 +27,18 @@ pub enum Component {
     DirectionalDiffuse,
     /// The ideal (uniform) diffuse term, eq. 6 (`ideal-diffuse`).
     IdealDiffuse,
+    /// The optics programs' ABg model ([`crate::abg`], `abg`); a member on its own.
+    Abg,
 }
 
 impl Component {
     /// The vocabulary, in name order.
-    pub const ALL: [Component; 4] = [
+    pub const ALL: [Component; 5] = [
         Component::Specular,
         Component::SpecularHaze,
         Component::DirectionalDiffuse,
         Component::IdealDiffuse,
+        Component::Abg,
     ];
 
     /// The vocabulary name.
@@ -42,6 +48,7 @@ impl Component {
             Component::SpecularHaze => "specular-haze",
             Component::DirectionalDiffuse => "directional-diffuse",
             Component::IdealDiffuse => "ideal-diffuse",
+            Component::Abg => "abg",
         }
     }
 
@@ -118,6 +125,8 @@ pub struct Member {
     pub directional: bool,
     /// The ideal diffuse term (eq. 6).
     pub ideal: bool,
+    /// The ABg model ([`crate::abg`]); valid only alone.
+    pub abg: bool,
 }
 
 /// Why a member name was not understood. Prints one line.
@@ -138,14 +147,14 @@ impl fmt::Display for NameError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(match self {
             NameError::UnknownComponent => {
-                "unknown component (known: specular, specular-haze, directional-diffuse, ideal-diffuse, or a paper name: ideal-diffuse, torrance-sparrow, three-component, three-component-smooth-ks)"
+                "unknown component (known: specular, specular-haze, directional-diffuse, ideal-diffuse, abg, or a paper name: ideal-diffuse, torrance-sparrow, three-component, three-component-smooth-ks)"
             }
             NameError::BadAttribute => {
                 "bad lobe attribute (a lobe takes :beckmann or :ggx and optionally :smooth-ks)"
             }
             NameError::Repeated => "a component is named twice",
             NameError::Invalid => {
-                "not a member: specular-haze needs specular, and at least one component must be on"
+                "not a member: specular-haze needs specular, abg stands alone, and at least one component must be on"
             }
         })
     }
@@ -160,6 +169,7 @@ impl Member {
         haze: None,
         directional: false,
         ideal: true,
+        abg: false,
     };
     /// Torrance–Sparrow: the paper's lobe plus a constant.
     pub const TORRANCE_SPARROW: Member = Member {
@@ -167,6 +177,7 @@ impl Member {
         haze: None,
         directional: false,
         ideal: true,
+        abg: false,
     };
     /// The paper's three components, one k_s per incidence.
     pub const THREE_COMPONENT: Member = Member {
@@ -174,6 +185,7 @@ impl Member {
         haze: None,
         directional: true,
         ideal: true,
+        abg: false,
     };
     /// The paper's three components with the smooth k_s(theta_i).
     pub const THREE_COMPONENT_SMOOTH_KS: Member = Member {
@@ -184,6 +196,16 @@ impl Member {
         haze: None,
         directional: true,
         ideal: true,
+        abg: false,
+    };
+
+    /// The ABg model alone.
+    pub const ABG: Member = Member {
+        core: None,
+        haze: None,
+        directional: false,
+        ideal: false,
+        abg: true,
     };
 
     /// The paper's members and their names, simplest first.
@@ -200,8 +222,12 @@ impl Member {
     /// Longest name of any member, in bytes (for fixed-capacity strings).
     pub const MAX_NAME_LEN: usize = 96;
 
-    /// Valid: a haze comes with a core lobe, and at least one component is on.
+    /// Valid: a haze comes with a core lobe, ABg stands alone, and at least one
+    /// component is on.
     pub fn is_valid(&self) -> bool {
+        if self.abg {
+            return *self == Member::ABG;
+        }
         (self.haze.is_none() || self.core.is_some())
             && (self.core.is_some() || self.directional || self.ideal)
     }
@@ -213,6 +239,7 @@ impl Member {
             Component::SpecularHaze => self.haze.is_some(),
             Component::DirectionalDiffuse => self.directional,
             Component::IdealDiffuse => self.ideal,
+            Component::Abg => self.abg,
         }
     }
 
@@ -233,6 +260,7 @@ impl Member {
             Component::SpecularHaze => m.haze = None,
             Component::DirectionalDiffuse => m.directional = false,
             Component::IdealDiffuse => m.ideal = false,
+            Component::Abg => m.abg = false,
         }
         m
     }
@@ -265,8 +293,9 @@ impl Member {
             haze: None,
             directional: false,
             ideal: false,
+            abg: false,
         };
-        let mut seen = [false; 4];
+        let mut seen = [false; Component::ALL.len()];
         for part in name.split('+') {
             let mut attrs = part.trim().split(':');
             let head = attrs.next().unwrap_or("");
@@ -294,6 +323,7 @@ impl Member {
                 _ if any => return Err(NameError::BadAttribute),
                 Component::DirectionalDiffuse => m.directional = true,
                 Component::IdealDiffuse => m.ideal = true,
+                Component::Abg => m.abg = true,
             }
         }
         if m.is_valid() {
@@ -303,7 +333,7 @@ impl Member {
         }
     }
 
-    /// Every valid member (83 of them), in a fixed order: the lattice the fitter chooses
+    /// Every valid member of the paper's family (83 of them; not [`Member::ABG`]), in a fixed order: the lattice the fitter chooses
     /// from.
     pub fn lattice() -> impl Iterator<Item = Member> {
         const LOBES: [Option<LobeSpec>; 5] = [
@@ -322,6 +352,7 @@ impl Member {
                         haze,
                         directional,
                         ideal,
+                        abg: false,
                     })
                     .filter(Member::is_valid)
             })

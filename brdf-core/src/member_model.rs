@@ -3,8 +3,10 @@
 //!
 //! For fixed widths (sigma, sigma_haze, sigma_m) and fixed smooth-k_s shapes the model
 //! is linear in its amplitudes: `f = A_core b_core + A_haze b_haze + k_dd b_dd + k_id b_id`
-//! ([`MemberEval::basis`] holds the b's, [`MemberModel::amplitudes`] the A's).
+//! ([`MemberEval::basis`] holds the b's, [`MemberModel::amplitudes`] the A's); the ABg
+//! member is `A b_abg` with b_abg = 1/(B + |b - b0|^g).
 
+use crate::abg::{Abg, AbgParams};
 use crate::error::ModelError;
 use crate::float::Real;
 use crate::geometry::Geometry;
@@ -71,6 +73,8 @@ pub struct MemberParams<T> {
     pub directional: Option<DirectionalParams<T>>,
     /// The ideal diffuse weight k_id (>= 0).
     pub ideal: Option<T>,
+    /// The ABg model (the member `abg`, alone).
+    pub abg: Option<AbgParams<T>>,
 }
 
 impl<T: Real> MemberParams<T> {
@@ -81,11 +85,13 @@ impl<T: Real> MemberParams<T> {
             haze: self.haze.map(|l| l.spec()),
             directional: self.directional.is_some(),
             ideal: self.ideal.is_some(),
+            abg: self.abg.is_some(),
         }
     }
 
     /// Starting parameters for `member`: every k_s, k_dd and k_id = 1 (smooth k_s: all
-    /// c = 0), the given widths for whichever components are on.
+    /// c = 0), the given widths for whichever components are on; ABg A = 1, B = 0.01,
+    /// g = 2.
     pub fn start(member: &Member, sigma: T, sigma_haze: T, sigma_m: T) -> Self {
         let lobe = |spec: LobeSpec, sigma: T| LobeParams {
             dist: spec.dist,
@@ -103,6 +109,11 @@ impl<T: Real> MemberParams<T> {
                 sigma_m,
             }),
             ideal: member.ideal.then_some(T::one()),
+            abg: member.abg.then_some(AbgParams {
+                a: T::one(),
+                b: T::lit(0.01),
+                g: T::lit(2.0),
+            }),
         }
     }
 }
@@ -119,13 +130,16 @@ pub struct Parts<T> {
     pub directional: T,
     /// The ideal diffuse term.
     pub ideal: T,
+    /// The ABg term.
+    pub abg: T,
 }
 
 /// One evaluation of a member.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MemberEval<T> {
     /// Per-component basis values (1/sr): the lobe f_s (times exp(c1 t + c2 t^2) for a
-    /// smooth k_s), f_dd, and 1 for the ideal diffuse; 0 for a component that is off.
+    /// smooth k_s), f_dd, 1 for the ideal diffuse, 1/(B + |b - b0|^g) for ABg; 0 for a
+    /// component that is off.
     /// Computed whatever the amplitude, so a linear solve can use them.
     pub basis: Parts<T>,
     /// The BRDF: sum of amplitude x basis over the components that are on.
@@ -159,6 +173,12 @@ pub struct MemberGradient<T> {
     pub ln_sigma_m: T,
     /// d f / d ln k_id.
     pub ln_kid: T,
+    /// d f / d ln A of ABg.
+    pub abg_ln_a: T,
+    /// d f / d ln B of ABg.
+    pub abg_ln_b: T,
+    /// d f / d g of ABg.
+    pub abg_g: T,
 }
 
 impl<T: Real> MemberGradient<T> {
@@ -173,6 +193,9 @@ impl<T: Real> MemberGradient<T> {
         self.ln_kdd = self.ln_kdd + w * o.ln_kdd;
         self.ln_sigma_m = self.ln_sigma_m + w * o.ln_sigma_m;
         self.ln_kid = self.ln_kid + w * o.ln_kid;
+        self.abg_ln_a = self.abg_ln_a + w * o.abg_ln_a;
+        self.abg_ln_b = self.abg_ln_b + w * o.abg_ln_b;
+        self.abg_g = self.abg_g + w * o.abg_g;
     }
 }
 
@@ -273,6 +296,7 @@ struct Directional<T> {
 ///     haze: Some(LobeParams { dist: Distribution::Beckmann, ks: Ks::Smooth(SmoothKs { c: [-3.0, 0.5, 0.0] }), sigma: 0.15 }),
 ///     directional: Some(DirectionalParams { kdd: 0.01, sigma_m: 0.7 }),
 ///     ideal: Some(1e-4),
+///     abg: None,
 /// };
 /// assert_eq!(params.member(), member);
 /// let model = MemberModel::new(&params).unwrap();
@@ -291,11 +315,13 @@ pub struct MemberModel<T> {
     haze: Option<WeightedLobe<T>>,
     directional: Option<Directional<T>>,
     ideal: Option<T>,
+    abg: Option<Abg<T>>,
 }
 
 impl<T: Real> MemberModel<T> {
     /// Validates the parameters: weights finite and >= 0, smooth coefficients finite,
-    /// widths finite, > 0 and representable; a haze needs a core lobe.
+    /// widths finite, > 0 and representable; a haze needs a core lobe; ABg's as
+    /// [`Abg::new`] checks them.
     pub fn new(params: &MemberParams<T>) -> Result<Self, ModelError> {
         if params.haze.is_some() && params.core.is_none() {
             return Err(ModelError::HazeWithoutCore);
@@ -325,12 +351,17 @@ impl<T: Real> MemberModel<T> {
             Some(k) => Some(check_weight("k_id", k)?),
             None => None,
         };
+        let abg = match &params.abg {
+            Some(p) => Some(Abg::new(p)?),
+            None => None,
+        };
         Ok(MemberModel {
             params: *params,
             core,
             haze,
             directional,
             ideal,
+            abg,
         })
     }
 
@@ -371,8 +402,8 @@ impl<T: Real> MemberModel<T> {
         self.params.member()
     }
 
-    /// The linear amplitudes: per-incidence k_s or exp(c0) for each lobe, k_dd, k_id
-    /// (0 for components that are off).
+    /// The linear amplitudes: per-incidence k_s or exp(c0) for each lobe, k_dd, k_id,
+    /// ABg's A (0 for components that are off).
     pub fn amplitudes(&self) -> Parts<T> {
         let z = T::zero();
         Parts {
@@ -380,12 +411,13 @@ impl<T: Real> MemberModel<T> {
             haze: self.haze.map_or(z, |l| l.amplitude()),
             directional: self.directional.map_or(z, |d| d.kdd),
             ideal: self.ideal.unwrap_or(z),
+            abg: self.abg.map_or(z, |a| a.params().a),
         }
     }
 
     /// The narrowest angular width among the components that are on, radians of
-    /// theta_r: 2 sigma for a lobe, sigma_m for the directional diffuse; `None` when
-    /// only the ideal diffuse is on. Sets the detector-aperture quadrature's order.
+    /// theta_r: 2 sigma for a lobe, sigma_m for the directional diffuse, ABg's
+    /// [`Abg::half_width`]; `None` when only the ideal diffuse is on. Sets the detector-aperture quadrature's order.
     pub fn narrowest_width(&self) -> Option<T> {
         let mut w: Option<T> = None;
         let mut take = |x: T| w = Some(w.map_or(x, |v: T| v.min(x)));
@@ -397,6 +429,9 @@ impl<T: Real> MemberModel<T> {
         }
         if let Some(d) = self.directional {
             take(d.sigma_m());
+        }
+        if let Some(a) = self.abg {
+            take(a.half_width());
         }
         w
     }
@@ -546,9 +581,19 @@ impl<T: Real> MemberModel<T> {
             basis.ideal = T::one();
             i = k;
         }
-        // In Model's order (k_s f_s + k_dd f_dd + k_id), the haze adding exactly 0 when off.
-        let f = s + h + d + i;
-        if !f.is_finite() || !basis.core.is_finite() || !basis.haze.is_finite() {
+        let (mut a, mut dlb, mut dg) = (z, z, z);
+        if let Some(m) = &self.abg {
+            (basis.abg, dlb, dg) = m.basis_dlog(g);
+            a = m.params().a * basis.abg;
+        }
+        // In Model's order (k_s f_s + k_dd f_dd + k_id), the haze and ABg adding
+        // exactly 0 when off.
+        let f = s + h + d + i + a;
+        if !f.is_finite()
+            || !basis.core.is_finite()
+            || !basis.haze.is_finite()
+            || !basis.abg.is_finite()
+        {
             return Err(ModelError::Overflow);
         }
         if let Some(gr) = grad {
@@ -561,6 +606,9 @@ impl<T: Real> MemberModel<T> {
             gr.ln_kdd = d;
             gr.ln_sigma_m = d * (T::lit(2.0) * y - T::one());
             gr.ln_kid = i;
+            gr.abg_ln_a = a;
+            gr.abg_ln_b = a * dlb;
+            gr.abg_g = a * dg;
         }
         Ok(MemberEval { basis, f })
     }

@@ -21,6 +21,7 @@ fn three(p: &Params<f64>) -> MemberParams<f64> {
             sigma_m: p.sigma_m,
         }),
         ideal: Some(p.kid),
+        abg: None,
     }
 }
 
@@ -40,6 +41,7 @@ fn full() -> MemberParams<f64> {
             sigma_m: 0.6,
         }),
         ideal: Some(0.01),
+        abg: None,
     }
 }
 
@@ -206,6 +208,7 @@ fn paper_members_equal_model_bit_for_bit() {
             sigma_m: 0.7,
         }),
         ideal: Some(25.0f32),
+        abg: None,
     })
     .unwrap();
     for (ti, tr) in [
@@ -461,6 +464,7 @@ fn rejects_bad_members_and_parameters() {
         haze: None,
         directional: None,
         ideal: None,
+        abg: None,
     })
     .unwrap();
     assert_eq!(sharp.eval_in_plane(10.0, 10.0), Err(ModelError::Overflow));
@@ -547,7 +551,7 @@ proptest! {
             core: lobe(dist(ggx_core), Ks::Smooth(SmoothKs { c }), sigma),
             haze: lobe(dist(ggx_haze), Ks::PerIncidence(0.5), sigma_haze),
             directional: Some(DirectionalParams { kdd: 0.2, sigma_m }),
-            ideal: Some(0.01),
+            ideal: Some(0.01), abg: None,
         };
         let e = MemberModel::new(&p).unwrap().eval_in_plane(ti, tr).unwrap();
         prop_assert!(e.f.is_finite() && e.f > 0.0);
@@ -555,7 +559,7 @@ proptest! {
             core: lobe(dist(ggx_core), Ks::Smooth(SmoothKs { c: c.map(|x| x as f32) }), sigma as f32),
             haze: lobe(dist(ggx_haze), Ks::PerIncidence(0.5f32), sigma_haze as f32),
             directional: Some(DirectionalParams { kdd: 0.2f32, sigma_m: sigma_m as f32 }),
-            ideal: Some(0.01f32),
+            ideal: Some(0.01f32), abg: None,
         };
         let e32 = MemberModel::new(&p32).unwrap().eval_in_plane(ti as f32, tr as f32).unwrap();
         let alpha = ((ti - tr) / 2.0).to_radians();
@@ -658,4 +662,50 @@ fn factors_given_once_per_angle_equal_the_evaluation_bit_for_bit() {
             .at_incidence(91.0)
             .is_err()
     );
+}
+
+#[test]
+fn the_abg_member_stands_alone_and_evaluates_with_its_gradient() {
+    use crate::abg::AbgParams;
+    assert_eq!(Member::parse("abg"), Ok(Member::ABG));
+    assert_eq!(Member::ABG.name().as_str(), "abg");
+    assert!(!Member::lattice().any(|m| m.abg));
+    for bad in ["abg+ideal-diffuse", "specular+abg", "abg:ggx"] {
+        assert!(Member::parse(bad).is_err(), "{bad}");
+    }
+    assert!(!Member::ABG.without(Component::Abg).is_valid());
+    let p = MemberParams {
+        core: None,
+        haze: None,
+        directional: None,
+        ideal: None,
+        abg: Some(AbgParams {
+            a: 0.05f64,
+            b: 2e-3,
+            g: 1.7,
+        }),
+    };
+    assert_eq!(p.member(), Member::ABG);
+    let m = MemberModel::new(&p).unwrap();
+    assert_eq!(m.amplitudes().abg, 0.05);
+    for (ti, tr) in [(20.0, 23.0), (45.0, -30.0), (60.0, 60.0), (5.0, 80.0)] {
+        let (e, gr) = m.eval_in_plane_with_gradient(ti, tr).unwrap();
+        let x = (f64::sin(f64::to_radians(tr)) - f64::sin(f64::to_radians(ti))).abs();
+        let f = |a: f64, b: f64, g: f64| a / (b + x.powf(g));
+        let want = f(0.05, 2e-3, 1.7);
+        assert!((e.f - want).abs() <= 1e-13 * want, "{ti} {tr}");
+        assert_eq!(e.f, 0.05 * e.basis.abg);
+        let h = 1e-6;
+        let d_ln_b =
+            (f(0.05, 2e-3 * f64::exp(h), 1.7) - f(0.05, 2e-3 * f64::exp(-h), 1.7)) / (2.0 * h);
+        let d_g = (f(0.05, 2e-3, 1.7 + h) - f(0.05, 2e-3, 1.7 - h)) / (2.0 * h);
+        assert!((gr.abg_ln_a - want).abs() <= 1e-13 * want);
+        assert!((gr.abg_ln_b - d_ln_b).abs() <= 1e-6 * want, "{ti} {tr}");
+        assert!((gr.abg_g - d_g).abs() <= 1e-6 * want, "{ti} {tr}");
+    }
+    // 3-D: the same value from the directions as from the in-plane angles.
+    let g3 = Geometry::from_angles(30.0, 180.0, 40.0, 0.0).unwrap();
+    let a = m.eval(30.0, &g3).unwrap().f;
+    let b = m.eval_in_plane(30.0, 40.0).unwrap().f;
+    assert!((a - b).abs() <= 1e-12 * b);
 }

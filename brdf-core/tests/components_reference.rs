@@ -27,6 +27,7 @@ fn lobe_only<T: Real>(d: Distribution, sigma: T) -> MemberModel<T> {
         haze: None,
         directional: None,
         ideal: None,
+        abg: None,
     })
     .unwrap()
 }
@@ -93,6 +94,7 @@ fn directional_diffuse_matches_mpmath() {
             haze: None,
             directional: Some(DirectionalParams { kdd: 1.0, sigma_m }),
             ideal: None,
+            abg: None,
         })
         .unwrap();
         let e = m.eval_in_plane(30.0, tr).unwrap();

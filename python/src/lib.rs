@@ -89,6 +89,11 @@ impl PyModel {
         kid: Option<f64>,
     ) -> PyResult<Self> {
         let m = Member::parse(member).map_err(|e| err(format!("member '{member}': {e}")))?;
+        if m.abg {
+            return Err(err(
+                "member 'abg': Model takes the paper family's parameters; an ABg model comes from a fit (models=['abg'])",
+            ));
+        }
         let absent = |given: bool, name: &str, comp: &str| -> PyResult<()> {
             if given {
                 Err(err(format!(
@@ -146,6 +151,7 @@ impl PyModel {
             haze,
             directional,
             ideal,
+            abg: None,
             origin: "parameters".into(),
             to_per_sr: None,
         };

@@ -48,6 +48,8 @@ pub struct ModelDef {
     pub directional: Option<(f64, f64)>,
     /// k_id.
     pub ideal: Option<f64>,
+    /// The ABg model (the member `abg`).
+    pub abg: Option<brdf_core::abg::AbgParams<f64>>,
     /// Where it came from (preset name, fit), for repr.
     pub origin: String,
     /// The factor from the model's BRDF unit to 1/sr; `None`: relative units.
@@ -90,6 +92,7 @@ impl ModelDef {
             haze: self.haze.as_ref().map(spec),
             directional: self.directional.is_some(),
             ideal: self.ideal.is_some(),
+            abg: self.abg.is_some(),
         }
     }
 
@@ -118,6 +121,7 @@ impl ModelDef {
                 .directional
                 .map(|(kdd, sigma_m)| DirectionalParams { kdd, sigma_m }),
             ideal: self.ideal,
+            abg: self.abg,
         })
     }
 
@@ -160,6 +164,7 @@ impl ModelDef {
     /// haze), which is what `brdf_core::fast` evaluates.
     pub fn fast_at(&self, theta_i: f64) -> Result<FastModel, String> {
         if self.haze.is_some()
+            || self.abg.is_some()
             || self
                 .core
                 .as_ref()
@@ -280,6 +285,7 @@ impl ModelDef {
             haze: None,
             directional: None,
             ideal: None,
+            abg: None,
             origin: format!("{} of {}", c.name(), self.origin),
             to_per_sr: self.to_per_sr,
         };
@@ -293,6 +299,7 @@ impl ModelDef {
             }
             Component::DirectionalDiffuse => m.directional = Some(self.directional?),
             Component::IdealDiffuse => m.ideal = Some(self.ideal?),
+            Component::Abg => m.abg = Some(self.abg?),
         }
         Some(m)
     }
@@ -316,6 +323,7 @@ pub fn preset_def(
         haze: None,
         directional: Some((kdd.unwrap_or(KDD_PAPER), sigma_m.unwrap_or(SIGMA_M_PAPER))),
         ideal: Some(kid.unwrap_or(KID_PAPER)),
+        abg: None,
         origin: format!("preset {}", p.name),
         to_per_sr: None,
     }
@@ -350,6 +358,7 @@ pub fn table_def(t: MemberTable, origin: String) -> ModelDef {
         haze: lobe(p.haze, true),
         directional: p.directional.map(|d| (d.kdd, d.sigma_m)),
         ideal: p.ideal,
+        abg: p.abg,
         origin,
         to_per_sr: t.to_per_sr,
     }

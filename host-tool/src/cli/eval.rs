@@ -311,6 +311,7 @@ fn build_model<T: Real>(args: &EvalArgs) -> CliResult<MemberModel<T>> {
         haze,
         directional,
         ideal,
+        abg: None,
     })?)
 }
 

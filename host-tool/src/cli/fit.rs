@@ -150,7 +150,8 @@ pub struct FitArgs {
     /// their short forms ideal, ts, three, three-smooth) or systematic names, components
     /// joined by '+' (specular, specular-haze, directional-diffuse, ideal-diffuse), a
     /// lobe optionally with :beckmann or :ggx and :smooth-ks, e.g.
-    /// specular:ggx+specular-haze+ideal-diffuse.
+    /// specular:ggx+specular-haze+ideal-diffuse; or abg, the optics programs' ABg model
+    /// (only when named; the report prints A, B, g for Zemax and FRED).
     #[arg(long, value_delimiter = ',', value_name = "MODELS", value_parser = fit::paper::member_by_name)]
     pub models: Vec<Member>,
     /// The detector's acceptance half-angle in degrees (0 to 10): every model is

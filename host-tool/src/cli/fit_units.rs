@@ -213,6 +213,7 @@ pub fn report_text(fam: &FamilyFit, inst: Option<(&Instrument, &Path)>) -> Strin
         fam.selected_member.name().as_str(),
         fam.checks,
     ));
+    s.push_str(&crate::fit::abg_text::abg_text(fam));
     s
 }
 

@@ -66,7 +66,7 @@ pub fn run(args: &AstmArgs) -> CliResult {
             sweep.out_of_plane
         ),
     ];
-    write_file(target, &meta, &sweep.rows)?;
+    write_file(target, &meta, &sweep.rows, &[])?;
     super::output::say_written(std::slice::from_ref(&args.out));
     if sweep.out_of_plane > 0 {
         eprintln!(

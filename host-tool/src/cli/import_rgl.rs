@@ -125,7 +125,7 @@ pub fn run(args: &RglArgs) -> CliResult {
         "units: degrees".to_string(),
         format!("brdf: {}", BrdfUnits::PerSr),
     ];
-    write_file(target, &meta, &rows)?;
+    write_file(target, &meta, &rows, &[])?;
     super::output::say_written(std::slice::from_ref(&args.out));
     Ok(())
 }

@@ -6,8 +6,8 @@ use clap::{Args, ValueEnum};
 
 use super::error::{CliError, CliResult};
 use crate::import::table::{
-    ColumnRef, Delimiter, QUANTITIES, TableSpec, ThetaRSign, delimiter_name, parse_columns,
-    read_table,
+    ColumnRef, Columns, Delimiter, QUANTITIES, TableSpec, ThetaRSign, delimiter_name,
+    parse_columns, read_table,
 };
 use crate::import::write_file;
 use crate::outfile::Target;
@@ -41,9 +41,12 @@ positive on the specular side, and a '# brdf:' line saying the units given with 
 Lines starting with # and blank lines are skipped; the first other line is the header row \
 (unless --no-header). The delimiter is ',' ';' tab or whitespace, sniffed from that line \
 unless --delimiter says. A header without a named column, a short row, a value that is not a \
-finite number, an angle out of range (theta_i in [0, 90], theta_r in [-90, 90] degrees) or no \
-rows is refused with its line, and nothing is written. See docs/formats.md.",
+finite number, an angle out of range (theta_i in [0, 90], theta_r in [-90, 90] degrees), a \
+negative std or no rows is refused with its line, and nothing is written. With std=NAME in \
+--columns the sweep gets std and n columns (n = 1: the table's std is the reading's own), which \
+the fit's goodness-of-fit against the noise uses. See docs/formats.md.",
     after_help = "Examples:\n  gonio import table scan.csv --out scan-sweep.csv --columns theta_i=AOI,theta_r=AOS,brdf=BRDF --brdf 1/sr\n  \
+gonio import table scan.csv --out scan-sweep.csv --columns theta_i=AOI,theta_r=AOS,brdf=BRDF,std=SIGMA --brdf 1/sr\n  \
 gonio import table export.txt --out s.csv --columns theta_i=Theta_i,theta_r=Theta_s,brdf=BRDF --delimiter ';' --decimal-comma --angles rad --theta-r-sign source --brdf relative\n  \
 gonio import table solar_array_brdf.csv --out solar.csv --no-header --columns theta_i=1,theta_r=3,brdf=5 --brdf 1/sr"
 )]
@@ -54,10 +57,10 @@ pub struct TableArgs {
     /// The sweep file to write.
     #[arg(long, value_name = "SWEEP.csv")]
     pub out: PathBuf,
-    /// Which columns hold theta_i, theta_r and brdf: header names (any case) or 1-based
-    /// column numbers.
-    #[arg(long, value_name = "theta_i=NAME,theta_r=NAME,brdf=NAME", value_parser = parse_columns)]
-    pub columns: [ColumnRef; 3],
+    /// Which columns hold theta_i, theta_r and brdf, and optionally std (each reading's
+    /// standard deviation, brdf units): header names (any case) or 1-based column numbers.
+    #[arg(long, value_name = "theta_i=NAME,theta_r=NAME,brdf=NAME[,std=NAME]", value_parser = parse_columns)]
+    pub columns: Columns,
     /// The units of the brdf column: `1/sr` or `relative` (the instrument's own units).
     #[arg(long = "brdf", value_name = "1/sr|relative", value_parser = BrdfUnits::parse)]
     pub units: BrdfUnits,
@@ -109,7 +112,8 @@ pub fn run(args: &TableArgs) -> CliResult {
         ))
     })?;
     let spec = TableSpec {
-        columns: args.columns.clone(),
+        columns: args.columns.required.clone(),
+        std: args.columns.std.clone(),
         delimiter: args.delimiter,
         decimal_comma: args.decimal_comma,
         radians: args.angles == AnglesArg::Rad,
@@ -141,7 +145,7 @@ pub fn run(args: &TableArgs) -> CliResult {
     );
     let cols: Vec<String> = QUANTITIES
         .iter()
-        .zip(&spec.columns)
+        .zip(spec.columns.iter().chain(&spec.std))
         .map(|(q, c)| match c {
             ColumnRef::Name(n) => format!("{q}={n}"),
             ColumnRef::Position(p) => format!("{q}=column {p}"),
@@ -171,7 +175,7 @@ pub fn run(args: &TableArgs) -> CliResult {
         "units: degrees".to_string(),
         format!("brdf: {}", spec.units),
     ];
-    write_file(target, &meta, &table.rows).map_err(CliError::from)?;
+    write_file(target, &meta, &table.rows, &table.std).map_err(CliError::from)?;
     super::output::say_written(std::slice::from_ref(&args.out));
     Ok(())
 }

@@ -98,6 +98,7 @@ mod tests {
                 sigma_m: 0.7,
             }),
             ideal: Some(0.02),
+            abg: None,
         };
         let table = MemberTable {
             member: p.member(),

@@ -10,7 +10,8 @@
 //! `model.json` ([`MemberTable::to_json`], read back by [`MemberTable::from_json`]) holds
 //! any member of brdf-core's lattice: per component its parameters, per-incidence k_s as
 //! one value per fitted incidence (linear between them, clamped outside: the fit's own
-//! interpolation), a smooth k_s as its three coefficients. Units: angles in degrees,
+//! interpolation), a smooth k_s as its three coefficients, ABg as its A, B, g (`abg`).
+//! Units: angles in degrees,
 //! sigma dimensionless, sigma_m in radians, BRDF in the fit's units; `to_per_sr` is the
 //! factor that takes them to 1/sr (1 for a sweep measured in 1/sr), `null` for a fit in
 //! relative units, which cannot be rendered as absolute: the plugin then needs an
@@ -20,6 +21,7 @@
 use std::path::{Path, PathBuf};
 
 use brdf_core::ModelError;
+use brdf_core::abg::AbgParams;
 use brdf_core::lobe::{Distribution, SmoothKs};
 use brdf_core::member::Member;
 use brdf_core::member_model::{DirectionalParams, Ks, LobeParams, MemberModel, MemberParams};
@@ -162,6 +164,9 @@ impl MemberTable {
         if let Some(k) = p.ideal {
             v.insert("ideal_diffuse".into(), json!({"kid": k}));
         }
+        if let Some(a) = p.abg {
+            v.insert("abg".into(), json!({"a": a.a, "b": a.b, "g": a.g}));
+        }
         Value::Object(v)
     }
 
@@ -282,12 +287,24 @@ impl MemberTable {
                 "ideal_diffuse",
             )?),
         };
+        let abg = match obj.get("abg") {
+            None => None,
+            Some(d) => {
+                let d = d.as_object().ok_or("\"abg\" must be an object")?;
+                Some(AbgParams {
+                    a: num(d, "a", "abg")?,
+                    b: num(d, "b", "abg")?,
+                    g: num(d, "g", "abg")?,
+                })
+            }
+        };
         let params: Vec<MemberParams<f64>> = (0..n)
             .map(|j| MemberParams {
                 core: core.as_ref().map(|l| l[j]),
                 haze: haze.as_ref().map(|l| l[j]),
                 directional,
                 ideal,
+                abg,
             })
             .collect();
         let given = params[0].member();
@@ -388,6 +405,7 @@ mod tests {
             "ideal-diffuse",
             "specular:ggx:smooth-ks+specular-haze:beckmann+ideal-diffuse",
             "specular:beckmann+specular-haze:ggx:smooth-ks+directional-diffuse",
+            "abg",
         ] {
             let t = table(name);
             let text = serde_json::to_string(&t.to_json()).unwrap();

@@ -421,6 +421,7 @@ fn haze_fixture() -> &'static FamilyFit {
                 }),
                 directional: None,
                 ideal: Some(0.01),
+                abg: None,
             };
             let m = MemberModel::new(&p).unwrap();
             for k in 0..=178 {

@@ -118,6 +118,7 @@ fn broad() -> MemberParams<f64> {
             sigma_m: 0.7,
         }),
         ideal: Some(0.02),
+        abg: None,
     }
 }
 
@@ -137,6 +138,7 @@ fn sharp() -> MemberParams<f64> {
         }),
         directional: None,
         ideal: Some(0.01),
+        abg: None,
     }
 }
 

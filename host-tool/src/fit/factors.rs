@@ -117,6 +117,7 @@ mod tests {
                 sigma_m: 0.6,
             }),
             ideal: Some(0.01),
+            abg: None,
         };
         let no_dd = MemberParams {
             directional: None,

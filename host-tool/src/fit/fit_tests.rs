@@ -468,6 +468,7 @@ fn the_default_family_finds_a_haze_and_both_widths() {
             haze: lobe(haze, 0.3),
             directional: None,
             ideal: Some(0.01),
+            abg: None,
         },
         &[10.0, 35.0, 60.0],
         |_| (0..=356).map(|k| -89.0 + 0.5 * k as f64).collect(),
@@ -524,6 +525,7 @@ fn two_lobe_sweeps_across_the_issues_ranges_select_a_haze_and_recover_both_width
                 haze: lobe(haze, 0.3 - ti / 500.0),
                 directional: None,
                 ideal: Some(0.01),
+                abg: None,
             },
             &[10.0, 35.0, 60.0],
             |_| (0..=356).map(|k| -89.0 + 0.5 * k as f64).collect(),
@@ -607,6 +609,7 @@ fn an_aperture_is_fitted_out_of_the_width() {
             haze: None,
             directional: None,
             ideal: Some(0.02),
+            abg: None,
         },
         &[20.0, 45.0],
         |ti| {

@@ -26,6 +26,7 @@
 //! (se_p = p se_u), from the covariance s^2 (J^T J)^-1 at the optimum with
 //! s^2 = SSR / (n - k); parameters the data cannot determine are reported as such.
 
+pub mod abg_text;
 pub mod arrow;
 pub mod campaign;
 pub mod criteria;

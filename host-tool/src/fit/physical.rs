@@ -128,7 +128,7 @@ pub fn check_member(fit: &MemberFit) -> ModelCheck {
     let amplitude = |j: usize| {
         model(j).map_or(0.0, |m| {
             let a = m.amplitudes();
-            a.core + a.haze
+            a.core + a.haze + a.abg
         })
     };
     let albedo: Vec<_> = checked_incidences(n, amplitude)

@@ -22,6 +22,7 @@ fn two_lobes(ti: f64) -> MemberParams<f64> {
         haze: lobe(0.15, 0.3 - ti / 500.0),
         directional: None,
         ideal: Some(0.01),
+        abg: None,
     }
 }
 

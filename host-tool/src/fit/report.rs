@@ -25,7 +25,7 @@ pub const CORRELATION_LIMIT: usize = 100;
 pub struct Param {
     /// Its name without an incidence: `sigma`, `sigma_haze`, `sigma_m`, `k_dd`, `k_id`
     /// (`k_d` for Torrance–Sparrow), `ln_ks_c0..2`, `ln_ks_haze_c0..2`, `k_s`,
-    /// `k_s_haze`.
+    /// `k_s_haze`, and ABg's `A`, `B`, `g`.
     pub base: &'static str,
     /// The incidence (degrees) of a per-incidence k_s.
     pub theta_i: Option<f64>,
@@ -82,6 +82,30 @@ pub fn member_params(fit: &MemberFit) -> Vec<Param> {
                 value,
                 se,
                 held,
+                slot,
+            });
+        }
+    }
+    // ABg: A and B fitted as logarithms (natural values and delta-method errors), g
+    // itself.
+    for (slot, base, log) in [
+        (l.abg_a, "A", true),
+        (l.abg_b, "B", true),
+        (l.abg_g, "g", false),
+    ] {
+        if let Some(i) = slot {
+            let (value, se) = if log {
+                fit.natural(i)
+            } else {
+                let se = fit.identifiable[i].then(|| fit.cov.get(i, i).max(0.0).sqrt());
+                (fit.x[i], se)
+            };
+            out.push(Param {
+                base,
+                theta_i: None,
+                value,
+                se,
+                held: false,
                 slot,
             });
         }

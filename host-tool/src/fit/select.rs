@@ -84,7 +84,7 @@ pub struct Candidate {
     /// The paper's RMSE over all readings.
     pub rmse: Option<f64>,
     /// Per component (in [`Component::ALL`] order): its amplitude, if on.
-    pub amplitude: [Option<Amplitude>; 4],
+    pub amplitude: [Option<Amplitude>; Component::ALL.len()],
     /// Residuals against the readings' noise, when the sweep has std and n.
     pub goodness: Option<Goodness>,
 }
@@ -134,7 +134,7 @@ impl Candidate {
             Amplitude::combine(&parts)
         };
         let m = fit.member();
-        let mut amplitude = [None; 4];
+        let mut amplitude = [None; Component::ALL.len()];
         if m.core.is_some() {
             amplitude[0] = lobe(l.core_local, l.core_poly, false);
         }
@@ -143,6 +143,7 @@ impl Candidate {
         }
         amplitude[2] = l.kdd.map(nat);
         amplitude[3] = l.kid.map(nat);
+        amplitude[4] = l.abg_a.map(nat);
         Candidate {
             member: m,
             aicc: fit.aicc(),
@@ -221,6 +222,7 @@ pub fn with(m: Member, c: Component) -> Option<Member> {
         Component::SpecularHaze => n.haze = Some(LobeSpec::PAPER),
         Component::DirectionalDiffuse => n.directional = true,
         Component::IdealDiffuse => n.ideal = true,
+        Component::Abg => n.abg = true,
     }
     n.is_valid().then_some(n)
 }
@@ -322,6 +324,7 @@ fn amp_text(c: Component, a: Option<Amplitude>) -> String {
         Component::SpecularHaze => "k_s of the haze",
         Component::DirectionalDiffuse => "k_dd",
         Component::IdealDiffuse => "k_id",
+        Component::Abg => "A",
     };
     match a {
         None => format!("{name} unknown"),
@@ -341,6 +344,16 @@ pub fn component_notes(s: &Selection<'_>, sel: Member) -> Vec<String> {
     let crit = s.crit.name();
     let mut out = Vec::new();
     for c in Component::ALL {
+        // ABg is one model, not a component of the paper's family: nothing to add to
+        // it or take from it; its comparison with those members is the selection's.
+        if c == Component::Abg {
+            if sel.abg {
+                out.push(format!(
+                    "abg: the optics programs' ABg model, selected by {crit} over the physical members fitted (see the table); it has no components to test"
+                ));
+            }
+            continue;
+        }
         let line = if sel.has(c) {
             match s.test(sel, c) {
                 Some(t) if t.supports() => format!(

@@ -227,7 +227,12 @@ pub fn write_sweep(
     source: &str,
     channel: Channel,
 ) -> io::Result<()> {
-    super::write::write_sweep(w, &merl_meta(source, channel, sweep.missing), &sweep.rows)
+    super::write::write_sweep(
+        w,
+        &merl_meta(source, channel, sweep.missing),
+        &sweep.rows,
+        &[],
+    )
 }
 
 /// The `#` lines of a MERL import.
@@ -264,6 +269,7 @@ pub fn write_file(
         crate::outfile::Target::new(path, force),
         &merl_meta(source, channel, sweep.missing),
         &sweep.rows,
+        &[],
     )
 }
 

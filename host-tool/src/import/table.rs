@@ -1,6 +1,7 @@
 //! Other instruments' in-plane tables (`gonio import table`): columns named by the user,
 //! any of `,` `;` tab or whitespace as delimiter, decimal commas, angles in degrees or
-//! radians, either sign convention for theta_r; read into gonio's sweep rows.
+//! radians, either sign convention for theta_r, and optionally a std column; read into
+//! gonio's sweep rows.
 
 use crate::sweep_file::{BRDF_MAX, BRDF_MIN, BrdfUnits};
 use crate::text::escape_line;
@@ -51,17 +52,32 @@ pub struct TableSpec {
     pub skip_lines: usize,
     /// The units of the brdf column.
     pub units: BrdfUnits,
+    /// The column of each reading's standard deviation (brdf units), if the table has one.
+    pub std: Option<ColumnRef>,
 }
 
-/// The quantities' names, in [`TableSpec::columns`] order.
-pub const QUANTITIES: [&str; 3] = ["theta_i", "theta_r", "brdf"];
+/// The quantities' names, in [`TableSpec::columns`] order, then the optional `std`.
+pub const QUANTITIES: [&str; 4] = ["theta_i", "theta_r", "brdf", "std"];
+
+/// What `--columns` names: the three required columns and the optional std column.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Columns {
+    /// theta_i, theta_r and brdf, in that order.
+    pub required: [ColumnRef; 3],
+    /// The reading's standard deviation (brdf units), if named.
+    pub std: Option<ColumnRef>,
+}
 
 /// A table read: rows `(theta_i, theta_r, brdf)` in degrees (theta_r signed as gonio
-/// signs it) and the spec's units, and the delimiter used.
+/// signs it) and the spec's units, each row's std when the spec names a std column,
+/// and the delimiter used.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Table {
     /// The rows, in file order.
     pub rows: Vec<(f64, f64, f64)>,
+    /// Each row's standard deviation (brdf units, finite, >= 0), in file order; empty
+    /// without a std column.
+    pub std: Vec<f64>,
     /// The delimiter the table was read with.
     pub delimiter: Delimiter,
 }
@@ -77,7 +93,8 @@ pub fn delimiter_name(d: Delimiter) -> &'static str {
 /// Reads `text` as `spec` says. Errors are one line with the 1-based line number: a
 /// header without a named column (listing what it holds), a short row, a number that
 /// is not finite, an angle out of range (theta_i in [0, 90], theta_r in [-90, 90]
-/// degrees after conversion), a BRDF magnitude the fit cannot take, or no rows.
+/// degrees after conversion), a BRDF magnitude the fit cannot take, a negative std, or
+/// no rows.
 pub fn read_table(text: &str, spec: &TableSpec) -> Result<Table, (usize, String)> {
     // Lines of the table proper: after the skipped preamble, `#` and blank lines.
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
@@ -98,17 +115,19 @@ pub fn read_table(text: &str, spec: &TableSpec) -> Result<Table, (usize, String)
             "--decimal-comma with ',' as the delimiter: a comma cannot be both (give --delimiter ';' or tab)".into(),
         ));
     }
+    let columns: Vec<&ColumnRef> = spec.columns.iter().chain(&spec.std).collect();
     let idx = if spec.no_header {
-        positions(&spec.columns)?
+        positions(&columns)?
     } else {
         let (line, header) = lines.next().expect("peeked");
         let names = split(header, delimiter).map_err(|m| (line, m))?;
-        header_positions(&names, &spec.columns, delimiter).map_err(|m| (line, m))?
+        header_positions(&names, &columns, delimiter).map_err(|m| (line, m))?
     };
     let mut rows = Vec::new();
+    let mut std = Vec::new();
     for (line, raw) in lines {
         let fields = split(raw, delimiter).map_err(|m| (line, m))?;
-        let mut v = [0.0; 3];
+        let mut v = [0.0; 4];
         for (k, &i) in idx.iter().enumerate() {
             let field = fields.get(i).ok_or_else(|| {
                 (
@@ -137,12 +156,26 @@ pub fn read_table(text: &str, spec: &TableSpec) -> Result<Table, (usize, String)
                 )
             })?;
         }
-        rows.push(to_sweep_row(v, spec).map_err(|m| (line, m))?);
+        rows.push(to_sweep_row([v[0], v[1], v[2]], spec).map_err(|m| (line, m))?);
+        if idx.len() == 4 {
+            // Finite already; a spread cannot be negative.
+            if v[3] < 0.0 {
+                return Err((
+                    line,
+                    format!("std {} is negative: a standard deviation is >= 0", v[3]),
+                ));
+            }
+            std.push(v[3]);
+        }
     }
     if rows.is_empty() {
         return Err((first_line, "a header row but no rows".into()));
     }
-    Ok(Table { rows, delimiter })
+    Ok(Table {
+        rows,
+        std,
+        delimiter,
+    })
 }
 
 /// The delimiter of a table whose first line is `first`: as the sweep reader sniffs
@@ -225,12 +258,13 @@ fn split(line: &str, delimiter: Delimiter) -> Result<Vec<String>, String> {
     }
 }
 
-/// 0-based positions of [`ColumnRef::Position`]s (a table without a header row).
-fn positions(columns: &[ColumnRef; 3]) -> Result<[usize; 3], (usize, String)> {
-    let mut idx = [0; 3];
+/// 0-based positions of [`ColumnRef::Position`]s (a table without a header row), in
+/// [`QUANTITIES`] order.
+fn positions(columns: &[&ColumnRef]) -> Result<Vec<usize>, (usize, String)> {
+    let mut idx = vec![0; columns.len()];
     for (k, c) in columns.iter().enumerate() {
         match c {
-            ColumnRef::Position(p) if *p >= 1 => idx[k] = p - 1,
+            ColumnRef::Position(p) if *p >= 1 => idx[k] = *p - 1,
             _ => {
                 return Err((
                     1,
@@ -245,13 +279,13 @@ fn positions(columns: &[ColumnRef; 3]) -> Result<[usize; 3], (usize, String)> {
     Ok(idx)
 }
 
-/// 0-based positions of the columns in the header row `names`.
+/// 0-based positions of the columns in the header row `names`, in [`QUANTITIES`] order.
 fn header_positions(
     names: &[String],
-    columns: &[ColumnRef; 3],
+    columns: &[&ColumnRef],
     delimiter: Delimiter,
-) -> Result<[usize; 3], String> {
-    let mut idx = [0; 3];
+) -> Result<Vec<usize>, String> {
+    let mut idx = vec![0; columns.len()];
     for (k, c) in columns.iter().enumerate() {
         idx[k] = match c {
             ColumnRef::Position(p) if (1..=names.len()).contains(p) => p - 1,
@@ -294,10 +328,10 @@ fn header_positions(
     Ok(idx)
 }
 
-/// Parses `--columns theta_i=A,theta_r=B,brdf=C` (in any order; a value of digits is a
-/// 1-based column number).
-pub fn parse_columns(spec: &str) -> Result<[ColumnRef; 3], String> {
-    let mut out: [Option<ColumnRef>; 3] = [None, None, None];
+/// Parses `--columns theta_i=A,theta_r=B,brdf=C[,std=D]` (in any order; a value of
+/// digits is a 1-based column number).
+pub fn parse_columns(spec: &str) -> Result<Columns, String> {
+    let mut out: [Option<ColumnRef>; 4] = [None, None, None, None];
     for item in spec.split(',').map(str::trim).filter(|s| !s.is_empty()) {
         let (key, value) = item.split_once('=').ok_or_else(|| {
             format!("--columns '{item}': expected QUANTITY=COLUMN, e.g. theta_i=AOI")
@@ -307,7 +341,7 @@ pub fn parse_columns(spec: &str) -> Result<[ColumnRef; 3], String> {
             .position(|q| q.eq_ignore_ascii_case(key.trim()))
             .ok_or_else(|| {
                 format!(
-                    "--columns '{item}': '{}' is not one of theta_i, theta_r, brdf",
+                    "--columns '{item}': '{}' is not one of theta_i, theta_r, brdf, std",
                     key.trim()
                 )
             })?;
@@ -324,8 +358,11 @@ pub fn parse_columns(spec: &str) -> Result<[ColumnRef; 3], String> {
         });
     }
     match out {
-        [Some(a), Some(b), Some(c)] => Ok([a, b, c]),
-        _ => Err("--columns needs theta_i=..., theta_r=... and brdf=... (names in the header row, or 1-based numbers)".into()),
+        [Some(a), Some(b), Some(c), std] => Ok(Columns {
+            required: [a, b, c],
+            std,
+        }),
+        _ => Err("--columns needs theta_i=..., theta_r=... and brdf=... (names in the header row, or 1-based numbers; std=... optional)".into()),
     }
 }
 

@@ -6,7 +6,7 @@ use super::*;
 
 fn spec(columns: &str) -> TableSpec {
     TableSpec {
-        columns: parse_columns(columns).unwrap(),
+        columns: parse_columns(columns).unwrap().required,
         delimiter: None,
         decimal_comma: false,
         radians: false,
@@ -14,6 +14,7 @@ fn spec(columns: &str) -> TableSpec {
         no_header: false,
         skip_lines: 0,
         units: BrdfUnits::PerSr,
+        std: parse_columns(columns).unwrap().std,
     }
 }
 
@@ -129,11 +130,20 @@ fn bad_tables_are_refused_with_their_line() {
 fn column_specs_are_checked() {
     assert_eq!(
         parse_columns("brdf=3, theta_r=AOS ,theta_i=1").unwrap(),
-        [
-            ColumnRef::Position(1),
-            ColumnRef::Name("AOS".into()),
-            ColumnRef::Position(3)
-        ]
+        Columns {
+            required: [
+                ColumnRef::Position(1),
+                ColumnRef::Name("AOS".into()),
+                ColumnRef::Position(3)
+            ],
+            std: None
+        }
+    );
+    assert_eq!(
+        parse_columns("theta_i=a,theta_r=b,brdf=c,STD=4")
+            .unwrap()
+            .std,
+        Some(ColumnRef::Position(4))
     );
     for (bad, says) in [
         ("theta_i=a,theta_r=b", "needs theta_i"),
@@ -144,6 +154,8 @@ fn column_specs_are_checked() {
         ("phi=a,theta_r=b,brdf=c", "'phi' is not one of"),
         ("theta_i,theta_r=b,brdf=c", "expected QUANTITY=COLUMN"),
         ("theta_i=,theta_r=b,brdf=c", "no column after '='"),
+        ("theta_i=a,theta_r=b,std=c", "needs theta_i"),
+        ("theta_i=a,theta_r=b,brdf=c,std=d,std=e", "names std twice"),
     ] {
         let e = parse_columns(bad).unwrap_err();
         assert!(e.contains(says), "{bad}: {e}");
@@ -173,4 +185,53 @@ fn the_scatterworks_table_matches_its_awk_conversion() {
     for (a, b) in kept.iter().zip(&awk.rows) {
         assert_eq!((a.0, a.1, a.2), (b.theta_i, b.theta_r, b.brdf));
     }
+}
+
+/// A std column is read per row, refused when negative or not finite, and written as
+/// the sweep's std with n = 1, which the sweep reader and the fit's dataset take as
+/// each reading's standard error (std / sqrt(1)).
+#[test]
+fn a_std_column_becomes_the_sweeps_std() {
+    let s = spec("theta_i=AOI,theta_r=AOS,brdf=BRDF,std=Sigma");
+    let t = read_table("AOI;AOS;BRDF;Sigma\n20;-10;0.5;0.01\n20;30;1.5;0\n", &s).unwrap();
+    assert_eq!(t.rows, vec![(20.0, -10.0, 0.5), (20.0, 30.0, 1.5)]);
+    assert_eq!(t.std, vec![0.01, 0.0]);
+    // Without std=..., no std is read even when the table has the column.
+    let t3 = read_table(
+        "AOI;AOS;BRDF;Sigma\n20;-10;0.5;0.01\n",
+        &spec("theta_i=AOI,theta_r=AOS,brdf=BRDF"),
+    )
+    .unwrap();
+    assert!(t3.std.is_empty());
+    for (text, says) in [
+        (
+            "AOI,AOS,BRDF,Sigma\n20,-10,0.5,-0.01\n",
+            "std -0.01 is negative",
+        ),
+        (
+            "AOI,AOS,BRDF,Sigma\n20,-10,0.5,nan\n",
+            "std 'nan' is not a finite number",
+        ),
+        (
+            "AOI,AOS,BRDF,Sigma\n20,-10,0.5,inf\n",
+            "std 'inf' is not a finite number",
+        ),
+        (
+            "AOI,AOS,BRDF,Sigma\n20,-10,0.5\n",
+            "the std column is number 4",
+        ),
+        ("AOI,AOS,BRDF\n20,-10,0.5\n", "no column 'Sigma' for std"),
+    ] {
+        let (line, m) = read_table(text, &s).unwrap_err();
+        assert!(m.contains(says) && !m.contains('\n'), "{text:?}: {m}");
+        assert_eq!(line, if says.starts_with("no column") { 1 } else { 2 });
+    }
+    let mut out = Vec::new();
+    crate::import::write_sweep(&mut out, &["brdf: 1/sr".into()], &t.rows, &t.std).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("s.csv");
+    std::fs::write(&path, &out).unwrap();
+    let sweep = crate::sweep_file::read_sweep(&path).unwrap();
+    let got: Vec<_> = sweep.rows.iter().map(|r| (r.std, r.n)).collect();
+    assert_eq!(got, vec![(Some(0.01), Some(1)), (Some(0.0), Some(1))]);
 }

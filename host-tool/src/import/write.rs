@@ -7,19 +7,30 @@ use super::error::ImportError;
 /// Writes an imported sweep: `# gonio sweep v1`, each of `meta` as a `# ` line (the
 /// caller's `source:`, `units: degrees` and `brdf:` lines among them), the header row
 /// `theta_i,theta_r,brdf`, then `rows` (degrees, degrees signed, BRDF) each value in its
-/// shortest exact (round-trip) form.
+/// shortest exact (round-trip) form. With `std` (one per row; empty: none) the header
+/// adds `std,n` and each row its std with n = 1: the value is the reading's own standard
+/// deviation, and the sweep's standard error of a reading is std / sqrt(n).
 pub fn write_sweep(
     w: &mut impl Write,
     meta: &[String],
     rows: &[(f64, f64, f64)],
+    std: &[f64],
 ) -> io::Result<()> {
+    assert!(std.is_empty() || std.len() == rows.len(), "one std per row");
     writeln!(w, "# gonio sweep v1")?;
     for line in meta {
         writeln!(w, "# {line}")?;
     }
-    writeln!(w, "theta_i,theta_r,brdf")?;
-    for &(ti, tr, f) in rows {
-        writeln!(w, "{ti},{tr},{f}")?;
+    if std.is_empty() {
+        writeln!(w, "theta_i,theta_r,brdf")?;
+        for &(ti, tr, f) in rows {
+            writeln!(w, "{ti},{tr},{f}")?;
+        }
+    } else {
+        writeln!(w, "theta_i,theta_r,brdf,std,n")?;
+        for (&(ti, tr, f), s) in rows.iter().zip(std) {
+            writeln!(w, "{ti},{tr},{f},{s},1")?;
+        }
     }
     Ok(())
 }
@@ -31,8 +42,9 @@ pub fn write_file(
     target: crate::outfile::Target<'_>,
     meta: &[String],
     rows: &[(f64, f64, f64)],
+    std: &[f64],
 ) -> Result<(), ImportError> {
     Ok(crate::outfile::write(target, |mut w| {
-        write_sweep(&mut w, meta, rows)
+        write_sweep(&mut w, meta, rows, std)
     })?)
 }

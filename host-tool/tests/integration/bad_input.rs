@@ -96,6 +96,10 @@ fn fixtures() -> Scratch {
     w("fit-aoi.csv", b"AOI;AOS;BRDF\n20;20;5\n20;30;4\n20;40;3\n");
     w("table-comma.csv", b"AOI;AOS;BRDF\n20;20;0,5\n");
     w(
+        "table-std.csv",
+        b"AOI;AOS;BRDF;SIGMA\n20;20;0.5;0.01\n20;25;0.4;-0.01\n",
+    );
+    w(
         "persr.csv",
         b"# brdf: 1/sr\ntheta_i,theta_r,brdf\n20,20,5\n20,30,4\n20,40,3\n",
     );
@@ -796,6 +800,22 @@ const CASES: &[Case] = &[
         ],
         2,
         "table-comma.csv:2: brdf '0,5' is not a finite number (a decimal comma? give --decimal-comma)",
+        "t.csv",
+    ),
+    out(
+        &[
+            "import",
+            "table",
+            "{d}/table-std.csv",
+            "--out",
+            "{d}/t.csv",
+            "--columns",
+            "theta_i=AOI,theta_r=AOS,brdf=BRDF,std=SIGMA",
+            "--brdf",
+            "1/sr",
+        ],
+        2,
+        "table-std.csv:3: std -0.01 is negative: a standard deviation is >= 0",
         "t.csv",
     ),
     out(

@@ -90,6 +90,7 @@ pub(super) fn unit_lobe(dist: Distribution, sigma: f64) -> MemberParams<f64> {
         haze: None,
         directional: None,
         ideal: None,
+        abg: None,
     }
 }
 
@@ -356,6 +357,7 @@ impl<'a> GridBases<'a> {
                             sigma_m: sm,
                         }),
                         ideal: None,
+                        abg: None,
                     };
                     match self.aperture {
                         None => directional_values(self.data, &p),

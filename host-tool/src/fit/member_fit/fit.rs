@@ -72,6 +72,23 @@ pub(super) fn fit_member_keeping(
     if undetermined(data, &layout, &fixed) {
         return Err(NotFitted::Undetermined);
     }
+    if member.abg {
+        // Its own start grid (over B and g), then LM as for every member.
+        let resid = Residuals::new(data, residual);
+        let lm = LmOptions::default();
+        let mut p = Problem::new(data, layout.clone(), residual, &resid, aperture);
+        let mut best: Option<(f64, Vec<f64>, bool, Option<Normal>)> = None;
+        for x0 in super::abg::abg_starts(bases, &layout, &resid) {
+            p.pinned.clone_from(&fixed);
+            p.fixed.clone_from(&fixed);
+            if let Some(r) = refine(&mut p, x0, &lm, &|_, _| false)
+                && best.as_ref().is_none_or(|b| r.0 < b.0)
+            {
+                best = Some(r);
+            }
+        }
+        return conclude(&mut p, bases.loss, best, held, &lm);
+    }
     let grid = Grid::new(bases, member);
     let (core_w, haze_w) = (&grid.core_w, &grid.haze_w);
     let resid = Residuals::new(data, residual);
@@ -156,11 +173,23 @@ pub(super) fn fit_member_keeping(
             best = Some((c, x, converged, normal));
         }
     }
+    conclude(&mut p, bases.loss, best, held, &lm)
+}
+
+/// The fit from the best LM optimum of the starts (cost, x, converged, normal
+/// equations): under a robust loss reweighted from there, else finished there.
+fn conclude(
+    p: &mut Problem<'_>,
+    loss: Loss,
+    best: Option<(f64, Vec<f64>, bool, Option<Normal>)>,
+    held: Vec<Option<f64>>,
+    lm: &LmOptions,
+) -> Result<MemberFit, NotFitted> {
     let (ssr, x, converged, normal) = best.ok_or(NotFitted::NoStart)?;
-    if bases.loss != Loss::L2 {
-        return reweighted(&p, bases.loss, x, &lm, held).ok_or(NotFitted::NoStart);
+    if loss != Loss::L2 {
+        return reweighted(p, loss, x, lm, held).ok_or(NotFitted::NoStart);
     }
-    finish(&mut p, x, ssr, converged, normal, held).ok_or(NotFitted::NoStart)
+    finish(p, x, ssr, converged, normal, held).ok_or(NotFitted::NoStart)
 }
 
 /// IRLS passes of a robust loss after the least-squares optimum: each pass weights

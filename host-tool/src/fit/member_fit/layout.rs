@@ -1,5 +1,6 @@
 //! Where each parameter of a member lives in the LM vector, its bounds, and the models it gives.
 
+use brdf_core::abg::{AbgParams, G_MAX};
 use brdf_core::lobe::SmoothKs;
 use brdf_core::member::{KsForm, LobeSpec, Member};
 use brdf_core::member_model::{DirectionalParams, Ks, LobeParams, MemberModel, MemberParams};
@@ -11,6 +12,16 @@ use super::super::options::{AMPLITUDE_BOUNDS, Fixed, SIGMA_BOUNDS, SIGMA_M_BOUND
 /// A haze grid point is used only when at least this many times the core's width
 /// (the two lobes then keep their roles: core narrow, haze wide).
 pub const HAZE_OVER_CORE: f64 = 3.0;
+
+/// ABg's B, bounded: below 1e-12 the peak A/B is narrower than any goniometer's
+/// resolution (|b - b0| = B^(1/g), 1e-6 at g = 2, is 0.2 arc seconds); above 1e3 the
+/// model is flat to 0.1 % over the hemisphere (|b - b0|^g <= 2^g <= 16) and B trades
+/// against A alone.
+pub const ABG_B_BOUNDS: (f64, f64) = (1e-12, 1e3);
+
+/// ABg's smallest g: below it |b - b0|^g is flat to within a few per cent from a
+/// degree off the peak to the horizon, and g trades against B.
+pub const ABG_G_MIN: f64 = 0.05;
 
 /// Where each parameter lives in the LM vector: globals first, then per incidence the
 /// local k_s of the core lobe, then of the haze lobe (per-incidence lobes only).
@@ -34,6 +45,12 @@ pub struct Layout {
     pub core_poly: Option<usize>,
     /// c0..c2 of the haze's smooth k_s.
     pub haze_poly: Option<usize>,
+    /// ln A of ABg (an amplitude).
+    pub abg_a: Option<usize>,
+    /// ln B of ABg.
+    pub abg_b: Option<usize>,
+    /// g of ABg, itself (not its logarithm): an exponent of order 1.
+    pub abg_g: Option<usize>,
     /// Number of globals.
     pub n_global: usize,
     /// Per incidence: the core's k_s is local (slot 0).
@@ -62,6 +79,9 @@ impl Layout {
         let smooth = |l: Option<LobeSpec>| l.is_some_and(|l| l.ks == KsForm::Smooth);
         let core_poly = take(smooth(member.core), 3);
         let haze_poly = take(smooth(member.haze), 3);
+        let abg_a = take(member.abg, 1);
+        let abg_b = take(member.abg, 1);
+        let abg_g = take(member.abg, 1);
         let per = |l: Option<LobeSpec>| l.is_some_and(|l| l.ks == KsForm::PerIncidence);
         Layout {
             member,
@@ -72,6 +92,9 @@ impl Layout {
             kid,
             core_poly,
             haze_poly,
+            abg_a,
+            abg_b,
+            abg_g,
             n_global: n,
             core_local: per(member.core),
             haze_local: per(member.haze),
@@ -107,11 +130,11 @@ impl Layout {
         self.n_global + j * self.n_local() + usize::from(haze && self.core_local)
     }
 
-    /// Parameter `i` is a linear amplitude (k_dd, k_id or a per-incidence k_s) in its
-    /// log coordinate.
+    /// Parameter `i` is a linear amplitude (k_dd, k_id, ABg's A or a per-incidence
+    /// k_s) in its log coordinate.
     #[inline]
     pub fn is_amplitude(&self, i: usize) -> bool {
-        Some(i) == self.kdd || Some(i) == self.kid || i >= self.n_global
+        Some(i) == self.kdd || Some(i) == self.kid || Some(i) == self.abg_a || i >= self.n_global
     }
 
     /// The haze width is a ratio to the core's (see [`Layout::sigma_haze`]).
@@ -131,7 +154,8 @@ impl Layout {
         })
     }
 
-    /// Box bounds of parameter `i` (log coordinates; smooth c1, c2 plain).
+    /// Box bounds of parameter `i` (log coordinates; smooth c1, c2 and ABg's g plain).
+    /// ABg's B in [`ABG_B_BOUNDS`], g in [[`ABG_G_MIN`], [`G_MAX`]].
     #[inline]
     pub fn bounds(&self, i: usize) -> (f64, f64) {
         let poly = |p: Option<usize>| p.is_some_and(|p| i > p && i < p + 3);
@@ -142,6 +166,10 @@ impl Layout {
             ln(SIGMA_BOUNDS)
         } else if Some(i) == self.sigma_m {
             ln(SIGMA_M_BOUNDS)
+        } else if Some(i) == self.abg_b {
+            ln(ABG_B_BOUNDS)
+        } else if Some(i) == self.abg_g {
+            (ABG_G_MIN, G_MAX)
         } else if poly(self.core_poly) || poly(self.haze_poly) {
             (-60.0, 60.0)
         } else {
@@ -180,6 +208,11 @@ impl Layout {
                 sigma_m: x[self.sigma_m.unwrap_or(0)].exp(),
             }),
             ideal: self.kid.map(|i| x[i].exp()),
+            abg: self.abg_a.map(|i| AbgParams {
+                a: x[i].exp(),
+                b: x[self.abg_b.unwrap_or(i)].exp(),
+                g: x[self.abg_g.unwrap_or(i)],
+            }),
         }
     }
 

@@ -14,8 +14,10 @@
 //! Where things live: [`fit`] (one member from the grid's starts, robust losses by
 //! IRLS), [`bases`] (the width grid's shared unit bases), [`grid`] (the grid search),
 //! [`refine`] (LM from one start), [`problem`] (the LM problem and its row pass),
-//! [`layout`] (the parameter vector), [`result`] ([`MemberFit`]).
+//! [`layout`] (the parameter vector), [`result`] ([`MemberFit`]), [`abg`] (the ABg
+//! member's own start grid, over B and g).
 
+pub mod abg;
 pub mod bases;
 pub mod fit;
 pub mod grid;

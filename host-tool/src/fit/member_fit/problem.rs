@@ -275,6 +275,9 @@ impl Problem<'_> {
                 set(l.sigma_m, g.ln_sigma_m);
                 set(l.kdd, g.ln_kdd);
                 set(l.kid, g.ln_kid);
+                set(l.abg_a, g.abg_ln_a);
+                set(l.abg_b, g.abg_ln_b);
+                set(l.abg_g, g.abg_g);
                 for (poly, lg) in [(l.core_poly, &g.core), (l.haze_poly, &g.haze)] {
                     if let Some(p) = poly {
                         jg[p] = scale * lg.ln_ks;

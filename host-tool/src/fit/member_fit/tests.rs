@@ -33,6 +33,7 @@ fn two_lobe_rows(core: f64, haze: f64, noise: f64, seed: u32) -> Vec<Row> {
             haze: lobe(haze, 0.3),
             directional: None,
             ideal: Some(0.01),
+            abg: None,
         };
         let m = MemberModel::new(&p).unwrap();
         for k in 0..=356 {
@@ -119,6 +120,7 @@ fn a_single_lobe_one_reading_step_wide_is_found() {
             haze: None,
             directional: None,
             ideal: Some(0.01),
+            abg: None,
         };
         let f = MemberModel::new(&p)
             .unwrap()
@@ -201,6 +203,7 @@ fn aperture_averaging_removes_the_detectors_blur() {
         haze: None,
         directional: None,
         ideal: Some(0.01),
+        abg: None,
     };
     let m = MemberModel::new(&p).unwrap();
     let ap = brdf_core::aperture::Aperture::for_model(1.0, &m).unwrap();

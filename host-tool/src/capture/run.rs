@@ -17,7 +17,7 @@ use super::progress::ProgressSink;
 use super::setup::{CaptureReport, CaptureSetup};
 use super::sweep::{Outcome, Step, SweepState};
 use crate::device::{Connector, FramedLink, LinkError};
-use crate::sweep_file::{Header, Row, SweepStatus, SweepWriter};
+use crate::sweep_file::{Header, Row, SweepFileError, SweepStatus, SweepWriter, row_problem};
 
 /// One capture in progress: the plan, the file being written and what it holds.
 struct Run<'a, C: Connector> {
@@ -59,7 +59,14 @@ pub fn capture<C: Connector>(
 ) -> Result<CaptureReport> {
     // Every output is checked (and a resumed file locked) before the device is touched.
     let resumed = if setup.resume {
-        Some(SweepWriter::resume(&setup.out)?)
+        let (writer, data) = SweepWriter::resume(&setup.out)?;
+        check::check_recorded(&data.rows, &data.points).map_err(|m| {
+            SweepFileError::Invalid(format!(
+                "{}: {m}: the file mixes two plans or was edited; cannot resume it",
+                setup.out.display()
+            ))
+        })?;
+        Some((writer, data))
     } else {
         SweepWriter::check_new(&setup.out, setup.force)?;
         None
@@ -540,10 +547,7 @@ impl<C: Connector> Run<'_, C> {
             }
             check::Verdict::OtherPlan(why) => return Err(self.other_plan(&why)),
         }
-        if !self.present.insert(seq) {
-            return Ok(()); // a duplicate: already in the file
-        }
-        self.writer.append(&Row {
+        let row = Row {
             theta_i: shortest(r.theta_i),
             theta_r: shortest(r.theta_r),
             brdf: shortest(r.value),
@@ -551,7 +555,25 @@ impl<C: Connector> Run<'_, C> {
             n: Some(r.n as u32),
             seq: Some(seq),
             t_ms: Some(r.t_ms as u64),
-        })?;
+        };
+        // What the file's readers would refuse (a brdf of 1e-35 or 3e38: finite, but
+        // outside the range read) is not written: counted, its point measured again.
+        if let Some(why) = row_problem(&row) {
+            self.reject(&format!("reading {}: {why}", r.seq));
+            return Ok(());
+        }
+        if self.present.contains(&seq) {
+            return Ok(()); // a duplicate: already in the file
+        }
+        if let Err(e) = self.writer.append(&row) {
+            // The file ends at its last whole row (the writer cut a partial one away):
+            // marked failed where the disk still allows it, and resumable.
+            let _ = self.writer.set_status(SweepStatus::Failed);
+            return Err(CaptureError::File(SweepFileError::Io(format!(
+                "{e}; the file holds every reading before it: free space, then continue with --resume"
+            ))));
+        }
+        self.present.insert(seq);
         self.progress
             .reading(self.present.len() as u64, r.theta_i, r.theta_r);
         Ok(())

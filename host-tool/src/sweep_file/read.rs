@@ -5,7 +5,10 @@ use std::collections::BTreeMap;
 use std::io::Read;
 use std::path::Path;
 
-use super::format::{COLUMNS, Counters, Row, STATUS_PREFIX, SweepFileError};
+use super::format::{
+    BRDF_MAX, BRDF_MIN, COLUMNS, Counters, Row, STATUS_PREFIX, SweepFileError, brdf_in_range,
+    row_problem,
+};
 use super::header_row::{header_columns, sniff_delimiter};
 use super::units::{BRDF_KEY, BrdfUnits};
 use crate::text::escape_line;
@@ -13,13 +16,6 @@ use crate::text::escape_line;
 /// Largest sweep file read (bytes): a 240-point capture is about 10 kB, a dense
 /// in-plane export about 0.5 MB; anything larger is refused before it is read.
 pub const MAX_SWEEP_BYTES: u64 = 64 << 20;
-
-/// Readings of a magnitude outside [`BRDF_MIN`, `BRDF_MAX`] (other than 0) are refused:
-/// the fit works with their logarithms and squares, which over- or underflow there.
-pub const BRDF_MIN: f64 = 1e-30;
-
-/// See [`BRDF_MIN`].
-pub const BRDF_MAX: f64 = 1e30;
 
 /// Characters of a field quoted in a message (escaped, see [`escape_line`]).
 const QUOTE_CHARS: usize = 40;
@@ -538,8 +534,7 @@ fn parse_row(
         seq: int32(idx[5], "seq")?,
         t_ms: int(idx[6], "t_ms")?,
     };
-    let b = row.brdf.abs();
-    if b != 0.0 && !(BRDF_MIN..=BRDF_MAX).contains(&b) {
+    if !brdf_in_range(row.brdf) {
         return Err((
             lineno,
             format!(
@@ -549,6 +544,10 @@ fn parse_row(
                 row.theta_r
             ),
         ));
+    }
+    // What no writer writes, no reader reads (angles beyond any arm, absurd std).
+    if let Some(m) = row_problem(&row) {
+        return Err((lineno, m));
     }
     Ok(row)
 }

@@ -48,6 +48,27 @@ fn shortest(x: f32) -> f64 {
     x.to_string().parse().unwrap_or(x as f64)
 }
 
+/// Makes and removes a private file beside `out`, so that a directory gonio cannot
+/// write (read-only, a read-only mount, /proc) is found before the device is touched
+/// (handshake, homing), not when the file is created after them.
+fn probe_writable(out: &std::path::Path) -> Result<(), SweepFileError> {
+    let dir = match out.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => std::path::Path::new("."),
+    };
+    tempfile::Builder::new()
+        .prefix(".gonio-probe")
+        .tempfile_in(dir)
+        .map(drop)
+        .map_err(|e| {
+            SweepFileError::Invalid(format!(
+                "cannot write {}: cannot create a file in {}: {e} (choose a directory you can write to)",
+                out.display(),
+                dir.display()
+            ))
+        })
+}
+
 /// Runs a capture. Returns the report; the caller turns an incomplete one into an
 /// exit status. Bad input (a plan outside the device's travel, an existing file without
 /// `--force`) is an error before anything is measured.
@@ -69,6 +90,7 @@ pub fn capture<C: Connector>(
         Some((writer, data))
     } else {
         SweepWriter::check_new(&setup.out, setup.force)?;
+        probe_writable(&setup.out)?;
         None
     };
     if let Some(raw) = &setup.raw {

@@ -19,6 +19,8 @@ pub fn write_sweep(
     }
     writeln!(w, "theta_i,theta_r,brdf")?;
     for &(ti, tr, f) in rows {
+        // -0.0 (a MERL cell) is a reading of 0: written `0`, not `-0`.
+        let f = if f == 0.0 { 0.0 } else { f };
         writeln!(w, "{ti},{tr},{f}")?;
     }
     Ok(())
@@ -35,4 +37,19 @@ pub fn write_file(
     Ok(crate::outfile::write(target, |mut w| {
         write_sweep(&mut w, meta, rows)
     })?)
+}
+
+#[cfg(test)]
+mod tests {
+    /// Issue 41 item 7: a cell of -0.0 is written as 0.
+    #[test]
+    fn negative_zero_is_written_as_zero() {
+        let mut out = Vec::new();
+        super::write_sweep(&mut out, &[], &[(10.0, -20.0, -0.0), (10.0, 20.0, 0.5)]).unwrap();
+        let text = String::from_utf8(out).unwrap();
+        assert!(
+            text.ends_with("theta_i,theta_r,brdf\n10,-20,0\n10,20,0.5\n"),
+            "{text}"
+        );
+    }
 }

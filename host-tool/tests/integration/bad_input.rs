@@ -1516,8 +1516,8 @@ const CASES: &[Case] = &[
     ),
     case(
         &["simulate", "--material", "fe-0.115", "--out", "/proc/x.csv"],
-        1,
-        "/proc/x.csv",
+        2,
+        "cannot write /proc/x.csv: cannot create a file in /proc",
     ),
     out(
         &[

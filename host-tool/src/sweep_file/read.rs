@@ -44,7 +44,7 @@ pub struct SweepData {
     pub(super) no_final_newline: bool,
     /// Line of the `points` metadata.
     pub(super) points_line: usize,
-    /// Angle pairs read more than once with different values (files without `seq`).
+    /// Angle pairs read more than once with different values, one of the rows without `seq`.
     pub(super) repeats: Repeats,
 }
 
@@ -341,7 +341,7 @@ impl LineCounter<'_> {
     }
 }
 
-/// A repeated angle pair with another value, in a file without `seq`.
+/// A repeated angle pair with another value, where one of the two rows has no `seq`.
 #[derive(Debug, Clone, Default)]
 pub(super) struct Repeats {
     /// Angle pairs read again with another value.
@@ -376,7 +376,8 @@ fn read_table(
     let mut rec = csv::ByteRecord::new();
     let mut col: Option<[Option<usize>; 7]> = None;
     let mut seq_line: BTreeMap<u32, (usize, Row)> = BTreeMap::new();
-    let mut pair_line: std::collections::HashMap<(u64, u64), (usize, f64)> =
+    // Each angle pair's first line, value and whether it had a seq.
+    let mut pair_line: std::collections::HashMap<(u64, u64), (usize, f64, bool)> =
         std::collections::HashMap::new();
     if !table.is_empty() {
         data.complete_len = (at + table.len()) as u64;
@@ -435,10 +436,14 @@ fn read_table(
             } else {
                 seq_line.insert(seq, (lineno, row));
             }
-        } else {
-            let key = (row.theta_i.to_bits(), row.theta_r.to_bits());
+        }
+        // The same angles read again with another value, where at least one of the
+        // two rows has no seq (a file without seq, or rows with and without mixed):
+        // flagged. Two seqs at one angle pair are two plan points.
+        let key = (row.theta_i.to_bits(), row.theta_r.to_bits());
+        {
             match pair_line.get(&key) {
-                Some(&(first, v)) if v != row.brdf => {
+                Some(&(first, v, had_seq)) if v != row.brdf && !(had_seq && row.seq.is_some()) => {
                     data.repeats.count += 1;
                     data.repeats.first.get_or_insert((
                         lineno,
@@ -451,7 +456,7 @@ fn read_table(
                 }
                 Some(_) => {}
                 None => {
-                    pair_line.insert(key, (lineno, row.brdf));
+                    pair_line.insert(key, (lineno, row.brdf, row.seq.is_some()));
                 }
             }
         }

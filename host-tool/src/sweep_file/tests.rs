@@ -423,3 +423,21 @@ fn resume_says_running_while_it_writes_and_counts_from_the_rows() {
     assert_eq!(data.rows, (0..3).map(row).collect::<Vec<_>>());
     assert_eq!((data.counters.readings, data.counters.missing), (3, 0));
 }
+
+/// Issue 41 item 6: a row without seq at the angles of a row with one, with another
+/// value, is flagged (two captures' rows mixed by hand); two seqs at one angle pair
+/// are two plan points and are not.
+#[test]
+fn rows_with_and_without_seq_at_the_same_angles_are_flagged() {
+    let mixed = b"theta_i,theta_r,brdf,seq\n20,20,5,0\n20,30,6,1\n20,20,7,\n";
+    let data = parse_sweep(mixed).unwrap();
+    assert_eq!(data.rows.len(), 3);
+    let w = data.warnings();
+    assert!(
+        w.iter()
+            .any(|m| m.contains("line 4, theta_i 20 theta_r 20: 7 after 5 on line 2")),
+        "{w:?}"
+    );
+    let two_points = b"theta_i,theta_r,brdf,seq\n20,20,5,0\n20,20,7,1\n";
+    assert!(parse_sweep(two_points).unwrap().warnings().is_empty());
+}

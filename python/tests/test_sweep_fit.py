@@ -226,3 +226,12 @@ def test_fit_all_starts_as_on_the_command_line(gonio_bin, tmp_path):
     # A flag, as on the command line: "no" is not read as true.
     with pytest.raises(TypeError):
         gonio.fit(path, all_starts="no")
+
+
+def test_eval_grid_refuses_a_grid_too_large_before_allocating():
+    # Issue 41 item 4: 10^5 x 10^6 angles asked for 800 GB and aborted the interpreter.
+    m = gonio.Model.preset("cu-0.070")
+    for precision in ("f64", "f32"):
+        with pytest.raises(gonio.GonioError, match="100000 x 1000000 angles"):
+            m.eval_grid(np.zeros(100_000), np.zeros(1_000_000), precision=precision)
+    assert m.eval_grid(np.array([10.0, 20.0]), np.array([0.0, 5.0, 10.0])).shape == (2, 3)

@@ -43,7 +43,10 @@ pub fn read_sweep(path: &Path) -> Result<Sweep, String> {
         .map_err(|e| e.to_string())
 }
 
-/// Writes a complete sweep file with the capture's writer.
+/// Writes a complete sweep file with the capture's writer (the one writer: metadata
+/// values one line each, rows the reader reads back the same, else an error naming the
+/// value). Each row is its own plan point: its `seq` is its index, so the file reads
+/// back complete, every plan point with its reading.
 pub fn write_sweep(
     path: &Path,
     rows: &[Row],
@@ -52,6 +55,22 @@ pub fn write_sweep(
     settings: &str,
     force: bool,
 ) -> Result<(), String> {
+    let rows: Vec<Row> = rows
+        .iter()
+        .enumerate()
+        .map(|(k, r)| Row {
+            seq: u32::try_from(k).ok(),
+            ..*r
+        })
+        .collect();
+    // Every row checked before the file is created: a refusal leaves nothing behind.
+    if let Some((k, m)) = rows
+        .iter()
+        .enumerate()
+        .find_map(|(k, r)| sweep_file::row_problem(r).map(|m| (k, m)))
+    {
+        return Err(format!("{}: row {k}: {m}; nothing written", path.display()));
+    }
     let header = Header {
         device: device.into(),
         plan: plan.into(),
@@ -63,7 +82,7 @@ pub fn write_sweep(
             .collect(),
     };
     let mut w = SweepWriter::create(path, &header, force).map_err(|e| e.to_string())?;
-    for r in rows {
+    for r in &rows {
         w.append(r).map_err(|e| e.to_string())?;
     }
     w.set_status(Status::Complete).map_err(|e| e.to_string())

@@ -64,6 +64,22 @@ fn lobe_ks(what: &str, form: KsForm, ks: Option<&Bound<'_, PyAny>>) -> PyResult<
     }
 }
 
+/// Most values `Model.eval_grid` makes (theta_i x theta_r): 10^8 f64 are 800 MB. A
+/// larger grid is refused before anything is allocated (10^5 x 10^6 angles asked for
+/// 800 GB and aborted the interpreter).
+const MAX_GRID_VALUES: usize = 100_000_000;
+
+/// The number of values of a `ni` x `nr` grid, or the refusal of one too large.
+fn grid_len(ni: usize, nr: usize) -> PyResult<usize> {
+    match ni.checked_mul(nr) {
+        Some(n) if n <= MAX_GRID_VALUES => Ok(n),
+        _ => Err(err(format!(
+            "eval_grid: {ni} x {nr} angles = {} values, more than {MAX_GRID_VALUES}: evaluate it in blocks of theta_i",
+            ni as u128 * nr as u128
+        ))),
+    }
+}
+
 fn slice<'a, T: numpy::Element>(a: &'a PyReadonlyArray1<'_, T>, what: &str) -> PyResult<&'a [T]> {
     a.as_slice()
         .map_err(|_| err(format!("{what} must be a contiguous 1-D array")))
@@ -310,8 +326,9 @@ impl PyModel {
         theta_r: PyReadonlyArray1<'py, f64>,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let (a, b) = (slice(&theta_i, "theta_i")?, slice(&theta_r, "theta_r")?);
+        let n = grid_len(a.len(), b.len())?;
         let out = py.detach(|| {
-            let mut out = vec![0.0; a.len() * b.len()];
+            let mut out = vec![0.0; n];
             self.def.grid(a, b, &mut out).map(|_| out)
         });
         let flat = out.map_err(model_err)?.into_pyarray(py);
@@ -326,8 +343,9 @@ impl PyModel {
         theta_r: PyReadonlyArray1<'py, f32>,
     ) -> PyResult<Bound<'py, PyArray2<f32>>> {
         let (a, b) = (slice(&theta_i, "theta_i")?, slice(&theta_r, "theta_r")?);
+        let n = grid_len(a.len(), b.len())?;
         let out = py.detach(|| {
-            let mut out = vec![0.0; a.len() * b.len()];
+            let mut out = vec![0.0; n];
             self.def.grid_fast(a, b, &mut out).map(|_| out)
         });
         let flat = out.map_err(err)?.into_pyarray(py);
@@ -352,7 +370,7 @@ impl PyModel {
         let tr = slice(&theta_r, "theta_r")?.to_vec();
         type Run = fn(&ModelDef, &[f32], &[f32], &mut [f32]) -> Result<(), String>;
         let (n, run): (usize, Run) = match kind {
-            "grid" => (ti.len() * tr.len(), ModelDef::grid_fast),
+            "grid" => (grid_len(ti.len(), tr.len())?, ModelDef::grid_fast),
             "pairs" if ti.len() == tr.len() => (ti.len(), ModelDef::eval_fast),
             _ => return Err(err("kind is 'grid', or 'pairs' of equal lengths")),
         };

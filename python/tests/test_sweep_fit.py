@@ -33,6 +33,25 @@ def test_write_then_read_round_trips(tmp_path):
     gonio.write_sweep(path, ti, tr, y, force=True)
 
 
+def test_write_sweep_writes_only_what_reads_back_the_same(tmp_path):
+    # Issue 41 item 6: injected metadata lines, NaN, 1e35 and angles beyond any arm
+    # are refused, nothing written; a file it writes reads back complete (seq = index).
+    path = tmp_path / "w.csv"
+    ti, tr, y = np.array([10.0, 10.0, 30.0]), np.array([-20.0, 20.0, 40.0]), np.array([1.0, 2.0, 3.0])
+    with pytest.raises(gonio.GonioError, match="one line"):
+        gonio.write_sweep(path, ti, tr, y, plan="paper\n# brdf: 1/sr\n# aperture: 10")
+    for bad in ([np.nan, 2.0, 3.0], [1e35, 2.0, 3.0]):
+        with pytest.raises(gonio.GonioError, match="nothing written"):
+            gonio.write_sweep(path, ti, tr, np.array(bad))
+    with pytest.raises(gonio.GonioError, match="not an angle"):
+        gonio.write_sweep(path, np.array([1e300, 10.0, 30.0]), tr, y)
+    assert not path.exists()
+    gonio.write_sweep(path, ti, tr, y)
+    s = gonio.read_sweep(path)
+    np.testing.assert_array_equal(s.seq, [0, 1, 2])
+    assert s.meta["status"].startswith("complete     readings=0000003 missing=0000000")
+
+
 def test_bad_sweep_file_message(tmp_path):
     bad = tmp_path / "bad.csv"
     bad.write_text("theta_i,theta_r,brdf\n10,20,x\n")
@@ -228,3 +247,12 @@ def test_fit_offset_as_on_the_command_line(gonio_bin, tmp_path):
         gonio.fit(path, offset="often")
     with pytest.raises(gonio.GonioError, match="within"):
         gonio.fit(path, offset=11)
+
+
+def test_eval_grid_refuses_a_grid_too_large_before_allocating():
+    # Issue 41 item 4: 10^5 x 10^6 angles asked for 800 GB and aborted the interpreter.
+    m = gonio.Model.preset("cu-0.070")
+    for precision in ("f64", "f32"):
+        with pytest.raises(gonio.GonioError, match="100000 x 1000000 angles"):
+            m.eval_grid(np.zeros(100_000), np.zeros(1_000_000), precision=precision)
+    assert m.eval_grid(np.array([10.0, 20.0]), np.array([0.0, 5.0, 10.0])).shape == (2, 3)

@@ -96,6 +96,43 @@ pub fn check_reading<'a>(
     ))
 }
 
+/// Checks the rows of a file to be resumed against its plan `points` (degrees): each
+/// row's `seq` names a plan point and its angles are that point's, within the widest
+/// tolerance any device gets ([`ANGLE_TOLERANCE_DEG`] plus 0.5 degrees). A row at
+/// another point's angles, or a `seq` beyond the plan, means the file mixes two plans
+/// or was edited: resuming it would fit readings under the wrong angles.
+pub fn check_recorded(
+    rows: &[crate::sweep_file::Row],
+    points: &[(f32, f32)],
+) -> Result<(), String> {
+    let widest = f64::from(ANGLE_TOLERANCE_DEG + MAX_STEP_DEG);
+    for r in rows {
+        let Some(seq) = r.seq else { continue };
+        let Some(&(pi, pr)) = points.get(seq as usize) else {
+            return Err(format!(
+                "the row with seq {seq} (at {}:{}) is beyond the plan's {} points",
+                r.theta_i,
+                r.theta_r,
+                points.len()
+            ));
+        };
+        let near = |(i, t): (f32, f32)| {
+            (r.theta_i - f64::from(i)).abs() <= widest && (r.theta_r - f64::from(t)).abs() <= widest
+        };
+        if !near((pi, pr)) {
+            let other = points
+                .iter()
+                .position(|&p| near(p))
+                .map_or(String::new(), |k| format!(" (plan point {k}'s angles)"));
+            return Err(format!(
+                "the row with seq {seq} is at {}:{}{other}, but plan point {seq} is {pi}:{pr}",
+                r.theta_i, r.theta_r
+            ));
+        }
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -180,6 +217,30 @@ mod tests {
                 "reading 1 is at 20:-80, gonio's plan point 2 is 40:-80 (gonio's point 0 is there)"
                     .into()
             )
+        );
+    }
+
+    #[test]
+    fn resumed_rows_must_sit_at_their_plan_points() {
+        use crate::sweep_file::Row;
+        let points = [(20.0, -80.0), (20.0, 75.0), (40.0, -80.0)];
+        let row = |ti, tr, seq| Row {
+            seq: Some(seq),
+            ..Row::new(ti, tr, 1.0)
+        };
+        assert_eq!(
+            check_recorded(&[row(20.0, -80.0, 0), row(20.01, 75.0, 1)], &points),
+            Ok(())
+        );
+        let e = check_recorded(&[row(20.0, 75.0, 0)], &points).unwrap_err();
+        assert!(
+            e.contains("seq 0 is at 20:75 (plan point 1's angles), but plan point 0 is 20:-80"),
+            "{e}"
+        );
+        let e = check_recorded(&[row(40.0, -80.0, 3)], &points).unwrap_err();
+        assert!(
+            e.contains("seq 3 (at 40:-80) is beyond the plan's 3 points"),
+            "{e}"
         );
     }
 

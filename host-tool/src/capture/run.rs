@@ -18,7 +18,7 @@ use super::setup::{CaptureReport, CaptureSetup};
 use super::sweep::{Outcome, Step, SweepState};
 use super::watch::Watch;
 use crate::device::{Connector, FramedLink, LinkError};
-use crate::sweep_file::{Header, Row, SweepStatus, SweepWriter};
+use crate::sweep_file::{Header, Row, SweepFileError, SweepStatus, SweepWriter, row_problem};
 
 /// One capture in progress: the plan, the file being written and what it holds.
 struct Run<'a, C: Connector> {
@@ -53,6 +53,27 @@ fn shortest(x: f32) -> f64 {
     x.to_string().parse().unwrap_or(x as f64)
 }
 
+/// Makes and removes a private file beside `out`, so that a directory gonio cannot
+/// write (read-only, a read-only mount, /proc) is found before the device is touched
+/// (handshake, homing), not when the file is created after them.
+fn probe_writable(out: &std::path::Path) -> Result<(), SweepFileError> {
+    let dir = match out.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => std::path::Path::new("."),
+    };
+    tempfile::Builder::new()
+        .prefix(".gonio-probe")
+        .tempfile_in(dir)
+        .map(drop)
+        .map_err(|e| {
+            SweepFileError::Invalid(format!(
+                "cannot write {}: cannot create a file in {}: {e} (choose a directory you can write to)",
+                out.display(),
+                dir.display()
+            ))
+        })
+}
+
 /// Runs a capture. Returns the report; the caller turns an incomplete one into an
 /// exit status. Bad input (a plan outside the device's travel, an existing file without
 /// `--force`) is an error before anything is measured.
@@ -64,9 +85,17 @@ pub fn capture<C: Connector>(
 ) -> Result<CaptureReport> {
     // Every output is checked (and a resumed file locked) before the device is touched.
     let resumed = if setup.resume {
-        Some(SweepWriter::resume(&setup.out)?)
+        let (writer, data) = SweepWriter::resume(&setup.out)?;
+        check::check_recorded(&data.rows, &data.points).map_err(|m| {
+            SweepFileError::Invalid(format!(
+                "{}: {m}: the file mixes two plans or was edited; cannot resume it",
+                setup.out.display()
+            ))
+        })?;
+        Some((writer, data))
     } else {
         SweepWriter::check_new(&setup.out, setup.force)?;
+        probe_writable(&setup.out)?;
         None
     };
     if let Some(raw) = &setup.raw {
@@ -594,9 +623,6 @@ impl<C: Connector> Run<'_, C> {
             }
             check::Verdict::OtherPlan(why) => return Err(self.other_plan(&why)),
         }
-        if !self.present.insert(seq) {
-            return Ok(()); // a duplicate: already in the file
-        }
         let row = Row {
             theta_i: shortest(r.theta_i),
             theta_r: shortest(r.theta_r),
@@ -606,7 +632,24 @@ impl<C: Connector> Run<'_, C> {
             seq: Some(seq),
             t_ms: Some(r.t_ms as u64),
         };
-        self.writer.append(&row)?;
+        // What the file's readers would refuse (a brdf of 1e-35 or 3e38: finite, but
+        // outside the range read) is not written: counted, its point measured again.
+        if let Some(why) = row_problem(&row) {
+            self.reject(&format!("reading {}: {why}", r.seq));
+            return Ok(());
+        }
+        if self.present.contains(&seq) {
+            return Ok(()); // a duplicate: already in the file
+        }
+        if let Err(e) = self.writer.append(&row) {
+            // The file ends at its last whole row (the writer cut a partial one away):
+            // marked failed where the disk still allows it, and resumable.
+            let _ = self.writer.set_status(SweepStatus::Failed);
+            return Err(CaptureError::File(SweepFileError::Io(format!(
+                "{e}; the file holds every reading before it: free space, then continue with --resume"
+            ))));
+        }
+        self.present.insert(seq);
         self.progress
             .reading(self.present.len() as u64, r.theta_i, r.theta_r);
         self.progress.row(&row, self.writer.counters());

@@ -300,3 +300,25 @@ fn readings_keep_the_reached_angles_under_the_planned_points() {
     assert_eq!(rows, vec![(20.0, 10.0), (20.0, -30.0)]);
     assert_eq!(data.counters.rejected, 0);
 }
+
+/// Issue 41 item 7: an output directory gonio cannot write is found before the device
+/// is touched (no handshake, no homing), with one line naming it.
+#[test]
+fn an_unwritable_output_directory_is_found_before_the_device_is_touched() {
+    let (mut conn, seen) = spy(usize::MAX);
+    let setup = CaptureSetup::new(Some(paper()), PathBuf::from("/proc/gonio-capture.csv"));
+    let err = capture(&mut conn, &setup, &mut Quiet, &AtomicBool::new(false)).unwrap_err();
+    assert!(
+        matches!(err, CaptureError::File(SweepFileError::Invalid(_))),
+        "bad input: {err}"
+    );
+    let msg = err.to_string();
+    assert!(
+        msg.starts_with("cannot write /proc/gonio-capture.csv: cannot create a file in /proc"),
+        "{msg}"
+    );
+    assert!(
+        seen.lock().unwrap().commands.is_empty(),
+        "the device was not touched"
+    );
+}

@@ -238,9 +238,11 @@ pub fn natural_cmp(a: &str, b: &str) -> std::cmp::Ordering {
     }
 }
 
-/// The sweep files named: files as given, directories expanded to their `*.csv`
-/// files (not recursively), in natural order of their names (s2 before s10). A directory without any is an error; a
-/// file that does not exist is kept (it is reported as a bad file, like any other).
+/// The sweep files named: files as given, directories expanded to their entries named
+/// `*.csv` (not recursively), in natural order of their names (s2 before s10). A
+/// directory without any is an error; a file that does not exist is kept, and so are
+/// entries that are not regular files (a dangling symlink, a FIFO, a symlink loop):
+/// each is reported as a bad file, like any other, never dropped without a word.
 pub fn expand_inputs(paths: &[PathBuf]) -> Result<Vec<PathBuf>, String> {
     let mut out = Vec::new();
     for p in paths {
@@ -249,9 +251,7 @@ pub fn expand_inputs(paths: &[PathBuf]) -> Result<Vec<PathBuf>, String> {
                 std::fs::read_dir(p).map_err(|e| format!("cannot read {}: {e}", p.display()))?;
             let mut csv: Vec<PathBuf> = entries
                 .filter_map(|e| e.ok().map(|e| e.path()))
-                .filter(|f| {
-                    f.is_file() && f.extension().is_some_and(|x| x.eq_ignore_ascii_case("csv"))
-                })
+                .filter(|f| f.extension().is_some_and(|x| x.eq_ignore_ascii_case("csv")))
                 .collect();
             if csv.is_empty() {
                 return Err(format!("{}: no .csv sweep files in it", p.display()));
@@ -691,6 +691,25 @@ mod tests {
             names,
             ["S3.csv", "a.csv", "s1.csv", "s2.csv", "s02b.csv", "s10.csv"]
         );
+    }
+
+    /// Issue 41 item 7: a dangling symlink, a FIFO and a symlink loop named `*.csv`
+    /// in a directory are kept and reported by name, never dropped silently.
+    #[test]
+    fn special_entries_named_csv_are_reported_not_dropped() {
+        let dir = crate::outfile::test_dir("campaign-special");
+        let d = dir.join("in");
+        std::fs::create_dir_all(&d).unwrap();
+        std::os::unix::fs::symlink(d.join("nowhere"), d.join("dangling.csv")).unwrap();
+        std::os::unix::fs::symlink(d.join("loop.csv"), d.join("loop.csv")).unwrap();
+        nix::unistd::mkfifo(&d.join("pipe.csv"), nix::sys::stat::Mode::S_IRWXU).unwrap();
+        let inputs = expand_inputs(std::slice::from_ref(&d)).unwrap();
+        let names: Vec<_> = inputs.iter().map(|p| p.file_name().unwrap()).collect();
+        assert_eq!(names, ["dangling.csv", "loop.csv", "pipe.csv"]);
+        for p in &inputs {
+            let e = crate::sweep_file::read_sweep(p).unwrap_err().to_string();
+            assert!(e.contains(&*p.to_string_lossy()), "{e}");
+        }
     }
 
     #[test]

@@ -42,6 +42,20 @@ pub struct Param {
 }
 
 impl Param {
+    /// Its unit as the text report prints it: a weight (`k_*`) in the data's units
+    /// (`relative` or `1/sr`), `rad` for sigma_m (a width in theta_r); "" for the
+    /// dimensionless slopes (sigma, sigma_haze) and the coefficients of ln k_s.
+    pub fn unit(&self, units: crate::sweep_file::BrdfUnits) -> &'static str {
+        // ABg's A is a BRDF too: A / (B + |b - b0|^g) with B and |b - b0| pure numbers.
+        if self.base.starts_with("k_") || self.base == "A" {
+            units.word()
+        } else if self.base == "sigma_m" {
+            "rad"
+        } else {
+            ""
+        }
+    }
+
     /// Its report name: the base, with the incidence for a per-incidence k_s
     /// (`k_s(20)`).
     pub fn name(&self) -> String {
@@ -443,12 +457,13 @@ fn member_block(out: &mut String, f: &FamilyFit, fit: &MemberFit, residual: &str
         crate::text::count(fit.k(), "free parameter")
     );
     for p in member_params(fit) {
-        let _ = writeln!(
-            out,
-            "  {:<12} {}",
+        let line = format!(
+            "  {:<12} {} {}",
             p.label(),
-            fmt_value(p.value, p.se, p.held)
+            fmt_value(p.value, p.se, p.held),
+            p.unit(f.units)
         );
+        let _ = writeln!(out, "{}", line.trim_end());
     }
     let _ = writeln!(
         out,

@@ -21,15 +21,17 @@ pub fn write_sweep(
     for line in meta {
         writeln!(w, "# {line}")?;
     }
+    // -0.0 (a MERL cell) is a reading of 0: written `0`, not `-0`.
+    let zero = |f: f64| if f == 0.0 { 0.0 } else { f };
     if std.is_empty() {
         writeln!(w, "theta_i,theta_r,brdf")?;
         for &(ti, tr, f) in rows {
-            writeln!(w, "{ti},{tr},{f}")?;
+            writeln!(w, "{ti},{tr},{}", zero(f))?;
         }
     } else {
         writeln!(w, "theta_i,theta_r,brdf,std,n")?;
         for (&(ti, tr, f), s) in rows.iter().zip(std) {
-            writeln!(w, "{ti},{tr},{f},{s},1")?;
+            writeln!(w, "{ti},{tr},{},{s},1", zero(f))?;
         }
     }
     Ok(())
@@ -47,4 +49,25 @@ pub fn write_file(
     Ok(crate::outfile::write(target, |mut w| {
         write_sweep(&mut w, meta, rows, std)
     })?)
+}
+
+#[cfg(test)]
+mod tests {
+    /// Issue 41 item 7: a cell of -0.0 is written as 0.
+    #[test]
+    fn negative_zero_is_written_as_zero() {
+        let mut out = Vec::new();
+        super::write_sweep(
+            &mut out,
+            &[],
+            &[(10.0, -20.0, -0.0), (10.0, 20.0, 0.5)],
+            &[],
+        )
+        .unwrap();
+        let text = String::from_utf8(out).unwrap();
+        assert!(
+            text.ends_with("theta_i,theta_r,brdf\n10,-20,0\n10,20,0.5\n"),
+            "{text}"
+        );
+    }
 }

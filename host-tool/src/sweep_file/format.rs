@@ -61,6 +61,72 @@ impl Row {
     }
 }
 
+/// Readings of a magnitude outside [`BRDF_MIN`, `BRDF_MAX`] (other than 0) are neither
+/// written nor read: the fit works with their logarithms and squares, which over- or
+/// underflow there. One range for the capture, the writers and the readers
+/// ([`brdf_in_range`]).
+pub const BRDF_MIN: f64 = 1e-30;
+
+/// See [`BRDF_MIN`].
+pub const BRDF_MAX: f64 = 1e30;
+
+/// The largest angle magnitude a sweep file holds (degrees): no goniometer arm turns
+/// further, and a reader refuses what a writer would.
+pub const ANGLE_MAX_DEG: f64 = 180.0;
+
+/// Whether `v` is a BRDF reading gonio writes and reads: 0, or a magnitude within
+/// [`BRDF_MIN`] to [`BRDF_MAX`] (relative or 1/sr).
+pub fn brdf_in_range(v: f64) -> bool {
+    v == 0.0 || (BRDF_MIN..=BRDF_MAX).contains(&v.abs())
+}
+
+/// Why `row` could not be read back as written, or `None`: angles (degrees) not finite
+/// or beyond [`ANGLE_MAX_DEG`], a brdf outside [`brdf_in_range`], a std that is
+/// negative, not finite or beyond [`BRDF_MAX`]. The writer refuses such a row, the
+/// capture rejects (and counts) such a reading, the reader refuses such a line.
+pub fn row_problem(row: &Row) -> Option<String> {
+    use brdf_core::error::Short;
+    for (name, a) in [("theta_i", row.theta_i), ("theta_r", row.theta_r)] {
+        if !(a.is_finite() && a.abs() <= ANGLE_MAX_DEG) {
+            return Some(format!(
+                "{name} {} is not an angle in degrees (finite, at most {ANGLE_MAX_DEG} in magnitude)",
+                Short(a)
+            ));
+        }
+    }
+    if !(row.brdf.is_finite() && brdf_in_range(row.brdf)) {
+        return Some(format!(
+            "brdf {} (theta_i {}, theta_r {}) is outside the magnitudes gonio fits ({BRDF_MIN:e} to {BRDF_MAX:e}, or 0): rescale the readings",
+            Short(row.brdf),
+            row.theta_i,
+            row.theta_r
+        ));
+    }
+    if let Some(s) = row.std
+        && !(s.is_finite() && (0.0..=BRDF_MAX).contains(&s))
+    {
+        return Some(format!(
+            "std {} (theta_i {}, theta_r {}) is not a standard deviation gonio reads (0 to {BRDF_MAX:e})",
+            Short(s),
+            row.theta_i,
+            row.theta_r
+        ));
+    }
+    None
+}
+
+/// Why a metadata value could not be written as one `# key: value` line that reads
+/// back the same, or `None`: it holds a line break or another control character
+/// (`plan='paper\n# brdf: 1/sr'` would add a line the fit reads).
+pub fn meta_problem(key: &str, value: &str) -> Option<String> {
+    value.chars().any(char::is_control).then(|| {
+        format!(
+            "the {key} '{}' holds a line break or control character: metadata values are one line",
+            crate::text::escape_line(value, 40)
+        )
+    })
+}
+
 /// How a capture ended, as the status line says.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum SweepStatus {

@@ -33,13 +33,16 @@ mod write;
 
 pub use header_row::{DELIMITERS, delimiter_name, sniff_delimiter};
 pub use read::{
-    ANGLE_UNITS, BRDF_MAX, BRDF_MIN, MAX_SWEEP_BYTES, SweepData, angles_look_like_radians,
-    looks_like_radians, parse_sweep, radians_warning, read_input, read_sweep,
+    ANGLE_UNITS, MAX_SWEEP_BYTES, SweepData, angles_look_like_radians, looks_like_radians,
+    parse_sweep, radians_warning, read_input, read_sweep,
 };
 pub use units::{BRDF_KEY, BrdfUnits, refuse_mixed};
 pub use write::SweepWriter;
 
-pub use format::{COLUMNS, Counters, Header, Row, SweepFileError, SweepStatus};
+pub use format::{
+    ANGLE_MAX_DEG, BRDF_MAX, BRDF_MIN, COLUMNS, Counters, Header, Row, SweepFileError, SweepStatus,
+    brdf_in_range, meta_problem, row_problem,
+};
 
 #[cfg(test)]
 mod tests;

@@ -5,7 +5,10 @@ use std::collections::BTreeMap;
 use std::io::Read;
 use std::path::Path;
 
-use super::format::{COLUMNS, Counters, Row, STATUS_PREFIX, SweepFileError};
+use super::format::{
+    BRDF_MAX, BRDF_MIN, COLUMNS, Counters, Row, STATUS_PREFIX, SweepFileError, brdf_in_range,
+    row_problem,
+};
 use super::header_row::{header_columns, sniff_delimiter};
 use super::units::{BRDF_KEY, BrdfUnits};
 use crate::text::escape_line;
@@ -13,13 +16,6 @@ use crate::text::escape_line;
 /// Largest sweep file read (bytes): a 240-point capture is about 10 kB, a dense
 /// in-plane export about 0.5 MB; anything larger is refused before it is read.
 pub const MAX_SWEEP_BYTES: u64 = 64 << 20;
-
-/// Readings of a magnitude outside [`BRDF_MIN`, `BRDF_MAX`] (other than 0) are refused:
-/// the fit works with their logarithms and squares, which over- or underflow there.
-pub const BRDF_MIN: f64 = 1e-30;
-
-/// See [`BRDF_MIN`].
-pub const BRDF_MAX: f64 = 1e30;
 
 /// Characters of a field quoted in a message (escaped, see [`escape_line`]).
 const QUOTE_CHARS: usize = 40;
@@ -48,7 +44,7 @@ pub struct SweepData {
     pub(super) no_final_newline: bool,
     /// Line of the `points` metadata.
     pub(super) points_line: usize,
-    /// Angle pairs read more than once with different values (files without `seq`).
+    /// Angle pairs read more than once with different values, one of the rows without `seq`.
     pub(super) repeats: Repeats,
 }
 
@@ -353,7 +349,7 @@ impl LineCounter<'_> {
     }
 }
 
-/// A repeated angle pair with another value, in a file without `seq`.
+/// A repeated angle pair with another value, where one of the two rows has no `seq`.
 #[derive(Debug, Clone, Default)]
 pub(super) struct Repeats {
     /// Angle pairs read again with another value.
@@ -388,7 +384,8 @@ fn read_table(
     let mut rec = csv::ByteRecord::new();
     let mut col: Option<[Option<usize>; 7]> = None;
     let mut seq_line: BTreeMap<u32, (usize, Row)> = BTreeMap::new();
-    let mut pair_line: std::collections::HashMap<(u64, u64), (usize, f64)> =
+    // Each angle pair's first line, value and whether it had a seq.
+    let mut pair_line: std::collections::HashMap<(u64, u64), (usize, f64, bool)> =
         std::collections::HashMap::new();
     if !table.is_empty() {
         data.complete_len = (at + table.len()) as u64;
@@ -447,10 +444,14 @@ fn read_table(
             } else {
                 seq_line.insert(seq, (lineno, row));
             }
-        } else {
-            let key = (row.theta_i.to_bits(), row.theta_r.to_bits());
+        }
+        // The same angles read again with another value, where at least one of the
+        // two rows has no seq (a file without seq, or rows with and without mixed):
+        // flagged. Two seqs at one angle pair are two plan points.
+        let key = (row.theta_i.to_bits(), row.theta_r.to_bits());
+        {
             match pair_line.get(&key) {
-                Some(&(first, v)) if v != row.brdf => {
+                Some(&(first, v, had_seq)) if v != row.brdf && !(had_seq && row.seq.is_some()) => {
                     data.repeats.count += 1;
                     data.repeats.first.get_or_insert((
                         lineno,
@@ -463,7 +464,7 @@ fn read_table(
                 }
                 Some(_) => {}
                 None => {
-                    pair_line.insert(key, (lineno, row.brdf));
+                    pair_line.insert(key, (lineno, row.brdf, row.seq.is_some()));
                 }
             }
         }
@@ -546,8 +547,7 @@ fn parse_row(
         seq: int32(idx[5], "seq")?,
         t_ms: int(idx[6], "t_ms")?,
     };
-    let b = row.brdf.abs();
-    if b != 0.0 && !(BRDF_MIN..=BRDF_MAX).contains(&b) {
+    if !brdf_in_range(row.brdf) {
         return Err((
             lineno,
             format!(
@@ -557,6 +557,10 @@ fn parse_row(
                 row.theta_r
             ),
         ));
+    }
+    // What no writer writes, no reader reads (angles beyond any arm, absurd std).
+    if let Some(m) = row_problem(&row) {
+        return Err((lineno, m));
     }
     Ok(row)
 }

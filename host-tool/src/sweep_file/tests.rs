@@ -360,3 +360,108 @@ fn an_until_ending_reads_back_with_its_reason_and_resumes() {
     w.set_status(SweepStatus::Complete).unwrap();
     assert_eq!(read_sweep(&path).unwrap().status_word(), Some("complete"));
 }
+
+/// Issue 41 item 6: the writer writes only what the reader reads back the same.
+#[test]
+fn the_writer_refuses_what_the_reader_would_not_read_back() {
+    let dir = tempdir();
+    let path = dir.join("w.csv");
+    // A metadata value with a line break would add lines the fit reads.
+    let mut h = header();
+    h.plan = "paper\n# brdf: 1/sr\n# aperture: 10".into();
+    let e = SweepWriter::create(&path, &h, false).err().unwrap();
+    assert!(
+        e.to_string().contains("metadata values are one line"),
+        "{e}"
+    );
+    assert!(!path.exists(), "nothing written");
+    let mut w = SweepWriter::create(&path, &header(), false).unwrap();
+    w.append(&row(0)).unwrap();
+    let before = std::fs::read(&path).unwrap();
+    for bad in [
+        Row::new(f64::NAN, -80.0, 1.0),
+        Row::new(1e300, -80.0, 1.0),
+        Row::new(0.0, -80.0, 1e35),
+        Row::new(0.0, -80.0, 1e-35),
+        Row::new(0.0, -80.0, f64::NAN),
+        Row {
+            std: Some(1e300),
+            ..Row::new(0.0, -80.0, 1.0)
+        },
+    ] {
+        let e = w.append(&bad).unwrap_err();
+        assert!(e.to_string().contains("not written"), "{e}");
+        // The reader refuses that row too, with the same words.
+        let line = format!(
+            "theta_i,theta_r,brdf,std\n{},{},{},{}\n",
+            bad.theta_i,
+            bad.theta_r,
+            bad.brdf,
+            bad.std.unwrap_or(0.1)
+        );
+        assert!(parse_sweep(line.as_bytes()).is_err(), "{line}");
+    }
+    assert_eq!(std::fs::read(&path).unwrap(), before, "nothing written");
+    // The range's ends are written and read back.
+    for v in [BRDF_MIN, BRDF_MAX, 0.0, -BRDF_MIN] {
+        assert!(brdf_in_range(v));
+        w.append(&Row::new(10.0, -80.0, v)).unwrap();
+    }
+    w.set_status(SweepStatus::Complete).unwrap();
+    let data = read_sweep(&path).unwrap();
+    assert_eq!(data.rows.len(), 5);
+}
+
+/// Issue 41 item 2: a resumed file says `running` from its first new row on (a cut
+/// row is then read as possibly cut), and every end rewrites the counters from the rows.
+#[test]
+fn resume_says_running_while_it_writes_and_counts_from_the_rows() {
+    let dir = tempdir();
+    let path = dir.join("r.csv");
+    let mut w = SweepWriter::create(&path, &header(), false).unwrap();
+    w.append(&row(0)).unwrap();
+    w.set_status(SweepStatus::Interrupted).unwrap();
+    drop(w);
+    let (mut w, data) = SweepWriter::resume(&path).unwrap();
+    assert_eq!(data.status_word(), Some("interrupted"));
+    // Opening alone changes nothing (a capture that fails to connect leaves it).
+    assert_eq!(
+        read_sweep(&path).unwrap().status_word(),
+        Some("interrupted")
+    );
+    w.append(&row(1)).unwrap();
+    let data = read_sweep(&path).unwrap();
+    assert_eq!(data.status_word(), Some("running"));
+    // A row cut short now (power loss mid-write) is left out with a note.
+    let mut f = OpenOptions::new().append(true).open(&path).unwrap();
+    f.write_all(b"20,-80,52").unwrap();
+    let data = read_sweep(&path).unwrap();
+    assert_eq!((data.rows.len(), data.cut_rows), (2, 1));
+    assert!(data.warnings()[0].contains("1 row(s) left out"));
+    drop(w);
+    // The next resume cuts it away; its end counts the rows.
+    let (mut w, _) = SweepWriter::resume(&path).unwrap();
+    w.append(&row(2)).unwrap();
+    w.set_status(SweepStatus::Complete).unwrap();
+    let data = read_sweep(&path).unwrap();
+    assert_eq!(data.rows, (0..3).map(row).collect::<Vec<_>>());
+    assert_eq!((data.counters.readings, data.counters.missing), (3, 0));
+}
+
+/// Issue 41 item 6: a row without seq at the angles of a row with one, with another
+/// value, is flagged (two captures' rows mixed by hand); two seqs at one angle pair
+/// are two plan points and are not.
+#[test]
+fn rows_with_and_without_seq_at_the_same_angles_are_flagged() {
+    let mixed = b"theta_i,theta_r,brdf,seq\n20,20,5,0\n20,30,6,1\n20,20,7,\n";
+    let data = parse_sweep(mixed).unwrap();
+    assert_eq!(data.rows.len(), 3);
+    let w = data.warnings();
+    assert!(
+        w.iter()
+            .any(|m| m.contains("line 4, theta_i 20 theta_r 20: 7 after 5 on line 2")),
+        "{w:?}"
+    );
+    let two_points = b"theta_i,theta_r,brdf,seq\n20,20,5,0\n20,20,7,1\n";
+    assert!(parse_sweep(two_points).unwrap().warnings().is_empty());
+}

@@ -3,6 +3,7 @@
 //! locked (`flock`, exclusive) while a writer holds it: a second capture or `--resume`
 //! on the same file is refused.
 
+use std::collections::BTreeSet;
 use std::fs::{File, OpenOptions};
 use std::io::{self, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
@@ -10,7 +11,10 @@ use std::path::{Path, PathBuf};
 use std::os::unix::fs::OpenOptionsExt;
 use std::os::unix::io::AsRawFd;
 
-use super::format::{COLUMNS, Counters, Header, Row, SweepFileError, SweepStatus, status_line};
+use super::format::{
+    COLUMNS, Counters, Header, Row, SweepFileError, SweepStatus, meta_problem, row_problem,
+    status_line,
+};
 use super::read::SweepData;
 use super::units::BrdfUnits;
 use crate::outfile::{self, OutError, Target};
@@ -40,6 +44,15 @@ pub struct SweepWriter {
     /// their narrower line).
     with_rejected: bool,
     counters: Counters,
+    /// Rows in the file, and the plan points (`seq`) they hold, of how many: the
+    /// status line's `readings` and `missing` are rewritten from them at every end.
+    rows: u64,
+    present: BTreeSet<u32>,
+    points: usize,
+    /// The status line says `running` (a new file's does from the start; a resumed
+    /// one's is set so before its first new row, so that a row cut short by a crash
+    /// or a full disk is read as possibly cut).
+    says_running: bool,
 }
 
 fn io_err(path: &Path, e: io::Error) -> SweepFileError {
@@ -71,6 +84,26 @@ impl SweepWriter {
     /// all. The file stays locked until the writer is dropped.
     pub fn create(path: &Path, header: &Header, force: bool) -> Result<Self, SweepFileError> {
         Self::check_new(path, force)?;
+        let fields = [
+            ("device", Some(&header.device)),
+            ("plan", Some(&header.plan)),
+            ("settings", Some(&header.settings)),
+            ("sample", header.sample.as_ref()),
+        ];
+        for (key, value) in fields {
+            if let Some(m) = value.and_then(|v| meta_problem(key, v)) {
+                return Err(SweepFileError::Invalid(m));
+            }
+        }
+        if let Some((i, r)) = header
+            .points
+            .iter()
+            .find(|(i, r)| row_problem(&Row::new(f64::from(*i), f64::from(*r), 0.0)).is_some())
+        {
+            return Err(SweepFileError::Invalid(format!(
+                "plan point {i}:{r} is not a pair of angles in degrees"
+            )));
+        }
         let first = "# gonio sweep v1\n";
         let points: Vec<String> = header
             .points
@@ -116,6 +149,10 @@ impl SweepWriter {
                 missing: header.points.len() as u64,
                 ..Counters::default()
             },
+            rows: 0,
+            present: BTreeSet::new(),
+            points: header.points.len(),
+            says_running: true,
         })
     }
 
@@ -186,23 +223,19 @@ impl SweepWriter {
         }
         // The status line may predate a crash: recount what the rows show, keep the
         // cumulative link counters.
-        let present: std::collections::BTreeSet<u32> =
-            data.rows.iter().filter_map(|r| r.seq).collect();
-        let counters = Counters {
-            readings: data.rows.len() as u64,
-            missing: (data.points.len() as u64).saturating_sub(present.len() as u64),
-            ..data.counters
+        let mut writer = SweepWriter {
+            file,
+            path: path.to_path_buf(),
+            status_at,
+            with_rejected,
+            counters: data.counters,
+            rows: data.rows.len() as u64,
+            present: data.rows.iter().filter_map(|r| r.seq).collect(),
+            points: data.points.len(),
+            says_running: false,
         };
-        Ok((
-            SweepWriter {
-                file,
-                path: path.to_path_buf(),
-                status_at,
-                with_rejected,
-                counters,
-            },
-            data,
-        ))
+        writer.recount();
+        Ok((writer, data))
     }
 
     /// Counters so far.
@@ -210,8 +243,26 @@ impl SweepWriter {
         &mut self.counters
     }
 
-    /// Appends one row and makes it durable.
+    /// `readings` and `missing` from the rows written.
+    fn recount(&mut self) {
+        self.counters.readings = self.rows;
+        self.counters.missing = (self.points as u64).saturating_sub(self.present.len() as u64);
+    }
+
+    /// Appends one row and makes it durable. A row the reader would refuse
+    /// ([`row_problem`]: NaN, angles beyond any arm, a brdf outside the range read) is
+    /// refused, nothing written. The first row appended to a resumed file first sets
+    /// its status line back to `running`.
     pub fn append(&mut self, row: &Row) -> Result<(), SweepFileError> {
+        if let Some(m) = row_problem(row) {
+            return Err(SweepFileError::Invalid(format!(
+                "{}: not written: {m}",
+                self.path.display()
+            )));
+        }
+        if !self.says_running {
+            self.set_status(SweepStatus::Running)?;
+        }
         let opt = |v: Option<String>| v.unwrap_or_default();
         let line = format!(
             "{},{},{},{},{},{},{}\n",
@@ -223,17 +274,36 @@ impl SweepWriter {
             opt(row.seq.map(|v| v.to_string())),
             opt(row.t_ms.map(|v| v.to_string())),
         );
-        self.file
-            .write_all(line.as_bytes())
+        let start = self
+            .file
+            .stream_position()
             .map_err(|e| io_err(&self.path, e))?;
-        self.file.sync_data().map_err(|e| io_err(&self.path, e))?;
-        self.counters.readings += 1;
-        self.counters.missing = self.counters.missing.saturating_sub(1);
+        if let Err(e) = self
+            .file
+            .write_all(line.as_bytes())
+            .and_then(|()| self.file.sync_data())
+        {
+            // A full disk may have taken part of the row: cut it away (shrinking needs
+            // no space), so the file ends at its last whole row whatever its status.
+            let _ = self
+                .file
+                .set_len(start)
+                .and_then(|()| self.file.seek(SeekFrom::Start(start)).map(drop));
+            return Err(io_err(&self.path, e));
+        }
+        self.rows += 1;
+        if let Some(seq) = row.seq {
+            self.present.insert(seq);
+        }
+        self.recount();
         Ok(())
     }
 
-    /// Rewrites the status line in place (same length) and syncs.
+    /// Rewrites the status line in place (same length), its `readings` and `missing`
+    /// counted from the rows, and syncs.
     pub fn set_status(&mut self, status: SweepStatus) -> Result<(), SweepFileError> {
+        self.recount();
+        self.says_running = status == SweepStatus::Running;
         let line = status_line(status, &self.counters, self.with_rejected);
         let end = self
             .file

@@ -23,6 +23,9 @@ pub const SLOW_READING: Duration = Duration::from_millis(1500);
 pub enum Lie {
     /// brdf NaN or infinite, std NaN or negative, on every other reading.
     Values,
+    /// brdf 1e-35 (seq 5) and 3e38 (seq 9): finite, but outside the range a sweep file
+    /// holds (`sweep_file::brdf_in_range`).
+    Magnitudes,
     /// theta_i = 1000, theta_r = -1e30, or 7 degrees off, on three readings in four.
     Angles,
     /// A reading with seq 0xFFFFFFFF and one 10^8 ahead, and a SweepDone whose count
@@ -147,6 +150,14 @@ impl<T: Transport> HostileTransport<T> {
                     0 => r.value = f32::NAN,
                     1 => r.std = -1.0,
                     2 => r.value = f32::INFINITY,
+                    _ => {}
+                }
+                vec![Event::Reading(r)]
+            }
+            (Lie::Magnitudes, Event::Reading(mut r)) if self.in_first_sweep(r.sweep_id) => {
+                match r.seq {
+                    5 => r.value = 1e-35,
+                    9 => r.value = 3e38,
                     _ => {}
                 }
                 vec![Event::Reading(r)]

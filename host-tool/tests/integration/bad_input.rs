@@ -189,6 +189,27 @@ fn fixtures() -> Scratch {
         "shortened.csv",
         text.replacen(&status, "# status: running", 1).as_bytes(),
     );
+    // Issue 41 item 6: rows a resume must not continue: seq 0 at plan point 1's
+    // angles (two plans mixed), and a seq beyond the plan.
+    let first_row = text
+        .lines()
+        .skip_while(|l| !l.starts_with("theta_i"))
+        .nth(1)
+        .unwrap();
+    let moved = first_row.replacen("0,-80,", "0,-70,", 1);
+    assert_ne!(moved, first_row);
+    w(
+        "otherpoint.csv",
+        text.replacen(first_row, &moved, 1).as_bytes(),
+    );
+    w(
+        "beyond.csv",
+        format!("{text}0,-80,95,0.4,4,153,12\n").as_bytes(),
+    );
+    w(
+        "hugestd.csv",
+        b"theta_i,theta_r,brdf,std\n20,20,5,1e300\n20,30,6,0.1\n20,40,7,0.1\n",
+    );
     std::os::unix::fs::symlink(d.join("exists.csv"), d.join("link.csv")).unwrap();
     w(
         "seqdup.csv",
@@ -1635,8 +1656,8 @@ const CASES: &[Case] = &[
     ),
     case(
         &["simulate", "--material", "fe-0.115", "--out", "/proc/x.csv"],
-        1,
-        "/proc/x.csv",
+        2,
+        "cannot write /proc/x.csv: cannot create a file in /proc",
     ),
     out(
         &[
@@ -1881,6 +1902,37 @@ const CASES: &[Case] = &[
         "status line was edited",
         "shortened.csv",
     ),
+    // Issue 41 item 6: resume checks every row's angles against its plan point.
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--resume",
+            "--out",
+            "{d}/otherpoint.csv",
+            "-q",
+        ],
+        2,
+        "seq 0 is at 0:-70 (plan point 1's angles), but plan point 0 is 0:-80",
+        "otherpoint.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--resume",
+            "--out",
+            "{d}/beyond.csv",
+            "-q",
+        ],
+        2,
+        "seq 153 (at 0:-80) is beyond the plan's 153 points",
+        "beyond.csv",
+    ),
+    // Issue 41 item 6: what no writer writes, no reader reads.
+    case(&["fit", "{d}/hugestd.csv"], 2, "std 1e300"),
     // Issue 16: silently-wrong inputs are refused, naming line and value.
     case(&["fit", "{d}/radians.csv"], 2, "degrees only"),
     case(&["fit", "{d}/seq.csv"], 2, "seq 4294967396 is out of range"),

@@ -215,3 +215,94 @@ fn an_interrupted_campaign_leaves_only_whole_reports() {
         }
     }
 }
+
+/// Issue 41 item 2: a write cut mid-row during a resumed run (here the file-size limit,
+/// `ulimit -f`, stops the resumed capture 10 bytes into its first new row, leaving e.g.
+/// `40,-10,519` where the row was `40,-10,519.5,...`). The resumed capture had set the
+/// status back to `running`, so the reader leaves that row out with a note (before, the
+/// status still said `interrupted` and the cut row was fitted as a reading); `fit`
+/// says so, and the next `--resume` completes the file with counters from its rows.
+#[test]
+fn a_row_cut_during_a_resumed_run_is_left_out_and_resume_completes() {
+    use std::os::unix::process::CommandExt;
+    let d = scratch("cut-resume");
+    let f = d.join("cut.csv");
+    let path = f.to_str().unwrap();
+    let fresh = gonio(&["simulate", "--material", "fe-0.115", "--out", path, "-q"]);
+    assert!(fresh.ok(), "{}", fresh.stderr);
+    // What Ctrl-C leaves: 60 rows, status interrupted (same width).
+    let text = std::fs::read_to_string(&f).unwrap();
+    let header = text
+        .lines()
+        .take_while(|l| !l.starts_with("theta_i"))
+        .count()
+        + 1;
+    let lines: Vec<&str> = text.lines().collect();
+    let kept = lines[..header + 60].join("\n") + "\n";
+    std::fs::write(
+        &f,
+        kept.replace("status: complete   ", "status: interrupted"),
+    )
+    .unwrap();
+    let limit = kept.len() as u64 + 10;
+    let mut cmd = gonio_command();
+    cmd.args([
+        "simulate",
+        "--material",
+        "fe-0.115",
+        "--resume",
+        "--out",
+        path,
+        "-q",
+    ]);
+    // SAFETY: setrlimit is async-signal-safe; nothing else runs between fork and exec.
+    unsafe {
+        cmd.pre_exec(move || {
+            let lim = libc::rlimit {
+                rlim_cur: limit,
+                rlim_max: limit,
+            };
+            if libc::setrlimit(libc::RLIMIT_FSIZE, &lim) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            Ok(())
+        });
+    }
+    let out = cmd.output().unwrap();
+    assert!(!out.status.success(), "the file-size limit stops it");
+    let bytes = std::fs::read(&f).unwrap();
+    assert_eq!(
+        bytes.len() as u64,
+        limit,
+        "cut 10 bytes into its first new row"
+    );
+    assert!(!bytes.ends_with(b"\n"));
+    let data = read_sweep(&f).unwrap();
+    assert_eq!(data.status_word(), Some("running"), "a writer had the file");
+    assert_eq!((data.rows.len(), data.cut_rows), (60, 1));
+    let fit = gonio(&["fit", path, "--models", "ideal"]);
+    assert!(fit.ok(), "{}", fit.stderr);
+    assert!(
+        fit.stderr
+            .contains("1 row(s) left out: the capture was cut"),
+        "{}",
+        fit.stderr
+    );
+    let resumed = gonio(&[
+        "simulate",
+        "--material",
+        "fe-0.115",
+        "--resume",
+        "--out",
+        path,
+        "-q",
+    ]);
+    assert!(resumed.ok(), "{}", resumed.stderr);
+    let data = read_sweep(&f).unwrap();
+    assert_each_point_once(&data.rows, 153, "after the cut and --resume");
+    assert!(
+        data.meta["status"].starts_with("complete     readings=0000153 missing=0000000"),
+        "{}",
+        data.meta["status"]
+    );
+}

@@ -552,3 +552,27 @@ fn all_starts_finds_a_lower_optimum_the_default_stops_short_of() {
         stopped[two]
     );
 }
+
+/// Issue 42: the text table prints each parameter with its unit: weights in the data's
+/// units (relative here, 1/sr after `gonio convert`), sigma_m in radians; the
+/// dimensionless slope and the ln k_s coefficients bare.
+#[test]
+fn the_table_prints_parameters_with_their_units() {
+    let d = scratch("units-table");
+    let f = simulated(&d, "fe-0.115");
+    let out = gonio(&["fit", f.to_str().unwrap(), "--models", "three"]);
+    assert!(out.ok(), "{}", out.stderr);
+    let line = |name: &str| {
+        out.stdout
+            .lines()
+            .find(|l| l.split_whitespace().next() == Some(name))
+            .unwrap_or_else(|| panic!("no {name} line: {}", out.stdout))
+            .to_string()
+    };
+    assert!(line("sigma_m").ends_with(" rad"), "{}", line("sigma_m"));
+    for k in ["k_dd", "k_id", "k_s(40)"] {
+        assert!(line(k).ends_with(" relative"), "{}", line(k));
+    }
+    let sigma = line("sigma");
+    assert!(sigma.ends_with(|c: char| c.is_ascii_digit()), "{sigma}");
+}

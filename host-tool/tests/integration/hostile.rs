@@ -115,6 +115,24 @@ fn bad_values_are_rejected_and_measured_again() {
 }
 
 #[test]
+fn readings_outside_the_files_range_are_rejected_counted_and_measured_again() {
+    // Issue 41 item 3: 1e-35 and 3e38 are finite f32 values; written, they made the
+    // complete file unreadable to `fit` and `--resume`. Now rejected and counted.
+    let (r, path, _dir) = run(Lie::Magnitudes, "hostile-magnitudes");
+    let r = r.unwrap();
+    assert_eq!(r.status, SweepStatus::Complete);
+    assert_eq!(r.counters.rejected, 2, "1e-35 and 3e38");
+    let data = read_sweep(&path).unwrap();
+    assert_each_point_once(&data.rows, 153, "magnitudes");
+    assert!(data.meta["status"].contains("rejected=0000002"));
+    assert!(
+        data.rows
+            .iter()
+            .all(|r| gonio::sweep_file::brdf_in_range(r.brdf))
+    );
+}
+
+#[test]
 fn wild_angles_are_rejected_and_measured_again() {
     let (r, path, _dir) = run(Lie::Angles, "hostile-angles");
     let r = r.unwrap();

@@ -6,27 +6,14 @@
 //! (host-tool capture::split_tests): at this board's pace, about 75 readings a second
 //! here, it would take over 20 minutes.
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
-use gonio::capture::{CaptureSetup, HostPlan, ProgressSink, Quiet, capture};
+use gonio::capture::{CaptureSetup, HostPlan, Quiet, capture};
 use gonio::device::SerialConnector;
 use gonio::sweep_file::{Counters, SweepStatus, read_sweep};
+use gonio::testing::InterruptAfter;
 use gonio_e2e::{Qemu, qemu_elf};
-
-/// Sets the interrupt flag after `n` readings (what Ctrl-C does).
-struct InterruptAfter<'a>(u64, &'a AtomicBool);
-
-impl ProgressSink for InterruptAfter<'_> {
-    fn start(&mut self, _: u64, _: u64) {}
-    fn reading(&mut self, done: u64, _: f32, _: f32) {
-        if done >= self.0 {
-            self.1.store(true, Ordering::Relaxed);
-        }
-    }
-    fn note(&mut self, _: &str) {}
-    fn finish(&mut self) {}
-}
 
 #[test]
 fn eighteen_incidences_on_the_board_resumed_between_device_plans() {

@@ -3,13 +3,14 @@
 //! as one sweep file, and resumed across them.
 
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 
 use brdf_core::Preset;
 
 use super::*;
 use crate::device::{InProcessConnector, InProcessDevice, SimConfig};
 use crate::sweep_file::{Counters, SweepStatus, read_sweep};
+use crate::testing::InterruptAfter;
 
 fn sim() -> InProcessConnector {
     let fe = Preset::by_name("fe-0.115").unwrap();
@@ -38,20 +39,6 @@ fn plan(toml: &str) -> HostPlan {
 
 const EIGHTEEN: &str = "incidences = [0, 5, 10, 15, 20, 25, 30, 35, 40, 45, 50, 55, 60, 65, 70, 75, 80, 85]\n\
                         detector = { start = -80, stop = 80, step = 10 }\nsamples = 1\n";
-
-/// Sets the interrupt flag after `n` readings (what Ctrl-C does).
-struct InterruptAfter<'a>(u64, &'a AtomicBool);
-
-impl ProgressSink for InterruptAfter<'_> {
-    fn start(&mut self, _: u64, _: u64) {}
-    fn reading(&mut self, done: u64, _: f32, _: f32) {
-        if done >= self.0 {
-            self.1.store(true, Ordering::Relaxed);
-        }
-    }
-    fn note(&mut self, _: &str) {}
-    fn finish(&mut self) {}
-}
 
 /// The file holds every point of `plan` once, in plan order, at its angles, with
 /// continuous seq and counters that say so.

@@ -1,7 +1,7 @@
 //! Tests of the capture engine against the in-process simulated device.
 
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
 use brdf_core::protocol::{Command, Event, Reading};
@@ -11,6 +11,7 @@ use crate::device::{
     Connector, FramedLink, InProcessConnector, InProcessDevice, LinkError, SimConfig, Transport,
 };
 use crate::sweep_file::{Counters, SweepFileError, SweepStatus, read_sweep};
+use crate::testing::InterruptAfter;
 use brdf_core::Preset;
 
 fn sim(noise: f32) -> InProcessConnector {
@@ -31,20 +32,6 @@ fn out(name: &str) -> PathBuf {
 
 fn paper() -> HostPlan {
     HostPlan::paper(&Default::default()).unwrap()
-}
-
-/// Sets the interrupt flag after `n` readings (what Ctrl-C does).
-struct InterruptAfter<'a>(u64, &'a AtomicBool);
-
-impl ProgressSink for InterruptAfter<'_> {
-    fn start(&mut self, _: u64, _: u64) {}
-    fn reading(&mut self, done: u64, _: f32, _: f32) {
-        if done >= self.0 {
-            self.1.store(true, Ordering::Relaxed);
-        }
-    }
-    fn note(&mut self, _: &str) {}
-    fn finish(&mut self) {}
 }
 
 #[test]

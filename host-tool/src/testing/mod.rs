@@ -13,6 +13,21 @@ pub mod faults;
 pub mod hostile;
 
 pub use crate::fit::data::synthetic_paper_sweep;
+
+/// A progress sink that sets `.1` (the interrupt flag) after `.0` readings: what
+/// Ctrl-C does, at a point the test chooses.
+pub struct InterruptAfter<'a>(pub u64, pub &'a std::sync::atomic::AtomicBool);
+
+impl crate::capture::ProgressSink for InterruptAfter<'_> {
+    fn start(&mut self, _: u64, _: u64) {}
+    fn reading(&mut self, done: u64, _: f32, _: f32) {
+        if done >= self.0 {
+            self.1.store(true, std::sync::atomic::Ordering::Relaxed);
+        }
+    }
+    fn note(&mut self, _: &str) {}
+    fn finish(&mut self) {}
+}
 use faults::{FaultRates, FaultStats, FaultyTransport};
 
 /// Opens a fresh transport with `open` on every connect (a device unplugged and

@@ -15,6 +15,9 @@ pub enum CaptureError {
     File(SweepFileError),
     /// The device failed, refused, or was lost for good. The file is valid and says so.
     Device(String),
+    /// The port given is not a device at all (a regular file, /dev/null): bad input,
+    /// found before anything is measured.
+    Port(String),
 }
 
 impl fmt::Display for CaptureError {
@@ -22,7 +25,7 @@ impl fmt::Display for CaptureError {
         match self {
             CaptureError::Plan(e) => e.fmt(f),
             CaptureError::File(e) => e.fmt(f),
-            CaptureError::Device(m) => f.write_str(m),
+            CaptureError::Device(m) | CaptureError::Port(m) => f.write_str(m),
         }
     }
 }
@@ -43,7 +46,10 @@ impl From<SweepFileError> for CaptureError {
 
 impl From<LinkError> for CaptureError {
     fn from(e: LinkError) -> Self {
-        CaptureError::Device(e.to_string())
+        match e {
+            LinkError::NotAPort { .. } => CaptureError::Port(e.to_string()),
+            e => CaptureError::Device(e.to_string()),
+        }
     }
 }
 

@@ -58,7 +58,10 @@ impl From<brdf_core::ModelError> for CliError {
 
 impl From<LinkError> for CliError {
     fn from(e: LinkError) -> Self {
-        CliError::failed(e.to_string())
+        match e {
+            LinkError::NotAPort { .. } => CliError::usage(e.to_string()),
+            e => CliError::failed(e.to_string()),
+        }
     }
 }
 
@@ -83,6 +86,7 @@ impl From<CaptureError> for CliError {
             CaptureError::Plan(e) => e.into(),
             CaptureError::File(e) => e.into(),
             CaptureError::Device(m) => CliError::failed(m),
+            CaptureError::Port(m) => CliError::usage(m),
         }
     }
 }

@@ -36,6 +36,14 @@ pub enum LinkError {
         /// What the OS said.
         reason: String,
     },
+    /// The path names something that is not a serial port (a regular file, /dev/null):
+    /// the user's mistake, not the device's.
+    NotAPort {
+        /// Port path.
+        path: String,
+        /// What it is instead (`a regular file`, `a device that is not a terminal`).
+        what: String,
+    },
     /// Reading or writing failed (e.g. the device was unplugged).
     Io(io::Error),
     /// Nothing arrived in time.
@@ -66,6 +74,10 @@ impl fmt::Display for LinkError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             LinkError::Open { path, reason } => write!(f, "cannot open {path}: {reason}"),
+            LinkError::NotAPort { path, what } => write!(
+                f,
+                "cannot open {path}: not a serial port ({what}): give the device's port, e.g. /dev/ttyACM0 (gonio ports lists the ports found)"
+            ),
             LinkError::Io(e) => write!(f, "device link failed: {e}"),
             LinkError::Timeout(what) => write!(f, "device did not answer: {what}"),
             LinkError::NoAnswer {

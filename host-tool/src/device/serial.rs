@@ -33,9 +33,10 @@ impl SerialTransport {
             .timeout(Duration::from_millis(20))
             .open_native()
             .map_err(|e| match not_a_port(Path::new(path)) {
-                Some(what) => cannot(format!(
-                    "not a serial port ({what}): give the device's port, e.g. /dev/ttyACM0 (gonio ports lists the ports found)"
-                )),
+                Some(what) => LinkError::NotAPort {
+                    path: path.to_string(),
+                    what: what.to_string(),
+                },
                 None => cannot(e.to_string()),
             })?;
         flock(port.as_raw_fd(), FlockArg::LockExclusiveNonblock).map_err(|e| {

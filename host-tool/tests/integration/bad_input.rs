@@ -1217,7 +1217,7 @@ const CASES: &[Case] = &[
     ),
     out(
         &["capture", "--port", "/dev/null", "--out", "{d}/c2.csv"],
-        1,
+        2,
         "cannot open /dev/null: not a serial port (a device that is not a terminal): give the device's port",
         "c2.csv",
     ),
@@ -1714,8 +1714,8 @@ const CASES: &[Case] = &[
     case(&["info", "--port", "{d}/no-such-port"], 1, "no-such-port"),
     case(
         &["info", "--port", "/dev/null", "--timeout", "1"],
-        1,
-        "/dev/null",
+        2,
+        "cannot open /dev/null: not a serial port",
     ),
     case(
         &["info", "--port", "{d}/no-such-port", "--timeout", "-1"],
@@ -2229,7 +2229,7 @@ const CASES: &[Case] = &[
     // Issue 42: each message names the thing and says what to do.
     out(
         &["capture", "--port", "{d}/empty.csv", "--out", "{d}/c42.csv"],
-        1,
+        2,
         "empty.csv: not a serial port (a regular file)",
         "c42.csv",
     ),

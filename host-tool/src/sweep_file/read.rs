@@ -13,6 +13,10 @@ use super::header_row::{header_columns, sniff_delimiter};
 use super::units::{BRDF_KEY, BrdfUnits};
 use crate::text::escape_line;
 
+/// Why a line of binary data is refused, and where such a file may belong (issue #42:
+/// a MERL table given to `fit` was only "not UTF-8 text").
+const NOT_TEXT: &str = "not UTF-8 text: not a sweep file (binary data; a MERL .binary table is read with gonio import merl)";
+
 /// Largest sweep file read (bytes): a 240-point capture is about 10 kB, a dense
 /// in-plane export about 0.5 MB; anything larger is refused before it is read.
 pub const MAX_SWEEP_BYTES: u64 = 64 << 20;
@@ -280,7 +284,7 @@ fn read_metadata(bytes: &[u8], data: &mut SweepData) -> Result<(usize, usize), (
         if blank {
             continue;
         }
-        let text = std::str::from_utf8(raw).map_err(|_| (lineno, "not UTF-8 text".to_string()))?;
+        let text = std::str::from_utf8(raw).map_err(|_| (lineno, NOT_TEXT.to_string()))?;
         let text = text.trim_end_matches(['\n', '\r']);
         let meta = &text[1..];
         if text.starts_with(STATUS_PREFIX) {
@@ -416,8 +420,7 @@ fn read_table(
         }
         let mut fields = Vec::with_capacity(rec.len());
         for f in rec.iter() {
-            fields
-                .push(std::str::from_utf8(f).map_err(|_| (lineno, "not UTF-8 text".to_string()))?);
+            fields.push(std::str::from_utf8(f).map_err(|_| (lineno, NOT_TEXT.to_string()))?);
         }
         if fields[0].starts_with('#') {
             return Err((lineno, "metadata line after the header row".into()));

@@ -979,7 +979,11 @@ const CASES: &[Case] = &[
         "3 column(s) separated by ';': 'AOI' 'AOS' 'BRDF'; gonio reads theta_i, theta_r, brdf (any case); for other names use gonio import table",
     ),
     case(&["fit", "{d}/fit-nan.csv"], 2, ":3: brdf 'nan'"),
-    case(&["fit", "{d}/fit-bin.csv"], 2, "not UTF-8"),
+    case(
+        &["fit", "{d}/fit-bin.csv"],
+        2,
+        "not UTF-8 text: not a sweep file (binary data; a MERL .binary table is read with gonio import merl)",
+    ),
     case(
         &["fit", "{d}/gold.binary"],
         2,

@@ -18,7 +18,8 @@ def test_presets_and_members():
     assert len(gonio.members()) == 83
     assert gonio.member_name("ideal-diffuse+specular") == "torrance-sparrow"
     comps, dists = gonio.vocabulary()
-    assert comps == ["specular", "specular-haze", "directional-diffuse", "ideal-diffuse"]
+    # `abg`, the ABg scatter model, is a member name of its own (it stands alone).
+    assert comps == ["specular", "specular-haze", "directional-diffuse", "ideal-diffuse", "abg"]
     assert dists == ["beckmann", "ggx"]
 
 

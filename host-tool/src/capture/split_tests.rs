@@ -9,8 +9,8 @@ use brdf_core::Preset;
 
 use super::*;
 use crate::device::{InProcessConnector, InProcessDevice, SimConfig};
-use crate::sweep_file::{Counters, SweepStatus, read_sweep};
-use crate::testing::InterruptAfter;
+use crate::sweep_file::SweepStatus;
+use crate::testing::{InterruptAfter, assert_plan_file_whole};
 
 fn sim() -> InProcessConnector {
     let fe = Preset::by_name("fe-0.115").unwrap();
@@ -40,30 +40,6 @@ fn plan(toml: &str) -> HostPlan {
 const EIGHTEEN: &str = "incidences = [0, 5, 10, 15, 20, 25, 30, 35, 40, 45, 50, 55, 60, 65, 70, 75, 80, 85]\n\
                         detector = { start = -80, stop = 80, step = 10 }\nsamples = 1\n";
 
-/// The file holds every point of `plan` once, in plan order, at its angles, with
-/// continuous seq and counters that say so.
-fn assert_whole(path: &std::path::Path, plan: &HostPlan) {
-    let data = read_sweep(path).unwrap();
-    let n = plan.points.len();
-    assert_eq!(data.rows.len(), n);
-    for (k, (r, p)) in data.rows.iter().zip(&plan.points).enumerate() {
-        assert_eq!(r.seq, Some(k as u32));
-        assert!(
-            (r.theta_i - f64::from(p.theta_i)).abs() < 0.01
-                && (r.theta_r - f64::from(p.theta_r)).abs() < 0.01,
-            "{r:?} vs {p:?}"
-        );
-    }
-    assert_eq!(
-        data.counters,
-        Counters {
-            readings: n as u64,
-            ..Counters::default()
-        }
-    );
-    assert!(data.meta["status"].starts_with("complete"));
-}
-
 #[test]
 fn eighteen_incidences_are_one_sweep_file_of_several_device_plans() {
     let p = plan(EIGHTEEN);
@@ -81,7 +57,7 @@ fn eighteen_incidences_are_one_sweep_file_of_several_device_plans() {
         (report.status, report.total, report.missing.len()),
         (SweepStatus::Complete, 306, 0)
     );
-    assert_whole(&path, &p);
+    assert_plan_file_whole(&path, &p);
 }
 
 #[test]
@@ -102,7 +78,7 @@ fn a_capture_interrupted_between_or_inside_device_plans_resumes_whole() {
         setup.resume = true;
         let report = capture(&mut sim(), &setup, &mut Quiet, &AtomicBool::new(false)).unwrap();
         assert_eq!(report.status, SweepStatus::Complete, "{stop}");
-        assert_whole(&path, &p);
+        assert_plan_file_whole(&path, &p);
     }
 }
 
@@ -119,7 +95,7 @@ fn a_hundred_thousand_points_are_captured_whole() {
     let setup = CaptureSetup::new(Some(p.clone()), path.clone());
     let report = capture(&mut sim(), &setup, &mut Quiet, &AtomicBool::new(false)).unwrap();
     assert_eq!(report.status, SweepStatus::Complete);
-    assert_whole(&path, &p);
+    assert_plan_file_whole(&path, &p);
     let _ = std::fs::remove_file(&path);
 }
 

@@ -119,6 +119,31 @@ pub fn assert_each_point_once(rows: &[Row], points: u32, ctx: &str) {
     );
 }
 
+/// Asserts that the sweep file at `path` holds every point of `plan` once, in plan
+/// order, at its angles (within 0.01 degree), with continuous seq, counters that say
+/// so, and status `complete`.
+pub fn assert_plan_file_whole(path: &std::path::Path, plan: &crate::capture::HostPlan) {
+    let data = crate::sweep_file::read_sweep(path).unwrap();
+    let n = plan.points.len();
+    assert_eq!(data.rows.len(), n);
+    for (k, (r, p)) in data.rows.iter().zip(&plan.points).enumerate() {
+        assert_eq!(r.seq, Some(k as u32));
+        assert!(
+            (r.theta_i - f64::from(p.theta_i)).abs() < 0.01
+                && (r.theta_r - f64::from(p.theta_r)).abs() < 0.01,
+            "{r:?} vs {p:?}"
+        );
+    }
+    assert_eq!(
+        data.counters,
+        crate::sweep_file::Counters {
+            readings: n as u64,
+            ..Default::default()
+        }
+    );
+    assert!(data.meta["status"].starts_with("complete"));
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -292,7 +292,9 @@ pub fn perf_report() -> Result {
         // fall wholly in a slow one (the ratio moved 77-150x between runs). Within a
         // round gonio repeats for scipy's wall time: scipy's 15 solves take ~0.1 s,
         // gonio's 15 ~1 ms (a first run of 15 sizes it).
-        let scipy_run = || -> Result<(f64, f64, String)> {
+        // `bench/fit_scipy.py` timed `repeat` times from `starts` starting widths (one:
+        // scipy's own start; five: a careful user's, the lowest cost kept, issue #40).
+        let scipy_fit = |repeat: &str, starts: &str| -> Result<(f64, f64, String)> {
             let py = output(
                 &root,
                 "python3",
@@ -300,7 +302,9 @@ pub fn perf_report() -> Result {
                     root.join("bench/fit_scipy.py").to_str().ok_or("path")?,
                     sweep,
                     "--repeat",
-                    "15",
+                    repeat,
+                    "--starts",
+                    starts,
                 ],
             )?;
             scipy_fit_result(&py)
@@ -322,29 +326,13 @@ pub fn perf_report() -> Result {
             )?;
             versus_result(&vs)
         };
-        // A careful scipy user: five starting widths, the lowest cost kept (issue #40).
-        let scipy_five = || -> Result<(f64, f64, String)> {
-            let py = output(
-                &root,
-                "python3",
-                &[
-                    root.join("bench/fit_scipy.py").to_str().ok_or("path")?,
-                    sweep,
-                    "--repeat",
-                    "5",
-                    "--starts",
-                    "5",
-                ],
-            )?;
-            scipy_fit_result(&py)
-        };
         let (mut scipy_us, mut best): (f64, Option<VersusResult>) = (f64::INFINITY, None);
         let (mut scipy_rmse, mut five_us, mut five_rmse) = (f64::NAN, f64::INFINITY, f64::NAN);
         for _ in 0..ROUNDS {
-            let (s, rmse, x0) = scipy_run()?;
+            let (s, rmse, x0) = scipy_fit("15", "1")?;
             scipy_us = scipy_us.min(s * 1e6);
             scipy_rmse = rmse;
-            let (s5, rmse5, _) = scipy_five()?;
+            let (s5, rmse5, _) = scipy_fit("5", "5")?;
             five_us = five_us.min(s5 * 1e6);
             five_rmse = rmse5;
             let first = versus(&x0, 15)?;

@@ -58,6 +58,14 @@ pub fn angle(t: f64) -> String {
     }
 }
 
+/// A number for notes people read, to `digits` significant digits in
+/// [`brdf_core::error::Short`]'s form (`637.4`, `2.7e27`), never 17 digits of noise.
+pub fn sig(x: f64, digits: usize) -> String {
+    let p = digits.max(1) - 1;
+    let rounded = format!("{x:.p$e}").parse::<f64>().unwrap_or(x);
+    brdf_core::error::Short(rounded).to_string()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

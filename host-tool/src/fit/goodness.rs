@@ -62,30 +62,186 @@ impl Goodness {
     }
 }
 
+/// A standard error larger than this many times the reading's magnitude (in log and
+/// relative residuals; in absolute ones, than the largest reading's) is no noise
+/// estimate a chi-square can use: log and relative residuals assume errors small
+/// against the reading, and one such reading dominates the pooled variance, so the
+/// chi-square of any model comes out near 0 ("fits within the noise") whatever it fits.
+pub const ABSURD_NOISE_RATIO: f64 = 1.0;
+
+/// The readings whose stated noise is absurd (see [`ABSURD_NOISE_RATIO`]): the worst,
+/// and how many.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AbsurdNoise {
+    /// The worst reading's angles (degrees), value, and standard error (std / sqrt(n)).
+    pub theta_i: f64,
+    /// See `theta_i`.
+    pub theta_r: f64,
+    /// See `theta_i`.
+    pub y: f64,
+    /// See `theta_i`.
+    pub sigma_y: f64,
+    /// Its standard error over the reference (its reading, or the largest reading).
+    pub ratio: f64,
+    /// Readings over the bound.
+    pub count: usize,
+    /// The reference is the largest reading (absolute residuals), not the reading.
+    pub against_largest: bool,
+}
+
+impl std::fmt::Display for AbsurdNoise {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        use brdf_core::error::Short;
+        let of = if self.against_largest {
+            "the largest reading"
+        } else {
+            "the reading"
+        };
+        write!(
+            f,
+            "the standard error std/sqrt(n) stated for the reading at theta_i {} theta_r {} (brdf {}) is {} ({} times {of})",
+            crate::text::angle(self.theta_i),
+            crate::text::angle(self.theta_r),
+            Short(self.y),
+            Short(self.sigma_y),
+            crate::text::sig(self.ratio, 2),
+        )?;
+        if self.count > 1 {
+            write!(
+                f,
+                ", and {} more reading(s) state noise over {of}",
+                self.count - 1
+            )?;
+        }
+        write!(
+            f,
+            "; noise that large says nothing of a fit, so chi-square says nothing here (check the std column)"
+        )
+    }
+}
+
+/// Per reading, its standard error in the `residual`'s kind (the value whose square
+/// the chi-square pools: sigma_y / |y| for log and relative residuals, sigma_y for
+/// absolute ones); `None` where a reading has none.
+fn scaled_errors(data: &Dataset, residual: Residual) -> Option<Vec<f64>> {
+    data.obs
+        .iter()
+        .map(|o| {
+            let s = o.sigma_y?;
+            Some(match residual {
+                Residual::Log | Residual::Relative => s / o.y.abs(),
+                Residual::Absolute => s,
+            })
+        })
+        .collect()
+}
+
+/// The readings of `data` whose stated standard error is absurd against the readings
+/// (more than [`ABSURD_NOISE_RATIO`] times the reading, or for `Residual::Absolute` the
+/// largest reading's magnitude); `None` when there are none or no reading has noise.
+pub fn absurd_noise(data: &Dataset, residual: Residual) -> Option<AbsurdNoise> {
+    let scaled = scaled_errors(data, residual)?;
+    let largest = data.obs.iter().map(|o| o.y.abs()).fold(0.0, f64::max);
+    let against_largest = residual == Residual::Absolute;
+    // The scaled error over its reference: already relative for log and relative
+    // residuals.
+    let ratio = |s: f64| if against_largest { s / largest } else { s };
+    let over = || {
+        scaled
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| ratio(**s) > ABSURD_NOISE_RATIO || ratio(**s).is_nan())
+    };
+    let count = over().count();
+    let (k, s) = over().max_by(|a, b| ratio(*a.1).total_cmp(&ratio(*b.1)))?;
+    let o = &data.obs[k];
+    Some(AbsurdNoise {
+        theta_i: o.theta_i,
+        theta_r: o.theta_r,
+        y: o.y,
+        sigma_y: o.sigma_y.unwrap_or(f64::NAN),
+        ratio: ratio(*s),
+        count,
+        against_largest,
+    })
+}
+
 /// The chi-square of a fit whose sum of squared residuals (in the residual's kind, over
 /// every reading of `data`) is `ssr`, against the readings' noise variance in the
 /// residual's kind, pooled over the readings (the mean of (std / sqrt(n))^2, as
 /// sigma_y / y for log and relative residuals, sigma_y for absolute ones). Pooled
 /// because a std from a few samples is too noisy to weight one reading alone: with 4
 /// samples E[1 / s^2] is three times 1 / sigma^2, which would triple the statistic of
-/// a perfect model. `None` when a reading has no standard error or there are no
-/// degrees of freedom left.
+/// a perfect model. `None` when a reading has no standard error, the stated noise is
+/// absurd ([`absurd_noise`]), or there are no degrees of freedom left.
 pub fn goodness_of_ssr(data: &Dataset, ssr: f64, residual: Residual, k: usize) -> Option<Goodness> {
-    if data.obs.len() <= k || data.obs.is_empty() {
+    if data.obs.len() <= k || data.obs.is_empty() || absurd_noise(data, residual).is_some() {
         return None;
     }
-    let mut var = 0.0;
-    for o in &data.obs {
-        let s = o.sigma_y?;
-        let s = match residual {
-            Residual::Log | Residual::Relative => s / o.y.abs(),
-            Residual::Absolute => s,
-        };
-        var += s * s;
-    }
-    let var = var / data.obs.len() as f64;
+    let scaled = scaled_errors(data, residual)?;
+    let var = scaled.iter().map(|s| s * s).sum::<f64>() / data.obs.len() as f64;
     (var > 0.0).then(|| Goodness {
         chi2: ssr / var,
         dof: data.obs.len() - k,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sweep_file::Row;
+
+    /// A paper sweep of fe-0.115 whose readings state std = 1 % of the reading over 4
+    /// samples.
+    fn rows() -> Vec<Row> {
+        let p = brdf_core::Preset::by_name("fe-0.115").unwrap();
+        let mut rows = crate::fit::data::synthetic_paper_sweep(|ti| p.model(ti).unwrap(), 0.01, 5);
+        for r in &mut rows {
+            r.std = Some(0.01 * r.brdf);
+            r.n = Some(4);
+        }
+        rows
+    }
+
+    #[test]
+    fn a_std_far_over_the_reading_makes_no_chi_square() {
+        let ok = Dataset::from_rows(&rows(), true).unwrap();
+        for residual in [Residual::Log, Residual::Relative, Residual::Absolute] {
+            assert_eq!(absurd_noise(&ok, residual), None);
+            assert!(goodness_of_ssr(&ok, 1.0, residual, 3).is_some());
+        }
+        // One std just under the reader's bound (1e30): pooled, it made every model's
+        // chi-square about 0, "within the readings' noise".
+        let mut wild = rows();
+        let k = wild
+            .iter()
+            .position(|r| r.theta_i == 30.0 && r.theta_r == 20.0)
+            .unwrap();
+        wild[k].std = Some(1e29);
+        let y = wild[k].brdf;
+        let data = Dataset::from_rows(&wild, true).unwrap();
+        for residual in [Residual::Log, Residual::Relative, Residual::Absolute] {
+            let a = absurd_noise(&data, residual).unwrap();
+            assert_eq!((a.theta_i, a.theta_r, a.count), (30.0, 20.0, 1));
+            assert_eq!(a.against_largest, residual == Residual::Absolute);
+            assert!(goodness_of_ssr(&data, 1.0, residual, 3).is_none());
+        }
+        let said = absurd_noise(&data, Residual::Log).unwrap().to_string();
+        let ratio = 5e28 / y;
+        assert!(
+            said.starts_with(&format!(
+                "the standard error std/sqrt(n) stated for the reading at theta_i 30 theta_r 20 (brdf {}) is 5e28 ({} times the reading)",
+                brdf_core::error::Short(y),
+                crate::text::sig(ratio, 2)
+            )) && said.ends_with("chi-square says nothing here (check the std column)"),
+            "{said}"
+        );
+        // A standard error over the reading itself is already too large for log and
+        // relative residuals; absolute ones compare it with the largest reading.
+        let mut rows = rows();
+        rows[k].std = Some(3.0 * y);
+        let data = Dataset::from_rows(&rows, true).unwrap();
+        assert_eq!(absurd_noise(&data, Residual::Log).map(|a| a.count), Some(1));
+        assert_eq!(absurd_noise(&data, Residual::Absolute), None);
+    }
 }

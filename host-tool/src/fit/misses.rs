@@ -1,10 +1,34 @@
 //! Where the selected member misses: a region of the readings (one incidence, or the
 //! grazing detector angles) whose residuals it leaves on one side, well outside their
-//! own scatter, while another fitted member follows them.
+//! own scatter, while another fitted member follows them; and the few readings that
+//! carry most of its sum of squares.
+
+use brdf_core::error::Short;
+use brdf_core::member::Member;
 
 use super::data::Dataset;
 use super::goodness::member_fitted;
 use super::member_fit::MemberFit;
+use super::notes::Compared;
+use super::options::{Loss, residual_of};
+
+/// Readings carry "most of the loss" when together they hold at least this share of
+/// the selected member's sum of squared residuals...
+const DOMINANT_SHARE: f64 = 0.5;
+
+/// ...and they are at most this many of the largest squared residuals...
+const MAX_DOMINANT: usize = 3;
+
+/// ...and at most one reading in this many...
+const DOMINANT_ONE_IN: usize = 20;
+
+/// ...and each is wild: its log residual at least this many times the root mean square
+/// of the others' (those outside the largest [`MAX_DOMINANT`]), and a miss of at least
+/// [`MIN_MISS`]. Gaussian noise puts the
+/// largest of 10,000 readings near 4 of them; a sweep fitted in absolute residuals has
+/// its largest squared residuals at its largest readings (relative noise), and a model
+/// that misses near grazing leaves residuals a few times the noise: neither is wild.
+const WILD: f64 = 10.0;
 
 /// A region's mean log residual is systematic when it is at least this many standard
 /// errors (of that mean, from the region's own scatter about it) from zero.
@@ -117,12 +141,192 @@ pub fn miss_notes(
     found.into_iter().take(3).map(|(_, s)| s).collect()
 }
 
+/// A note naming the wild readings (see [`WILD`]) among the [`MAX_DOMINANT`] largest
+/// squared residuals of `selected` (and at most one in [`DOMINANT_ONE_IN`]) when they
+/// hold at least [`DOMINANT_SHARE`] of its sum: one reading of 1e30 among readings of
+/// 100 decides every member's AICc, hence the selection. Residuals of
+/// `compared.residual`'s kind at the fitted values `fitted`, as the fit's SSR sums them.
+/// `None` when no few readings do, or a fitted value is missing.
+pub fn dominant_note(
+    data: &Dataset,
+    selected: Member,
+    fitted: &[Option<f64>],
+    compared: Compared,
+) -> Option<String> {
+    let n = data.obs.len();
+    let most = MAX_DOMINANT.min(n / DOMINANT_ONE_IN);
+    if most == 0 {
+        return None;
+    }
+    let squares: Vec<f64> = data
+        .obs
+        .iter()
+        .zip(fitted)
+        .map(|(o, f)| f.map(|f| residual_of(compared.residual, f, o.y).powi(2)))
+        .collect::<Option<_>>()?;
+    let ssr: f64 = squares.iter().sum();
+    if !(ssr > 0.0 && ssr.is_finite()) {
+        return None;
+    }
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&a, &b| squares[b].total_cmp(&squares[a]));
+    // The scatter of the others, in log residuals (readings <= 0 have none).
+    let logs = log_residuals(data, fitted);
+    let others: Vec<f64> = order[most..].iter().filter_map(|&k| logs[k]).collect();
+    if others.is_empty() {
+        return None;
+    }
+    let rms = (others.iter().map(|r| r * r).sum::<f64>() / others.len() as f64).sqrt();
+    let count = order[..most]
+        .iter()
+        .take_while(|&&k| logs[k].is_some_and(|r| r.abs() >= MIN_MISS.max(WILD * rms)))
+        .count();
+    let share = order[..count].iter().map(|&k| squares[k]).sum::<f64>() / ssr;
+    if count == 0 || share < DOMINANT_SHARE {
+        return None;
+    }
+    let named: Vec<String> = order[..count]
+        .iter()
+        .map(|&k| {
+            let o = &data.obs[k];
+            format!(
+                "theta_i {} theta_r {} brdf {} (fitted {}, {:.1} % of the SSR)",
+                crate::text::angle(o.theta_i),
+                crate::text::angle(o.theta_r),
+                Short(o.y),
+                crate::text::sig(fitted[k].unwrap_or(f64::NAN), 4),
+                100.0 * squares[k] / ssr
+            )
+        })
+        .collect();
+    let share = 100.0 * share;
+    // Selection compares the members' unweighted sums of squares: a robust loss lowers
+    // such a reading's weight in the parameters, not in the selection.
+    let loss = match compared.loss {
+        Loss::L2 => "--loss cauchy:C lowers",
+        Loss::Huber(_) | Loss::Cauchy(_) => "the robust --loss lowers",
+    };
+    let (of, carry, these, they, them, their) = if count == 1 {
+        (
+            "reading of",
+            "carries",
+            "this reading",
+            "it is",
+            "it",
+            "its",
+        )
+    } else {
+        (
+            "readings of",
+            "carry",
+            "these readings",
+            "they are",
+            "them",
+            "their",
+        )
+    };
+    Some(format!(
+        "{count} {of} {n} {carry} {share:.1} % of {selected}'s sum of squared residuals: {}; AICc compares sums of squares, so {these} can decide the selection: if {they} faulty, remove {them} from the file and fit again ({loss} {their} weight in the parameters, not in the selection)",
+        named.join("; ")
+    ))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fit::{Dataset, FitOptions, fit_family};
+    use crate::fit::{FitOptions, Residual, fit_family};
     use brdf_core::Preset;
     use brdf_core::member::Member;
+
+    /// A paper sweep of fe-0.115 with 1 % noise (`seed`), and the true model's value at
+    /// every reading: the residuals of a perfect fit.
+    fn true_fit(seed: u32) -> (Vec<crate::sweep_file::Row>, Vec<f64>) {
+        let p = Preset::by_name("fe-0.115").unwrap();
+        let rows = crate::fit::data::synthetic_paper_sweep(|ti| p.model(ti).unwrap(), 0.01, seed);
+        let truth = rows
+            .iter()
+            .map(|r| {
+                let m = p.model(r.theta_i).unwrap();
+                m.eval_in_plane(r.theta_i, r.theta_r).unwrap().f
+            })
+            .collect();
+        (rows, truth)
+    }
+
+    fn note_of(
+        rows: &[crate::sweep_file::Row],
+        truth: &[f64],
+        residual: Residual,
+        loss: Loss,
+    ) -> Option<String> {
+        let data = Dataset::from_rows(rows, true).unwrap();
+        let fitted: Vec<Option<f64>> = truth.iter().map(|&f| Some(f)).collect();
+        let compared = Compared {
+            residual,
+            loss,
+            aperture: None,
+        };
+        dominant_note(&data, Member::THREE_COMPONENT, &fitted, compared)
+    }
+
+    #[test]
+    fn a_wild_reading_is_named_and_ordinary_noise_never_is() {
+        // Gaussian noise, 200 sweeps: nothing wild. In absolute residuals the largest
+        // readings (the specular peak's) hold most of the sum: not wild either.
+        for seed in 1..=200 {
+            let (rows, truth) = true_fit(seed);
+            for residual in [Residual::Log, Residual::Relative, Residual::Absolute] {
+                let note = note_of(&rows, &truth, residual, Loss::L2);
+                assert_eq!(note, None, "seed {seed}, {residual:?}");
+            }
+        }
+        let (mut rows, truth) = true_fit(7);
+        let k = rows
+            .iter()
+            .position(|r| r.theta_i == 30.0 && r.theta_r == 20.0)
+            .unwrap();
+        rows[k].brdf = 1e30;
+        let note = note_of(&rows, &truth, Residual::Log, Loss::L2).unwrap();
+        assert!(
+            note.starts_with("1 reading of 153 carries 10") // 100.0 %
+                && note.contains("theta_i 30 theta_r 20 brdf 1e30 (fitted ")
+                && note.contains("remove it from the file")
+                && note.contains("--loss cauchy:C lowers its weight in the parameters, not in the selection"),
+            "{note}"
+        );
+        // Three wild readings, none holding half alone: all named, the largest first;
+        // under a robust loss the note says it lowers their weight in the parameters
+        // only.
+        let at = |ti: f64, tr: f64| {
+            rows.iter()
+                .position(|r| r.theta_i == ti && r.theta_r == tr)
+                .unwrap()
+        };
+        let (j, l) = (at(60.0, -50.0), at(0.0, 0.0));
+        rows[k].brdf = truth[k] * 1e10;
+        rows[j].brdf = truth[j] * 10f64.powf(-9.9);
+        rows[l].brdf = truth[l] * 1e9;
+        let note = note_of(&rows, &truth, Residual::Log, Loss::Cauchy(0.05)).unwrap();
+        let a = note.find("theta_i 30 theta_r 20 brdf ").expect(&note);
+        let b = note.find("theta_i 60 theta_r -50 brdf ").expect(&note);
+        let c = note.find("theta_i 0 theta_r 0 brdf ").expect(&note);
+        assert!(
+            note.starts_with("3 readings of 153 carry 100.0 %")
+                && a < b
+                && b < c
+                && note.contains("the robust --loss lowers their weight"),
+            "{note}"
+        );
+        // Too few readings for "a few of many": no note.
+        let few: Vec<_> = rows.iter().copied().filter(|r| r.theta_i == 30.0).collect();
+        let few_truth: Vec<f64> = rows
+            .iter()
+            .zip(&truth)
+            .filter(|(r, _)| r.theta_i == 30.0)
+            .map(|(_, &t)| t)
+            .collect();
+        assert_eq!(note_of(&few, &few_truth, Residual::Log, Loss::L2), None);
+    }
 
     #[test]
     fn a_member_without_the_directional_lobe_misses_where_it_matters_and_is_told() {

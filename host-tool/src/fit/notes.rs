@@ -1,23 +1,35 @@
 //! The notes a family fit reports, in the order reported: what the selection says of
 //! each component and of the lobe shape, BIC's choice when it differs, goodness against
-//! the noise, the detection floor, the peak's position, where the selected member
-//! misses and another follows, what could not be fitted or
-//! determined, and how the data were compared.
+//! the noise, the readings that carry most of the loss, the detection floor, the peak's
+//! position, where the selected member misses and another follows, what could not be
+//! fitted or determined, and how the data were compared.
 
 use brdf_core::member::Member;
 
 use super::data::Dataset;
 use super::goodness;
 use super::member_fit::MemberFit;
+use super::options::{Loss, Residual};
 use super::peak;
 use super::select::MARGIN as AICC_MARGIN;
 use super::select::{self, Candidate, Criterion, Selection};
+
+/// How the family compared its models with the readings.
+#[derive(Debug, Clone, Copy)]
+pub struct Compared {
+    /// The residual kind minimised.
+    pub residual: Residual,
+    /// The loss minimised.
+    pub loss: Loss,
+    /// The detector's aperture half-angle the models were averaged over (degrees).
+    pub aperture: Option<f64>,
+}
 
 /// The family's notes: the selection's (`selected` by AICc over `candidates`,
 /// `selected_bic` by BIC), those
 /// the fit itself made while fitting (`fitting`: members not fitted), each member's
 /// flags, and the comparison's (readings normalised off the mirror direction, the
-/// detector's `aperture`, degrees).
+/// detector's aperture; see [`Compared`]).
 pub fn family_notes(
     data: &Dataset,
     members: &[MemberFit],
@@ -25,8 +37,9 @@ pub fn family_notes(
     selected_member: Member,
     selected_bic: Member,
     mut fitting: Vec<String>,
-    aperture: Option<f64>,
+    compared: Compared,
 ) -> Vec<String> {
+    let aperture = compared.aperture;
     let sel = Selection::new(candidates, Criterion::Aicc);
     let mut summary = select::component_notes(&sel, selected_member);
     summary.extend(variant_notes(candidates, selected_member));
@@ -35,11 +48,26 @@ pub fn family_notes(
             "BIC (stricter with many readings) would select {selected_bic} by the same rule"
         ));
     }
-    summary.push(goodness_note(data, candidates, selected_member));
+    summary.push(goodness_note(
+        data,
+        candidates,
+        selected_member,
+        compared.residual,
+    ));
+    // The selected member's fitted values, once, for the loss's, the peak's and the
+    // misses' notes.
+    let selected_fit = members.iter().find(|f| f.member() == selected_member);
+    let fitted = selected_fit.map(|f| goodness::member_fitted(f, data));
+    if let Some(fitted) = &fitted {
+        summary.extend(super::misses::dominant_note(
+            data,
+            selected_member,
+            fitted,
+            compared,
+        ));
+    }
     summary.extend(data.floor.notes());
-    // The selected member's fitted values, once, for the peak's and the misses' notes.
-    if let Some(f) = members.iter().find(|f| f.member() == selected_member) {
-        let fitted = goodness::member_fitted(f, data);
+    if let (Some(f), Some(fitted)) = (selected_fit, fitted) {
         summary.extend(peak::offset_note(
             data,
             &fitted,
@@ -168,11 +196,15 @@ fn variant_notes(cands: &[Candidate], sel: Member) -> Vec<String> {
     )]
 }
 
-/// Goodness of fit of the selected member against the readings' noise, said plainly.
-fn goodness_note(data: &Dataset, cands: &[Candidate], sel: Member) -> String {
+/// Goodness of fit of the selected member against the readings' noise (in the
+/// `residual`'s kind), said plainly; not judged when the stated noise is absurd.
+fn goodness_note(data: &Dataset, cands: &[Candidate], sel: Member, residual: Residual) -> String {
     if !data.has_noise() {
         return "goodness of fit against noise: not known (the sweep has no std and n columns)"
             .into();
+    }
+    if let Some(a) = goodness::absurd_noise(data, residual) {
+        return format!("goodness of fit against noise: not judged: {a}");
     }
     let Some(g) = cands
         .iter()

@@ -268,7 +268,11 @@ fn fit_nominal(data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, String> {
         selected_member,
         selected_bic,
         std::mem::take(&mut notes),
-        aperture,
+        notes::Compared {
+            residual: opts.residual,
+            loss: opts.loss,
+            aperture,
+        },
     );
     Ok(FamilyFit {
         incidences: data.incidences.clone(),

@@ -22,3 +22,4 @@ mod units_chain;
 mod units_cli;
 mod units_session;
 mod until_cli;
+mod wild_values;

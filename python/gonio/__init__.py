@@ -17,9 +17,10 @@ from typing import Iterable, Mapping, Optional, Sequence, Union
 import numpy as np
 
 from . import _gonio
-from ._gonio import GonioError, member_name, members, presets, vocabulary
+from ._gonio import MAX_FIT_READINGS, GonioError, member_name, members, presets, vocabulary
 
 __all__ = [
+    "MAX_FIT_READINGS",
     "GonioError",
     "Model",
     "FitResult",
@@ -294,7 +295,9 @@ def fit(source, theta_r=None, brdf=None, *, residual: str = "log", loss: str = "
     (``--all-starts``: slower, but no start is stopped near an optimum already found);
     ``offset`` ``"fit"`` fits a detector zero offset in theta_r and an in-plane sample
     tilt (``--offset fit``), a number is a known detector zero offset in degrees (``None``:
-    the sweep's ``# offset:`` line, else none).
+    the sweep's ``# offset:`` line, else none). At most ``MAX_FIT_READINGS`` readings
+    (2,097,152, what the largest sweep file ``gonio fit`` reads holds), like the CLI:
+    more raise a ``GonioError`` before anything is fitted.
     """
     if isinstance(fix, Mapping):
         fix = [f"{k}={v!r}" for k, v in fix.items()]
@@ -313,6 +316,8 @@ def fit(source, theta_r=None, brdf=None, *, residual: str = "log", loss: str = "
         if theta_r is None or brdf is None:
             raise GonioError("fit(theta_i, theta_r, brdf): give all three arrays, or a sweep file path")
         ti, tr, y = np.broadcast_arrays(*(np.asarray(a, dtype=np.float64) for a in (source, theta_r, brdf)))
+        # The CLI's limit, before the arrays become lists.
+        _gonio._check_fit_readings(ti.size)
         raw = _gonio._fit(None, ti.ravel().tolist(), tr.ravel().tolist(), y.ravel().tolist(),
                           residual, loss, fix, models, **extra)
     return FitResult(raw)

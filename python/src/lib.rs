@@ -678,6 +678,14 @@ fn _fit(
     })
 }
 
+/// Refuses more readings than one fit takes (`gonio::fit::data::MAX_FIT_READINGS`, the
+/// CLI's limit), with the CLI's message: called by `gonio.fit` before its arrays are
+/// converted.
+#[pyfunction]
+fn _check_fit_readings(n: usize) -> PyResult<()> {
+    gonio::fit::data::check_reading_count(n).map_err(err)
+}
+
 /// The extension module.
 #[pymodule]
 fn _gonio(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -691,5 +699,7 @@ fn _gonio(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(_read_sweep, m)?)?;
     m.add_function(wrap_pyfunction!(_write_sweep, m)?)?;
     m.add_function(wrap_pyfunction!(_fit, m)?)?;
+    m.add_function(wrap_pyfunction!(_check_fit_readings, m)?)?;
+    m.add("MAX_FIT_READINGS", gonio::fit::data::MAX_FIT_READINGS)?;
     Ok(())
 }

@@ -256,3 +256,13 @@ def test_eval_grid_refuses_a_grid_too_large_before_allocating():
         with pytest.raises(gonio.GonioError, match="100000 x 1000000 angles"):
             m.eval_grid(np.zeros(100_000), np.zeros(1_000_000), precision=precision)
     assert m.eval_grid(np.array([10.0, 20.0]), np.array([0.0, 5.0, 10.0])).shape == (2, 3)
+
+
+def test_fit_refuses_more_readings_than_the_cli_before_converting_them():
+    # Issue 41 item 5: fit on 10^7 readings ran 240 s in 7.1 GB. The limit is the CLI's
+    # (what a 64 MiB sweep file holds), checked before the arrays become lists.
+    n = gonio.MAX_FIT_READINGS + 1
+    assert gonio.MAX_FIT_READINGS == 2_097_152
+    ti = np.broadcast_to(np.float64(20.0), (n,))
+    with pytest.raises(gonio.GonioError, match=f"^{n} readings: more than one fit takes \\(2097152, what a 64 MiB sweep file holds\\)"):
+        gonio.fit(ti, 10.0, 1.0)

@@ -156,6 +156,30 @@ pub(crate) fn check_reading(n: usize, r: &Reading) -> Result<(), CalibrationErro
     Ok(())
 }
 
+/// The smallest instrument constant K gonio takes (reading units per 1/sr)...
+pub const K_MIN: f64 = 1e-15;
+
+/// ...and the largest: with K from [`K_MIN`] to this, every reading from 1e-15 to 1e15
+/// (units whatever the detector's) converts to a BRDF within the range sweep files
+/// hold (`sweep_file::BRDF_MIN`..`BRDF_MAX`, 1e-30 to 1e30). A K of 1e-300 or 1e300
+/// gave instruments whose converted files `fit` refused.
+pub const K_MAX: f64 = 1e15;
+
+/// Refuses a K outside [`K_MIN`]..[`K_MAX`] (checked where an instrument is estimated,
+/// read, and used to convert).
+pub fn check_k_range(k: f64) -> Result<(), CalibrationError> {
+    if (K_MIN..=K_MAX).contains(&k) {
+        Ok(())
+    } else {
+        Err(CalibrationError::BadInstrument(format!(
+            "k = {} is outside {}..{} (reading units per 1/sr): not an instrument gonio can convert with",
+            brdf_core::error::Short(k),
+            brdf_core::error::Short(K_MIN),
+            brdf_core::error::Short(K_MAX)
+        )))
+    }
+}
+
 /// Estimates K from `readings` of `standard` (module docs). Refuses, with one line, a set
 /// that cannot determine K: fewer than 2 readings, a non-finite field, an angle out of
 /// range or grazing, std given for some readings only or <= 0, all values zero, a
@@ -197,6 +221,7 @@ pub fn calibrate(
     if !(k.is_finite() && k > 0.0) {
         return Err(CalibrationError::NonPositiveK { k });
     }
+    check_k_range(k)?;
     let n = readings.len() as f64;
     let mut chi2 = 0.0;
     let mut residuals = Vec::with_capacity(readings.len());

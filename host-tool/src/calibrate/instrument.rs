@@ -93,7 +93,8 @@ impl Instrument {
         self.u_k / self.k
     }
 
-    /// Checks K > 0 finite and u(K) >= 0 finite.
+    /// Checks K > 0 finite, within [`super::estimate::K_MIN`]..[`super::estimate::K_MAX`],
+    /// and u(K) >= 0 finite.
     pub fn check(&self) -> Result<(), CalibrationError> {
         if !(self.k.is_finite() && self.k > 0.0) {
             return Err(CalibrationError::BadInstrument(format!(
@@ -101,6 +102,7 @@ impl Instrument {
                 self.k
             )));
         }
+        super::estimate::check_k_range(self.k)?;
         if !(self.u_k.is_finite() && self.u_k >= 0.0) {
             return Err(CalibrationError::BadInstrument(format!(
                 "u_k = {} must be a finite number >= 0",
@@ -250,6 +252,34 @@ mod tests {
             date: "2026-12-01T18:30:00Z".into(),
             readings: 153,
             quantity: Quantity::RelativeBrdf,
+        }
+    }
+
+    #[test]
+    fn a_k_outside_the_range_is_refused_where_read_and_where_used() {
+        // Issue 41: k = 1e-300 or 1e300 read with exit 0 and converted into files `fit`
+        // refused.
+        for k in ["1e-300", "1e300", "9.9e-16", "1.1e15"] {
+            let text = inst().to_toml().replace("k = 2500.0", &format!("k = {k}"));
+            let e = Instrument::from_toml(&text).unwrap_err().to_string();
+            assert!(
+                e.contains(" is outside 1e-15..1e15 (reading units per 1/sr)"),
+                "{k}: {e}"
+            );
+            let mut i = inst();
+            i.k = k.parse().unwrap();
+            let r = Reading {
+                theta_i: 30.0,
+                theta_r: 20.0,
+                value: 1.0,
+                std: None,
+            };
+            assert!(to_absolute(&[r], Quantity::RelativeBrdf, &i).is_err());
+        }
+        for k in [1e-15, 1e15] {
+            let mut i = inst();
+            i.k = k;
+            assert_eq!(Instrument::from_toml(&i.to_toml()).unwrap(), i);
         }
     }
 

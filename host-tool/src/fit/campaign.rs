@@ -94,13 +94,15 @@ pub fn read_data(path: &Path, opts: &FitOptions) -> Result<(Dataset, Vec<String>
 /// [`FitOptions::instrument`] every reading and its std converted to 1/sr by
 /// [`crate::calibrate::sweep::absolute_rows`], the conversion `gonio convert` writes
 /// with, so that fitting with the instrument and fitting the converted file are one
-/// fit. Refuses an instrument for rows already in 1/sr.
+/// fit. Refuses an instrument for rows already in 1/sr, and more rows than one fit
+/// takes ([`super::data::MAX_FIT_READINGS`]) before anything else.
 pub fn prepare(
     rows: &[crate::sweep_file::Row],
     units: crate::sweep_file::BrdfUnits,
     opts: &FitOptions,
     name: &str,
 ) -> Result<Dataset, String> {
+    super::data::check_reading_count(rows.len())?;
     let positive = opts.residual != Residual::Absolute;
     let Some(inst) = &opts.instrument else {
         let mut data = Dataset::from_rows_floor(rows, positive, opts.floor).map_err(|e| e.0)?;

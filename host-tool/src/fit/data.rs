@@ -6,6 +6,24 @@ use brdf_core::{Geometry, Model};
 
 use crate::sweep_file::{BrdfUnits, Row};
 
+/// Most readings one fit takes: as many as the largest sweep file gonio reads holds
+/// ([`crate::sweep_file::MAX_SWEEP_BYTES`], 64 MiB, in rows of 32 bytes, a capture's
+/// shortest: `0,-80,94.6111,0.51420563,4,0,852`), 2,097,152. A fit needs about 0.7 kB a
+/// reading (10^7 readings took 7.1 GB and 240 s), so one fit stays near 1.5 GB. The
+/// CLI and Python check it before anything is fitted ([`check_reading_count`]).
+pub const MAX_FIT_READINGS: usize = (crate::sweep_file::MAX_SWEEP_BYTES / 32) as usize;
+
+/// Refuses more than [`MAX_FIT_READINGS`] readings, in one line.
+pub fn check_reading_count(n: usize) -> Result<(), String> {
+    if n > MAX_FIT_READINGS {
+        return Err(format!(
+            "{n} readings: more than one fit takes ({MAX_FIT_READINGS}, what a {} MiB sweep file holds); fit a subset, e.g. every other detector angle",
+            crate::sweep_file::MAX_SWEEP_BYTES >> 20
+        ));
+    }
+    Ok(())
+}
+
 /// A simulated paper sweep (theta_i 0..80 step 10, theta_r -80..80 step 10, degrees):
 /// `model_at(theta_i)` evaluated at each point times `1 + noise * n`, with `n`
 /// deterministic standard-normal noise from `seed`. For tests, benchmarks and studies.

@@ -73,6 +73,30 @@ fn fixtures() -> Scratch {
     w("negative.csv", b"theta_i,theta_r,brdf\n20,20,-5\n20,30,5\n");
     w("angles.csv", b"theta_i,theta_r,brdf\n200,20,5\n20,30,5\n");
     w("short.csv", b"theta_i,theta_r,brdf\n20,20\n");
+    // Instruments whose K converts readings out of every reader's range (issue 41).
+    for (name, k) in [("k-tiny.toml", "1e-300"), ("k-huge.toml", "1e300")] {
+        let text = format!(
+            "k = {k}\nu_k = 0.0\nstandard = \"lambertian:0.99\"\nreference_file = \"ref.csv\"\ndate = \"2026-12-01T18:30:00Z\"\nreadings = 9\n"
+        );
+        w(name, text.as_bytes());
+    }
+    w(
+        "rel.csv",
+        b"theta_i,theta_r,brdf\n20,20,5\n20,30,4\n20,40,3\n",
+    );
+    // A reference of readings near 1e20 against a 99 % white standard: K about 3e20.
+    let mut bright = b"theta_i,theta_r,brdf\n".to_vec();
+    for tr in [-40, -30, -20, -10, 10, 20, 30, 40] {
+        bright.extend_from_slice(format!("0,{tr},1e20\n").as_bytes());
+    }
+    w("bright-ref.csv", &bright);
+    // One reading more than a fit takes (MAX_FIT_READINGS), in 17 MB: under the file
+    // size limit, so the count is what refuses it.
+    let mut too_many = b"theta_i,theta_r,brdf\n".to_vec();
+    for _ in 0..=gonio::fit::data::MAX_FIT_READINGS {
+        too_many.extend_from_slice(b"10,20,1\n");
+    }
+    w("too-many.csv", &too_many);
     w(
         "nan.toml",
         b"incidences = [nan]\ndetector = { start = -80, stop = 80, step = 10 }\n",
@@ -1204,6 +1228,42 @@ const CASES: &[Case] = &[
     case(&["fit", "{d}/negative.csv"], 2, "negative.csv"),
     case(&["fit", "{d}/angles.csv"], 2, "angles.csv"),
     case(&["fit", "{d}/short.csv"], 2, "short.csv:2"),
+    case(
+        &["fit", "{d}/rel.csv", "--instrument", "{d}/k-huge.toml"],
+        2,
+        "k-huge.toml: instrument: k = 1e300 is outside 1e-15..1e15",
+    ),
+    out(
+        &[
+            "convert",
+            "{d}/rel.csv",
+            "--instrument",
+            "{d}/k-tiny.toml",
+            "--out",
+            "{d}/conv.csv",
+        ],
+        2,
+        "k-tiny.toml: instrument: k = 1e-300 is outside 1e-15..1e15",
+        "conv.csv",
+    ),
+    out(
+        &[
+            "calibrate",
+            "{d}/bright-ref.csv",
+            "--standard",
+            "lambertian:0.99",
+            "--out",
+            "{d}/bright.toml",
+        ],
+        2,
+        "cannot determine K: instrument: k = 3.1",
+        "bright.toml",
+    ),
+    case(
+        &["fit", "{d}/too-many.csv"],
+        2,
+        "too-many.csv: 2097153 readings: more than one fit takes (2097152",
+    ),
     case(&["fit", "{d}/nan.csv", "--loss", "huber:-1"], 2, "loss"),
     case(&["fit", "{d}/nan.csv", "--fix", "sigma=NaN"], 2, "sigma"),
     // capture

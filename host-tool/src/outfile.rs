@@ -179,6 +179,40 @@ fn locked_by(path: &Path, meta: &std::fs::Metadata) -> Option<Option<u32>> {
     }
 }
 
+/// Why an exclusive lock was not taken ([`lock_exclusive`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LockError {
+    /// Another process holds it: its PID, when /proc/locks says.
+    Held(Option<u32>),
+    /// The lock call itself failed.
+    Failed(nix::errno::Errno),
+}
+
+impl LockError {
+    /// "another process (process N)" style words for the holder: `what` names it.
+    pub fn holder(self, what: &str) -> String {
+        match self {
+            LockError::Held(Some(pid)) => format!("{what} (process {pid})"),
+            _ => what.to_string(),
+        }
+    }
+}
+
+/// Takes the exclusive, non-blocking `flock` of `file` (a sweep file a capture writes,
+/// a campaign's output directory), held until `file` is closed; says who holds it
+/// otherwise. The one lock of writers that must not run twice on one target.
+pub fn lock_exclusive(file: &File) -> Result<(), LockError> {
+    use nix::fcntl::{FlockArg, flock};
+    use std::os::fd::AsRawFd;
+    match flock(file.as_raw_fd(), FlockArg::LockExclusiveNonblock) {
+        Ok(()) => Ok(()),
+        Err(nix::errno::Errno::EWOULDBLOCK) => Err(LockError::Held(
+            file.metadata().ok().and_then(|m| lock_holder(m.ino())),
+        )),
+        Err(e) => Err(LockError::Failed(e)),
+    }
+}
+
 /// The process holding an flock on inode `ino`, from /proc/locks (Linux): lines such
 /// as `1: FLOCK  ADVISORY  WRITE 4242 fd:01:1234567 0 EOF`.
 fn lock_holder(ino: u64) -> Option<u32> {

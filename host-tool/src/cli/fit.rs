@@ -13,6 +13,7 @@ use super::output::{say_written, write_stdout, write_stdout_with};
 use crate::calibrate::Instrument;
 use crate::export::ExportFormat;
 use crate::fit::campaign::{self, FileError};
+use crate::fit::campaign_checks;
 use crate::fit::physical::CheckScope;
 use crate::fit::{self, Dataset, FamilyFit, FitOptions, Fixed, Loss, Residual};
 use crate::outfile::{self, Target};
@@ -286,6 +287,10 @@ fn run_campaign(args: &FitArgs, opts: &FitOptions) -> CliResult {
     let files = campaign::expand_inputs(&args.sweeps).map_err(CliError::usage)?;
     let ext = if args.json { "json" } else { "txt" };
     campaign::check_outputs(&args.out, &files, ext, args.force).map_err(CliError::usage)?;
+    // Before any fitting: room for the reports, and no other campaign in --out (held
+    // to the end).
+    campaign_checks::check_space(&args.out, &files, ext).map_err(CliError::usage)?;
+    let _out_lock = campaign_checks::lock_out_dir(&args.out).map_err(CliError::usage)?;
     let units = super::fit_units::campaign_units(&files);
     super::fit_units::check_campaign_units(&files, &units)?;
     let inst = match &args.instrument {

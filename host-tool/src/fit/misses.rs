@@ -9,8 +9,7 @@ use brdf_core::member::Member;
 use super::data::Dataset;
 use super::goodness::member_fitted;
 use super::member_fit::MemberFit;
-use super::notes::Compared;
-use super::options::{Loss, residual_of};
+use super::options::{Compared, Loss, residual_of};
 
 /// Readings carry "most of the loss" when together they hold at least this share of
 /// the selected member's sum of squared residuals...

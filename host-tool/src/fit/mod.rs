@@ -29,6 +29,7 @@
 pub mod abg_text;
 pub mod arrow;
 pub mod campaign;
+pub mod campaign_checks;
 pub mod criteria;
 pub mod data;
 pub mod factors;

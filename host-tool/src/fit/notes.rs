@@ -9,21 +9,10 @@ use brdf_core::member::Member;
 use super::data::Dataset;
 use super::goodness;
 use super::member_fit::MemberFit;
-use super::options::{Loss, Residual};
+use super::options::{Compared, Residual};
 use super::peak;
 use super::select::MARGIN as AICC_MARGIN;
 use super::select::{self, Candidate, Criterion, Selection};
-
-/// How the family compared its models with the readings.
-#[derive(Debug, Clone, Copy)]
-pub struct Compared {
-    /// The residual kind minimised.
-    pub residual: Residual,
-    /// The loss minimised.
-    pub loss: Loss,
-    /// The detector's aperture half-angle the models were averaged over (degrees).
-    pub aperture: Option<f64>,
-}
 
 /// The family's notes: the selection's (`selected` by AICc over `candidates`,
 /// `selected_bic` by BIC), those

@@ -38,6 +38,17 @@ pub enum Loss {
     Cauchy(f64),
 }
 
+/// How the family compared its models with the readings.
+#[derive(Debug, Clone, Copy)]
+pub struct Compared {
+    /// The residual kind minimised.
+    pub residual: Residual,
+    /// The loss minimised.
+    pub loss: Loss,
+    /// The detector's aperture half-angle the models were averaged over (degrees).
+    pub aperture: Option<f64>,
+}
+
 /// Options of a fit.
 #[derive(Debug, Clone)]
 pub struct FitOptions {

@@ -268,7 +268,7 @@ fn fit_nominal(data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, String> {
         selected_member,
         selected_bic,
         std::mem::take(&mut notes),
-        notes::Compared {
+        super::options::Compared {
             residual: opts.residual,
             loss: opts.loss,
             aperture,

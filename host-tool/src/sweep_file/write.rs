@@ -9,7 +9,6 @@ use std::io::{self, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
 use std::os::unix::fs::OpenOptionsExt;
-use std::os::unix::io::AsRawFd;
 
 use super::format::{
     COLUMNS, Counters, Header, Row, SweepFileError, SweepStatus, meta_problem, row_problem,
@@ -19,16 +18,17 @@ use super::read::SweepData;
 use super::units::BrdfUnits;
 use crate::outfile::{self, OutError, Target};
 
-/// Takes the exclusive lock of a sweep file, or says who holds it.
+/// Takes the exclusive lock of a sweep file ([`outfile::lock_exclusive`]), or says who
+/// holds it.
 fn lock(file: &File, path: &Path) -> Result<(), SweepFileError> {
-    use nix::fcntl::{FlockArg, flock};
-    match flock(file.as_raw_fd(), FlockArg::LockExclusiveNonblock) {
+    match outfile::lock_exclusive(file) {
         Ok(()) => Ok(()),
-        Err(nix::errno::Errno::EWOULDBLOCK) => Err(SweepFileError::Invalid(format!(
-            "{} is being written by another capture (it is locked); wait for it to end",
-            path.display()
+        Err(e @ outfile::LockError::Held(_)) => Err(SweepFileError::Invalid(format!(
+            "{} is being written by {}, which has it locked; wait for it to end",
+            path.display(),
+            e.holder("another capture")
         ))),
-        Err(e) => Err(SweepFileError::Io(format!(
+        Err(outfile::LockError::Failed(e)) => Err(SweepFileError::Io(format!(
             "{}: cannot lock: {e}",
             path.display()
         ))),

@@ -287,8 +287,11 @@ fn run_campaign(args: &FitArgs, opts: &FitOptions) -> CliResult {
     let files = campaign::expand_inputs(&args.sweeps).map_err(CliError::usage)?;
     let ext = if args.json { "json" } else { "txt" };
     campaign::check_outputs(&args.out, &files, ext, args.force).map_err(CliError::usage)?;
-    // Before any fitting: room for the reports, and no other campaign in --out (held
-    // to the end).
+    // Before any fitting: report names the user did not choose, room for the reports,
+    // and no other campaign in --out (held to the end).
+    for w in campaign_checks::renamed_reports(&files, ext) {
+        eprintln!("gonio: warning: {w}");
+    }
     campaign_checks::check_space(&args.out, &files, ext).map_err(CliError::usage)?;
     let _out_lock = campaign_checks::lock_out_dir(&args.out).map_err(CliError::usage)?;
     let units = super::fit_units::campaign_units(&files);

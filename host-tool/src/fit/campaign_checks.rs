@@ -1,5 +1,6 @@
-//! A campaign's checks before any fitting: free space for its reports, and its
-//! `--out` directory locked against a concurrent campaign.
+//! A campaign's checks before any fitting: report names the user did not choose, free
+//! space for its reports, and its `--out` directory locked against a concurrent
+//! campaign.
 
 use std::fs::File;
 use std::path::{Path, PathBuf};
@@ -76,6 +77,35 @@ pub fn check_space(dir: &Path, inputs: &[PathBuf], ext: &str) -> Result<(), Stri
     }
 }
 
+/// One line per input whose report name is not its own stem's, because an earlier
+/// input has the same stem ([`super::campaign::report_names`] numbers them): which two
+/// inputs, which names, and what to do. Said before any fitting, so that a report
+/// name refused later is one the user was told of.
+pub fn renamed_reports(inputs: &[PathBuf], ext: &str) -> Vec<String> {
+    let names = super::campaign::report_names(inputs, ext);
+    let mut first_of: std::collections::HashMap<String, usize> = Default::default();
+    let mut out = Vec::new();
+    for (k, p) in inputs.iter().enumerate() {
+        let stem = p
+            .file_stem()
+            .map_or("sweep".into(), |s| s.to_string_lossy().into_owned());
+        match first_of.get(&stem) {
+            Some(&j) => out.push(format!(
+                "{} and {} share the name {}: their reports are {} and {} (rename one, or fit them into separate --out directories, to choose)",
+                crate::text::escape_line(&inputs[j].display().to_string(), 80),
+                crate::text::escape_line(&p.display().to_string(), 80),
+                crate::text::escape_line(&stem, 40),
+                crate::text::escape_line(&names[j], 80),
+                crate::text::escape_line(&names[k], 80),
+            )),
+            _ => {
+                first_of.insert(stem, k);
+            }
+        }
+    }
+    out
+}
+
 /// A campaign's hold on its output directory: released when dropped.
 #[derive(Debug)]
 pub struct OutLock(#[allow(dead_code)] File);
@@ -127,6 +157,23 @@ mod tests {
         assert!(space_needed(&huge, "json") > free, "a disk of {free} bytes");
         let e = check_space(&out, &huge, "json").unwrap_err();
         assert!(e.contains("MiB are free"), "{e}");
+    }
+
+    #[test]
+    fn inputs_sharing_a_name_are_told_before_fitting() {
+        let inputs = [
+            PathBuf::from("a/fe.csv"),
+            PathBuf::from("cu.csv"),
+            PathBuf::from("b/fe.csv"),
+        ];
+        assert_eq!(
+            renamed_reports(&inputs, "txt"),
+            vec![
+                "a/fe.csv and b/fe.csv share the name fe: their reports are fe.txt and fe-2.txt (rename one, or fit them into separate --out directories, to choose)"
+                    .to_string()
+            ]
+        );
+        assert!(renamed_reports(&inputs[..2], "txt").is_empty());
     }
 
     #[test]

@@ -30,3 +30,6 @@ pub use self::{bases::*, fit::*, layout::*, problem::*, refine::*, result::*};
 
 #[cfg(test)]
 mod tests;
+
+#[cfg(test)]
+mod fresnel_tests;

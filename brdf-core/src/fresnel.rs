@@ -44,6 +44,58 @@ pub fn reflectance<T: Real>(cos_t: T, n: T, k: T) -> T {
     (rs + rp) / two
 }
 
+/// [`reflectance`] and its derivatives d F / d n and d F / d k (the same formula
+/// differentiated term by term; where a square root's argument is 0, at a dielectric's
+/// critical angle, its derivative is taken as 0): what a fit of n and k needs.
+pub fn reflectance_with_gradient<T: Real>(cos_t: T, n: T, k: T) -> (T, T, T) {
+    let (zero, one, two, four) = (T::zero(), T::one(), T::lit(2.0), T::lit(4.0));
+    let c = cos_t.max(zero).min(one);
+    let c2 = c * c;
+    let s2 = one - c2;
+    let d = n * n - k * k - s2;
+    let (d_n, d_k) = (two * n, -two * k);
+    let t0 = (d * d + four * n * n * k * k).sqrt();
+    // d t0 = (d dd + 4 n k (k dn + n dk)) / t0.
+    let (t0_n, t0_k) = if t0 > zero {
+        (
+            (d * d_n + four * n * k * k) / t0,
+            (d * d_k + four * n * n * k) / t0,
+        )
+    } else {
+        (zero, zero)
+    };
+    let a = ((t0 + d) / two).max(zero).sqrt();
+    let (a_n, a_k) = if a > zero {
+        ((t0_n + d_n) / (four * a), (t0_k + d_k) / (four * a))
+    } else {
+        (zero, zero)
+    };
+    let ac = two * a * c;
+    let rs_den = t0 + c2 + ac;
+    if rs_den <= zero {
+        return (one, zero, zero);
+    }
+    let rs_num = t0 + c2 - ac;
+    let rs = rs_num / rs_den;
+    let (p0, p1) = (t0 * c2 + s2 * s2, ac * s2);
+    let (q, qs) = (p0 - p1, p0 + p1);
+    let ratio = if qs > zero { q / qs } else { one };
+    let part = |t0_x: T, a_x: T| {
+        let ac_x = two * c * a_x;
+        let rs_x = ((t0_x - ac_x) * rs_den - rs_num * (t0_x + ac_x)) / (rs_den * rs_den);
+        let (p0_x, p1_x) = (t0_x * c2, ac_x * s2);
+        let ratio_x = if qs > zero {
+            ((p0_x - p1_x) * qs - q * (p0_x + p1_x)) / (qs * qs)
+        } else {
+            zero
+        };
+        (rs_x + rs_x * ratio + rs * ratio_x) / two
+    };
+    // The value as `reflectance` computes it, to the last bit.
+    let rp = if qs > zero { rs * q / qs } else { rs };
+    ((rs + rp) / two, part(t0_n, a_n), part(t0_k, a_k))
+}
+
 /// Reflectance at normal incidence, ((n-1)^2 + k^2) / ((n+1)^2 + k^2).
 pub fn normal_reflectance<T: Real>(n: T, k: T) -> T {
     let one = T::one();

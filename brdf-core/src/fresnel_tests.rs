@@ -135,3 +135,46 @@ fn the_metal_table_reads_its_rows_and_interpolates_between() {
     assert!(f0("ag@532") > f0("al@532") && f0("al@532") > f0("fe@532"));
     assert!(f0("au@633") > f0("au@532") && f0("cu@633") > f0("cu@532"));
 }
+
+#[test]
+fn gradient_matches_the_value_and_central_differences() {
+    // Conductors (Al, Cu, Fe at 532 nm), dielectrics (n = 1.5, n = 0.7 past its
+    // critical angle), at normal, oblique and near-grazing angles.
+    for &(n, k) in &[
+        (0.9f64, 6.4f64),
+        (1.1, 2.6),
+        (2.9, 2.9),
+        (1.5, 0.0),
+        (0.7, 0.0),
+        (4.0, 0.3),
+    ] {
+        for &c in &[1.0f64, 0.9, 0.5, 0.2, 0.05, 0.01] {
+            let (f, dn, dk) = reflectance_with_gradient(c, n, k);
+            assert_eq!(f, reflectance(c, n, k), "n={n} k={k} c={c}");
+            let h = 1e-6;
+            let num_n = (reflectance(c, n + h, k) - reflectance(c, n - h, k)) / (2.0 * h);
+            assert!(
+                (dn - num_n).abs() <= 1e-6 * (1.0 + num_n.abs()),
+                "dF/dn n={n} k={k} c={c}: {dn} vs {num_n}"
+            );
+            if k > 0.0 {
+                let num_k = (reflectance(c, n, k + h) - reflectance(c, n, k - h)) / (2.0 * h);
+                assert!(
+                    (dk - num_k).abs() <= 1e-6 * (1.0 + num_k.abs()),
+                    "dF/dk n={n} k={k} c={c}: {dk} vs {num_k}"
+                );
+            } else {
+                // At k = 0 F is even in k: its derivative there is 0.
+                assert_eq!(dk, 0.0);
+            }
+        }
+    }
+    // f32 agrees with f64.
+    let (f, dn, dk) = reflectance_with_gradient(0.5f32, 0.9, 6.4);
+    let (g, en, ek) = reflectance_with_gradient(0.5f64, 0.9, 6.4);
+    assert!(
+        (f as f64 - g).abs() < 1e-5
+            && (dn as f64 - en).abs() < 1e-4
+            && (dk as f64 - ek).abs() < 1e-4
+    );
+}

@@ -5,7 +5,8 @@
 //! `torrance-sparrow`, `three-component`, `three-component-smooth-ks`), otherwise the
 //! components joined by `+` in the fixed order specular, specular-haze,
 //! directional-diffuse, ideal-diffuse; a lobe carries its distribution after `:` and,
-//! when its k_s is the smooth k_s(theta_i), `:smooth-ks`. For example
+//! when its k_s is the smooth k_s(theta_i), `:smooth-ks`, when it is k0 times the
+//! Fresnel reflectance on the facet's local angle, `:fresnel`. For example
 //! `specular:ggx+specular-haze:beckmann+ideal-diffuse` or
 //! `specular:beckmann:smooth-ks+directional-diffuse+ideal-diffuse`. The optics
 //! programs' ABg model ([`crate::abg`]) is the member `abg`, alone: it is a whole
@@ -65,15 +66,31 @@ pub enum KsForm {
     PerIncidence,
     /// `ln k_s = c0 + c1 t + c2 t^2`, t = theta_i / 90 ([`crate::lobe::SmoothKs`]).
     Smooth,
+    /// `k_s = k0 F(beta; n, k)`: the exact unpolarised Fresnel reflectance
+    /// ([`crate::fresnel`]) at the facet's local angle beta (between w_i and the half
+    /// vector), of a conductor n + ik or a dielectric (k = 0)
+    /// ([`crate::member_model::FresnelKs`]).
+    Fresnel,
 }
 
 impl KsForm {
-    /// The name used in reports: `per-incidence` or `smooth` (in member names the
-    /// smooth form is the suffix `:smooth-ks`, the per-incidence form is the default).
+    /// The name used in reports: `per-incidence`, `smooth` or `fresnel` (in member
+    /// names the smooth form is the suffix `:smooth-ks`, the Fresnel form `:fresnel`,
+    /// the per-incidence form is the default).
     pub fn name(self) -> &'static str {
         match self {
             KsForm::PerIncidence => "per-incidence",
             KsForm::Smooth => "smooth",
+            KsForm::Fresnel => "fresnel",
+        }
+    }
+
+    /// The suffix of this form in member names (`""` for the default, per incidence).
+    pub fn suffix(self) -> &'static str {
+        match self {
+            KsForm::PerIncidence => "",
+            KsForm::Smooth => ":smooth-ks",
+            KsForm::Fresnel => ":fresnel",
         }
     }
 }
@@ -134,8 +151,8 @@ pub struct Member {
 pub enum NameError {
     /// A `+`-separated part is not a component of the vocabulary.
     UnknownComponent,
-    /// A `:` attribute is neither a distribution nor `smooth-ks`, or sits on a
-    /// component without a lobe.
+    /// A `:` attribute is neither a distribution nor `smooth-ks` or `fresnel`, or
+    /// sits on a component without a lobe (or a lobe has two k_s forms).
     BadAttribute,
     /// A component appears twice.
     Repeated,
@@ -150,7 +167,7 @@ impl fmt::Display for NameError {
                 "unknown component (known: specular, specular-haze, directional-diffuse, ideal-diffuse, abg, or a paper name: ideal-diffuse, torrance-sparrow, three-component, three-component-smooth-ks)"
             }
             NameError::BadAttribute => {
-                "bad lobe attribute (a lobe takes :beckmann or :ggx and optionally :smooth-ks)"
+                "bad lobe attribute (a lobe takes :beckmann or :ggx and optionally :smooth-ks or :fresnel)"
             }
             NameError::Repeated => "a component is named twice",
             NameError::Invalid => {
@@ -311,8 +328,14 @@ impl Member {
                 any = true;
                 if let Some(d) = Distribution::parse(a) {
                     lobe.dist = d;
-                } else if a == "smooth-ks" {
-                    lobe.ks = KsForm::Smooth;
+                } else if let Some(form) = [KsForm::Smooth, KsForm::Fresnel]
+                    .into_iter()
+                    .find(|f| f.suffix().strip_prefix(':') == Some(a))
+                {
+                    if lobe.ks != KsForm::PerIncidence {
+                        return Err(NameError::BadAttribute);
+                    }
+                    lobe.ks = form;
                 } else {
                     return Err(NameError::BadAttribute);
                 }
@@ -378,10 +401,7 @@ impl fmt::Display for Member {
                 _ => None,
             };
             if let Some(l) = lobe {
-                write!(f, ":{}", l.dist.name())?;
-                if l.ks == KsForm::Smooth {
-                    f.write_str(":smooth-ks")?;
-                }
+                write!(f, ":{}{}", l.dist.name(), l.ks.suffix())?;
             }
         }
         if first {

@@ -9,17 +9,58 @@
 use crate::abg::{Abg, AbgParams};
 use crate::error::ModelError;
 use crate::float::Real;
+use crate::fresnel::reflectance_with_gradient;
 use crate::geometry::Geometry;
 use crate::lobe::{Distribution, Lobe, SmoothKs, check_weight, check_width, directional_gauss};
 use crate::member::{KsForm, LobeSpec, Member};
 
-/// A lobe's k_s: a value for the reading's incidence, or the smooth k_s(theta_i).
+/// A lobe's k_s: a value for the reading's incidence, the smooth k_s(theta_i), or a
+/// Fresnel factor on the facet's local angle.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Ks<T> {
     /// k_s for the incidence being evaluated (>= 0), as the paper tabulates it.
     PerIncidence(T),
     /// `ln k_s = c0 + c1 t + c2 t^2`, t = theta_i / 90.
     Smooth(SmoothKs<T>),
+    /// `k_s = k0 F(beta; n, k)` on the facet's local angle ([`FresnelKs`]).
+    Fresnel(FresnelKs<T>),
+}
+
+/// A Fresnel k_s: `k0 F(beta; n, k)`, F the exact unpolarised reflectance
+/// ([`crate::fresnel::reflectance`]) at beta, the angle between w_i and the half
+/// vector ([`Geometry::cos_b`]): the facet's own angle of incidence, so the factor is
+/// exact off the mirror direction too. On the mirror direction beta = theta_i.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FresnelKs<T> {
+    /// The amplitude k0 (>= 0; the data's units): k_s where F = 1 (grazing).
+    pub k0: T,
+    /// Real part n of the complex index (> 0).
+    pub n: T,
+    /// Extinction coefficient k (>= 0; 0 for a dielectric).
+    pub k: T,
+}
+
+impl<T: Real> FresnelKs<T> {
+    /// Checks k0 is a weight, n finite and > 0, k finite and >= 0 (`names`: k0, n, k).
+    pub fn check(&self, names: [&'static str; 3]) -> Result<(), ModelError> {
+        check_weight(names[0], self.k0)?;
+        if !self.n.is_finite() {
+            return Err(ModelError::NotFinite { what: names[1] });
+        }
+        if self.n <= T::zero() {
+            return Err(ModelError::NotPositive {
+                what: names[1],
+                value: self.n.widen(),
+            });
+        }
+        check_weight(names[2], self.k)?;
+        Ok(())
+    }
+
+    /// k_s at the facet's local angle, cos beta = `cos_b`.
+    pub fn ks(&self, cos_b: T) -> T {
+        self.k0 * crate::fresnel::reflectance(cos_b, self.n, self.k)
+    }
 }
 
 impl<T> Ks<T> {
@@ -28,6 +69,7 @@ impl<T> Ks<T> {
         match self {
             Ks::PerIncidence(_) => KsForm::PerIncidence,
             Ks::Smooth(_) => KsForm::Smooth,
+            Ks::Fresnel(_) => KsForm::Fresnel,
         }
     }
 }
@@ -90,7 +132,7 @@ impl<T: Real> MemberParams<T> {
     }
 
     /// Starting parameters for `member`: every k_s, k_dd and k_id = 1 (smooth k_s: all
-    /// c = 0), the given widths for whichever components are on; ABg A = 1, B = 0.01,
+    /// c = 0; Fresnel k_s: k0 = 1, n = 1.5, k = 0), the given widths for whichever components are on; ABg A = 1, B = 0.01,
     /// g = 2.
     pub fn start(member: &Member, sigma: T, sigma_haze: T, sigma_m: T) -> Self {
         let lobe = |spec: LobeSpec, sigma: T| LobeParams {
@@ -98,6 +140,11 @@ impl<T: Real> MemberParams<T> {
             ks: match spec.ks {
                 KsForm::PerIncidence => Ks::PerIncidence(T::one()),
                 KsForm::Smooth => Ks::Smooth(SmoothKs { c: [T::zero(); 3] }),
+                KsForm::Fresnel => Ks::Fresnel(FresnelKs {
+                    k0: T::one(),
+                    n: T::lit(1.5),
+                    k: T::zero(),
+                }),
             },
             sigma,
         };
@@ -138,7 +185,7 @@ pub struct Parts<T> {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MemberEval<T> {
     /// Per-component basis values (1/sr): the lobe f_s (times exp(c1 t + c2 t^2) for a
-    /// smooth k_s), f_dd, 1 for the ideal diffuse, 1/(B + |b - b0|^g) for ABg; 0 for a
+    /// smooth k_s, times F(beta; n, k) for a Fresnel k_s), f_dd, 1 for the ideal diffuse, 1/(B + |b - b0|^g) for ABg; 0 for a
     /// component that is off.
     /// Computed whatever the amplitude, so a linear solve can use them.
     pub basis: Parts<T>,
@@ -149,7 +196,8 @@ pub struct MemberEval<T> {
 /// Derivatives with respect to one specular lobe's parameters.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct LobeGradient<T> {
-    /// d f / d ln k_s (per incidence) or d f / d c0 (smooth): the lobe's term.
+    /// d f / d ln k_s (per incidence), d f / d c0 (smooth) or d f / d ln k0
+    /// (Fresnel): the lobe's term.
     pub ln_ks: T,
     /// d f / d ln sigma.
     pub ln_sigma: T,
@@ -157,6 +205,10 @@ pub struct LobeGradient<T> {
     pub c1: T,
     /// d f / d c2 (smooth k_s only, else 0).
     pub c2: T,
+    /// d f / d n (Fresnel k_s only, else 0): n itself, not its logarithm.
+    pub n: T,
+    /// d f / d k (Fresnel k_s only, else 0): k itself (it may be 0).
+    pub k: T,
 }
 
 /// Derivatives of f with respect to the logarithms of the parameters (and the smooth
@@ -189,6 +241,8 @@ impl<T: Real> MemberGradient<T> {
             a.ln_sigma = a.ln_sigma + w * b.ln_sigma;
             a.c1 = a.c1 + w * b.c1;
             a.c2 = a.c2 + w * b.c2;
+            a.n = a.n + w * b.n;
+            a.k = a.k + w * b.k;
         }
         self.ln_kdd = self.ln_kdd + w * o.ln_kdd;
         self.ln_sigma_m = self.ln_sigma_m + w * o.ln_sigma_m;
@@ -217,6 +271,11 @@ impl<T: Real> WeightedLobe<T> {
                 check_weight(ks_name, k)?;
             }
             Ks::Smooth(s) => s.check(ks_name)?,
+            Ks::Fresnel(f) => f.check(if ks_name == "k_s" {
+                ["k_s0", "n", "k"]
+            } else {
+                ["k_s0_haze", "n_haze", "k_haze"]
+            })?,
         }
         Ok(WeightedLobe {
             lobe: Lobe::new(p.dist, p.sigma, sigma_name)?,
@@ -225,23 +284,31 @@ impl<T: Real> WeightedLobe<T> {
     }
 
     /// The smooth k_s's (shape, value) at t = theta_i / 90; (1, 0), unused, for a
-    /// per-incidence k_s.
+    /// per-incidence or Fresnel k_s.
     #[inline(always)]
     fn smooth_at(&self, t: T) -> (T, T) {
         match self.ks {
-            Ks::PerIncidence(_) => (T::one(), T::zero()),
+            Ks::PerIncidence(_) | Ks::Fresnel(_) => (T::one(), T::zero()),
             Ks::Smooth(s) => (s.shape_at_t(t), s.ks_at_t(t)),
         }
     }
 
-    /// (basis, weighted term, d ln f_s / d ln sigma), `smooth` being
-    /// [`WeightedLobe::smooth_at`] at the reading's incidence.
+    /// (basis, weighted term, d ln f_s / d ln sigma, (d term / d n, d term / d k)),
+    /// `smooth` being [`WeightedLobe::smooth_at`] at the reading's incidence; the last
+    /// pair is 0 but for a Fresnel k_s.
     #[inline(always)]
-    fn eval(&self, g: &Geometry<T>, smooth: (T, T)) -> (T, T, T) {
+    fn eval(&self, g: &Geometry<T>, smooth: (T, T)) -> (T, T, T, (T, T)) {
         let (fs, dlog) = self.lobe.value_dlog(g);
+        let z = T::zero();
         match self.ks {
-            Ks::PerIncidence(k) => (fs, if k > T::zero() { k * fs } else { T::zero() }, dlog),
-            Ks::Smooth(_) => (smooth.0 * fs, smooth.1 * fs, dlog),
+            Ks::PerIncidence(k) => (fs, if k > z { k * fs } else { z }, dlog, (z, z)),
+            Ks::Smooth(_) => (smooth.0 * fs, smooth.1 * fs, dlog, (z, z)),
+            Ks::Fresnel(fr) => {
+                let (f, dn, dk) = reflectance_with_gradient(g.cos_b, fr.n, fr.k);
+                let b = f * fs;
+                let kfs = if fr.k0 > z { fr.k0 * fs } else { z };
+                (b, kfs * f, dlog, (kfs * dn, kfs * dk))
+            }
         }
     }
 
@@ -249,16 +316,19 @@ impl<T: Real> WeightedLobe<T> {
         match self.ks {
             Ks::PerIncidence(k) => k,
             Ks::Smooth(s) => s.c[0].exp(),
+            Ks::Fresnel(f) => f.k0,
         }
     }
 
-    fn gradient(&self, term: T, dlog: T, t: T) -> LobeGradient<T> {
+    fn gradient(&self, term: T, dlog: T, t: T, nk: (T, T)) -> LobeGradient<T> {
         let smooth = matches!(self.ks, Ks::Smooth(_));
         LobeGradient {
             ln_ks: term,
             ln_sigma: term * dlog,
             c1: if smooth { term * t } else { T::zero() },
             c2: if smooth { term * t * t } else { T::zero() },
+            n: nk.0,
+            k: nk.1,
         }
     }
 }
@@ -402,7 +472,7 @@ impl<T: Real> MemberModel<T> {
         self.params.member()
     }
 
-    /// The linear amplitudes: per-incidence k_s or exp(c0) for each lobe, k_dd, k_id,
+    /// The linear amplitudes: per-incidence k_s, exp(c0) or the Fresnel k0 for each lobe, k_dd, k_id,
     /// ABg's A (0 for components that are off).
     pub fn amplitudes(&self) -> Parts<T> {
         let z = T::zero();
@@ -566,11 +636,12 @@ impl<T: Real> MemberModel<T> {
         let mut basis = Parts::default();
         let (mut s, mut h, mut d, mut i) = (z, z, z, z);
         let (mut ds, mut dh, mut y) = (z, z, z);
+        let (mut ns, mut nh) = ((z, z), (z, z));
         if let Some(l) = &self.core {
-            (basis.core, s, ds) = l.eval(g, inc.smooth[0]);
+            (basis.core, s, ds, ns) = l.eval(g, inc.smooth[0]);
         }
         if let Some(l) = &self.haze {
-            (basis.haze, h, dh) = l.eval(g, inc.smooth[1]);
+            (basis.haze, h, dh, nh) = l.eval(g, inc.smooth[1]);
         }
         if let (Some(dd), Some((fdd, yy))) = (&self.directional, dd) {
             basis.directional = fdd;
@@ -598,10 +669,10 @@ impl<T: Real> MemberModel<T> {
         }
         if let Some(gr) = grad {
             if let Some(l) = &self.core {
-                gr.core = l.gradient(s, ds, t);
+                gr.core = l.gradient(s, ds, t, ns);
             }
             if let Some(l) = &self.haze {
-                gr.haze = l.gradient(h, dh, t);
+                gr.haze = l.gradient(h, dh, t, nh);
             }
             gr.ln_kdd = d;
             gr.ln_sigma_m = d * (T::lit(2.0) * y - T::one());

@@ -489,6 +489,11 @@ fn hard_cases<T: Real>() {
                     Ks::Smooth(_) => Ks::Smooth(SmoothKs {
                         c: [T::lit(5.0), T::lit(1.0), T::lit(-2.0)],
                     }),
+                    Ks::Fresnel(_) => Ks::Fresnel(FresnelKs {
+                        k0: T::lit(300.0),
+                        n: T::lit(0.9),
+                        k: T::lit(6.4),
+                    }),
                 };
             }
             let m = MemberModel::new(&p).unwrap();
@@ -708,4 +713,151 @@ fn the_abg_member_stands_alone_and_evaluates_with_its_gradient() {
     let a = m.eval(30.0, &g3).unwrap().f;
     let b = m.eval_in_plane(30.0, 40.0).unwrap().f;
     assert!((a - b).abs() <= 1e-12 * b);
+}
+
+/// A Fresnel core (Al at 532 nm) on a GGX haze with a Fresnel k_s (a dielectric
+/// coating, n = 1.5), plus the ideal diffuse.
+fn fresnel_member() -> MemberParams<f64> {
+    MemberParams {
+        core: lobe(
+            Distribution::Beckmann,
+            Ks::Fresnel(FresnelKs {
+                k0: 3.0,
+                n: 0.93,
+                k: 6.42,
+            }),
+            0.03,
+        ),
+        haze: lobe(
+            Distribution::Ggx,
+            Ks::Fresnel(FresnelKs {
+                k0: 0.4,
+                n: 1.5,
+                k: 0.0,
+            }),
+            0.2,
+        ),
+        directional: None,
+        ideal: Some(0.01),
+        abg: None,
+    }
+}
+
+#[test]
+fn fresnel_members_parse_print_and_evaluate_k0_times_f_on_the_local_angle() {
+    let name = "specular:beckmann:fresnel+specular-haze:ggx:fresnel+ideal-diffuse";
+    let m = Member::parse(name).unwrap();
+    assert_eq!(m.name().as_str(), name);
+    assert_eq!(fresnel_member().member(), m);
+    assert_eq!(
+        Member::parse("specular:fresnel:smooth-ks"),
+        Err(NameError::BadAttribute)
+    );
+    assert_eq!(
+        Member::parse("ideal-diffuse:fresnel"),
+        Err(NameError::BadAttribute)
+    );
+    let model = MemberModel::new(&fresnel_member()).unwrap();
+    for (ti, tr) in [
+        (0.0, 0.0),
+        (41.4, 41.4),
+        (41.4, 50.0),
+        (80.0, 70.0),
+        (5.0, -20.0),
+    ] {
+        let g = Geometry::in_plane(ti, tr).unwrap();
+        let e = model.eval(ti, &g).unwrap();
+        // The lobe's basis is f_s F(beta): beta is the local angle, not theta_i.
+        let core = Lobe::new(Distribution::Beckmann, 0.03, "sigma").unwrap();
+        let f = crate::fresnel::reflectance(g.cos_b, 0.93, 6.42);
+        assert!((e.basis.core - core.value(&g) * f).abs() <= 1e-15 * e.basis.core.max(1e-300));
+        let a = model.amplitudes();
+        assert_eq!((a.core, a.haze), (3.0, 0.4));
+        let sum = a.core * e.basis.core + a.haze * e.basis.haze + a.ideal * e.basis.ideal;
+        assert!((e.f - sum).abs() <= 1e-12 * e.f);
+    }
+    // On the mirror direction beta = theta_i: at normal incidence F is the closed form.
+    let g = Geometry::in_plane(0.0, 0.0).unwrap();
+    let f0 = crate::fresnel::normal_reflectance(0.93, 6.42);
+    let f = crate::fresnel::reflectance::<f64>(g.cos_b, 0.93, 6.42);
+    assert!((f - f0).abs() < 1e-14);
+    // Bad n and k say which.
+    let mut p = fresnel_member();
+    if let Some(LobeParams {
+        ks: Ks::Fresnel(f), ..
+    }) = &mut p.core
+    {
+        f.n = 0.0;
+    }
+    assert!(matches!(
+        MemberModel::new(&p),
+        Err(ModelError::NotPositive { what: "n", .. })
+    ));
+    let mut p = fresnel_member();
+    if let Some(LobeParams {
+        ks: Ks::Fresnel(f), ..
+    }) = &mut p.haze
+    {
+        f.k = -1.0;
+    }
+    assert!(matches!(
+        MemberModel::new(&p),
+        Err(ModelError::Negative { what: "k_haze", .. })
+    ));
+}
+
+#[test]
+fn fresnel_gradient_matches_finite_differences() {
+    type Bump = fn(&mut FresnelKs<f64>, f64);
+    type Read = fn(&LobeGradient<f64>) -> f64;
+    let coords: [(&str, Bump, Read); 3] = [
+        ("ln k0", |f, u| f.k0 *= u.exp(), |g| g.ln_ks),
+        ("n", |f, u| f.n += u, |g| g.n),
+        ("k", |f, u| f.k += u, |g| g.k),
+    ];
+    let h = 1e-6;
+    let base = fresnel_member();
+    for (ti, tr) in [
+        (0.0, 0.0),
+        (41.4, 41.4),
+        (41.4, 44.0),
+        (70.0, 60.0),
+        (85.0, 85.0),
+        (20.0, -10.0),
+    ] {
+        let m = MemberModel::new(&base).unwrap();
+        let (e, grad) = m.eval_in_plane_with_gradient(ti, tr).unwrap();
+        assert_eq!(e, m.eval_in_plane(ti, tr).unwrap());
+        for haze in [false, true] {
+            for (name, bump, read) in coords {
+                // The haze is a dielectric (k = 0): F is even in k there, bumped upward only.
+                let at = |u: f64| {
+                    let mut p = base;
+                    let l = if haze { &mut p.haze } else { &mut p.core };
+                    if let Some(LobeParams {
+                        ks: Ks::Fresnel(f), ..
+                    }) = l
+                    {
+                        bump(f, u);
+                    }
+                    MemberModel::new(&p)
+                        .unwrap()
+                        .eval_in_plane(ti, tr)
+                        .unwrap()
+                        .f
+                };
+                let numeric = if haze && name == "k" {
+                    (at(h) - at(0.0)) / h
+                } else {
+                    (at(h) - at(-h)) / (2.0 * h)
+                };
+                let analytic = read(if haze { &grad.haze } else { &grad.core });
+                let tol = if haze && name == "k" { 1e-5 } else { 1e-7 };
+                assert!(
+                    (analytic - numeric).abs() <= tol * e.f,
+                    "({ti},{tr}) haze={haze} {name}: {analytic} vs {numeric}"
+                );
+            }
+        }
+    }
 }

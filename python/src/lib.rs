@@ -61,6 +61,15 @@ fn lobe_ks(what: &str, form: KsForm, ks: Option<&Bound<'_, PyAny>>) -> PyResult<
                 .map_err(|_| err(format!("{what}: a smooth k_s is [c0, c1, c2]")))?;
             Ok(KsSrc::Smooth(c))
         }
+        KsForm::Fresnel => {
+            let c: Vec<f64> = ks.extract().map_err(|_| {
+                err(format!("{what}: a Fresnel k_s is [k0, n, k] (k_s = k0 F(beta; n, k))"))
+            })?;
+            let c: [f64; 3] = c
+                .try_into()
+                .map_err(|_| err(format!("{what}: a Fresnel k_s is [k0, n, k]")))?;
+            Ok(KsSrc::Fresnel(c))
+        }
     }
 }
 
@@ -225,7 +234,8 @@ impl PyModel {
             .collect()
     }
 
-    /// The parameters as a dict (k_s: a number, [c0, c1, c2] for a smooth k_s, or
+    /// The parameters as a dict (k_s: a number, [c0, c1, c2] for a smooth k_s, [k0, n, k]
+    /// for a Fresnel k_s, or
     /// 'table' for a preset's / fit's per-incidence values: see `ks_at`).
     #[getter]
     fn params<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
@@ -235,7 +245,7 @@ impl PyModel {
             d.set_item(format!("{pre}sigma"), l.sigma)?;
             match &l.ks {
                 KsSrc::Const(k) => d.set_item(format!("{pre}ks"), k),
-                KsSrc::Smooth(c) => d.set_item(format!("{pre}ks"), c.to_vec()),
+                KsSrc::Smooth(c) | KsSrc::Fresnel(c) => d.set_item(format!("{pre}ks"), c.to_vec()),
                 KsSrc::Preset(p) => {
                     d.set_item(format!("{pre}ks"), format!("table of preset {}", p.name))
                 }
@@ -271,6 +281,13 @@ impl PyModel {
             KsSrc::Smooth(c) => brdf_core::lobe::SmoothKs { c }
                 .ks(theta_i)
                 .map_err(model_err),
+            // On the mirror direction the facet's angle is theta_i.
+            KsSrc::Fresnel(c) => Ok(brdf_core::member_model::FresnelKs {
+                k0: c[0],
+                n: c[1],
+                k: c[2],
+            }
+            .ks(theta_i.to_radians().cos())),
             _ => Ok(if haze { a.haze } else { a.core }),
         }
     }

@@ -8,7 +8,9 @@ use brdf_core::fast::FastModel;
 use brdf_core::geometry::check_angle;
 use brdf_core::lobe::{Distribution, SmoothKs};
 use brdf_core::member::{Component, KsForm, Member};
-use brdf_core::member_model::{DirectionalParams, Ks, LobeParams, MemberModel, MemberParams};
+use brdf_core::member_model::{
+    DirectionalParams, FresnelKs, Ks, LobeParams, MemberModel, MemberParams,
+};
 use brdf_core::model::{KDD_PAPER, KID_PAPER, SIGMA_M_PAPER};
 use brdf_core::{Components, Model as PaperModel, ModelError, Params, Preset};
 use gonio::export::mitsuba::MemberTable;
@@ -24,6 +26,8 @@ pub enum KsSrc {
     Table(Arc<dyn Fn(f64) -> f64 + Send + Sync>),
     /// The smooth ln k_s = c0 + c1 t + c2 t^2.
     Smooth([f64; 3]),
+    /// A Fresnel k_s, [k0, n, k]: k0 F(beta; n, k) on the facet's local angle.
+    Fresnel([f64; 3]),
 }
 
 /// One lobe: distribution, k_s, width sigma.
@@ -62,6 +66,11 @@ fn ks_of(src: &KsSrc, theta_i: f64) -> Result<Ks<f64>, ModelError> {
         KsSrc::Preset(p) => Ks::PerIncidence(p.ks(theta_i)?),
         KsSrc::Table(f) => Ks::PerIncidence(f(theta_i)),
         KsSrc::Smooth(c) => Ks::Smooth(SmoothKs { c: *c }),
+        KsSrc::Fresnel([k0, n, k]) => Ks::Fresnel(FresnelKs {
+            k0: *k0,
+            n: *n,
+            k: *k,
+        }),
     })
 }
 
@@ -69,6 +78,8 @@ fn ks_value(src: &KsSrc, theta_i: f64) -> Result<f64, ModelError> {
     match ks_of(src, theta_i)? {
         Ks::PerIncidence(k) => Ok(k),
         Ks::Smooth(s) => s.ks(theta_i),
+        // On the mirror direction the facet's angle is theta_i.
+        Ks::Fresnel(f) => Ok(f.ks(theta_i.to_radians().cos())),
     }
 }
 
@@ -84,6 +95,7 @@ impl ModelDef {
             dist: l.dist,
             ks: match l.ks {
                 KsSrc::Smooth(_) => KsForm::Smooth,
+                KsSrc::Fresnel(_) => KsForm::Fresnel,
                 _ => KsForm::PerIncidence,
             },
         };
@@ -340,6 +352,7 @@ pub fn table_def(t: MemberTable, origin: String) -> ModelDef {
             sigma: l.sigma,
             ks: match l.ks {
                 Ks::Smooth(s) => KsSrc::Smooth(s.c),
+                Ks::Fresnel(f) => KsSrc::Fresnel([f.k0, f.n, f.k]),
                 Ks::PerIncidence(_) => {
                     let t = Arc::clone(&t);
                     KsSrc::Table(Arc::new(move |theta_i| {

@@ -171,3 +171,20 @@ def test_errors_equal_the_clis(gonio_bin, ti, tr):
         with pytest.raises(gonio.GonioError) as e:
             m.eval([10.0, float(ti)], [0.0, float(tr)], precision=precision)
         assert str(e.value) == want, precision
+
+
+def test_a_fresnel_lobe_takes_k0_n_k_and_reports_k0_f_on_the_mirror_direction():
+    # Aluminium at 532 nm (Rakic 1995): F(0) = ((n-1)^2 + k^2) / ((n+1)^2 + k^2).
+    n, k = 0.9387770491803277, 6.419537704918032
+    m = gonio.Model("specular:beckmann:fresnel+ideal-diffuse", ks=[2.0, n, k], sigma=0.1, kid=0.01)
+    assert m.member == "specular:beckmann:fresnel+ideal-diffuse"
+    assert m.params["ks"] == [2.0, n, k]
+    f0 = ((n - 1) ** 2 + k ** 2) / ((n + 1) ** 2 + k ** 2)
+    assert abs(m.ks_at(0.0) - 2.0 * f0) < 1e-12
+    # A metal's F first dips (its p reflectance: 0.864 at 80 degrees), then rises to 1
+    # at grazing (0.983 at 89.5): k_s approaches k0.
+    assert m.ks_at(80.0) < m.ks_at(0.0) < m.ks_at(89.5) < 2.0
+    f = m.eval([0.0, 40.0, 80.0], [0.0, 40.0, 75.0])
+    assert np.all(np.isfinite(f)) and np.all(f > 0)
+    with pytest.raises(gonio.GonioError, match=r"a Fresnel k_s is \[k0, n, k\]"):
+        gonio.Model("specular:fresnel", ks=2.0, sigma=0.1)

@@ -171,8 +171,8 @@ def test_fit_arrays_and_errors():
     assert json.loads(r.to_json())["models"][0]["params"] == gonio.fit(FE_SWEEP, models=["three"]).best.params
     with pytest.raises(gonio.GonioError, match="--loss 'l3'"):
         gonio.fit(FE_SWEEP, loss="l3")
-    with pytest.raises(gonio.GonioError, match="--fix: unknown parameter 'k'"):
-        gonio.fit(FE_SWEEP, fix=["k=1"])
+    with pytest.raises(gonio.GonioError, match="--fix: unknown parameter 'q'"):
+        gonio.fit(FE_SWEEP, fix=["q=1"])
     with pytest.raises(gonio.GonioError, match="--models 'four': unknown component"):
         gonio.fit(FE_SWEEP, models=["four"])
     with pytest.raises(gonio.GonioError, match="--residual 'lin': use log, rel or abs"):

@@ -268,6 +268,7 @@ fn build_model<T: Real>(args: &EvalArgs) -> CliResult<MemberModel<T>> {
                         "--model {member}: the haze lobe has a smooth k_s: give --ks-haze-smooth C0,C1,C2"
                     )));
                 }
+                (KsForm::Fresnel, _, _) => return Err(no_fresnel(&member)),
             };
             Some(LobeParams {
                 dist: spec.dist,
@@ -315,8 +316,18 @@ fn build_model<T: Real>(args: &EvalArgs) -> CliResult<MemberModel<T>> {
     })?)
 }
 
+/// The refusal of a `:fresnel` lobe: eval has no options for its k0, n and k.
+fn no_fresnel(member: &dyn std::fmt::Display) -> CliError {
+    CliError::usage(format!(
+        "--model {member}: gonio eval has no options for a :fresnel lobe's k0, n and k (gonio fit fits them; its --json and --export json carry them)"
+    ))
+}
+
 /// The core lobe from --material or --ks/--ks-smooth with --sigma.
 fn core_lobe<T: Real>(args: &EvalArgs, spec: LobeSpec, ti: T) -> CliResult<LobeParams<T>> {
+    if spec.ks == KsForm::Fresnel {
+        return Err(no_fresnel(&args.model));
+    }
     let (ks, sigma) = match (&args.material, args.ks, args.ks_smooth) {
         (Some(name), _, _) => {
             if spec.ks == KsForm::Smooth {
@@ -354,7 +365,7 @@ fn core_lobe<T: Real>(args: &EvalArgs, spec: LobeSpec, ti: T) -> CliResult<LobeP
                 spec.ks.name(),
                 match spec.ks {
                     KsForm::PerIncidence => "--ks K (or --material)",
-                    KsForm::Smooth => "--ks-smooth C0,C1,C2",
+                    KsForm::Smooth | KsForm::Fresnel => "--ks-smooth C0,C1,C2",
                 }
             )));
         }

@@ -142,7 +142,8 @@ pub struct FitArgs {
     /// residuals: readings off by more than ~5 % count less).
     #[arg(long, default_value = "l2", value_name = "LOSS", value_parser = Loss::parse)]
     pub loss: Loss,
-    /// Hold a parameter fixed: sigma, sigma_m, kdd, kid or kd, e.g. --fix sigma=0.115.
+    /// Hold a parameter fixed: sigma, sigma_m, kdd, kid, kd, or a :fresnel lobe's n or k
+    /// (k may be 0: a dielectric), e.g. --fix sigma=0.115, --fix n=1.5 --fix k=0.
     /// Repeatable.
     #[arg(long = "fix", value_name = "NAME=VALUE")]
     pub fix: Vec<String>,
@@ -150,11 +151,20 @@ pub struct FitArgs {
     /// (ideal-diffuse, torrance-sparrow, three-component, three-component-smooth-ks, or
     /// their short forms ideal, ts, three, three-smooth) or systematic names, components
     /// joined by '+' (specular, specular-haze, directional-diffuse, ideal-diffuse), a
-    /// lobe optionally with :beckmann or :ggx and :smooth-ks, e.g.
-    /// specular:ggx+specular-haze+ideal-diffuse; or abg, the optics programs' ABg model
+    /// lobe optionally with :beckmann or :ggx and :smooth-ks or :fresnel (k_s = k0 F,
+    /// the exact unpolarised Fresnel reflectance of index n + ik on the facet's local
+    /// angle: k0, n in [0.02, 10] and k in [0, 15] fitted, or n, k held by --fresnel or
+    /// --fix; only when named), e.g. specular:ggx+specular-haze+ideal-diffuse or
+    /// specular:beckmann:fresnel+ideal-diffuse; or abg, the optics programs' ABg model
     /// (only when named; the report prints A, B, g for Zemax and FRED).
     #[arg(long, value_delimiter = ',', value_name = "MODELS", value_parser = fit::paper::member_by_name)]
     pub models: Vec<Member>,
+    /// Hold every :fresnel lobe's n and k at a metal's tabulated optical constants at a
+    /// wavelength in nm: al (Rakic 1995), cu, au, ag (Johnson & Christy 1972) or fe
+    /// (Johnson & Christy 1974), 443-1127 nm, linear between the table's rows; e.g.
+    /// --fresnel al@532. Needs --models with a :fresnel member; not with --fix n or k.
+    #[arg(long, value_name = "METAL@NM")]
+    pub fresnel: Option<String>,
     /// The detector's acceptance half-angle in degrees (0 to 10): every model is
     /// averaged over the detector's cone before it is compared with the readings, so
     /// the widths are the surface's. Overrides the sweep's `# aperture:` line; 0 turns
@@ -218,6 +228,28 @@ pub fn options(args: &FitArgs) -> CliResult<FitOptions> {
     let mut fixed = Fixed::default();
     for f in &args.fix {
         fixed.set(f).map_err(CliError::usage)?;
+    }
+    if let Some(spec) = &args.fresnel {
+        let fresnel = |l: Option<brdf_core::member::LobeSpec>| {
+            l.is_some_and(|l| l.ks == brdf_core::member::KsForm::Fresnel)
+        };
+        if !args
+            .models
+            .iter()
+            .any(|m| fresnel(m.core) || fresnel(m.haze))
+        {
+            return Err(CliError::usage(
+                "--fresnel holds a :fresnel lobe's n and k: name a member with one in --models (e.g. specular:beckmann:fresnel+ideal-diffuse)",
+            ));
+        }
+        if fixed.n.is_some() || fixed.k.is_some() {
+            return Err(CliError::usage(
+                "--fresnel sets n and k: give it or --fix n=/k=, not both",
+            ));
+        }
+        let (_, ix) = brdf_core::fresnel::metal(spec)
+            .map_err(|e| CliError::usage(format!("--fresnel '{spec}': {e}")))?;
+        (fixed.n, fixed.k) = (Some(ix.n), Some(ix.k));
     }
     let residual = match args.residual {
         ResidualArg::Log => Residual::Log,

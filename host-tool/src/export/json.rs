@@ -27,6 +27,11 @@ pub(super) fn export_json(fam: &FamilyFit, table: &MemberTable) -> Value {
             "a smooth k_s as ln k_s = c0 + c1 t + c2 t^2 with t = theta_i / 90 (ln_ks_c0..2, ln_ks_haze_c0..2; k_s and k_s_haze list the curve at the fitted incidences)",
         );
     }
+    if ks_form(KsForm::Fresnel) {
+        ks_between.push(
+            "a Fresnel k_s as k_s = k0 F(beta; n, k), F the unpolarised Fresnel reflectance of index n + ik at beta, the angle between w_i and the half vector (k_s0, n, k, k_s0_haze, n_haze, k_haze; F0 is F at normal incidence; k_s and k_s_haze list k0 F(theta_i), the mirror direction's, at the fitted incidences)",
+        );
+    }
     if let Value::Object(map) = &mut v {
         map.insert("model".into(), json!(member.to_string()));
         map.insert("selected".into(), json!(member == fam.selected_member));

@@ -24,7 +24,9 @@ use brdf_core::ModelError;
 use brdf_core::abg::AbgParams;
 use brdf_core::lobe::{Distribution, SmoothKs};
 use brdf_core::member::Member;
-use brdf_core::member_model::{DirectionalParams, Ks, LobeParams, MemberModel, MemberParams};
+use brdf_core::member_model::{
+    DirectionalParams, FresnelKs, Ks, LobeParams, MemberModel, MemberParams,
+};
 use serde_json::{Map, Value, json};
 
 use super::error::{ExportError, write_atomic};
@@ -118,6 +120,7 @@ impl MemberTable {
             m.insert("sigma".into(), json!(first.sigma));
             match first.ks {
                 Ks::Smooth(s) => m.insert("ks_smooth".into(), json!(s.c)),
+                Ks::Fresnel(f) => m.insert("ks_fresnel".into(), json!([f.k0, f.n, f.k])),
                 Ks::PerIncidence(_) => m.insert(
                     "ks".into(),
                     self.params
@@ -143,6 +146,7 @@ impl MemberTable {
                 "sigma_m": "radians",
                 "brdf": if self.to_per_sr.is_some() { "1/sr (after to_per_sr)" } else { "relative (the instrument's units; not 1/sr)" },
                 "ks_smooth": "ln k_s = c0 + c1 t + c2 t^2, t = theta_i / 90",
+                "ks_fresnel": "[k0, n, k]: k_s = k0 F(beta; n, k), F the unpolarised Fresnel reflectance of index n + ik at beta, the angle between w_i and the half vector",
             }),
         );
         v.insert("to_per_sr".into(), json!(self.to_per_sr));
@@ -228,8 +232,23 @@ impl MemberTable {
             let dist = Distribution::parse(dname)
                 .ok_or(format!("{key}: dist '{dname}': use beckmann or ggx"))?;
             let sigma = num(l, "sigma", key)?;
-            let ks: Vec<Ks<f64>> = match (l.get("ks"), l.get("ks_smooth")) {
-                (Some(ks), None) => {
+            let ks: Vec<Ks<f64>> = match (l.get("ks"), l.get("ks_smooth"), l.get("ks_fresnel")) {
+                (None, None, Some(c)) => {
+                    let c: Vec<f64> = c
+                        .as_array()
+                        .filter(|c| c.len() == 3)
+                        .and_then(|c| c.iter().map(Value::as_f64).collect())
+                        .ok_or(format!("{key}: \"ks_fresnel\" must be [k0, n, k]"))?;
+                    vec![
+                        Ks::Fresnel(FresnelKs {
+                            k0: c[0],
+                            n: c[1],
+                            k: c[2]
+                        });
+                        n
+                    ]
+                }
+                (Some(ks), None, None) => {
                     let ks = ks
                         .as_array()
                         .ok_or(format!("{key}: \"ks\" must be an array"))?;
@@ -244,7 +263,7 @@ impl MemberTable {
                         })
                         .collect::<Result<_, _>>()?
                 }
-                (None, Some(c)) => {
+                (None, Some(c), None) => {
                     let c: Vec<f64> = c
                         .as_array()
                         .filter(|c| c.len() == 3)
@@ -257,7 +276,11 @@ impl MemberTable {
                         n
                     ]
                 }
-                _ => return Err(format!("{key}: give either \"ks\" or \"ks_smooth\"")),
+                _ => {
+                    return Err(format!(
+                        "{key}: give one of \"ks\", \"ks_smooth\" or \"ks_fresnel\""
+                    ));
+                }
             };
             Ok(Some(
                 ks.into_iter()
@@ -405,6 +428,7 @@ mod tests {
             "ideal-diffuse",
             "specular:ggx:smooth-ks+specular-haze:beckmann+ideal-diffuse",
             "specular:beckmann+specular-haze:ggx:smooth-ks+directional-diffuse",
+            "specular:beckmann:fresnel+specular-haze:ggx:fresnel+ideal-diffuse",
             "abg",
         ] {
             let t = table(name);
@@ -422,7 +446,7 @@ mod tests {
         let t = table("three-component");
         let ks = |th: f64| match t.params_at(th).core.unwrap().ks {
             Ks::PerIncidence(k) => k,
-            Ks::Smooth(_) => unreachable!(),
+            _ => unreachable!(),
         };
         assert_eq!(ks(0.0), 100.0);
         assert_eq!(ks(10.0), 105.0);

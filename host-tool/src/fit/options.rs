@@ -167,6 +167,14 @@ pub const SIGMA_M_BOUNDS: (f64, f64) = (1e-3, 20.0);
 /// The fit's box bounds of every amplitude (k_s, k_dd, k_id; the data's units).
 pub const AMPLITUDE_BOUNDS: (f64, f64) = (1e-12, 1e12);
 
+/// The fit's box bounds of a Fresnel k_s's n: below a good metal's (silver's 0.03 at
+/// 756 nm, the table's least) to a semiconductor's.
+pub const FRESNEL_N_BOUNDS: (f64, f64) = (0.02, 10.0);
+
+/// The fit's box bounds of a Fresnel k_s's k: from a dielectric's 0 past aluminium's
+/// 11 at 1.1 um.
+pub const FRESNEL_K_BOUNDS: (f64, f64) = (0.0, 15.0);
+
 /// Parameters held fixed (`--fix name=value`), in natural units.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Fixed {
@@ -180,10 +188,15 @@ pub struct Fixed {
     pub kid: Option<f64>,
     /// k_d (the Torrance–Sparrow constant).
     pub kd: Option<f64>,
+    /// A Fresnel k_s's n (every Fresnel lobe's; `--fresnel METAL@NM` sets n and k).
+    pub n: Option<f64>,
+    /// A Fresnel k_s's k.
+    pub k: Option<f64>,
 }
 
 impl Fixed {
-    /// Parses `name=value` (names: sigma, sigma_m, kdd, kid, kd; also k_dd, k_id, k_d).
+    /// Parses `name=value` (names: sigma, sigma_m, kdd, kid, kd, n, k; also k_dd, k_id,
+    /// k_d). Every value must be > 0 but k's, which may be 0 (a dielectric).
     pub fn set(&mut self, spec: &str) -> Result<(), String> {
         let (name, value) = spec
             .split_once('=')
@@ -192,14 +205,20 @@ impl Fixed {
             .trim()
             .parse()
             .map_err(|_| format!("--fix '{spec}': '{value}' is not a number"))?;
-        if !(v.is_finite() && v > 0.0) {
-            return Err(format!("--fix '{spec}': the value must be finite and > 0"));
+        let k = name.trim() == "k";
+        if !(v.is_finite() && (v > 0.0 || k && v == 0.0)) {
+            let floor = if k { ">= 0" } else { "> 0" };
+            return Err(format!(
+                "--fix '{spec}': the value must be finite and {floor}"
+            ));
         }
         // The fit's box bounds: a value outside them could not be held where it was
         // asked.
         let (lo, hi) = match name.trim() {
             "sigma" => SIGMA_BOUNDS,
             "sigma_m" | "sigma-m" => SIGMA_M_BOUNDS,
+            "n" => FRESNEL_N_BOUNDS,
+            "k" => FRESNEL_K_BOUNDS,
             _ => AMPLITUDE_BOUNDS,
         };
         if !(lo..=hi).contains(&v) {
@@ -213,9 +232,11 @@ impl Fixed {
             "kdd" | "k_dd" => &mut self.kdd,
             "kid" | "k_id" => &mut self.kid,
             "kd" | "k_d" => &mut self.kd,
+            "n" => &mut self.n,
+            "k" => &mut self.k,
             other => {
                 return Err(format!(
-                    "--fix: unknown parameter '{other}' (sigma, sigma_m, kdd, kid, kd)"
+                    "--fix: unknown parameter '{other}' (sigma, sigma_m, kdd, kid, kd, n, k)"
                 ));
             }
         };

@@ -267,7 +267,7 @@ fn few_incidences_fit_without_panics_and_say_what_cannot_be_fitted() {
             let c = twin.core.as_mut().unwrap();
             c.ks = match c.ks {
                 KsForm::Smooth => KsForm::PerIncidence,
-                KsForm::PerIncidence => KsForm::Smooth,
+                KsForm::PerIncidence | KsForm::Fresnel => KsForm::Smooth,
             };
             assert!(f.candidate(twin).is_some(), "{twin} not fitted");
             let told = format!("do not tell it from {twin}");

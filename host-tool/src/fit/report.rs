@@ -47,7 +47,8 @@ impl Param {
     /// dimensionless slopes (sigma, sigma_haze) and the coefficients of ln k_s.
     pub fn unit(&self, units: crate::sweep_file::BrdfUnits) -> &'static str {
         // ABg's A is a BRDF too: A / (B + |b - b0|^g) with B and |b - b0| pure numbers.
-        if self.base.starts_with("k_") || self.base == "A" {
+        // A Fresnel lobe's k (k_haze) is an extinction coefficient, a pure number.
+        if (self.base.starts_with("k_") && self.base != "k_haze") || self.base == "A" {
             units.word()
         } else if self.base == "sigma_m" {
             "rad"
@@ -144,10 +145,47 @@ pub fn member_params(fit: &MemberFit) -> Vec<Param> {
             }
         }
     }
+    // A Fresnel k_s: k0 fitted as a logarithm, n and k themselves, and F(0), the
+    // combination in-plane data determine best (n and k are often strongly correlated).
+    const FRESNEL: [[&str; 4]; 2] = [
+        ["k_s0", "n", "k", "F0"],
+        ["k_s0_haze", "n_haze", "k_haze", "F0_haze"],
+    ];
+    for (fresnel, names) in [(l.core_fresnel, FRESNEL[0]), (l.haze_fresnel, FRESNEL[1])] {
+        if let Some(p) = fresnel {
+            for (k, base) in names.into_iter().enumerate().take(3) {
+                let i = p + k;
+                let (value, se) = if k == 0 {
+                    fit.natural(i)
+                } else {
+                    let se = fit.identifiable[i].then(|| fit.cov.get(i, i).max(0.0).sqrt());
+                    (fit.held[i].unwrap_or(fit.x[i]), se)
+                };
+                out.push(Param {
+                    base,
+                    theta_i: None,
+                    value,
+                    se,
+                    held: fit.is_fixed(i),
+                    slot: Some(i),
+                });
+            }
+            let (value, se) = fit.fresnel_f0(p);
+            out.push(Param {
+                base: names[3],
+                theta_i: None,
+                value,
+                se,
+                held: fit.is_fixed(p + 1) && fit.is_fixed(p + 2),
+                slot: None,
+            });
+        }
+    }
     for (local, poly, haze, base) in [
         (l.core_local, l.core_poly, false, "k_s"),
         (l.haze_local, l.haze_poly, true, "k_s_haze"),
     ] {
+        let fresnel = if haze { l.haze_fresnel } else { l.core_fresnel };
         for (j, &t) in fit.incidences.iter().enumerate() {
             let theta_i = Some(t);
             if local {
@@ -167,6 +205,16 @@ pub fn member_params(fit: &MemberFit) -> Vec<Param> {
                     base,
                     theta_i,
                     value: ln.exp(),
+                    se,
+                    held: false,
+                    slot: None,
+                });
+            } else if let Some(p) = fresnel {
+                let (value, se) = fit.fresnel_ks(p, t);
+                out.push(Param {
+                    base,
+                    theta_i,
+                    value,
                     se,
                     held: false,
                     slot: None,

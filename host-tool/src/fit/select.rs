@@ -107,6 +107,10 @@ impl Candidate {
             }
         };
         let lobe = |local: bool, poly: Option<usize>, haze: bool| -> Option<Amplitude> {
+            // A Fresnel k_s: its k0 (k_s where F = 1).
+            if let Some(p) = if haze { l.haze_fresnel } else { l.core_fresnel } {
+                return Some(nat(p));
+            }
             if let Some(p) = poly {
                 // ln k_s(t) = c0 + c1 t + c2 t^2: its level where the data determine it
                 // best (c0 alone is the extrapolation to theta_i = 0).

@@ -1049,6 +1049,74 @@ const CASES: &[Case] = &[
         2,
         "the fit's bounds for it",
     ),
+    // The Fresnel member's n and k (issue 36): a metal gonio has no table for, a
+    // wavelength outside the table, --fresnel without a :fresnel member, both ways of
+    // holding n, k at once, a negative k, and eval, which has no n and k options.
+    case(
+        &[
+            "fit",
+            "{d}/fe-0.115.csv",
+            "--models",
+            "specular:fresnel+ideal-diffuse",
+            "--fresnel",
+            "pt@532",
+        ],
+        2,
+        "--fresnel 'pt@532': unknown metal (known: al, cu, fe, au, ag)",
+    ),
+    case(
+        &[
+            "fit",
+            "{d}/fe-0.115.csv",
+            "--models",
+            "specular:fresnel+ideal-diffuse",
+            "--fresnel",
+            "al@300",
+        ],
+        2,
+        "wavelength outside the metal's table",
+    ),
+    case(
+        &["fit", "{d}/fe-0.115.csv", "--fresnel", "al@532"],
+        2,
+        "name a member with one in --models",
+    ),
+    case(
+        &[
+            "fit",
+            "{d}/fe-0.115.csv",
+            "--models",
+            "specular:fresnel+ideal-diffuse",
+            "--fresnel",
+            "al@532",
+            "--fix",
+            "n=1.2",
+        ],
+        2,
+        "not both",
+    ),
+    case(
+        &["fit", "{d}/fe-0.115.csv", "--fix", "k=-1"],
+        2,
+        "finite and >= 0",
+    ),
+    case(
+        &[
+            "eval",
+            "--model",
+            "specular:fresnel",
+            "--ks",
+            "1",
+            "--sigma",
+            "0.1",
+            "--theta-i",
+            "30",
+            "--theta-r",
+            "30",
+        ],
+        2,
+        "no options for a :fresnel lobe",
+    ),
     case(
         &["fit", "{d}/fe-0.115.csv", "--checks", "some"],
         2,

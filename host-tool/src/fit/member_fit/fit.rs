@@ -15,8 +15,8 @@ use super::{bases::*, grid::*, layout::*, problem::*, refine::*, result::*};
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum NotFitted {
     /// The data cannot determine its parameters: fewer readings than its free
-    /// parameters and a residual degree of freedom, or a smooth k_s over fewer than 3
-    /// incidences.
+    /// parameters and a residual degree of freedom, or a smooth or Fresnel k_s over
+    /// fewer than 3 incidences.
     Undetermined,
     /// No start of its width grid could be refined: the model could not be evaluated
     /// there, or LM failed from every one.
@@ -47,12 +47,21 @@ pub fn fit_member_with(
 }
 
 /// The data cannot determine the member: no parameters, too few readings for them
-/// (and for a residual degree of freedom), or a smooth k_s over fewer than 3 incidences.
+/// (and for a residual degree of freedom), or a smooth or Fresnel k_s over fewer than
+/// 3 incidences.
 pub(super) fn undetermined(data: &Dataset, layout: &Layout, fixed: &[bool]) -> bool {
     let free = fixed.iter().filter(|&&f| !f).count();
     free == 0
         || data.obs.len() <= free + 1
-        || ((layout.core_poly.is_some() || layout.haze_poly.is_some()) && data.incidences.len() < 3)
+        || ([
+            layout.core_poly,
+            layout.haze_poly,
+            layout.core_fresnel,
+            layout.haze_fresnel,
+        ]
+        .iter()
+        .any(Option::is_some)
+            && data.incidences.len() < 3)
 }
 
 /// [`fit_member_with`] keeping at most `kept_bytes` of grid amplitudes between the
@@ -127,7 +136,10 @@ pub(super) fn fit_member_keeping(
     // Widths within BASIN grid steps of an optimum already reached (in every width the
     // member has) are taken to lie in that optimum's basin, LM from there to find it
     // again; unless every start is to be refined to its end.
-    let prune = !bases.all_starts;
+    // A Fresnel lobe's starts differ in n and k at the same widths: none is stopped.
+    let fresnel = layout.core_fresnel.is_some() || layout.haze_fresnel.is_some();
+    let variants = if fresnel { FRESNEL_STARTS } else { 1 };
+    let prune = !bases.all_starts && !fresnel;
     let in_basin = |optima: &[([f64; 3], f64)], at: [f64; 3], cost: f64| {
         prune
             && optima.iter().any(|(o, c)| {
@@ -156,21 +168,24 @@ pub(super) fn fit_member_keeping(
         } else {
             1.0
         };
-        let Some((x0, pinned)) = start_vector(data, &layout, sigmas, sm, &amp, &held) else {
-            continue;
-        };
-        p.pinned = pinned;
-        p.fixed.clone_from(&fixed);
-        // The same test after each accepted LM step and between rounds: a start whose
-        // path has come into the basin of an optimum already reached, no lower than
-        // it, is left there.
-        let explored = |x: &[f64], cost: f64| in_basin(&optima, widths(x), cost);
-        let Some((c, x, converged, normal)) = refine(&mut p, x0, &lm, &explored) else {
-            continue;
-        };
-        optima.push((widths(&x), c));
-        if best.as_ref().is_none_or(|b| c < b.0) {
-            best = Some((c, x, converged, normal));
+        for variant in 0..variants {
+            let Some((x0, pinned)) = start_vector(data, &layout, sigmas, sm, &amp, &held, variant)
+            else {
+                continue;
+            };
+            p.pinned = pinned;
+            p.fixed.clone_from(&fixed);
+            // The same test after each accepted LM step and between rounds: a start
+            // whose path has come into the basin of an optimum already reached, no
+            // lower than it, is left there.
+            let explored = |x: &[f64], cost: f64| in_basin(&optima, widths(x), cost);
+            let Some((c, x, converged, normal)) = refine(&mut p, x0, &lm, &explored) else {
+                continue;
+            };
+            optima.push((widths(&x), c));
+            if best.as_ref().is_none_or(|b| c < b.0) {
+                best = Some((c, x, converged, normal));
+            }
         }
     }
     conclude(&mut p, bases.loss, best, held, &lm)

@@ -3,11 +3,15 @@
 use brdf_core::abg::{AbgParams, G_MAX};
 use brdf_core::lobe::SmoothKs;
 use brdf_core::member::{KsForm, LobeSpec, Member};
-use brdf_core::member_model::{DirectionalParams, Ks, LobeParams, MemberModel, MemberParams};
+use brdf_core::member_model::{
+    DirectionalParams, FresnelKs, Ks, LobeParams, MemberModel, MemberParams,
+};
 
 use super::super::arrow::Shape;
 
-use super::super::options::{AMPLITUDE_BOUNDS, Fixed, SIGMA_BOUNDS, SIGMA_M_BOUNDS};
+use super::super::options::{
+    AMPLITUDE_BOUNDS, FRESNEL_K_BOUNDS, FRESNEL_N_BOUNDS, Fixed, SIGMA_BOUNDS, SIGMA_M_BOUNDS,
+};
 
 /// A haze grid point is used only when at least this many times the core's width
 /// (the two lobes then keep their roles: core narrow, haze wide).
@@ -45,6 +49,10 @@ pub struct Layout {
     pub core_poly: Option<usize>,
     /// c0..c2 of the haze's smooth k_s.
     pub haze_poly: Option<usize>,
+    /// ln k0, n, k of the core's Fresnel k_s (n and k themselves: k may be 0).
+    pub core_fresnel: Option<usize>,
+    /// ln k0, n, k of the haze's Fresnel k_s.
+    pub haze_fresnel: Option<usize>,
     /// ln A of ABg (an amplitude).
     pub abg_a: Option<usize>,
     /// ln B of ABg.
@@ -76,9 +84,11 @@ impl Layout {
         let sigma_m = take(member.directional, 1);
         let kdd = take(member.directional, 1);
         let kid = take(member.ideal, 1);
-        let smooth = |l: Option<LobeSpec>| l.is_some_and(|l| l.ks == KsForm::Smooth);
-        let core_poly = take(smooth(member.core), 3);
-        let haze_poly = take(smooth(member.haze), 3);
+        let form = |l: Option<LobeSpec>, f: KsForm| l.is_some_and(|l| l.ks == f);
+        let core_poly = take(form(member.core, KsForm::Smooth), 3);
+        let haze_poly = take(form(member.haze, KsForm::Smooth), 3);
+        let core_fresnel = take(form(member.core, KsForm::Fresnel), 3);
+        let haze_fresnel = take(form(member.haze, KsForm::Fresnel), 3);
         let abg_a = take(member.abg, 1);
         let abg_b = take(member.abg, 1);
         let abg_g = take(member.abg, 1);
@@ -92,6 +102,8 @@ impl Layout {
             kid,
             core_poly,
             haze_poly,
+            core_fresnel,
+            haze_fresnel,
             abg_a,
             abg_b,
             abg_g,
@@ -154,12 +166,40 @@ impl Layout {
         })
     }
 
-    /// Box bounds of parameter `i` (log coordinates; smooth c1, c2 and ABg's g plain).
-    /// ABg's B in [`ABG_B_BOUNDS`], g in [[`ABG_G_MIN`], [`G_MAX`]].
+    /// Parameter `i` is one of a Fresnel k_s's n (`Some(false)`) or k (`Some(true)`).
+    #[inline]
+    pub fn fresnel_nk(&self, i: usize) -> Option<bool> {
+        [self.core_fresnel, self.haze_fresnel]
+            .into_iter()
+            .flatten()
+            .find(|&p| i == p + 1 || i == p + 2)
+            .map(|p| i == p + 2)
+    }
+
+    /// Parameter `i`'s coordinate is its natural value itself, not its logarithm
+    /// (smooth c0..c2, ABg's g, a Fresnel n or k).
+    pub fn is_plain(&self, i: usize) -> bool {
+        let poly = |p: Option<usize>| p.is_some_and(|p| (p..p + 3).contains(&i));
+        poly(self.core_poly)
+            || poly(self.haze_poly)
+            || Some(i) == self.abg_g
+            || self.fresnel_nk(i).is_some()
+    }
+
+    /// Box bounds of parameter `i` (log coordinates; smooth c1, c2, ABg's g and a
+    /// Fresnel n, k plain). ABg's B in [`ABG_B_BOUNDS`], g in [[`ABG_G_MIN`],
+    /// [`G_MAX`]]; n in [`FRESNEL_N_BOUNDS`], k in [`FRESNEL_K_BOUNDS`].
     #[inline]
     pub fn bounds(&self, i: usize) -> (f64, f64) {
         let poly = |p: Option<usize>| p.is_some_and(|p| i > p && i < p + 3);
         let ln = |(lo, hi): (f64, f64)| (lo.ln(), hi.ln());
+        if let Some(k) = self.fresnel_nk(i) {
+            return if k {
+                FRESNEL_K_BOUNDS
+            } else {
+                FRESNEL_N_BOUNDS
+            };
+        }
         if Some(i) == self.sigma_haze && self.haze_ratio() {
             (HAZE_OVER_CORE.ln(), (SIGMA_BOUNDS.1 / SIGMA_BOUNDS.0).ln())
         } else if Some(i) == self.sigma || Some(i) == self.sigma_haze {
@@ -182,11 +222,23 @@ impl Layout {
     pub fn params(&self, x: &[f64], j: usize) -> MemberParams<f64> {
         let lobe = |spec: LobeSpec, ln_sigma: f64, poly: Option<usize>, haze: bool| LobeParams {
             dist: spec.dist,
-            ks: match poly {
-                Some(p) => Ks::Smooth(SmoothKs {
+            ks: match (
+                poly,
+                if haze {
+                    self.haze_fresnel
+                } else {
+                    self.core_fresnel
+                },
+            ) {
+                (Some(p), _) => Ks::Smooth(SmoothKs {
                     c: [x[p], x[p + 1], x[p + 2]],
                 }),
-                None => Ks::PerIncidence(x[self.local(j, haze)].exp()),
+                (None, Some(p)) => Ks::Fresnel(FresnelKs {
+                    k0: x[p].exp(),
+                    n: x[p + 1],
+                    k: x[p + 2],
+                }),
+                (None, None) => Ks::PerIncidence(x[self.local(j, haze)].exp()),
             },
             sigma: ln_sigma.exp(),
         };
@@ -227,9 +279,10 @@ impl Layout {
         Some(out)
     }
 
-    /// Per parameter: the natural value `fixed` holds it at (`--fix`), if any. `sigma`
-    /// is the core lobe's width, `kd` the ideal diffuse of the paper's Torrance–Sparrow
-    /// member (named k_d there), `kid` that of every other member.
+    /// Per parameter: the natural value `fixed` holds it at (`--fix`, `--fresnel`), if
+    /// any. `sigma` is the core lobe's width, `kd` the ideal diffuse of the paper's
+    /// Torrance–Sparrow member (named k_d there), `kid` that of every other member; `n`
+    /// and `k` hold every Fresnel lobe's (one surface, one index).
     pub fn held(&self, fixed: &Fixed) -> Vec<Option<f64>> {
         let mut out = vec![None; self.len()];
         let kid = if self.member == Member::TORRANCE_SPARROW {
@@ -242,6 +295,10 @@ impl Layout {
             (self.sigma_m, fixed.sigma_m),
             (self.kdd, fixed.kdd),
             (self.kid, kid),
+            (self.core_fresnel.map(|p| p + 1), fixed.n),
+            (self.core_fresnel.map(|p| p + 2), fixed.k),
+            (self.haze_fresnel.map(|p| p + 1), fixed.n),
+            (self.haze_fresnel.map(|p| p + 2), fixed.k),
         ] {
             if let (Some(i), Some(v)) = (slot, v) {
                 out[i] = Some(v);

@@ -1,7 +1,8 @@
 //! Fitting any member of brdf-core's component lattice ([`Member`]): a log-spaced
 //! grid over the lobe widths with the linear amplitudes solved (non-negative) at every
 //! grid point, then Levenberg–Marquardt over the arrow structure from the best few
-//! grid points. Globals: lobe widths, sigma_m, k_dd, k_id, smooth-k_s coefficients;
+//! grid points. Globals: lobe widths, sigma_m, k_dd, k_id, smooth-k_s coefficients,
+//! a Fresnel k_s's ln k0, n and k;
 //! locals: the per-incidence k_s of each per-incidence lobe.
 //!
 //! Why a grid: a lobe one reading-step wide has a cost surface that is flat almost
@@ -30,3 +31,6 @@ pub use self::{bases::*, fit::*, layout::*, problem::*, refine::*, result::*};
 
 #[cfg(test)]
 mod tests;
+
+#[cfg(test)]
+mod fresnel_tests;

@@ -285,6 +285,13 @@ impl Problem<'_> {
                         jg[p + 2] = scale * lg.c2;
                     }
                 }
+                for (fresnel, lg) in [(l.core_fresnel, &g.core), (l.haze_fresnel, &g.haze)] {
+                    if let Some(p) = fresnel {
+                        jg[p] = scale * lg.ln_ks;
+                        jg[p + 1] = scale * lg.n;
+                        jg[p + 2] = scale * lg.k;
+                    }
+                }
                 let mut n = 0;
                 if l.core_local {
                     jl[n] = scale * g.core.ln_ks;

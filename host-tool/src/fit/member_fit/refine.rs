@@ -6,6 +6,7 @@ use super::super::arrow::Normal;
 use super::super::data::Dataset;
 use super::super::lm::{ArrowProblem, LmOptions, Termination, minimize, minimize_from};
 
+use super::super::options::FRESNEL_N_BOUNDS;
 use super::{bases::*, grid::*, layout::*, problem::*};
 
 /// An amplitude the grid's active set puts at zero starts LM at its lower bound and
@@ -195,9 +196,10 @@ pub const PROBE_ITERATIONS: usize = 15;
 /// as vanishing (see [`refine`]).
 pub const VANISHING: f64 = 8.0;
 
-/// The LM vector of a grid point: widths, the linear amplitudes, and for a smooth k_s
-/// the quadratic through the per-incidence ln k_s; and which amplitudes are held at
-/// their lower bound (those the grid's active set put at zero).
+/// The LM vector of a grid point: widths, the linear amplitudes, for a smooth k_s
+/// the quadratic through the per-incidence ln k_s, for a Fresnel k_s the `variant`-th
+/// of [`fresnel_starts`] (the last when there are fewer); and which amplitudes are held
+/// at their lower bound (those the grid's active set put at zero).
 pub(super) fn start_vector(
     data: &Dataset,
     l: &Layout,
@@ -205,6 +207,7 @@ pub(super) fn start_vector(
     sigma_m: f64,
     amp: &Amplitudes,
     held: &[Option<f64>],
+    variant: usize,
 ) -> Option<(Vec<f64>, Vec<bool>)> {
     let floor = amplitude_floor(data);
     let mut x = vec![0.0; l.len()];
@@ -250,6 +253,15 @@ pub(super) fn start_vector(
             x[p..p + 3].copy_from_slice(c.as_slice());
         }
     }
+    for (slot, fresnel) in [l.core_fresnel, l.haze_fresnel].into_iter().enumerate() {
+        if let Some(p) = fresnel {
+            let ks: Vec<f64> = amp.ks.iter().map(|k| k[slot]).collect();
+            let hold = (held[p + 1], held[p + 2]);
+            let starts = fresnel_starts(&data.incidences, &ks, hold, floor);
+            let (ln_k0, n, k) = starts[variant.min(starts.len() - 1)];
+            (x[p], x[p + 1], x[p + 2]) = (ln_k0, n, k);
+        }
+    }
     for (i, u) in x.iter_mut().enumerate() {
         let (lo, hi) = l.bounds(i);
         *u = u.clamp(lo, hi);
@@ -258,9 +270,77 @@ pub(super) fn start_vector(
     // `Fixed::set` refuses others).
     for (i, v) in held.iter().enumerate() {
         if let Some(v) = v {
-            x[i] = v.ln();
+            x[i] = if l.is_plain(i) { *v } else { v.ln() };
             pinned[i] = true;
         }
     }
     Some((x, pinned))
+}
+
+/// n of [`fresnel_starts`]'s grid: log-spaced over [`FRESNEL_N_BOUNDS`], 4 a decade.
+const FRESNEL_N_GRID: usize = 14;
+
+/// k of [`fresnel_starts`]'s grid, over the fit's bounds of k (0..15).
+const FRESNEL_K_GRID: [f64; 12] = [
+    0.0, 0.25, 0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 5.5, 7.5, 10.0, 15.0,
+];
+
+/// Starts of a Fresnel lobe per grid start, one for each of [`fresnel_starts`]'
+/// regions: a k_s(theta_i) that falls with the incidence is fitted best by a
+/// dielectric of large n before its Brewster dip, which on a real sweep (Scatterworks)
+/// left LM at n = 10 with an SSR 60 % above the absorbing optimum's.
+pub const FRESNEL_STARTS: usize = 2;
+
+/// A Fresnel k_s's starts (ln k0, n, k) from the grid point's k_s per incidence `ks`
+/// at `incidences` (degrees): on the mirror direction the facet's angle is theta_i, so
+/// k_s(theta_i) = k0 F(theta_i; n, k). Of a small grid (n log-spaced,
+/// [`FRESNEL_K_GRID`]; a held n or k its one value), the (n, k) that fits ln k_s best
+/// in least squares with k < 1 (dielectric-like) and with k >= 1 (absorbing), the
+/// better first, each with ln k0 the mean of ln k_s - ln F there (one start when n
+/// and k are held, or k is). k_s at or below `floor` (a vanished lobe) are left out;
+/// with none left, k0 = `floor`, n = 1.5, k = 0.
+pub(super) fn fresnel_starts(
+    incidences: &[f64],
+    ks: &[f64],
+    held: (Option<f64>, Option<f64>),
+    floor: f64,
+) -> Vec<(f64, f64, f64)> {
+    let pts: Vec<(f64, f64)> = incidences
+        .iter()
+        .zip(ks)
+        .filter(|&(_, &k)| k > floor)
+        .map(|(&t, &k)| (t.to_radians().cos(), k.ln()))
+        .collect();
+    let ns: Vec<f64> = match held.0 {
+        Some(n) => vec![n],
+        None => log_grid(FRESNEL_N_BOUNDS.0, FRESNEL_N_BOUNDS.1, FRESNEL_N_GRID),
+    };
+    let kk: Vec<f64> = match held.1 {
+        Some(k) => vec![k],
+        None => FRESNEL_K_GRID.to_vec(),
+    };
+    if pts.is_empty() {
+        return vec![(floor.ln(), held.0.unwrap_or(1.5), held.1.unwrap_or(0.0))];
+    }
+    // (cost, ln k0, n, k) best per region.
+    let mut best = [(f64::INFINITY, 0.0, 0.0, 0.0); FRESNEL_STARTS];
+    let mut d = vec![0.0; pts.len()];
+    for &n in &ns {
+        for &k in &kk {
+            for (d, &(c, lk)) in d.iter_mut().zip(&pts) {
+                *d = lk - brdf_core::fresnel::reflectance(c, n, k).max(1e-300).ln();
+            }
+            let mean = d.iter().sum::<f64>() / d.len() as f64;
+            let cost: f64 = d.iter().map(|v| (v - mean) * (v - mean)).sum();
+            let b = &mut best[usize::from(k >= 1.0)];
+            if cost < b.0 {
+                *b = (cost, mean, n, k);
+            }
+        }
+    }
+    best.sort_by(|a, b| a.0.total_cmp(&b.0));
+    best.iter()
+        .filter(|b| b.0.is_finite())
+        .map(|b| (b.1, b.2, b.3))
+        .collect()
 }

@@ -107,6 +107,47 @@ impl MemberFit {
         (ln, se)
     }
 
+    /// A Fresnel k_s whose (ln k0, n, k) are parameters `p..p + 3`, as
+    /// [`MemberFit::fresnel_delta`] gives it at the facet angle `theta_i` (degrees; on
+    /// the mirror direction the facet angle is theta_i): k_s = k0 F(theta_i; n, k).
+    pub fn fresnel_ks(&self, p: usize, theta_i: f64) -> (f64, Option<f64>) {
+        let c = theta_i.to_radians().cos();
+        let (n, k) = (self.x[p + 1], self.x[p + 2]);
+        let (f, dn, dk) = brdf_core::fresnel::reflectance_with_gradient(c, n, k);
+        let ks = self.x[p].exp() * f;
+        // d k_s / d (ln k0, n, k) = (k_s, k0 dF/dn, k0 dF/dk).
+        let k0 = self.x[p].exp();
+        (ks, self.fresnel_delta(p, [ks, k0 * dn, k0 * dk]))
+    }
+
+    /// A Fresnel lobe's reflectance at normal incidence, F(0) = ((n-1)^2 + k^2) /
+    /// ((n+1)^2 + k^2) (through the same function the model evaluates, at cos = 1),
+    /// with its standard error: what in-plane data determine better than n and k apart.
+    pub fn fresnel_f0(&self, p: usize) -> (f64, Option<f64>) {
+        let (f, dn, dk) =
+            brdf_core::fresnel::reflectance_with_gradient(1.0, self.x[p + 1], self.x[p + 2]);
+        (f, self.fresnel_delta(p, [0.0, dn, dk]))
+    }
+
+    /// The standard error, by the delta method, of a quantity whose gradient with
+    /// respect to parameters `p..p + 3` is `g` (a parameter held fixed contributes
+    /// nothing); `None` when a parameter it depends on is not determined.
+    fn fresnel_delta(&self, p: usize, g: [f64; 3]) -> Option<f64> {
+        let free: Vec<usize> = (0..3)
+            .filter(|&a| g[a] != 0.0 && !self.is_fixed(p + a))
+            .collect();
+        if !free.iter().all(|&a| self.identifiable[p + a]) {
+            return None;
+        }
+        let mut var = 0.0;
+        for &a in &free {
+            for &b in &free {
+                var += g[a] * g[b] * self.cov.get(p + a, p + b);
+            }
+        }
+        Some(var.max(0.0).sqrt())
+    }
+
     /// The fitted model at any incidence (degrees): per-incidence k_s interpolated
     /// linearly in theta_i between the fitted incidences (clamped outside them).
     pub fn model_at(&self, theta_i: f64) -> Option<MemberModel<f64>> {

@@ -557,6 +557,8 @@ fn analytic_jacobian_matches_numeric() {
         Member::THREE_COMPONENT,
         Member::THREE_COMPONENT_SMOOTH_KS,
         Member::parse("specular:ggx+specular-haze+directional-diffuse+ideal-diffuse").unwrap(),
+        Member::parse("specular:beckmann:fresnel+directional-diffuse+ideal-diffuse").unwrap(),
+        Member::parse("specular:ggx+specular-haze:beckmann:fresnel+ideal-diffuse").unwrap(),
     ];
     for member in members {
         for residual in [Residual::Log, Residual::Relative, Residual::Absolute] {
@@ -575,6 +577,13 @@ fn analytic_jacobian_matches_numeric() {
             }
             if let Some(p) = layout.core_poly {
                 x[p..p + 3].copy_from_slice(&[4.9, 0.8, -0.2]);
+            }
+            // A Fresnel k_s: ln k0, n, k (k > 0: at k = 0 F has a kink in k).
+            for p in [layout.core_fresnel, layout.haze_fresnel]
+                .into_iter()
+                .flatten()
+            {
+                x[p..p + 3].copy_from_slice(&[300f64.ln(), 1.3, 2.5]);
             }
             for j in 0..data.incidences.len() {
                 for haze in [false, true] {

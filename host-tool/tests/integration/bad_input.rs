@@ -129,6 +129,15 @@ fn fixtures() -> Scratch {
     let mut nan = spec.clone();
     nan[offset..offset + 4].copy_from_slice(&f32::NAN.to_le_bytes());
     w("spec-nan.bsdf", &nan);
+    // Its 9 wavelengths moved to 500..900 nm: too little of the CIE ybar for Y.
+    let at = spec.windows(11).position(|n| n == b"wavelengths").unwrap() + 11;
+    let offset = u64::from_le_bytes(spec[at + 3..at + 11].try_into().unwrap()) as usize;
+    let mut narrow = spec.clone();
+    for k in 0..9 {
+        let nm = 500.0f32 + 50.0 * k as f32;
+        narrow[offset + 4 * k..offset + 4 * k + 4].copy_from_slice(&nm.to_le_bytes());
+    }
+    w("spec-narrow.bsdf", &narrow);
     w(
         "astm-count.astm",
         b"NUM_POINTS 3\nVARS theta_i,phi_i,theta_s,phi_s,BRDF\n0.5,0,0.5,3.14159,1\n0.5,0,0.4,3.14159,1\n",
@@ -791,6 +800,18 @@ const CASES: &[Case] = &[
         ],
         2,
         "--wavelength 1000: outside the file's wavelengths 380..780 nm",
+        "r.csv",
+    ),
+    out(
+        &[
+            "import",
+            "rgl",
+            "{d}/spec-narrow.bsdf",
+            "--out",
+            "{d}/r.csv",
+        ],
+        2,
+        "--channel y: the file's wavelengths 500..900 nm span 93.2 % of the CIE 1931 ybar",
         "r.csv",
     ),
     out(

@@ -5,8 +5,10 @@
 //! rotations (Rodrigues) where the writer uses a closed form.
 
 use super::*;
+use brdf_core::abg::AbgParams;
 use brdf_core::lobe::{Distribution, SmoothKs};
 use brdf_core::member_model::{DirectionalParams, Ks, LobeParams, MemberModel, MemberParams};
+use std::f64::consts::PI;
 
 /// What the reader found: header words, the grids, per incidence (TIS, values).
 struct Read {
@@ -142,9 +144,30 @@ fn sharp() -> MemberParams<f64> {
     }
 }
 
+/// The ABg member alone: A (1/sr), B, g.
+fn abg(a: f64, b: f64, g: f64) -> MemberParams<f64> {
+    MemberParams {
+        core: None,
+        haze: None,
+        directional: None,
+        ideal: None,
+        abg: Some(AbgParams { a, b, g }),
+    }
+}
+
 #[test]
 fn a_zemax_file_reads_back_to_the_model_and_its_tis_integrates_its_grid() {
-    for (name, p, scale) in [("broad", broad(), 1.0), ("sharp", sharp(), 2.5)] {
+    for (name, p, scale) in [
+        ("broad", broad(), 1.0),
+        ("sharp", sharp(), 2.5),
+        // ABg: a rough surface (half width |b - b0| = B^(1/g) = 0.046), a polished one
+        // (0.001, 0.06 degrees at normal incidence) and a near-mirror whose core
+        // (3e-4 at g = 3, 0.017 degrees) is narrower than the default grid's 0.05
+        // degree steps: the writer grades the grid finer there.
+        ("abg broad", abg(0.05, 0.01, 1.5), 1.0),
+        ("abg sharp", abg(2e-4, 1e-6, 2.0), 1.0),
+        ("abg mirror", abg(1e-9, 2.7e-11, 3.0), 1.0),
+    ] {
         let incidences = [0.0, 20.0, 45.0, 70.0];
         let t = table(p, &incidences);
         let grid = zemax_grid(&t, scale).unwrap();
@@ -231,11 +254,56 @@ fn a_zemax_file_reads_back_to_the_model_and_its_tis_integrates_its_grid() {
                 "{name} theta_i {ti}: TIS {tis} vs its grid {integral}"
             );
             eprintln!(
-                "{name} theta_i {ti}: TIS {tis:.6} grid {integral:.6} ({:+.3} %)",
+                "{name} theta_i {ti}: TIS {tis:.6e} grid {integral:.6e} ({:+.3} %)",
                 100.0 * (integral / tis - 1.0)
             );
         }
     }
+}
+
+/// At normal incidence with g = 2, |b - b0| = sin theta_s and the TIS is
+/// 2 pi A int A / (B + sin^2 t) cos t sin t dt over [0, pi/2] = pi A ln(1 + 1/B)
+/// (v = sin^2 t): derived by hand, it checks the TIS line itself (the physical checks'
+/// albedo) and the file's grid.
+#[test]
+fn an_abg_tis_at_normal_incidence_is_the_closed_form() {
+    let (a, b) = (2e-4, 1e-6);
+    let grid = zemax_grid(&table(abg(a, b, 2.0), &[0.0]), 1.0).unwrap();
+    let want = PI * a * (1.0 + 1.0 / b).ln();
+    let (tis, rows) = &grid.blocks[0];
+    assert!((tis - want).abs() <= 1e-3 * want, "{tis} vs {want}");
+    let on_grid = grid_integral(0.0, &grid.azimuths, &grid.radials, rows);
+    assert!((on_grid - want).abs() <= 1e-3 * want, "{on_grid} vs {want}");
+    // The graded core steps: the default grid (0.05 degrees from 0) integrated this
+    // core 0.99 % low (measured before the writer graded it).
+    assert!(grid.radials[1] < 0.05, "{:?}", &grid.radials[..4]);
+}
+
+/// A core narrower still (B = 1e-8, g = 2: half width 1e-4) at normal incidence: the
+/// file's graded grid integrates to pi A ln(1 + 1/B) within 0.1 %, but the physical
+/// checks' albedo, whose panels are graded in cos(theta_s), falls 4.5 % short; the
+/// writer refuses rather than write a TIS line its own grid contradicts.
+#[test]
+fn a_tis_its_grid_contradicts_is_refused() {
+    let e = zemax_grid(&table(abg(1e-7, 1e-8, 2.0), &[0.0]), 1.0)
+        .err()
+        .unwrap();
+    assert!(
+        e.contains("the two quadratures disagree on a core this narrow") && !e.contains('\n'),
+        "{e}"
+    );
+    let grid_says: f64 = e
+        .split("integrates to ")
+        .nth(1)
+        .and_then(|t| t.split(',').next())
+        .unwrap()
+        .parse()
+        .unwrap();
+    let want = PI * 1e-7 * (1.0 + 1e8f64).ln();
+    assert!(
+        (grid_says - want).abs() <= 1e-3 * want,
+        "{grid_says} vs {want}"
+    );
 }
 
 #[test]

@@ -13,7 +13,7 @@ use serde_json::{Value, json};
 use super::data::Dataset;
 use super::family_fit::FamilyFit;
 use super::options::{FitOptions, Residual};
-use super::report::{family_json_text, family_table};
+use super::report::{KEY_PARAMS, family_json_text, family_table};
 use super::stages::fit_family;
 use crate::outfile::{self, Target};
 use crate::sweep_file::{looks_like_radians, radians_warning, read_sweep};
@@ -443,9 +443,6 @@ pub fn write_summaries(
     .map_err(|e| e.to_string())?;
     Ok((csv, js))
 }
-
-/// The parameters the summary reports, by name (those the selected member has).
-const KEY_PARAMS: [&str; 6] = ["sigma", "sigma_haze", "sigma_m", "k_dd", "k_id", "k_d"];
 
 /// A CSV cell: quoted as RFC 4180 asks, and a text that a spreadsheet would run as a
 /// formula (starting with `=`, `+`, `-`, `@`, tab or CR: a file named `=cmd|calc.csv`)

@@ -20,6 +20,20 @@ fn opt(x: Option<f64>) -> Value {
 /// (a matrix over thousands of per-incidence k_s would dwarf the fit).
 pub const CORRELATION_LIMIT: usize = 100;
 
+/// The parameters a campaign's summary reports, by the names [`member_params`] gives
+/// them (those the selected member has): the physical members' and ABg's A, B, g.
+pub const KEY_PARAMS: [&str; 9] = [
+    "sigma",
+    "sigma_haze",
+    "sigma_m",
+    "k_dd",
+    "k_id",
+    "k_d",
+    "A",
+    "B",
+    "g",
+];
+
 /// One reported parameter of a fitted member.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Param {

@@ -3,6 +3,7 @@
 //! imported sweep ([`write_sweep`], [`write_file`]) and [`ImportError`].
 
 pub mod astm;
+pub mod cie;
 mod error;
 pub mod merl;
 pub mod rgl;

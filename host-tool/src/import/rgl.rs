@@ -1,45 +1,70 @@
 //! RGL-EPFL measured materials (Dupuy & Jakob, "An Adaptive Parameterization for
-//! Efficient Material Acquisition and Rendering", 2018): an RGB `tensor_file`
-//! evaluated as the reference reader rgl-epfl/brdf-loader's `powitacq_rgb::BRDF::eval`
-//! does, in the plane of incidence.
+//! Efficient Material Acquisition and Rendering", 2018): an RGB or spectral
+//! `tensor_file` evaluated as the reference reader rgl-epfl/brdf-loader's
+//! `powitacq_rgb::BRDF::eval` (RGB) or `powitacq::BRDF::eval` (spectral) does, in the
+//! plane of incidence.
 //!
 //! That `eval(wi, wo)` returns f_r * cos(theta_o) (Mitsuba's convention; wi toward the
-//! source, wo toward the detector): `rgb(invert_vndf(u_wm)) * ndf(u_wm) / (4
+//! source, wo toward the detector): `values(invert_vndf(u_wm)) * ndf(u_wm) / (4
 //! sigma(u_wi))`, each a bilinear interpolant (`Marginal2D`) over the unit square,
 //! u = (sqrt(2 theta / pi), (phi + pi) / 2 pi), the VNDF's inversion through its
 //! marginal and conditional CDFs, the tables interpolated linearly between the
-//! measured incidences. gonio divides by cos(theta_o) to store f_r in 1/sr. `y` is Rec.
-//! 709 luminance (0.2126 R + 0.7152 G + 0.0722 B). Arithmetic in f64 where the
-//! reference uses f32 (differences near 1e-6 relative).
+//! measured incidences. The values are the `rgb` field (3 channels, negative clamped to
+//! 0) or the `spectra` field over the file's `wavelengths` (interpolated linearly along
+//! the wavelength as along the incidence, not clamped). gonio divides by cos(theta_o)
+//! to store f_r in 1/sr. `y` is Rec. 709 luminance (0.2126 R + 0.7152 G + 0.0722 B) of
+//! an RGB file, CIE 1931 Y of a spectral one ([`super::cie`]). Arithmetic in f64 where
+//! the reference uses f32 (differences near 1e-6 relative).
 
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
 
 use super::tensor::Field;
 
-/// Which value to take from an RGB file.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// Which value to take from a file ([`RglBrdf::check`] says which a file has).
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum RglChannel {
-    /// Red.
+    /// Red (RGB files).
     R,
-    /// Green.
+    /// Green (RGB files).
     G,
-    /// Blue.
+    /// Blue (RGB files).
     B,
-    /// Rec. 709 luminance of the three.
+    /// Luminance: Rec. 709 of an RGB file's three, CIE 1931 Y of a spectral file.
     Y,
+    /// A spectral file at this wavelength (nm): one of its wavelengths, or linear
+    /// between the two around it.
+    Nm(f64),
 }
 
 impl RglChannel {
-    /// The name on the command line and in the sweep's header.
-    pub fn name(self) -> &'static str {
+    /// The name on the command line and in the sweep's `source:` line.
+    pub fn name(self) -> String {
         match self {
-            RglChannel::R => "r",
-            RglChannel::G => "g",
-            RglChannel::B => "b",
-            RglChannel::Y => "y",
+            RglChannel::R => "r".into(),
+            RglChannel::G => "g".into(),
+            RglChannel::B => "b".into(),
+            RglChannel::Y => "y".into(),
+            RglChannel::Nm(nm) => format!("{nm} nm"),
         }
     }
+}
+
+/// Least share of the integral of the CIE ybar that a spectral file's wavelengths must
+/// span for its Y: a file missing more would give a luminance of part of the spectrum.
+pub const Y_MIN_SHARE: f64 = 0.99;
+
+/// What the material's values are.
+#[derive(Debug, Clone)]
+enum Kind {
+    /// The `rgb` field: three channels.
+    Rgb,
+    /// The `spectra` field over `wavelengths` (nm, increasing); the weights of its Y
+    /// (summing to 1) when they span [`Y_MIN_SHARE`] of ybar, else that share.
+    Spectral {
+        wavelengths: Vec<f64>,
+        y: Result<Vec<f64>, f64>,
+    },
 }
 
 /// The reference's `Marginal2D`: an `nx` x `ny` bilinear interpolant per slice of its
@@ -218,13 +243,14 @@ fn find_interval(size: usize, pred: impl Fn(usize) -> bool) -> usize {
     (first - 1).clamp(0, size as isize - 2) as usize
 }
 
-/// An RGB RGL material ready to evaluate.
+/// An RGL material (RGB or spectral) ready to evaluate.
 #[derive(Debug, Clone)]
 pub struct RglBrdf {
     ndf: Warp,
     sigma: Warp,
     vndf: Warp,
-    rgb: Warp,
+    values: Warp,
+    kind: Kind,
     isotropic: bool,
     /// Measured incidences (radians), as the file lists them.
     pub theta_i: Vec<f64>,
@@ -233,20 +259,16 @@ pub struct RglBrdf {
 }
 
 impl RglBrdf {
-    /// The material of a tensor file's fields; the fields and shapes the reference
-    /// constructor requires, else one line saying what is missing. A spectral file (no
-    /// `rgb` field) is refused: gonio reads the RGB files.
+    /// The material of a tensor file's fields: an RGB file (an `rgb` field) or a
+    /// spectral one (`spectra` and `wavelengths`), with the fields and shapes the
+    /// reference constructors require, else one line saying what is wrong.
     pub fn from_fields(f: &BTreeMap<String, Field>) -> Result<RglBrdf, String> {
-        if !f.contains_key("rgb") && f.contains_key("spectra") {
-            return Err(
-                "a spectral RGL file: gonio reads the RGB files (*_rgb.bsdf) of the database"
-                    .into(),
-            );
-        }
+        let spectral = !f.contains_key("rgb") && f.contains_key("spectra");
+        let what = if spectral { "spectral" } else { "RGB" };
         let get = |name: &str, rank: usize| -> Result<&Field, String> {
-            let field = f
-                .get(name)
-                .ok_or_else(|| format!("no '{name}' field: not an RGL RGB material"))?;
+            let field = f.get(name).ok_or_else(|| {
+                format!("no '{name}' field: not an RGL {what} material (an RGB file has 'rgb', a spectral one 'spectra')")
+            })?;
             if field.shape.len() != rank || field.dtype != 10 {
                 return Err(format!(
                     "field '{name}' has shape {:?}, type {}: the reference reader wants rank {rank} f32",
@@ -256,19 +278,49 @@ impl RglBrdf {
             Ok(field)
         };
         let (theta_i, phi_i) = (get("theta_i", 1)?, get("phi_i", 1)?);
-        let (ndf, sigma, vndf, rgb) = (
-            get("ndf", 2)?,
-            get("sigma", 2)?,
-            get("vndf", 4)?,
-            get("rgb", 5)?,
-        );
+        let (ndf, sigma, vndf) = (get("ndf", 2)?, get("sigma", 2)?, get("vndf", 4)?);
+        let values = get(if spectral { "spectra" } else { "rgb" }, 5)?;
         let (nt, np) = (theta_i.shape[0], phi_i.shape[0]);
-        let shapes_ok =
-            vndf.shape[..2] == [np, nt] && rgb.shape[..3] == [np, nt, 3] && nt >= 2 && np >= 1;
-        if !shapes_ok {
+        let (kind, third) = if spectral {
+            let wl = get("wavelengths", 1)?;
+            let nw = wl.shape[0];
+            let s = &values.shape;
+            let lum_ok = f.get("luminance").is_none_or(|l| {
+                l.shape.len() == 4 && l.shape[..2] == [np, nt] && l.shape[2..] == s[3..]
+            });
+            if vndf.shape[..2] != [np, nt] || s[..3] != [np, nt, nw] || s[3] != s[4] || !lum_ok {
+                return Err(format!(
+                    "a spectral file whose fields do not match: vndf {:?}, spectra {s:?}, luminance {:?} for {np} phi_i x {nt} theta_i x {nw} wavelengths (the reference wants vndf [{np}, {nt}, .., ..], spectra [{np}, {nt}, {nw}, n, n], luminance [{np}, {nt}, n, n])",
+                    vndf.shape,
+                    f.get("luminance")
+                        .map(|l| l.shape.clone())
+                        .unwrap_or_default()
+                ));
+            }
+            let w = &wl.values;
+            if nw == 0 || w.windows(2).any(|p| p[1] <= p[0]) || w[0] <= 0.0 {
+                return Err(format!(
+                    "the file's {nw} wavelengths are not positive and increasing: a damaged file"
+                ));
+            }
+            let kind = Kind::Spectral {
+                wavelengths: w.clone(),
+                y: y_weights(w),
+            };
+            (kind, w.clone())
+        } else {
+            let shapes_ok = vndf.shape[..2] == [np, nt] && values.shape[..3] == [np, nt, 3];
+            if !shapes_ok {
+                return Err(format!(
+                    "vndf {:?} and rgb {:?} do not match {np} phi_i x {nt} theta_i (x 3 channels)",
+                    vndf.shape, values.shape
+                ));
+            }
+            (Kind::Rgb, vec![0.0, 1.0, 2.0])
+        };
+        if nt < 2 || np < 1 {
             return Err(format!(
-                "vndf {:?} and rgb {:?} do not match {np} phi_i x {nt} theta_i (x 3 channels)",
-                vndf.shape, rgb.shape
+                "{nt} incidences and {np} azimuths: the reference interpolates between at least 2 incidences"
             ));
         }
         let isotropic = np <= 2;
@@ -298,24 +350,73 @@ impl RglBrdf {
                 params.clone(),
                 true,
             )?,
-            rgb: Warp::new(
-                rgb.shape[4],
-                rgb.shape[3],
-                &rgb.values,
-                [params, vec![vec![0.0, 1.0, 2.0]]].concat(),
+            values: Warp::new(
+                values.shape[4],
+                values.shape[3],
+                &values.values,
+                [params, vec![third]].concat(),
                 false,
             )?,
+            kind,
             isotropic,
             theta_i: theta_i.values.clone(),
             description,
         })
     }
 
-    /// The reference's `eval(wi, wo)` (f_r cos(theta_o), per channel R, G, B) for
-    /// unit vectors toward the source and the detector.
-    pub fn eval(&self, wi: [f64; 3], wo: [f64; 3]) -> [f64; 3] {
+    /// The file's wavelengths (nm) if it is spectral.
+    pub fn wavelengths(&self) -> Option<&[f64]> {
+        match &self.kind {
+            Kind::Rgb => None,
+            Kind::Spectral { wavelengths, .. } => Some(wavelengths),
+        }
+    }
+
+    /// Whether the file has `channel`, else one line saying what it has: r, g, b for
+    /// RGB files, a wavelength within the file's range for spectral ones, y for both
+    /// (for a spectral file when its wavelengths span [`Y_MIN_SHARE`] of ybar).
+    pub fn check(&self, channel: RglChannel) -> Result<(), String> {
+        match (&self.kind, channel) {
+            (Kind::Rgb, RglChannel::Nm(nm)) => Err(format!(
+                "--wavelength {nm}: an RGB file has channels r, g, b and y, not wavelengths"
+            )),
+            (Kind::Rgb, _) => Ok(()),
+            (Kind::Spectral { wavelengths: w, .. }, RglChannel::Nm(nm)) => {
+                let (lo, hi) = (w[0], w[w.len() - 1]);
+                if nm.is_finite() && nm >= lo && nm <= hi {
+                    Ok(())
+                } else {
+                    Err(format!(
+                        "--wavelength {nm}: outside the file's wavelengths {lo}..{hi} nm"
+                    ))
+                }
+            }
+            (Kind::Spectral { wavelengths: w, y }, RglChannel::Y) => match y {
+                Ok(_) => Ok(()),
+                Err(share) => Err(format!(
+                    "--channel y: the file's wavelengths {}..{} nm span {:.1} % of the CIE 1931 ybar integral (Y needs {} %): choose --wavelength NM",
+                    w[0],
+                    w[w.len() - 1],
+                    100.0 * share,
+                    100.0 * Y_MIN_SHARE
+                )),
+            },
+            (Kind::Spectral { wavelengths: w, .. }, c) => Err(format!(
+                "--channel {}: a spectral file ({}..{} nm) has no r, g, b: choose --wavelength NM or --channel y",
+                c.name(),
+                w[0],
+                w[w.len() - 1]
+            )),
+        }
+    }
+
+    /// The reference's `eval(wi, wo)` (f_r cos(theta_o)) for unit vectors toward the
+    /// source and the detector, at each of `third`: channels 0, 1, 2 of an RGB file
+    /// (clamped at zero as the reference: negative where spectra left the gamut), or
+    /// wavelengths (nm) of a spectral one (not clamped, as the reference).
+    fn eval_at(&self, wi: [f64; 3], wo: [f64; 3], third: &[f64]) -> Vec<f64> {
         if wi[2] <= 0.0 || wo[2] <= 0.0 {
-            return [0.0; 3];
+            return vec![0.0; third.len()];
         }
         let h = [wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]];
         let len = (h[0] * h[0] + h[1] * h[1] + h[2] * h[2]).sqrt();
@@ -330,13 +431,30 @@ impl RglBrdf {
         let params = [p_i, t_i];
         let sample = self.vndf.invert(u_wm, &params);
         let scale = self.ndf.eval(u_wm, &[]) / (4.0 * self.sigma.eval(u_wi, &[]));
-        // Clamped at zero as the reference (negative where spectra left the gamut).
-        [0.0, 1.0, 2.0].map(|c| self.rgb.eval(sample, &[p_i, t_i, c]).max(0.0) * scale)
+        let clamp = matches!(self.kind, Kind::Rgb);
+        third
+            .iter()
+            .map(|&c| {
+                let v = self.values.eval(sample, &[p_i, t_i, c]);
+                if clamp { v.max(0.0) } else { v }
+            } * scale)
+            .collect()
+    }
+
+    /// The reference's `eval(wi, wo)` (f_r cos(theta_o)) for unit vectors toward the
+    /// source and the detector: R, G, B of an RGB file, or the spectrum at the file's
+    /// wavelengths.
+    pub fn eval(&self, wi: [f64; 3], wo: [f64; 3]) -> Vec<f64> {
+        match &self.kind {
+            Kind::Rgb => self.eval_at(wi, wo, &[0.0, 1.0, 2.0]),
+            Kind::Spectral { wavelengths, .. } => self.eval_at(wi, wo, wavelengths),
+        }
     }
 
     /// f_r (1/sr) of `channel` in the plane of incidence: theta_i and theta_r in
     /// degrees, theta_r signed positive on the specular side (wi = (sin theta_i, 0,
     /// cos theta_i), wo = (-sin theta_r, 0, cos theta_r)); 0 at or below the horizon.
+    /// `channel` must pass [`RglBrdf::check`] (else this panics).
     pub fn in_plane(&self, channel: RglChannel, theta_i: f64, theta_r: f64) -> f64 {
         let (ti, tr) = (theta_i.to_radians(), theta_r.to_radians());
         let wo = [-tr.sin(), 0.0, tr.cos()];
@@ -344,14 +462,46 @@ impl RglBrdf {
         if theta_r.abs() >= 90.0 || wo[2] <= 0.0 {
             return 0.0;
         }
-        let [r, g, b] = self.eval([ti.sin(), 0.0, ti.cos()], wo).map(|v| v / wo[2]);
-        match channel {
-            RglChannel::R => r,
-            RglChannel::G => g,
-            RglChannel::B => b,
-            RglChannel::Y => 0.2126 * r + 0.7152 * g + 0.0722 * b,
-        }
+        let wi = [ti.sin(), 0.0, ti.cos()];
+        let dot = |v: Vec<f64>, w: &[f64]| v.iter().zip(w).map(|(a, b)| a * b).sum::<f64>();
+        let v = match (&self.kind, channel) {
+            (Kind::Spectral { .. }, RglChannel::Nm(nm)) => self.eval_at(wi, wo, &[nm])[0],
+            (Kind::Spectral { wavelengths, y }, RglChannel::Y) => dot(
+                self.eval_at(wi, wo, wavelengths),
+                y.as_ref().expect("checked: the file spans ybar"),
+            ),
+            (Kind::Rgb, c) => {
+                let rgb = self.eval_at(wi, wo, &[0.0, 1.0, 2.0]);
+                match c {
+                    RglChannel::R => rgb[0],
+                    RglChannel::G => rgb[1],
+                    RglChannel::B => rgb[2],
+                    RglChannel::Y => dot(rgb, &[0.2126, 0.7152, 0.0722]),
+                    RglChannel::Nm(_) => panic!("checked: an RGB file has no wavelengths"),
+                }
+            }
+            (Kind::Spectral { .. }, c) => panic!("checked: a spectral file has no {}", c.name()),
+        };
+        v / wo[2]
     }
+}
+
+/// The weights of CIE 1931 Y over `wl` (nm, increasing): ybar(lambda_k) times the
+/// trapezoid weight of lambda_k on the file's grid, normalised to sum 1 (the luminance
+/// factor under an equal-energy illuminant: a flat spectrum gives its own value, as
+/// Rec. 709 Y of a grey RGB value does). Err(share) when the grid spans less than
+/// [`Y_MIN_SHARE`] of ybar's integral.
+fn y_weights(wl: &[f64]) -> Result<Vec<f64>, f64> {
+    let n = wl.len();
+    let share = super::cie::ybar_share(wl[0], wl[n - 1]);
+    if share < Y_MIN_SHARE {
+        return Err(share);
+    }
+    let w: Vec<f64> = (0..n)
+        .map(|k| super::cie::ybar(wl[k]) * 0.5 * (wl[(k + 1).min(n - 1)] - wl[k.saturating_sub(1)]))
+        .collect();
+    let sum: f64 = w.iter().sum();
+    Ok(w.iter().map(|x| x / sum).collect())
 }
 
 #[cfg(test)]

@@ -2,6 +2,8 @@
 //! evaluation (tests/data/rgl_reference.py, plain Python from the reference reader),
 //! a hand-made tensor whose value is derived by hand, and damaged files.
 
+use std::collections::BTreeMap;
+
 use super::super::tensor::read_tensor;
 use super::*;
 
@@ -261,4 +263,207 @@ fn damaged_files_are_refused_in_one_line() {
         &tensor_bytes(&wrong_shape),
         "do not match 1 phi_i x 2 theta_i",
     );
+}
+/// (theta_i, theta_r, f_r of Y, 530 nm (the file's), 555 and 405 nm (between the file's))
+/// printed by `rgl_reference.py rgl_spectral_handmade.bsdf --nm 555 --nm 405 ...`.
+const SPECTRAL_REFERENCE: [(f64, f64, [f64; 4]); 7] = [
+    (
+        0.0,
+        0.0,
+        [
+            0.10208414367807493,
+            0.11752228716920665,
+            0.10393009418526912,
+            0.11640614677841875,
+        ],
+    ),
+    (
+        20.0,
+        15.0,
+        [
+            0.1414720284202163,
+            0.15557315760727408,
+            0.14013134830404775,
+            0.19417739958531688,
+        ],
+    ),
+    (
+        20.0,
+        -40.0,
+        [
+            0.34401653283857997,
+            0.3790454601799446,
+            0.34115161614594214,
+            0.4688492465869224,
+        ],
+    ),
+    (
+        35.0,
+        30.0,
+        [
+            0.1586431924076062,
+            0.16877241030577733,
+            0.15410166215757137,
+            0.24334923981379275,
+        ],
+    ),
+    (
+        60.0,
+        -75.0,
+        [
+            1.5200818330752601,
+            1.4804547146114821,
+            1.4508177424866013,
+            2.3280354033972235,
+        ],
+    ),
+    (
+        10.0,
+        85.0,
+        [
+            1.8425702911203388,
+            2.074258405546743,
+            1.8507843346776363,
+            2.312641763129382,
+        ],
+    ),
+    (
+        89.0,
+        60.0,
+        [
+            0.45496888917859096,
+            0.39790021909495943,
+            0.4280556496450391,
+            0.6650202064435178,
+        ],
+    ),
+];
+
+/// The fields of the committed hand-made spectral material (9 wavelengths 380..780 nm).
+fn spectral_fields() -> BTreeMap<String, crate::import::tensor::Field> {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/rgl_spectral_handmade.bsdf");
+    read_tensor(&std::fs::read(path).unwrap()).unwrap()
+}
+
+#[test]
+fn a_spectral_material_matches_an_independent_evaluation() {
+    let m = RglBrdf::from_fields(&spectral_fields()).unwrap();
+    assert_eq!(m.wavelengths().unwrap().len(), 9);
+    assert!(m.description.starts_with("hand-made spectral"));
+    for (ti, tr, want) in SPECTRAL_REFERENCE {
+        for (c, w) in [
+            RglChannel::Y,
+            RglChannel::Nm(530.0),
+            RglChannel::Nm(555.0),
+            RglChannel::Nm(405.0),
+        ]
+        .into_iter()
+        .zip(want)
+        {
+            m.check(c).unwrap();
+            let got = m.in_plane(c, ti, tr);
+            assert!(
+                (got - w).abs() <= 1e-9 * w,
+                "{ti} {tr} {}: {got} vs {w}",
+                c.name()
+            );
+        }
+    }
+    // Between two wavelengths is the mean of both (the interpolant's own line).
+    let (a, b, mid) = (
+        m.in_plane(RglChannel::Nm(530.0), 20.0, 15.0),
+        m.in_plane(RglChannel::Nm(580.0), 20.0, 15.0),
+        m.in_plane(RglChannel::Nm(555.0), 20.0, 15.0),
+    );
+    assert!((mid - 0.5 * (a + b)).abs() < 1e-12, "{a} {b} {mid}");
+    assert_eq!(m.in_plane(RglChannel::Y, 20.0, -90.0), 0.0);
+}
+
+/// A spectrally flat material's Y is its value at any wavelength (the weights sum to
+/// 1), whatever its grid: the luminance factor under an equal-energy illuminant.
+#[test]
+fn a_flat_spectrum_has_its_own_value_as_y() {
+    let mut f = spectral_fields();
+    let s = f.get_mut("spectra").unwrap();
+    let n = s.shape[3] * s.shape[4];
+    let per_wl = s.values[..n].to_vec();
+    for chunk in s.values.chunks_exact_mut(n) {
+        chunk.copy_from_slice(&per_wl);
+    }
+    let m = RglBrdf::from_fields(&f).unwrap();
+    for (ti, tr) in [(0.0, 0.0), (20.0, -40.0), (60.0, 50.0)] {
+        let (y, v) = (
+            m.in_plane(RglChannel::Y, ti, tr),
+            m.in_plane(RglChannel::Nm(600.0), ti, tr),
+        );
+        assert!((y - v).abs() < 1e-12 * v, "{ti} {tr}: {y} vs {v}");
+    }
+}
+
+#[test]
+fn a_spectral_file_refuses_what_it_cannot_give() {
+    let m = RglBrdf::from_fields(&spectral_fields()).unwrap();
+    let says = |c: RglChannel, words: &str| {
+        let e = m.check(c).unwrap_err();
+        assert!(e.contains(words) && !e.contains('\n'), "{words}: {e}");
+    };
+    says(RglChannel::R, "has no r, g, b");
+    says(
+        RglChannel::Nm(379.0),
+        "outside the file's wavelengths 380..780 nm",
+    );
+    says(RglChannel::Nm(780.5), "outside the file's wavelengths");
+    says(RglChannel::Nm(f64::NAN), "outside the file's wavelengths");
+    m.check(RglChannel::Nm(780.0)).unwrap();
+    let rgb = real();
+    assert!(
+        rgb.check(RglChannel::Nm(550.0))
+            .unwrap_err()
+            .contains("an RGB file has channels r, g, b and y")
+    );
+    // Wavelengths 500..900 nm leave out the 6.8 % of ybar below 500 nm (the trapezoid
+    // sum of the 1 nm table, checked in Python): no Y, a wavelength yes.
+    let mut f = spectral_fields();
+    for (k, w) in f
+        .get_mut("wavelengths")
+        .unwrap()
+        .values
+        .iter_mut()
+        .enumerate()
+    {
+        *w = 500.0 + 50.0 * k as f64;
+    }
+    let narrow = RglBrdf::from_fields(&f).unwrap();
+    let e = narrow.check(RglChannel::Y).unwrap_err();
+    assert!(
+        e.contains("span 93.2 % of the CIE 1931 ybar integral"),
+        "{e}"
+    );
+    narrow.check(RglChannel::Nm(510.0)).unwrap();
+}
+
+#[test]
+fn damaged_spectral_files_are_refused_in_one_line() {
+    let check = |f: &BTreeMap<String, crate::import::tensor::Field>, says: &str| {
+        let e = RglBrdf::from_fields(f).map(drop).unwrap_err();
+        assert!(e.contains(says) && !e.contains('\n'), "{says}: {e}");
+    };
+    let mut f = spectral_fields();
+    f.get_mut("wavelengths").unwrap().values[3] = 420.0;
+    check(&f, "not positive and increasing");
+    let mut f = spectral_fields();
+    f.remove("wavelengths");
+    check(&f, "no 'wavelengths' field: not an RGL spectral material");
+    let mut f = spectral_fields();
+    let s = f.get_mut("spectra").unwrap();
+    s.shape[2] = 3;
+    s.values.truncate(s.values.len() / 3);
+    check(&f, "a spectral file whose fields do not match");
+    let mut f = spectral_fields();
+    f.get_mut("luminance").unwrap().shape = vec![1, 3, 25, 1];
+    check(&f, "luminance [1, 3, 25, 1]");
+    let mut f = spectral_fields();
+    f.get_mut("spectra").unwrap().shape = vec![1, 3, 9, 25];
+    check(&f, "rank 5 f32");
 }

@@ -137,6 +137,31 @@ fn fixtures() -> Scratch {
     .unwrap();
     w("rgl.bsdf", &rgl);
     w("rgl-cut.bsdf", &rgl[..rgl.len() - 1000]);
+    // The hand-made spectral material, and copies with its `spectra` field's wavelength
+    // count cut to 3 (shapes that disagree) and its first value NaN.
+    let spec = std::fs::read(
+        crate::util::repo_root().join("host-tool/tests/data/rgl_spectral_handmade.bsdf"),
+    )
+    .unwrap();
+    w("spec.bsdf", &spec);
+    // After the name "spectra": rank (2 bytes), type (1), offset (8), 5 sizes (8 each).
+    let at = spec.windows(7).position(|n| n == b"spectra").unwrap() + 7;
+    let offset = u64::from_le_bytes(spec[at + 3..at + 11].try_into().unwrap()) as usize;
+    let mut shapes = spec.clone();
+    shapes[at + 11 + 16..at + 11 + 24].copy_from_slice(&3u64.to_le_bytes());
+    w("spec-shapes.bsdf", &shapes);
+    let mut nan = spec.clone();
+    nan[offset..offset + 4].copy_from_slice(&f32::NAN.to_le_bytes());
+    w("spec-nan.bsdf", &nan);
+    // Its 9 wavelengths moved to 500..900 nm: too little of the CIE ybar for Y.
+    let at = spec.windows(11).position(|n| n == b"wavelengths").unwrap() + 11;
+    let offset = u64::from_le_bytes(spec[at + 3..at + 11].try_into().unwrap()) as usize;
+    let mut narrow = spec.clone();
+    for k in 0..9 {
+        let nm = 500.0f32 + 50.0 * k as f32;
+        narrow[offset + 4 * k..offset + 4 * k + 4].copy_from_slice(&nm.to_le_bytes());
+    }
+    w("spec-narrow.bsdf", &narrow);
     w(
         "astm-count.astm",
         b"NUM_POINTS 3\nVARS theta_i,phi_i,theta_s,phi_s,BRDF\n0.5,0,0.5,3.14159,1\n0.5,0,0.4,3.14159,1\n",
@@ -766,6 +791,79 @@ const CASES: &[Case] = &[
         &["import", "rgl", "{d}/rgl-cut.bsdf", "--out", "{d}/r.csv"],
         2,
         "does not fit in the file",
+        "r.csv",
+    ),
+    // import rgl, spectral files: the fields, then the wavelength or channel asked for
+    out(
+        &[
+            "import",
+            "rgl",
+            "{d}/spec-shapes.bsdf",
+            "--out",
+            "{d}/r.csv",
+        ],
+        2,
+        "a spectral file whose fields do not match",
+        "r.csv",
+    ),
+    out(
+        &["import", "rgl", "{d}/spec-nan.bsdf", "--out", "{d}/r.csv"],
+        2,
+        "field 'spectra' holds a value that is not finite",
+        "r.csv",
+    ),
+    out(
+        &[
+            "import",
+            "rgl",
+            "{d}/spec.bsdf",
+            "--out",
+            "{d}/r.csv",
+            "--wavelength",
+            "1000",
+        ],
+        2,
+        "--wavelength 1000: outside the file's wavelengths 380..780 nm",
+        "r.csv",
+    ),
+    out(
+        &[
+            "import",
+            "rgl",
+            "{d}/spec-narrow.bsdf",
+            "--out",
+            "{d}/r.csv",
+        ],
+        2,
+        "--channel y: the file's wavelengths 500..900 nm span 93.2 % of the CIE 1931 ybar",
+        "r.csv",
+    ),
+    out(
+        &[
+            "import",
+            "rgl",
+            "{d}/spec.bsdf",
+            "--out",
+            "{d}/r.csv",
+            "--channel",
+            "r",
+        ],
+        2,
+        "a spectral file (380..780 nm) has no r, g, b",
+        "r.csv",
+    ),
+    out(
+        &[
+            "import",
+            "rgl",
+            "{d}/rgl.bsdf",
+            "--out",
+            "{d}/r.csv",
+            "--wavelength",
+            "550",
+        ],
+        2,
+        "an RGB file has channels r, g, b and y, not wavelengths",
         "r.csv",
     ),
     // import table: the column mapping, then each row

@@ -224,6 +224,76 @@ fn an_rgl_material_imports_as_the_reference_evaluates_it() {
     assert_eq!(rows, 7 * 179);
 }
 
+/// The committed hand-made spectral material imported at a wavelength between two of
+/// the file's and as CIE Y gives the values the independent Python evaluation printed
+/// (rgl_reference.py, the unit test's table), with the wavelength in the sweep's `#` lines.
+#[test]
+fn a_spectral_rgl_material_imports_as_the_reference_evaluates_it() {
+    let d = scratch("rgl-spec");
+    let file = crate::util::repo_root().join("host-tool/tests/data/rgl_spectral_handmade.bsdf");
+    let import = |extra: &[&str], name: &str| {
+        let out_path = d.join(name);
+        let mut args = vec![
+            "import",
+            "rgl",
+            file.to_str().unwrap(),
+            "--out",
+            out_path.to_str().unwrap(),
+            "--theta-i",
+            "20",
+            "--theta-r=-40,15,50",
+        ];
+        args.extend(extra);
+        let out = gonio(&args);
+        assert!(out.ok(), "{}", out.stderr);
+        let text = std::fs::read_to_string(&out_path).unwrap();
+        let values: Vec<f64> = text
+            .lines()
+            .skip_while(|l| !l.starts_with("theta_i"))
+            .skip(1)
+            .map(|l| l.rsplit(',').next().unwrap().parse().unwrap())
+            .collect();
+        (text, values)
+    };
+    let (text, got) = import(&["--wavelength", "555"], "555.csv");
+    assert!(
+        text.contains("# brdf: 1/sr\n")
+            && text.contains("# wavelength: 555 nm (linear between the file's 530 and 580 nm)\n")
+            && text.contains("channel 555 nm")
+            && text.contains("as powitacq BRDF::eval"),
+        "{text}"
+    );
+    for (g, w) in got.iter().zip([0.34115161614594214, 0.14013134830404775]) {
+        assert!((g - w).abs() <= 1e-9 * w, "{g} vs {w}");
+    }
+    // 530.0004 is the file's 530 (within 0.001 nm).
+    let (text, got) = import(&["--wavelength", "530.0004"], "530.csv");
+    assert!(
+        text.contains("# wavelength: 530 nm (one of the file's)\n"),
+        "{text}"
+    );
+    assert!(
+        (got[1] - 0.15557315760727408).abs() <= 1e-9 * 0.156,
+        "{got:?}"
+    );
+    let (text, got) = import(&[], "y.csv");
+    assert!(
+        text.contains("# wavelength: CIE 1931 Y over the file's 9 wavelengths 380..780 nm"),
+        "{text}"
+    );
+    for (g, w) in got.iter().zip([0.34401653283857997, 0.1414720284202163]) {
+        assert!((g - w).abs() <= 1e-9 * w, "{g} vs {w}");
+    }
+    // The sweep reads back and fits (1/sr, no warning about units).
+    let fit = gonio(&[
+        "fit",
+        d.join("y.csv").to_str().unwrap(),
+        "--models",
+        "ideal",
+    ]);
+    assert!(fit.ok(), "{}", fit.stderr);
+}
+
 /// The 1/sr gate (issue #37): a relative-unit capture's MERL export is refused without
 /// a scale (the bad-input table has that case), and with `--scale S` every cell is S
 /// times the cell of `--scale 1`.
@@ -305,8 +375,8 @@ fn a_zemax_export_is_written_in_1_per_sr() {
     assert_eq!(rho.len(), tis.len());
     for (t, r) in tis.iter().zip(rho) {
         let want = 0.0005 * r[1].as_f64().unwrap();
-        // The file prints TIS to 6 decimals.
-        assert!((t - want).abs() <= 1e-6 + 1e-6 * want, "{t} vs {want}");
+        // The file prints TIS as %.6E (7 significant digits).
+        assert!((t - want).abs() <= 1e-6 * want, "{t} vs {want}");
     }
     assert!(tis.iter().all(|&t| t > 0.0 && t < 1.0), "{tis:?}");
 }

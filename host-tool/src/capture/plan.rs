@@ -272,12 +272,22 @@ impl HostPlan {
 
     /// An adaptive plan: readings placed densely where the prior's curve bends.
     pub fn adaptive(prior: &str, budget: usize, o: &SettingsOverride) -> Result<Self> {
+        Self::adaptive_at(prior, &PAPER_INCIDENCES, budget, o)
+    }
+
+    /// [`HostPlan::adaptive`] at other incidences (degrees), as on a replayed sweep.
+    pub fn adaptive_at(
+        prior: &str,
+        incidences: &[f32],
+        budget: usize,
+        o: &SettingsOverride,
+    ) -> Result<Self> {
         let preset = Preset::by_name(prior)
             .map_err(|e| PlanError::from(format!("--prior '{prior}': {e}")))?;
         let e = exclusion(o, None)?;
         let plan = adaptive::<f64>(
             0,
-            &PAPER_INCIDENCES,
+            incidences,
             -80.0,
             80.0,
             budget,

@@ -7,7 +7,7 @@
 //! its readings took to measure (docs/PERFORMANCE.md, "Capture on the QEMU board").
 
 use brdf_core::plan::{MAX_LEG_POINTS, leg_len, leg_position};
-use brdf_core::protocol::{Grid, Point};
+use brdf_core::protocol::{Grid, MAX_INCIDENCES, Point};
 
 /// Fewest points sent as a grid of their own rather than inside a point list: below
 /// this the bytes saved do not pay for a device plan's round trip.
@@ -23,16 +23,64 @@ const ULPS: u32 = 4;
 /// such prefix has [`MIN_GRID_RUN`] points. The device measures the grid's points in
 /// the grid's order, so its readings are the listed points' readings.
 pub fn grid_prefix(pts: &[Point], max: usize) -> Option<(usize, Grid)> {
-    let len = pts.len().min(max).min(MAX_LEG_POINTS as usize - 1);
-    if len < MIN_GRID_RUN {
+    let len = pts.len().min(max);
+    let (m, start, stop, step) = exact_leg(&pts[..len], MIN_GRID_RUN)?;
+    Some((m, custom(&[pts[0].theta_i], start, stop, step)?))
+}
+
+/// Whole legs at several incidences that one `Custom` grid expands to exactly: the
+/// first incidence's whole leg by [`grid_prefix`]'s rule, then each next incidence's
+/// points at the same detector angles, bit for bit (at most
+/// [`MAX_INCIDENCES`] incidences and `max` points); `None` unless that is at least two
+/// legs and [`MIN_GRID_RUN`] points. So the legs of a grid of more incidences than the
+/// device takes go as a few grids rather than point lists.
+pub fn legs_prefix(pts: &[Point], max: usize) -> Option<(usize, Grid)> {
+    let ti = |k: usize| pts[k].theta_i.to_bits();
+    let n = (0..pts.len()).take_while(|&k| ti(k) == ti(0)).count();
+    if n < 2 || n >= pts.len() {
         return None;
     }
-    let (theta_i, start) = (pts[0].theta_i, pts[0].theta_r);
-    debug_assert!(
-        pts[..len]
-            .iter()
-            .all(|p| p.theta_i.to_bits() == theta_i.to_bits())
-    );
+    let (m, start, stop, step) = exact_leg(&pts[..n], 2)?;
+    if m != n {
+        return None;
+    }
+    let mut incidences = vec![pts[0].theta_i];
+    while incidences.len() < MAX_INCIDENCES && (incidences.len() + 1) * n <= pts.len().min(max) {
+        let leg = &pts[incidences.len() * n..(incidences.len() + 1) * n];
+        let same = leg.iter().zip(&pts[..n]).all(|(p, q)| {
+            p.theta_i.to_bits() == leg[0].theta_i.to_bits()
+                && p.theta_r.to_bits() == q.theta_r.to_bits()
+        });
+        if !same || leg[0].theta_i.to_bits() == incidences[incidences.len() - 1].to_bits() {
+            break;
+        }
+        incidences.push(leg[0].theta_i);
+    }
+    let total = incidences.len() * n;
+    if incidences.len() < 2 || total < MIN_GRID_RUN {
+        return None;
+    }
+    Some((total, custom(&incidences, start, stop, step)?))
+}
+
+fn custom(incidences: &[f32], start: f32, stop: f32, step: f32) -> Option<Grid> {
+    Some(Grid::Custom {
+        incidences: heapless::Vec::from_slice(incidences).ok()?,
+        start,
+        stop,
+        step,
+    })
+}
+
+/// The longest prefix of one incidence's `pts` (at least `min` points, less than a
+/// device leg) that brdf-core's leg rule gives bit for bit: its length, start, stop
+/// and step.
+fn exact_leg(pts: &[Point], min: usize) -> Option<(usize, f32, f32, f32)> {
+    let len = pts.len().min(MAX_LEG_POINTS as usize - 1);
+    if len < min.max(2) {
+        return None;
+    }
+    let start = pts[0].theta_r;
     // Exact prefix length for one step: `start + step * k` (f32: the product, then the
     // sum), the order `leg_position` uses.
     let matched = |step: f32| {
@@ -75,18 +123,10 @@ pub fn grid_prefix(pts: &[Point], max: usize) -> Option<(usize, Grid)> {
     }
     // The stop rule decides the device's count: shrink until it agrees (the last
     // position is then `stop` itself, which equals the computed one).
-    while m >= MIN_GRID_RUN {
+    while m >= min.max(2) {
         let stop = pts[m - 1].theta_r;
         if leg_len(start, stop, step) == Ok(m as u32) {
-            let mut incidences = heapless::Vec::new();
-            incidences.push(theta_i).ok()?;
-            let grid = Grid::Custom {
-                incidences,
-                start,
-                stop,
-                step,
-            };
-            return Some((m, grid));
+            return Some((m, start, stop, step));
         }
         m -= 1;
     }
@@ -163,5 +203,25 @@ mod tests {
             })
             .collect();
         assert!(grid_prefix(&odd, 65535).is_none());
+    }
+
+    #[test]
+    fn legs_of_many_incidences_go_as_grids_of_at_most_sixteen() {
+        let mut pts = Vec::new();
+        for k in 0..18 {
+            pts.extend(leg(5.0 * k as f32, -80.0, 80.0, 10.0));
+        }
+        let (m, grid) = legs_prefix(&pts, 65535).unwrap();
+        assert_eq!(m, 16 * 17);
+        assert_eq!(expand(grid), pts[..m]);
+        let (m, grid) = legs_prefix(&pts[272..], 65535).unwrap();
+        assert_eq!((m, expand(grid)), (34, pts[272..].to_vec()));
+        let (m, _) = legs_prefix(&pts, 240).unwrap();
+        assert_eq!(m, 14 * 17);
+        // A leg begun elsewhere (a resume inside it) or one angle off: no grid of legs.
+        assert!(legs_prefix(&pts[3..], 65535).is_none());
+        let mut off = pts.clone();
+        off[20].theta_r += 0.5;
+        assert!(legs_prefix(&off, 65535).is_none());
     }
 }

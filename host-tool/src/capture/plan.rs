@@ -15,7 +15,7 @@ use brdf_core::protocol::{
 };
 use serde::Deserialize;
 
-use super::grid_runs::grid_prefix;
+use super::grid_runs::{grid_prefix, legs_prefix};
 
 /// A plan that cannot be run: bad settings, a bad plan file, points outside the model's
 /// domain or a device's travel. One line; always bad input.
@@ -402,9 +402,9 @@ impl HostPlan {
 
     /// The device sweeps that measure every point not in `present`, in plan order:
     /// the compact grid when nothing or only a prefix is done and the whole plan is
-    /// within the device's `max_points` (its `Info`); otherwise one-incidence grids for
-    /// runs of points such a grid expands to bit for bit ([`grid_prefix`]: a long leg,
-    /// the legs of more than 16 incidences) and point lists of at most `max_points` and
+    /// within the device's `max_points` (its `Info`); otherwise grids for runs of points
+    /// such a grid expands to bit for bit (whole legs of up to 16 incidences,
+    /// [`legs_prefix`]; a long leg, [`grid_prefix`]) and point lists of at most `max_points` and
     /// `MAX_PLAN_POINTS` for the rest. No sweep sent is longer than `max_points`.
     /// `first_id` numbers them.
     pub fn sweeps_for(
@@ -439,10 +439,13 @@ impl HostPlan {
         let pts: Vec<Point> = missing.iter().map(|&k| self.points[k as usize]).collect();
         // ends[a]: the end of the stretch of consecutive plan points at one incidence
         // that starts at or before a (a grid measures consecutive points only).
+        // runs[a]: the same, of consecutive plan points at any incidences.
         let mut ends = vec![missing.len(); missing.len()];
+        let mut runs = vec![missing.len(); missing.len()];
         for a in (0..missing.len().saturating_sub(1)).rev() {
-            let joined = missing[a + 1] == missing[a] + 1
-                && pts[a + 1].theta_i.to_bits() == pts[a].theta_i.to_bits();
+            let next = missing[a + 1] == missing[a] + 1;
+            runs[a] = if next { runs[a + 1] } else { a + 1 };
+            let joined = next && pts[a + 1].theta_i.to_bits() == pts[a].theta_i.to_bits();
             ends[a] = if joined { ends[a + 1] } else { a + 1 };
         }
         let mut out: Vec<DeviceSweep> = Vec::new();
@@ -467,7 +470,10 @@ impl HostPlan {
         };
         let mut a = 0;
         while a < missing.len() {
-            if let Some((m, grid)) = grid_prefix(&pts[a..ends[a]], usize::from(max_points)) {
+            let max = usize::from(max_points);
+            let grid =
+                legs_prefix(&pts[a..runs[a]], max).or_else(|| grid_prefix(&pts[a..ends[a]], max));
+            if let Some((m, grid)) = grid {
                 flush(&mut list, &mut out);
                 out.push(DeviceSweep {
                     plan: SweepPlan {

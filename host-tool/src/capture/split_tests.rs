@@ -45,11 +45,23 @@ const EIGHTEEN: &str = "incidences = [0, 5, 10, 15, 20, 25, 30, 35, 40, 45, 50, 
 fn eighteen_incidences_are_one_sweep_file_of_several_device_plans() {
     let p = plan(EIGHTEEN);
     assert_eq!(p.points.len(), 18 * 17);
-    // More than 16 incidences: sent as point lists of what the device takes.
+    // More than 16 incidences: sent as grids of whole legs, as many incidences as the
+    // device takes (here 240 points: 14 legs of 17), each its points bit for bit.
     let sweeps = p.sweeps_for(&Default::default(), 1, 240);
     assert_eq!(
         sweeps.iter().map(|s| s.map.len()).collect::<Vec<_>>(),
-        [240, 66]
+        [238, 68]
+    );
+    for s in &sweeps {
+        assert!(matches!(s.plan.grid, Grid::Custom { .. }));
+        let want: Vec<_> = s.map.iter().map(|&k| p.points[k as usize]).collect();
+        assert_eq!(s.plan.points().collect::<Vec<_>>(), want);
+    }
+    // The device's own limit of 16 incidences: 272 and 34.
+    let sweeps = p.sweeps_for(&Default::default(), 1, 65535);
+    assert_eq!(
+        sweeps.iter().map(|s| s.map.len()).collect::<Vec<_>>(),
+        [272, 34]
     );
     let path = out("eighteen.csv");
     let setup = CaptureSetup::new(Some(p.clone()), path.clone());
@@ -64,9 +76,9 @@ fn eighteen_incidences_are_one_sweep_file_of_several_device_plans() {
 #[test]
 fn a_capture_interrupted_between_or_inside_device_plans_resumes_whole() {
     let p = plan(EIGHTEEN);
-    // After 240 readings: at the end of the first device plan (the interrupt is seen
-    // there or just after); after 100: inside it.
-    for stop in [240, 100] {
+    // After 272 readings: at the end of the first device plan, 16 legs (the interrupt
+    // is seen there or just after); after 100: inside it.
+    for stop in [272, 100] {
         let path = out(&format!("eighteen-{stop}.csv"));
         let flag = AtomicBool::new(false);
         let setup = CaptureSetup::new(Some(p.clone()), path.clone());

@@ -45,6 +45,13 @@ impl Usart1 {
     const SR_RXNE: u32 = 1 << 5;
     const SR_TXE: u32 = 1 << 7;
     const CR1_UE_TE_RE: u32 = (1 << 13) | (1 << 3) | (1 << 2);
+    /// CR1 RXNEIE: a received byte raises USART1's interrupt line (used to wake, not
+    /// handled: PRIMASK stays set).
+    const CR1_RXNEIE: u32 = 1 << 5;
+    /// USART1 is IRQ 37: bit 5 of the NVIC's second enable / clear-pending words.
+    const NVIC_ISER1: *mut u32 = 0xE000_E104 as *mut u32;
+    const NVIC_ICPR1: *mut u32 = 0xE000_E284 as *mut u32;
+    const IRQ_BIT: u32 = 1 << (37 - 32);
     /// RCC APB2ENR, bit 4: USART1 clock (ignored by QEMU, needed on silicon).
     const RCC_APB2ENR: *mut u32 = 0x4002_3844 as *mut u32;
 
@@ -58,9 +65,28 @@ impl Usart1 {
             );
             // 115200 baud from a 16 MHz HSI (ignored by QEMU).
             write_volatile(Self::BRR, 0x8B);
-            write_volatile(Self::CR1, Self::CR1_UE_TE_RE);
+            write_volatile(Self::CR1, Self::CR1_UE_TE_RE | Self::CR1_RXNEIE);
+            // Interrupts stay masked (PRIMASK): an enabled, pending IRQ still ends WFI
+            // (ARMv7-M B1.5.19), so no handler is needed.
+            cortex_m::interrupt::disable();
+            write_volatile(Self::NVIC_ISER1, Self::IRQ_BIT);
         }
         Usart1
+    }
+
+    /// Sleeps (WFI) until a byte arrives, unless one is already waiting. Without it the
+    /// idle loop spins on the status register, keeping a host core busy and, in QEMU,
+    /// taking the emulator's lock the receive path needs for every byte.
+    fn wait_for_input(&mut self) {
+        // SAFETY: the NVIC clear-pending word and USART1's status register. Clearing
+        // first, then checking RXNE, leaves no window: a byte arriving after the check
+        // pends the IRQ again, which ends the WFI at once.
+        unsafe {
+            write_volatile(Self::NVIC_ICPR1, Self::IRQ_BIT);
+            if read_volatile(Self::SR) & Self::SR_RXNE == 0 {
+                cortex_m::asm::wfi();
+            }
+        }
     }
 }
 
@@ -97,9 +123,12 @@ fn main() -> ! {
     let mut service = Service::new(ctrl);
     let mut now_us: u64 = 0;
     loop {
-        if let Some(at) = service.poll(&mut link, now_us) {
+        match service.poll(&mut link, now_us) {
             // Simulated time: jump to the next deadline.
-            now_us = now_us.max(at);
+            Some(at) => now_us = now_us.max(at),
+            // Nothing to do until the host sends something.
+            None if !service.sending() => link.wait_for_input(),
+            None => {}
         }
     }
 }

@@ -56,7 +56,8 @@ impl From<SweepFileError> for StudyError {
     }
 }
 
-type Result<T, E = StudyError> = std::result::Result<T, E>;
+/// A study's result.
+pub(crate) type Result<T, E = StudyError> = std::result::Result<T, E>;
 
 /// One plan's outcome in the measurement study.
 #[derive(Debug, Clone, Serialize)]
@@ -163,7 +164,7 @@ pub fn plan_study(seeds: u32) -> Result<Vec<PlanResult>> {
 
 /// A temporary directory only its owner can enter (mode 0700 whatever the umask: the
 /// study's sweeps are nobody else's business).
-fn private_dir() -> Result<tempfile::TempDir> {
+pub(crate) fn private_dir() -> Result<tempfile::TempDir> {
     use std::os::unix::fs::PermissionsExt;
     tempfile::Builder::new()
         .prefix("gonio-study-")
@@ -347,7 +348,8 @@ fn scale_study_here() -> Result<Vec<ScaleRow>> {
 
 /// The Scatterworks 532 nm sweep of the repository's test data (MIT licence,
 /// provenance in host-tool/tests/data/README.md), built into the binary.
-const SCATTERWORKS: &[u8] =
+/// The Scatterworks solar-array sweep (host-tool/tests/data, with its provenance).
+pub(crate) const SCATTERWORKS: &[u8] =
     include_bytes!("../../tests/data/scatterworks-solar-array-532nm.sweep.csv");
 
 /// Speed against error per member: every member the default family fits on the

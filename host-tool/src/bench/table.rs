@@ -2,6 +2,7 @@
 //! comparison fits of `--fit-vs`.
 
 use super::campaign::CampaignStudy;
+use super::replay_study::{CoreWidth, REPLAY_NOISE, ReplayStudy};
 use super::starts::StartsRow;
 use super::study::{MemberRow, PlanResult, ScaleRow};
 use super::variants::VariantResult;
@@ -38,6 +39,40 @@ pub fn plans_table(plans: &[PlanResult]) -> String {
             p.material, p.plan, p.readings, p.fit_error
         ));
     }
+    t
+}
+
+/// The replay study's table: readings against the core width's miss from the dense
+/// fit, in the plan's own standard errors.
+pub fn replay_table(study: &ReplayStudy) -> String {
+    let cell = |w: &CoreWidth| {
+        let se = w.sigma_se.map_or("-".to_string(), |se| format!("{se:.6}"));
+        format!("{:>9} {:>10.6} {:>10}", w.readings, w.sigma, se)
+    };
+    let mut t = format!(
+        "\n{:<46} {:>9} {:>10} {:>10} {:>8} {:>7}\n",
+        "plan on the replayed Scatterworks sweep", "readings", "sigma", "se", "miss/se", "ended"
+    );
+    t.push_str(&format!(
+        "{:<46} {}\n",
+        "dense fit (every reading of the file)",
+        cell(&study.dense)
+    ));
+    for r in &study.rows {
+        let miss = r.miss_in_se.map_or("-".to_string(), |z| format!("{z:+.2}"));
+        t.push_str(&format!(
+            "{:<46} {} {:>8} {:>7}\n",
+            r.plan,
+            cell(&r.fit),
+            miss,
+            r.status
+        ));
+    }
+    t.push_str(&format!(
+        "Scatterworks 532 nm solar array (host-tool/tests/data), {} readings at 4 incidences, replayed with {} % noise (seed 1); each file fitted as `gonio fit` fits it (the selected member's sigma, the core width, with its standard error); \"miss/se\": (sigma - dense sigma) / se\n",
+        study.dense.readings,
+        REPLAY_NOISE * 100.0
+    ));
     t
 }
 

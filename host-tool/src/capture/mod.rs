@@ -10,6 +10,7 @@
 pub mod check;
 pub mod connect;
 pub mod error;
+pub mod grid_runs;
 pub mod liveness;
 pub mod plan;
 pub mod progress;

@@ -8,12 +8,14 @@ use std::path::Path;
 
 use brdf_core::Preset;
 use brdf_core::identity::PAPER_INCIDENCES;
-use brdf_core::plan::{adaptive, leg_len, leg_len_below, leg_position};
+use brdf_core::plan::{MAX_LEG_POINTS, STOP_TOLERANCE_STEPS, adaptive, leg_len, leg_len_below};
 use brdf_core::protocol::{
     ArmLimits, Grid, MAX_INCIDENCES, MAX_PLAN_POINTS, MAX_SWEEP_POINTS, Point, PointSettings,
     SweepPlan,
 };
 use serde::Deserialize;
+
+use super::grid_runs::{grid_prefix, legs_prefix};
 
 /// A plan that cannot be run: bad settings, a bad plan file, points outside the model's
 /// domain or a device's travel. One line; always bad input.
@@ -261,7 +263,7 @@ impl HostPlan {
             .flat_map(|&theta_i| {
                 (0..n).map(move |k| Point {
                     theta_i,
-                    theta_r: leg_position(d.start, d.stop, d.step, k, n),
+                    theta_r: long_leg_position(d.start, d.stop, d.step, k, n),
                 })
             })
             .collect();
@@ -270,12 +272,22 @@ impl HostPlan {
 
     /// An adaptive plan: readings placed densely where the prior's curve bends.
     pub fn adaptive(prior: &str, budget: usize, o: &SettingsOverride) -> Result<Self> {
+        Self::adaptive_at(prior, &PAPER_INCIDENCES, budget, o)
+    }
+
+    /// [`HostPlan::adaptive`] at other incidences (degrees), as on a replayed sweep.
+    pub fn adaptive_at(
+        prior: &str,
+        incidences: &[f32],
+        budget: usize,
+        o: &SettingsOverride,
+    ) -> Result<Self> {
         let preset = Preset::by_name(prior)
             .map_err(|e| PlanError::from(format!("--prior '{prior}': {e}")))?;
         let e = exclusion(o, None)?;
         let plan = adaptive::<f64>(
             0,
-            &PAPER_INCIDENCES,
+            incidences,
             -80.0,
             80.0,
             budget,
@@ -390,8 +402,10 @@ impl HostPlan {
 
     /// The device sweeps that measure every point not in `present`, in plan order:
     /// the compact grid when nothing or only a prefix is done and the whole plan is
-    /// within the device's `max_points` (its `Info`), otherwise point lists of at most
-    /// `max_points` and `MAX_PLAN_POINTS`. No sweep sent is longer than `max_points`.
+    /// within the device's `max_points` (its `Info`); otherwise grids for runs of points
+    /// such a grid expands to bit for bit (whole legs of up to 16 incidences,
+    /// [`legs_prefix`]; a long leg, [`grid_prefix`]) and point lists of at most `max_points` and
+    /// `MAX_PLAN_POINTS` for the rest. No sweep sent is longer than `max_points`.
     /// `first_id` numbers them.
     pub fn sweeps_for(
         &self,
@@ -419,25 +433,69 @@ impl HostPlan {
                 return vec![DeviceSweep { plan, map: missing }];
             }
         }
-        missing
-            .chunks(usize::from(max_points).clamp(1, MAX_PLAN_POINTS))
-            .enumerate()
-            .map(|(k, chunk)| {
-                let pts: heapless::Vec<Point, MAX_PLAN_POINTS> =
-                    chunk.iter().map(|&s| self.points[s as usize]).collect();
-                DeviceSweep {
+        // The rest in plan order: runs that a one-incidence grid expands to exactly
+        // as compact grids, everything else as point lists.
+        let list_cap = usize::from(max_points).clamp(1, MAX_PLAN_POINTS);
+        let pts: Vec<Point> = missing.iter().map(|&k| self.points[k as usize]).collect();
+        // ends[a]: the end of the stretch of consecutive plan points at one incidence
+        // that starts at or before a (a grid measures consecutive points only).
+        // runs[a]: the same, of consecutive plan points at any incidences.
+        let mut ends = vec![missing.len(); missing.len()];
+        let mut runs = vec![missing.len(); missing.len()];
+        for a in (0..missing.len().saturating_sub(1)).rev() {
+            let next = missing[a + 1] == missing[a] + 1;
+            runs[a] = if next { runs[a + 1] } else { a + 1 };
+            let joined = next && pts[a + 1].theta_i.to_bits() == pts[a].theta_i.to_bits();
+            ends[a] = if joined { ends[a + 1] } else { a + 1 };
+        }
+        let mut out: Vec<DeviceSweep> = Vec::new();
+        let mut list: Vec<u32> = Vec::new();
+        let flush = |list: &mut Vec<u32>, out: &mut Vec<DeviceSweep>| {
+            if list.is_empty() {
+                return;
+            }
+            let pts: heapless::Vec<Point, MAX_PLAN_POINTS> =
+                list.iter().map(|&s| self.points[s as usize]).collect();
+            out.push(DeviceSweep {
+                plan: SweepPlan {
+                    sweep_id: first_id + out.len() as u32,
+                    grid: Grid::Points(pts),
+                    // Already applied when the points were listed.
+                    exclude_retro_deg: 0.0,
+                    settings: self.settings,
+                    skip: 0,
+                },
+                map: std::mem::take(list),
+            });
+        };
+        let mut a = 0;
+        while a < missing.len() {
+            let max = usize::from(max_points);
+            let grid =
+                legs_prefix(&pts[a..runs[a]], max).or_else(|| grid_prefix(&pts[a..ends[a]], max));
+            if let Some((m, grid)) = grid {
+                flush(&mut list, &mut out);
+                out.push(DeviceSweep {
                     plan: SweepPlan {
-                        sweep_id: first_id + k as u32,
-                        grid: Grid::Points(pts),
-                        // Already applied when the points were listed.
+                        sweep_id: first_id + out.len() as u32,
+                        grid,
                         exclude_retro_deg: 0.0,
                         settings: self.settings,
                         skip: 0,
                     },
-                    map: chunk.to_vec(),
+                    map: missing[a..a + m].to_vec(),
+                });
+                a += m;
+            } else {
+                list.push(missing[a]);
+                if list.len() == list_cap {
+                    flush(&mut list, &mut out);
                 }
-            })
-            .collect()
+                a += 1;
+            }
+        }
+        flush(&mut list, &mut out);
+        out
     }
 
     /// Rebuilds the plan a sweep file recorded (for `--resume`).
@@ -475,6 +533,28 @@ impl HostPlan {
             }
         }
         Ok(plan)
+    }
+}
+
+/// Positions in one device leg of a leg longer than the device takes.
+const DEVICE_LEG: u32 = MAX_LEG_POINTS - 1;
+
+/// Position `k` of a leg of `n` positions (`n` from brdf-core's `leg_len_below`): the
+/// device legs of [`DEVICE_LEG`] positions laid end to end, the `b`-th starting at
+/// `start + step * (b * DEVICE_LEG)` and going on by brdf-core's own rule from there
+/// (`first + step * j`, f32), the last position `stop` itself by the stop rule. So
+/// each part is what one device grid expands to, bit for bit, and goes to the device
+/// as one (capture::grid_runs) rather than as point lists. A leg of at most
+/// `DEVICE_LEG` positions is brdf-core's `leg_position` itself; a longer one differs
+/// from `start + step * k` by f32 rounding only (a few 1e-6 degrees).
+fn long_leg_position(start: f32, stop: f32, step: f32, k: u32, n: u32) -> f32 {
+    let b = k / DEVICE_LEG;
+    let first = start + step * (b * DEVICE_LEG) as f32;
+    let theta_r = first + step * (k - b * DEVICE_LEG) as f32;
+    if k + 1 == n && stop - theta_r <= STOP_TOLERANCE_STEPS * step {
+        stop
+    } else {
+        theta_r
     }
 }
 

@@ -97,7 +97,7 @@ fn no_sweep_sent_is_longer_than_the_devices_max_points() {
     // As docs/protocol.md says.
     let doc = crate::capture::protocol_doc_words();
     assert!(doc.contains(
-        "a plan longer than the device's `max_points` is sent as several point lists of at most `max_points` (and 240) points, never as one grid"
+        "a plan longer than the device's `max_points` is sent as several device plans of at most `max_points` points, never as one grid"
     ));
 }
 
@@ -134,9 +134,10 @@ fn plan_files_give_grids_or_points() {
         }
     );
     assert_eq!(p.settings.settle_ms, 0);
-    // Long point lists split into several device sweeps.
+    // Long point lists split into several device sweeps (no two neighbours share an
+    // incidence, so no run of them is a grid).
     let many: Vec<String> = (0..500)
-        .map(|k| format!("[30, {}]", -80.0 + k as f32 * 0.3))
+        .map(|k| format!("[{}, {}]", 30 + 10 * (k % 2), -80.0 + k as f32 * 0.3))
         .collect();
     let f = write("many.toml", &format!("points = [{}]\n", many.join(", ")));
     let p = HostPlan::from_file(&f, &o()).unwrap();
@@ -146,6 +147,17 @@ fn plan_files_give_grids_or_points() {
         vec![240, 240, 20]
     );
     assert_eq!(s[2].host_seq(0), Some(480));
+    // The same detector angles at one incidence are one leg: one compact grid that
+    // the device expands to exactly these points.
+    let one: Vec<String> = (0..500)
+        .map(|k| format!("[30, {}]", -80.0 + k as f32 * 0.3))
+        .collect();
+    let f = write("one.toml", &format!("points = [{}]\n", one.join(", ")));
+    let p = HostPlan::from_file(&f, &o()).unwrap();
+    let s = p.sweeps_for(&BTreeSet::new(), 1, MAX_SWEEP_POINTS);
+    assert_eq!(s.len(), 1);
+    assert!(matches!(s[0].plan.grid, Grid::Custom { .. }));
+    assert_eq!(s[0].plan.points().collect::<Vec<_>>(), p.points);
 }
 
 #[test]

@@ -163,7 +163,7 @@ pub fn capture<C: Connector>(
     };
     if run.plan.points.len() > usize::from(info.max_points) {
         run.progress.note(&format!(
-            "capture: the plan's {} points are more than the device takes in one sweep ({}, its Info.max_points): sent as point lists of at most {}",
+            "capture: the plan's {} points are more than the device takes in one sweep ({}, its Info.max_points): sent as several, legs as compact grids, other points as lists of at most {}",
             run.plan.points.len(),
             info.max_points,
             usize::from(info.max_points).min(brdf_core::protocol::MAX_PLAN_POINTS)

@@ -35,6 +35,19 @@ pub fn plan(budget: usize, o: &SettingsOverride) -> Result<HostPlan, PlanError> 
     })
 }
 
+/// The sequential plan rehearsed on a replayed sweep (`gonio simulate --replay`, `gonio
+/// bench --study`): candidates at the file's incidences, within their measured spans.
+pub fn plan_on_replay(
+    r: &crate::device::replay::Replay,
+    budget: usize,
+    o: &SettingsOverride,
+) -> Result<HostPlan, PlanError> {
+    let incidences: Vec<f32> = r.incidences().iter().map(|&t| t as f32).collect();
+    plan_over(&incidences, budget, o, |ti, tr| {
+        r.check_points(&[(ti, tr)]).is_ok()
+    })
+}
+
 /// The sequential plan at other `incidences` (degrees): the candidates every
 /// [`CANDIDATE_STEP`] degrees of theta_r in -80..80 at each, less those `keep` refuses
 /// (a replayed sweep serves only its measured spans), the retro-reflection zone of `o`

@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 
 use brdf_core::Preset;
+use brdf_core::protocol::Grid;
 
 use super::*;
 use crate::device::{InProcessConnector, InProcessDevice, SimConfig};
@@ -44,11 +45,23 @@ const EIGHTEEN: &str = "incidences = [0, 5, 10, 15, 20, 25, 30, 35, 40, 45, 50, 
 fn eighteen_incidences_are_one_sweep_file_of_several_device_plans() {
     let p = plan(EIGHTEEN);
     assert_eq!(p.points.len(), 18 * 17);
-    // More than 16 incidences: sent as point lists of what the device takes.
+    // More than 16 incidences: sent as grids of whole legs, as many incidences as the
+    // device takes (here 240 points: 14 legs of 17), each its points bit for bit.
     let sweeps = p.sweeps_for(&Default::default(), 1, 240);
     assert_eq!(
         sweeps.iter().map(|s| s.map.len()).collect::<Vec<_>>(),
-        [240, 66]
+        [238, 68]
+    );
+    for s in &sweeps {
+        assert!(matches!(s.plan.grid, Grid::Custom { .. }));
+        let want: Vec<_> = s.map.iter().map(|&k| p.points[k as usize]).collect();
+        assert_eq!(s.plan.points().collect::<Vec<_>>(), want);
+    }
+    // The device's own limit of 16 incidences: 272 and 34.
+    let sweeps = p.sweeps_for(&Default::default(), 1, 65535);
+    assert_eq!(
+        sweeps.iter().map(|s| s.map.len()).collect::<Vec<_>>(),
+        [272, 34]
     );
     let path = out("eighteen.csv");
     let setup = CaptureSetup::new(Some(p.clone()), path.clone());
@@ -63,9 +76,9 @@ fn eighteen_incidences_are_one_sweep_file_of_several_device_plans() {
 #[test]
 fn a_capture_interrupted_between_or_inside_device_plans_resumes_whole() {
     let p = plan(EIGHTEEN);
-    // After 240 readings: at the end of the first device plan (the interrupt is seen
-    // there or just after); after 100: inside it.
-    for stop in [240, 100] {
+    // After 272 readings: at the end of the first device plan, 16 legs (the interrupt
+    // is seen there or just after); after 100: inside it.
+    for stop in [272, 100] {
         let path = out(&format!("eighteen-{stop}.csv"));
         let flag = AtomicBool::new(false);
         let setup = CaptureSetup::new(Some(p.clone()), path.clone());
@@ -135,5 +148,59 @@ fn a_limit_that_remains_is_named_with_its_number() {
     assert!(
         e.contains("9999") && e.contains("240") && e.contains("65535"),
         "{e}"
+    );
+}
+
+#[test]
+fn long_legs_go_to_the_device_as_compact_grids_of_the_very_points() {
+    // Legs of 33,334 positions (more than a device leg's 9,999) are device legs laid
+    // end to end, so the whole plan goes as 12 one-incidence grids (about 25 bytes
+    // each, where point lists were 417 sweeps of 8 bytes a point), and each grid
+    // expands on the device to exactly the plan's points.
+    let p = plan(
+        "incidences = [20, 40, 60]\ndetector = { start = -80, stop = 80, step = 0.0048 }\n\
+         samples = 1\nsettle_ms = 0\n",
+    );
+    let sweeps = p.sweeps_for(&Default::default(), 1, 65535);
+    assert_eq!(sweeps.len(), 12);
+    let mut next = 0u32;
+    for d in &sweeps {
+        assert!(
+            matches!(d.plan.grid, Grid::Custom { .. }),
+            "{:?}",
+            d.plan.grid
+        );
+        let got: Vec<_> = d.plan.points().collect();
+        assert_eq!(got.len(), d.map.len());
+        for (g, &k) in got.iter().zip(&d.map) {
+            assert_eq!(k, next);
+            next += 1;
+            let want = p.points[k as usize];
+            assert_eq!(
+                (g.theta_i.to_bits(), g.theta_r.to_bits()),
+                (want.theta_i.to_bits(), want.theta_r.to_bits()),
+                "{k}"
+            );
+        }
+    }
+    assert_eq!(next as usize, p.points.len());
+    // Within f32 rounding of start + step * k (a few 1e-6 degrees); none past stop.
+    for (k, q) in p.points[..33_334].iter().enumerate() {
+        let exact = -80.0 + 0.0048 * k as f64;
+        assert!((f64::from(q.theta_r) - exact).abs() < 2e-5, "{k}: {q:?}");
+    }
+    assert!(p.points.iter().all(|q| q.theta_r <= 80.0));
+    // Resumed inside a device leg: the rest of that leg as point lists, then grids.
+    let done: std::collections::BTreeSet<u32> = (0..10_100).collect();
+    let sweeps = p.sweeps_for(&done, 1, 65535);
+    let listed: usize = sweeps
+        .iter()
+        .filter(|d| matches!(d.plan.grid, Grid::Points(_)))
+        .map(|d| d.map.len())
+        .sum();
+    assert!(listed < 9_999, "{listed}");
+    assert_eq!(
+        sweeps.iter().map(|d| d.map.len()).sum::<usize>(),
+        100_002 - 10_100
     );
 }

@@ -19,6 +19,10 @@ pub struct Watch {
     /// Per incidence (its f32 bits, degrees): plan points, and readings so far.
     points: BTreeMap<u32, (usize, usize)>,
     met: bool,
+    /// Readings of the last refit: a refit of the same readings is the same fit, and
+    /// telling it again printed one line twice (an incidence completed by a batch's
+    /// last reading, then the batch's end).
+    fitted: Option<usize>,
 }
 
 impl Watch {
@@ -40,6 +44,7 @@ impl Watch {
             until,
             points,
             met: false,
+            fitted: None,
         }
     }
 
@@ -65,12 +70,14 @@ impl Watch {
         self.met
     }
 
-    /// Refits now (a resumed file's readings, the end of a batch) and tells `progress`.
-    /// Returns whether the targets are met.
+    /// Refits now (a resumed file's readings, the end of a batch) and tells `progress`,
+    /// unless no reading came since the last refit. Returns whether the targets are met.
     pub fn refit(&mut self, progress: &mut dyn ProgressSink) -> bool {
-        if !self.enabled || self.online.rows().is_empty() {
+        let n = self.online.rows().len();
+        if !self.enabled || n == 0 || self.fitted == Some(n) {
             return self.met;
         }
+        self.fitted = Some(n);
         let est = self.online.refit();
         self.met = match (&est, &self.until) {
             (Ok(e), Some(u)) => u.met(e),
@@ -101,5 +108,62 @@ impl Watch {
             Some(e) => format!("{u}: {}", u.describe(e)),
             None => format!("{u}: no fit of the readings yet"),
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::capture::SettingsOverride;
+    use crate::capture::progress::Quiet;
+
+    /// Counts the refits told, by their readings.
+    #[derive(Default)]
+    struct Told(Vec<usize>);
+
+    impl ProgressSink for Told {
+        fn start(&mut self, _: u64, _: u64) {}
+        fn reading(&mut self, _: u64, _: f32, _: f32) {}
+        fn note(&mut self, _: &str) {}
+        fn finish(&mut self) {}
+        fn estimate(&mut self, est: Result<&Estimate, &str>, _: Option<&Until>) {
+            self.0.push(est.map_or(0, |e| e.readings));
+        }
+    }
+
+    #[test]
+    fn each_refit_is_told_once_even_when_an_incidence_ends_a_batch() {
+        // Two incidences of 17 points (the paper's detector angles at 10 and 20).
+        let text = "incidences = [10, 20]\ndetector = { start = -80, stop = 80, step = 10 }\n";
+        let plan = HostPlan::from_toml_str(text, "two.toml", &SettingsOverride::default()).unwrap();
+        let fe = brdf_core::Preset::by_name("fe-0.115").unwrap();
+        let until = Until::parse("sigma:2%").unwrap();
+        let mut watch = Watch::new(&plan, Vec::new(), Some(until), false);
+        let mut told = Told::default();
+        for (k, p) in plan.points.iter().enumerate() {
+            let f = fe.model(f64::from(p.theta_i)).unwrap();
+            let brdf = f
+                .eval_in_plane(f64::from(p.theta_i), f64::from(p.theta_r))
+                .unwrap()
+                .f;
+            let row = Row {
+                theta_i: f64::from(p.theta_i),
+                theta_r: f64::from(p.theta_r),
+                brdf,
+                std: None,
+                n: None,
+                seq: None,
+                t_ms: None,
+            };
+            watch.on_row(row, p.theta_i, &mut told);
+            // The capture refits at the end of every device sweep (a sequential batch);
+            // here each incidence is one, so its last reading refits twice over.
+            if k == 16 {
+                watch.refit(&mut told);
+            }
+        }
+        watch.refit(&mut told);
+        watch.refit(&mut Quiet);
+        assert_eq!(told.0, [17, 34]);
     }
 }

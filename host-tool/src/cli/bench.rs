@@ -22,8 +22,9 @@ pub struct BenchArgs {
     /// Seconds of timing per variant.
     #[arg(long, default_value_t = 0.3, value_name = "S")]
     pub seconds: f64,
-    /// Also run the slower studies: readings against fit error for uniform and
-    /// adaptive plans, fit time against error across tolerances and start counts, fit
+    /// Also run the slower studies: readings against fit error for uniform, adaptive
+    /// and sequential plans (on simulated presets, and the core width against the dense
+    /// fit's on the replayed real Scatterworks sweep), fit time against error across tolerances and start counts, fit
     /// time against readings (153 to 10^5) and incidences, speed against error per
     /// member on the Scatterworks test data, and the multi-start's default against
     /// --all-starts on simulated paper-grid sweeps (time, and member fits that missed
@@ -95,10 +96,10 @@ pub fn run(args: &BenchArgs) -> CliResult {
         bench::speed_vs_error(png, &rows, args.force)?;
         super::output::say_written(std::slice::from_ref(png));
     }
-    let plans = if args.study {
-        Some(bench::plan_study(3)?)
+    let (plans, replay) = if args.study {
+        (Some(bench::plan_study(3)?), Some(bench::replay_study()?))
     } else {
-        None
+        (None, None)
     };
     let (scale, members, starts) = if args.study {
         (
@@ -110,7 +111,7 @@ pub fn run(args: &BenchArgs) -> CliResult {
         (None, None, None)
     };
     let text = if args.json {
-        let v = serde_json::json!({"variants": rows, "plans": plans,
+        let v = serde_json::json!({"variants": rows, "plans": plans, "replay": replay,
             "scale": scale, "members": members.as_ref().map(|m| &m.0),
             "family_ms_scatterworks": members.as_ref().map(|m| m.1), "starts": starts});
         serde_json::to_string_pretty(&v).expect("JSON of numbers") + "\n"
@@ -118,6 +119,9 @@ pub fn run(args: &BenchArgs) -> CliResult {
         let mut t = table::variants_table(&rows);
         if let Some(plans) = &plans {
             t.push_str(&table::plans_table(plans));
+        }
+        if let Some(replay) = &replay {
+            t.push_str(&table::replay_table(replay));
         }
         if let Some(scale) = &scale {
             t.push_str(&table::scale_table(scale));

@@ -157,10 +157,7 @@ pub fn run(args: &SimulateArgs) -> CliResult {
             exclude_retro: Some(plan.exclude_retro_deg),
             dark: plan.settings.dark,
         };
-        let incidences: Vec<f32> = r.incidences().iter().map(|&t| t as f32).collect();
-        *plan = crate::capture::sequential::plan_over(&incidences, budget, &o, |ti, tr| {
-            r.check_points(&[(ti, tr)]).is_ok()
-        })?;
+        *plan = crate::capture::sequential::plan_on_replay(r, budget, &o)?;
     }
     if let (Some(r), Some(plan)) = (&replay, &setup.plan) {
         let points: Vec<(f32, f32)> = plan.points.iter().map(|p| (p.theta_i, p.theta_r)).collect();

@@ -64,8 +64,9 @@ pub fn abg_text(fam: &FamilyFit) -> String {
                 .collect();
             let _ = writeln!(
                 s,
-                "  TIS(theta_i) implied (integral of f cos(theta_s) over the hemisphere; the albedo of the physical checks): {}",
-                tis.join("  ")
+                "  TIS(theta_i) implied (integral of f cos(theta_s) over the hemisphere; the albedo of the physical checks): {}  (quadrature error <= {:.1e} relative)",
+                tis.join("  "),
+                c.max_rel_error()
             );
         }
         None => {

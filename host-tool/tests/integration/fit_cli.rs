@@ -271,6 +271,50 @@ fn a_campaign_summary_lists_abg_parameters() {
     }
 }
 
+/// Issue #37: the ABg paste block's TIS line prints the numbers of the `--json` entry's
+/// `tis` (one code path, the physical checks' albedo) and states their quadrature error.
+#[test]
+fn the_abg_tis_line_is_the_json_tis_with_its_error() {
+    let d = scratch("abg-tis");
+    let p = d.join("abg.csv");
+    abg_sweep(&p, (0.02, 1e-3, 1.5), 11);
+    let text = gonio(&["fit", p.to_str().unwrap(), "--models", "abg"]);
+    assert!(text.ok(), "{}", text.stderr);
+    let line = text
+        .stdout
+        .lines()
+        .find(|l| l.contains("TIS(theta_i) implied"))
+        .unwrap_or_else(|| panic!("{}", text.stdout));
+    let (values, error) = line
+        .split_once("):")
+        .and_then(|(_, rest)| rest.split_once("(quadrature error <= "))
+        .unwrap_or_else(|| panic!("{line}"));
+    let error: f64 = error.trim_end_matches(" relative)").parse().unwrap();
+    assert!(error > 0.0 && error < 1e-3, "{line}");
+    let printed: Vec<(f64, f64)> = values
+        .split_whitespace()
+        .collect::<Vec<_>>()
+        .chunks(2)
+        .map(|c| {
+            (
+                c[0].trim_end_matches(':').parse().unwrap(),
+                c[1].parse().unwrap(),
+            )
+        })
+        .collect();
+    let json = gonio(&["fit", p.to_str().unwrap(), "--models", "abg", "--json"]);
+    let j: serde_json::Value = serde_json::from_str(&json.stdout).unwrap();
+    let tis = j["models"][0]["tis"].as_array().unwrap();
+    assert_eq!(tis.len(), printed.len(), "{line}");
+    for (t, (ti, v)) in tis.iter().zip(printed) {
+        assert_eq!(t[0].as_f64().unwrap(), ti, "{line}");
+        assert!(
+            (t[1].as_f64().unwrap() / v - 1.0).abs() < 1e-4,
+            "{t} vs {v}"
+        );
+    }
+}
+
 #[test]
 fn a_campaign_fits_every_sweep_and_skips_the_bad_one() {
     let d = scratch("campaign");

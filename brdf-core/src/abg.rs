@@ -196,14 +196,7 @@ mod tests {
                 sum += f(lo + k as f64 * h) * if k % 2 == 1 { 4.0 } else { 2.0 };
             }
             let want = 2.0 * core::f64::consts::PI * a * sum * h / 3.0;
-            let m = MemberModel::new(&MemberParams {
-                core: None,
-                haze: None,
-                directional: None,
-                ideal: None,
-                abg: Some(AbgParams { a, b, g }),
-            })
-            .unwrap();
+            let m = MemberModel::new(&MemberParams::abg_only(AbgParams { a, b, g })).unwrap();
             let panels = Rule::for_width(m.narrowest_width()).panels;
             let got = albedo_within(0.0, 0.0, 5e-4, panels, member_brdf(&m)).unwrap();
             let rel = (got.rho - want).abs() / want;

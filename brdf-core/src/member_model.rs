@@ -120,6 +120,17 @@ pub struct MemberParams<T> {
 }
 
 impl<T: Real> MemberParams<T> {
+    /// The member `abg` alone with these A (BRDF unit), B and g.
+    pub fn abg_only(abg: AbgParams<T>) -> Self {
+        MemberParams {
+            core: None,
+            haze: None,
+            directional: None,
+            ideal: None,
+            abg: Some(abg),
+        }
+    }
+
     /// The member these parameters describe.
     pub fn member(&self) -> Member {
         Member {

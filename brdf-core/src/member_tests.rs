@@ -679,17 +679,11 @@ fn the_abg_member_stands_alone_and_evaluates_with_its_gradient() {
         assert!(Member::parse(bad).is_err(), "{bad}");
     }
     assert!(!Member::ABG.without(Component::Abg).is_valid());
-    let p = MemberParams {
-        core: None,
-        haze: None,
-        directional: None,
-        ideal: None,
-        abg: Some(AbgParams {
-            a: 0.05f64,
-            b: 2e-3,
-            g: 1.7,
-        }),
-    };
+    let p = MemberParams::abg_only(AbgParams {
+        a: 0.05f64,
+        b: 2e-3,
+        g: 1.7,
+    });
     assert_eq!(p.member(), Member::ABG);
     let m = MemberModel::new(&p).unwrap();
     assert_eq!(m.amplitudes().abg, 0.05);

@@ -146,13 +146,7 @@ fn sharp() -> MemberParams<f64> {
 
 /// The ABg member alone: A (1/sr), B, g.
 fn abg(a: f64, b: f64, g: f64) -> MemberParams<f64> {
-    MemberParams {
-        core: None,
-        haze: None,
-        directional: None,
-        ideal: None,
-        abg: Some(AbgParams { a, b, g }),
-    }
+    MemberParams::abg_only(AbgParams { a, b, g })
 }
 
 #[test]

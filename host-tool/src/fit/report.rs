@@ -201,39 +201,28 @@ pub fn member_params(fit: &MemberFit) -> Vec<Param> {
     ] {
         let fresnel = if haze { l.haze_fresnel } else { l.core_fresnel };
         for (j, &t) in fit.incidences.iter().enumerate() {
-            let theta_i = Some(t);
-            if local {
+            // (value, se, slot): one k_s per incidence, however the member forms it.
+            let (value, se, slot) = if local {
                 let i = l.local(j, haze);
                 let (value, se) = fit.natural(i);
-                out.push(Param {
-                    base,
-                    theta_i,
-                    value,
-                    se,
-                    held: false,
-                    slot: Some(i),
-                });
+                (value, se, Some(i))
             } else if let Some(p) = poly {
                 let (ln, se) = fit.smooth_ks(p, t);
-                out.push(Param {
-                    base,
-                    theta_i,
-                    value: ln.exp(),
-                    se,
-                    held: false,
-                    slot: None,
-                });
+                (ln.exp(), se, None)
             } else if let Some(p) = fresnel {
                 let (value, se) = fit.fresnel_ks(p, t);
-                out.push(Param {
-                    base,
-                    theta_i,
-                    value,
-                    se,
-                    held: false,
-                    slot: None,
-                });
-            }
+                (value, se, None)
+            } else {
+                continue;
+            };
+            out.push(Param {
+                base,
+                theta_i: Some(t),
+                value,
+                se,
+                held: false,
+                slot,
+            });
         }
     }
     out

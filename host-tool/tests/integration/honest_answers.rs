@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use serde_json::Value;
 
-use crate::util::{gonio, scratch, simulated_seed};
+use crate::util::{gonio, notes, scratch, simulated_seed};
 
 fn simulate(dir: &Path, material: &str, seed: &str) -> PathBuf {
     simulated_seed(dir, material, seed)
@@ -30,15 +30,6 @@ fn selected(v: &Value) -> &Value {
         .iter()
         .find(|m| m["name"] == name)
         .unwrap()
-}
-
-fn notes(v: &Value) -> Vec<String> {
-    v["notes"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|n| n.as_str().unwrap().to_string())
-        .collect()
 }
 
 #[test]

@@ -176,3 +176,13 @@ pub fn simulated_seed(dir: &Path, material: &str, seed: &str) -> PathBuf {
     assert!(out.ok(), "{}", out.stderr);
     f
 }
+
+/// The `notes` of a `gonio fit --json` report, as strings.
+pub fn notes(v: &serde_json::Value) -> Vec<String> {
+    v["notes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|n| n.as_str().unwrap().to_string())
+        .collect()
+}

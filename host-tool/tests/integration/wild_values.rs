@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use serde_json::Value;
 
-use crate::util::{gonio, scratch, simulated};
+use crate::util::{gonio, notes, scratch, simulated};
 
 /// `src` with the row at theta_i 30, theta_r 20 given `value` in column `col`
 /// (0-based: 2 brdf, 3 std), or left out when `value` is `None`, written to `name`.
@@ -36,15 +36,6 @@ fn fit_json(path: &Path) -> Value {
     let out = gonio(&["fit", path.to_str().unwrap(), "--json"]);
     assert!(out.ok(), "{}", out.stderr);
     serde_json::from_str(&out.stdout).expect("one JSON object")
-}
-
-fn notes(v: &Value) -> Vec<String> {
-    v["notes"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|n| n.as_str().unwrap().to_string())
-        .collect()
 }
 
 #[test]

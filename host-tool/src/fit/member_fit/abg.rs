@@ -30,16 +30,8 @@ pub(super) fn abg_starts(
     let (Some(ia), Some(ib), Some(ig)) = (layout.abg_a, layout.abg_b, layout.abg_g) else {
         return Vec::new();
     };
-    let unit = |b: f64, g: f64| {
-        MemberModel::new(&MemberParams {
-            core: None,
-            haze: None,
-            directional: None,
-            ideal: None,
-            abg: Some(AbgParams { a: 1.0, b, g }),
-        })
-        .ok()
-    };
+    let unit =
+        |b: f64, g: f64| MemberModel::new(&MemberParams::abg_only(AbgParams { a: 1.0, b, g })).ok();
     // Every grid point: its cost in the fit's residuals at the linear A.
     let mut ranked: Vec<(f64, f64, f64, f64)> = Vec::new();
     for &b in &abg_b_grid() {

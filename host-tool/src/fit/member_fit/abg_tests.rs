@@ -11,13 +11,7 @@ use super::super::super::tests::member_rows;
 use super::super::fit_member;
 
 fn abg(a: f64, b: f64, g: f64) -> MemberParams<f64> {
-    MemberParams {
-        core: None,
-        haze: None,
-        directional: None,
-        ideal: None,
-        abg: Some(AbgParams { a, b, g }),
-    }
+    MemberParams::abg_only(AbgParams { a, b, g })
 }
 
 /// Sharp (a peak 0.2 degrees wide on a 0.5-degree detector grid), medium, broad and

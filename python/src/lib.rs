@@ -63,7 +63,9 @@ fn lobe_ks(what: &str, form: KsForm, ks: Option<&Bound<'_, PyAny>>) -> PyResult<
         }
         KsForm::Fresnel => {
             let c: Vec<f64> = ks.extract().map_err(|_| {
-                err(format!("{what}: a Fresnel k_s is [k0, n, k] (k_s = k0 F(beta; n, k))"))
+                err(format!(
+                    "{what}: a Fresnel k_s is [k0, n, k] (k_s = k0 F(beta; n, k))"
+                ))
             })?;
             let c: [f64; 3] = c
                 .try_into()

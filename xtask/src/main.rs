@@ -3,6 +3,7 @@
 //! Every command installs the Rust-side tools it needs when they are missing (thumb
 //! target, flip-link, llvm-tools; QEMU through apt-get), so none needs `setup` first.
 
+mod accuracy;
 mod perf;
 mod tools;
 
@@ -62,9 +63,23 @@ enum Cmd {
     /// Instructions and flash bytes per evaluation variant on the Cortex-M4 (the bench
     /// image under QEMU -icount), as a Markdown table.
     FirmwareBench,
-    /// Regenerate docs/PERFORMANCE.md and docs/speed_vs_error.png (gonio bench, the
-    /// firmware bench, gonio fit against scipy; installs numpy and scipy with pip if missing).
+    /// Regenerate docs/PERFORMANCE.md, docs/speed_vs_error.png and docs/accuracy.md
+    /// (gonio bench, the firmware bench, gonio fit against scipy, the accuracy report;
+    /// installs numpy and scipy with pip if missing).
     PerfReport,
+    /// Regenerate docs/accuracy.md alone: gonio's default fit against a two-lobe
+    /// Beckmann fit in scipy (bench/two_lobe_fit.py) on every real sweep in the
+    /// repository (a few minutes; release build, numpy and scipy as perf-report).
+    Accuracy {
+        /// Use this gonio binary instead of building the release one (e.g.
+        /// target/debug/gonio for a quick look; the figures do not depend on the build).
+        #[arg(long, value_name = "PATH")]
+        gonio: Option<PathBuf>,
+    },
+    /// The fresh-process speed comparison of perf-report alone, printed as Markdown:
+    /// `gonio fit --models three` and the whole family, each a new process, against
+    /// scipy's five-start least_squares (bench/fit_scipy.py). Writes nothing.
+    FitSpeed,
     /// Everything CI runs: setup (and rustfmt, clippy), fmt and clippy (workspace and firmware), the thumb
     /// build of brdf-core, the size budget, and all workspace tests with the qemu image
     /// (so the end-to-end tests run too), the stm32f411 image (its flash dry run) and
@@ -128,6 +143,8 @@ fn main() -> ExitCode {
         Cmd::QemuE2e => qemu_e2e(),
         Cmd::FirmwareBench => perf::firmware_bench().map(|t| print!("{t}")),
         Cmd::PerfReport => perf::perf_report(),
+        Cmd::Accuracy { gonio } => perf::accuracy(gonio.as_deref()),
+        Cmd::FitSpeed => perf::fit_speed(),
         Cmd::Test => test_all(),
     };
     match result {
@@ -416,6 +433,15 @@ mod tests {
         ));
         assert!(matches!(parse(&["qemu-e2e"]).unwrap(), Cmd::QemuE2e));
         assert!(matches!(parse(&["perf-report"]).unwrap(), Cmd::PerfReport));
+        assert!(matches!(
+            parse(&["accuracy"]).unwrap(),
+            Cmd::Accuracy { gonio: None }
+        ));
+        assert!(matches!(
+            parse(&["accuracy", "--gonio", "target/debug/gonio"]).unwrap(),
+            Cmd::Accuracy { gonio: Some(_) }
+        ));
+        assert!(matches!(parse(&["fit-speed"]).unwrap(), Cmd::FitSpeed));
     }
 
     #[test]

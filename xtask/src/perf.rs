@@ -98,13 +98,13 @@ pub fn firmware_bench() -> Result<String> {
 }
 
 /// Parses what a tool printed as one JSON object.
-fn parse_json(text: &str, what: &str) -> Result<Value> {
+pub(crate) fn parse_json(text: &str, what: &str) -> Result<Value> {
     serde_json::from_str(text.trim()).map_err(|e| format!("{what} printed no JSON object: {e}"))
 }
 
 /// The number at `pointer` (RFC 6901, e.g. `/fit_seconds`) in `v`. A JSON `null`
 /// (gonio and the scipy script write one for an undefined RMSE) reads as NaN.
-fn number(v: &Value, pointer: &str, what: &str) -> Result<f64> {
+pub(crate) fn number(v: &Value, pointer: &str, what: &str) -> Result<f64> {
     match v.pointer(pointer) {
         Some(Value::Null) => Ok(f64::NAN),
         Some(x) => x
@@ -197,7 +197,8 @@ fn versus_result(text: &str) -> Result<VersusResult> {
     })
 }
 
-fn output(dir: &Path, program: &str, args: &[&str]) -> Result<String> {
+/// Runs a command in `dir` and returns its stdout, failing on a non-zero exit.
+pub(crate) fn output(dir: &Path, program: &str, args: &[&str]) -> Result<String> {
     let out = command(dir, program, args)
         .output()
         .map_err(|e| format!("{program}: {e}"))?;
@@ -211,19 +212,173 @@ fn output(dir: &Path, program: &str, args: &[&str]) -> Result<String> {
     Ok(String::from_utf8_lossy(&out.stdout).into_owned())
 }
 
-/// Regenerates docs/PERFORMANCE.md and docs/speed_vs_error.png.
-pub fn perf_report() -> Result {
+/// Builds the release `gonio` and installs numpy and scipy with pip when python3
+/// cannot import them; returns gonio's path.
+pub(crate) fn release_gonio_and_scipy() -> Result<String> {
     let root = root();
     run(&root, "cargo", &["build", "--release", "-p", "host-tool"])?;
+    ensure_scipy()?;
     let gonio = root.join("target/release/gonio");
-    let gonio = gonio.to_str().ok_or("path")?;
+    Ok(gonio.to_str().ok_or("path")?.to_string())
+}
+
+/// Installs numpy and scipy with pip when python3 cannot import them.
+fn ensure_scipy() -> Result {
     if !works("python3", &["-c", "import numpy, scipy"]) {
         run(
-            &root,
+            &root(),
             "python3",
             &["-m", "pip", "install", "-q", "numpy", "scipy"],
         )?;
     }
+    Ok(())
+}
+
+/// Runs of `gonio fit` per side and round in the fresh-process comparison.
+const FRESH_RUNS: usize = 15;
+
+/// Fresh-process fit times on one sweep (µs), each side's best of all its runs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Fresh {
+    /// `bench/fit_scipy.py --starts 5`: five least_squares runs, the lowest cost kept.
+    scipy_five_us: f64,
+    /// `gonio fit SWEEP --models three --json`'s own `fit_seconds`.
+    three_us: f64,
+    /// `gonio fit SWEEP --json` (the whole default family)'s `fit_seconds`.
+    family_us: f64,
+}
+
+/// The member as a user runs it, against scipy's five starts (issue #53's "Speed
+/// kept"): [`ROUNDS`] rounds of scipy's five-start fit (best of 5), then
+/// [`FRESH_RUNS`] runs each of `gonio fit --models three --json` and `gonio fit --json`,
+/// every one a new process timed by its own `fit_seconds` (reading the file, thread
+/// pool start-up and the report excluded, as gonio times it).
+fn fresh_speed(root: &Path, gonio: &str, sweep: &str) -> Result<Fresh> {
+    let script = root.join("bench/fit_scipy.py");
+    let script = script.to_str().ok_or("path")?;
+    let mut best = Fresh {
+        scipy_five_us: f64::INFINITY,
+        three_us: f64::INFINITY,
+        family_us: f64::INFINITY,
+    };
+    let fit_us = |extra: &[&str]| -> Result<f64> {
+        let mut args = vec!["fit", sweep, "--json"];
+        args.extend_from_slice(extra);
+        let v = parse_json(&output(root, gonio, &args)?, "gonio fit --json")?;
+        Ok(number(&v, "/fit_seconds", "gonio fit --json")? * 1e6)
+    };
+    for _ in 0..ROUNDS {
+        let py = output(
+            root,
+            "python3",
+            &[script, sweep, "--repeat", "5", "--starts", "5"],
+        )?;
+        best.scipy_five_us = best.scipy_five_us.min(scipy_fit_result(&py)?.0 * 1e6);
+        for _ in 0..FRESH_RUNS {
+            best.three_us = best.three_us.min(fit_us(&["--models", "three"])?);
+            best.family_us = best.family_us.min(fit_us(&[])?);
+        }
+    }
+    Ok(best)
+}
+
+/// A sweep of the speed comparison: label, path, whether it is on the paper's grid.
+type SpeedSweep = (String, String, bool);
+
+/// The fresh-process table over `sweeps`, the smallest ratio scipy five starts /
+/// `--models three` and the largest whole-family time on the paper grid (µs).
+fn fresh_table(root: &Path, gonio: &str, sweeps: &[SpeedSweep]) -> Result<(String, f64, f64)> {
+    let mut table = String::from(
+        "| sweep | scipy five starts (µs) | gonio fit --models three, fresh process (µs) | ratio | gonio fit, whole default family, fresh process (µs) |\n|---|---:|---:|---:|---:|\n",
+    );
+    let (mut ratios, mut family) = (Vec::new(), 0.0f64);
+    for (label, sweep, paper_grid) in sweeps {
+        let f = fresh_speed(root, gonio, sweep)?;
+        ratios.push(f.scipy_five_us / f.three_us);
+        if *paper_grid {
+            family = family.max(f.family_us);
+        }
+        table.push_str(&format!(
+            "| {label} | {:.0} | {:.0} | **{:.0}x** | {:.0} |\n",
+            f.scipy_five_us,
+            f.three_us,
+            f.scipy_five_us / f.three_us,
+            f.family_us
+        ));
+    }
+    Ok((table, least(&ratios), family))
+}
+
+/// The paper-grid presets of the speed comparisons.
+const PRESETS: [&str; 3] = ["fe-0.115", "cu-0.070", "al-0.782"];
+
+/// Simulates the paper-grid presets into `tmp` (0.5 % noise, seed 1) and adds the
+/// Scatterworks sweep: (label, path) for [`fresh_table`].
+fn fresh_sweeps(root: &Path, gonio: &str, tmp: &Path) -> Result<Vec<SpeedSweep>> {
+    let mut out = Vec::new();
+    for material in PRESETS {
+        let sweep = tmp.join(format!("{material}.csv"));
+        let sweep = sweep.to_str().ok_or("path")?.to_string();
+        output(
+            root,
+            gonio,
+            &[
+                "simulate",
+                "--material",
+                material,
+                "--out",
+                &sweep,
+                "--force",
+                "-q",
+            ],
+        )?;
+        out.push((format!("{material} 9x17, 0.5 % noise"), sweep, true));
+    }
+    let sw = root.join("host-tool/tests/data/scatterworks-solar-array-532nm.sweep.csv");
+    out.push((
+        "Scatterworks solar array (716 readings)".into(),
+        sw.to_str().ok_or("path")?.to_string(),
+        false,
+    ));
+    Ok(out)
+}
+
+/// `cargo xtask fit-speed`: the fresh-process comparison alone, printed as Markdown.
+pub fn fit_speed() -> Result {
+    let root = root();
+    let gonio = release_gonio_and_scipy()?;
+    let scratch = tempfile::Builder::new()
+        .prefix("gonio-speed-")
+        .tempdir()
+        .map_err(|e| e.to_string())?;
+    let sweeps = fresh_sweeps(&root, &gonio, scratch.path())?;
+    let (table, ratio, family) = fresh_table(&root, &gonio, &sweeps)?;
+    print!("{table}");
+    println!(
+        "\nscipy five starts / gonio --models three: {ratio:.0}x or more (target >= 100x); \
+         whole family at most {:.2} ms (target <= 2 ms on the paper grid)",
+        family / 1e3
+    );
+    Ok(())
+}
+
+/// `cargo xtask accuracy`: docs/accuracy.md alone, with the release gonio or `gonio`.
+pub fn accuracy(gonio: Option<&Path>) -> Result {
+    let gonio = match gonio {
+        Some(g) => {
+            ensure_scipy()?;
+            g.to_str().ok_or("path")?.to_string()
+        }
+        None => release_gonio_and_scipy()?,
+    };
+    crate::accuracy::accuracy_report(&gonio).map(|_| ())
+}
+
+/// Regenerates docs/PERFORMANCE.md, docs/speed_vs_error.png and docs/accuracy.md.
+pub fn perf_report() -> Result {
+    let root = root();
+    let gonio = release_gonio_and_scipy()?;
+    let gonio = gonio.as_str();
     let docs = root.join("docs");
     let png = docs.join("speed_vs_error.png");
     let bench = output(
@@ -365,6 +520,9 @@ pub fn perf_report() -> Result {
             scipy_us / v.solve_us,
         ));
     }
+    // The member as a user runs it, each fit a fresh process (issue #53).
+    let (fresh, fresh_ratio, fresh_family) =
+        fresh_table(&root, gonio, &fresh_sweeps(&root, gonio, tmp)?)?;
     drop(scratch);
     // Campaigns: wall against CPU per thread count, then the memory of 10^5 sweeps on
     // every core (each `gonio fit DIR --out OUT` run as a user runs it).
@@ -393,6 +551,9 @@ pub fn perf_report() -> Result {
         .replace("{{FIRMWARE}}", firmware.trim_end())
         .replace("{{SCIPY}}", scipy.trim_end())
         .replace("{{SCIPY_FIVE}}", five.trim_end())
+        .replace("{{FRESH}}", fresh.trim_end())
+        .replace("{{FRESH_MIN_RATIO}}", &format!("{fresh_ratio:.0}"))
+        .replace("{{FRESH_FAMILY_MS}}", &format!("{:.2}", fresh_family / 1e3))
         .replace(
             "{{SCIPY_FIVE_MIN_RATIO}}",
             &format!("{:.0}", least(&ratios_five)),
@@ -406,6 +567,7 @@ pub fn perf_report() -> Result {
         );
     std::fs::write(docs.join("PERFORMANCE.md"), report).map_err(|e| e.to_string())?;
     eprintln!("xtask: wrote docs/PERFORMANCE.md and docs/speed_vs_error.png");
+    crate::accuracy::accuracy_report(gonio)?;
     Ok(())
 }
 

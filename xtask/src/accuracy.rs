@@ -426,11 +426,12 @@ fn render(outcomes: &[Outcome]) -> (String, String) {
             yes(o.rmse_ok()),
         );
         let _ = writeln!(details, "### {}\n", o.name);
-        let _ = writeln!(details, "```sh");
+        // Indented, not fenced as sh: the docs test runs sh blocks, and these need
+        // scipy and minutes.
         for c in &o.commands {
-            let _ = writeln!(details, "{c}");
+            let _ = writeln!(details, "    {c}");
         }
-        let _ = writeln!(details, "```\n");
+        details.push('\n');
         let _ = writeln!(details, "gonio selected `{}`.\n", o.selected);
         details.push_str(
             "| theta_i | peak reading: theta_r | measured (peak) | gonio fitted/measured | two-lobe fitted/measured | mirror reading: theta_r | gonio there | two-lobe there |\n|---:|---:|---:|---:|---:|---:|---:|---:|\n",

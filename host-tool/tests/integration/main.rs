@@ -3,6 +3,7 @@
 
 mod util;
 
+mod accuracy_bar;
 mod bad_input;
 mod capture_pty;
 mod crash_safety;

@@ -320,34 +320,45 @@ const SIGN_MIN_THETA_I: f64 = 10.0;
 /// How far (degrees) a peak may sit from +-theta_i and still be read as there.
 const SIGN_PEAK_TOLERANCE: f64 = 5.0;
 
+/// How many times the readings at the other mirror angle a peak stands.
+const SIGN_PEAK_RATIO: f64 = 3.0;
+
 impl SweepData {
-    /// The warning where the readings peak at theta_r = -theta_i (the source's side)
-    /// at some incidence of at least [`SIGN_MIN_THETA_I`] measured on both sides, and
-    /// at +theta_i at none: the file signs theta_r the other way (or the sample
+    /// The warning where the readings peak at theta_r = -theta_i (the source's side,
+    /// [`SIGN_PEAK_RATIO`] times the readings at +theta_i) at some incidence of at
+    /// least [`SIGN_MIN_THETA_I`] measured near both, and at +theta_i at none: the file signs theta_r the other way (or the sample
     /// retroreflects), and a fit would find no specular peak where gonio's convention
     /// puts it.
     pub fn reversed_sign_warning(&self) -> Option<String> {
-        type Seen = (f64, Option<Row>, bool, bool);
-        let mut by_incidence: BTreeMap<u64, Seen> = BTreeMap::new();
+        let mut by_incidence: BTreeMap<u64, Vec<Row>> = BTreeMap::new();
         for r in &self.rows {
-            let e = by_incidence
+            by_incidence
                 .entry(r.theta_i.to_bits())
-                .or_insert((r.theta_i, None, false, false));
-            if e.1.is_none_or(|m| r.brdf > m.brdf) {
-                e.1 = Some(*r);
-            }
-            e.2 |= r.theta_r < 0.0;
-            e.3 |= r.theta_r > 0.0;
+                .or_default()
+                .push(*r);
         }
+        // The largest reading within the tolerance of theta_r = `at`, if any.
+        let near = |rows: &[Row], at: f64| {
+            rows.iter()
+                .filter(|r| (r.theta_r - at).abs() <= SIGN_PEAK_TOLERANCE)
+                .map(|r| r.brdf)
+                .reduce(f64::max)
+        };
         let (mut reversed, mut specular) = (0, 0);
-        for (ti, peak, below, above) in by_incidence.into_values() {
-            let Some(peak) = peak else { continue };
-            if ti < SIGN_MIN_THETA_I || !(below && above) {
+        for rows in by_incidence.values() {
+            let ti = rows[0].theta_i;
+            if ti < SIGN_MIN_THETA_I {
                 continue;
             }
-            if (peak.theta_r + ti).abs() <= SIGN_PEAK_TOLERANCE {
+            // A peak is [`SIGN_PEAK_RATIO`] times the readings at the other side's
+            // mirror angle: a slope across the sweep is no peak.
+            let (Some(minus), Some(plus)) = (near(rows, -ti), near(rows, ti)) else {
+                continue;
+            };
+            let top = rows.iter().map(|r| r.brdf).fold(f64::MIN, f64::max);
+            if minus == top && minus >= SIGN_PEAK_RATIO * plus.max(0.0) {
                 reversed += 1;
-            } else if (peak.theta_r - ti).abs() <= SIGN_PEAK_TOLERANCE {
+            } else if plus == top && plus >= SIGN_PEAK_RATIO * minus.max(0.0) {
                 specular += 1;
             }
         }

@@ -1029,7 +1029,7 @@ const CASES: &[Case] = &[
             "1/sr",
         ],
         2,
-        "table-short.csv:3: 2 fields, the brdf column is number 3",
+        "table-short.csv:3: 2 field(s) where the header row has 3",
         "t.csv",
     ),
     out(
@@ -2332,6 +2332,8 @@ const CASES: &[Case] = &[
             "{d}/comma-row.csv",
             "--out",
             "{d}/comma-out.csv",
+            "--columns",
+            "theta_i=theta_i,theta_r=theta_r,brdf=brdf",
             "--brdf",
             "1/sr",
         ],

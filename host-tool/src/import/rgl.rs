@@ -510,7 +510,7 @@ fn y_weights(wl: &[f64]) -> Result<Vec<f64>, String> {
     let sum: f64 = w.iter().sum();
     let exact = super::cie::ybar_integral(lo, hi);
     let error = (sum / exact - 1.0).abs();
-    if !(error <= Y_MAX_ERROR) {
+    if error.is_nan() || error > Y_MAX_ERROR {
         return Err(format!(
             "the file's {n} wavelengths {lo}..{hi} nm integrate the CIE 1931 ybar with an error of {:.1} % (the trapezoid rule on its grid; Y needs at most {} %)",
             100.0 * error.min(1.0),

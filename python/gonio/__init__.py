@@ -48,6 +48,19 @@ def _flat(x, dtype):
     return np.ascontiguousarray(x, dtype=dtype).reshape(-1)
 
 
+def _readings(what, theta_i, theta_r, brdf):
+    """The three arrays of readings as flat float64 arrays, one reading per element:
+    their shapes must be the same. Nothing is broadcast: a column against a row would
+    make n x n readings that were never measured."""
+    arrays = [np.asarray(a, dtype=np.float64) for a in (theta_i, theta_r, brdf)]
+    shapes = [a.shape for a in arrays]
+    if shapes[1:] != shapes[:1] * 2:
+        raise GonioError(
+            f"{what}: theta_i, theta_r and brdf have shapes {shapes[0]}, {shapes[1]} and {shapes[2]}: "
+            "one reading per element, so the three shapes must be the same (nothing is broadcast)")
+    return [np.ascontiguousarray(a).reshape(-1) for a in arrays]
+
+
 def _shaped(out, shape):
     out = out.reshape(shape)
     return out[()] if out.ndim == 0 else out
@@ -182,9 +195,9 @@ def read_sweep(path: Union[str, os.PathLike]) -> Sweep:
 def write_sweep(path, theta_i, theta_r, brdf, *, device: str = "python", plan: str = "custom",
                 settings: str = "", force: bool = False) -> None:
     """Writes a complete sweep file with the capture's writer (refuses to overwrite an
-    existing file unless ``force``)."""
-    ti, tr, y = (_flat(np.broadcast_to(a, np.broadcast_shapes(np.shape(theta_i), np.shape(theta_r), np.shape(brdf))), np.float64)
-                 for a in (theta_i, theta_r, brdf))
+    existing file unless ``force``). The three arrays hold one reading per element:
+    their shapes must be the same (nothing is broadcast)."""
+    ti, tr, y = _readings("write_sweep", theta_i, theta_r, brdf)
     _gonio._write_sweep(os.fspath(path), ti, tr, y, device, plan, settings, force)
 
 
@@ -249,7 +262,8 @@ class FitResult:
 
     def residuals(self, name: Optional[str] = None) -> dict:
         """Per reading, for a model (the selected one by default): arrays theta_i,
-        theta_r, measured, fitted and residual (of the kind minimised)."""
+        theta_r, measured, fitted and residual (of the kind minimised, signed measured
+        against fitted: ln(measured / fitted) for log)."""
         r = self._r._residuals(name)
         return {k: r[:, j].copy() for j, k in enumerate(("theta_i", "theta_r", "measured", "fitted", "residual"))}
 
@@ -282,7 +296,8 @@ def fit(source, theta_r=None, brdf=None, *, residual: str = "log", loss: str = "
         offset: Union[None, str, float] = None) -> FitResult:
     """Fits the model family like ``gonio fit`` fits one sweep.
 
-    ``source`` is a sweep file path, or the theta_i array with ``theta_r`` and ``brdf``.
+    ``source`` is a sweep file path, or the theta_i array with ``theta_r`` and ``brdf``
+    (one reading per element: the three shapes must be the same, nothing is broadcast).
     Options as on the command line: ``residual`` log | rel | abs; ``loss`` l2 |
     huber:C | cauchy:C; ``fix`` {'sigma_m': 0.7} or ['sigma_m=0.7']; ``models`` any
     names ``--models`` takes (ideal, ts, three, three-smooth or systematic member names;
@@ -315,9 +330,9 @@ def fit(source, theta_r=None, brdf=None, *, residual: str = "log", loss: str = "
     else:
         if theta_r is None or brdf is None:
             raise GonioError("fit(theta_i, theta_r, brdf): give all three arrays, or a sweep file path")
-        ti, tr, y = np.broadcast_arrays(*(np.asarray(a, dtype=np.float64) for a in (source, theta_r, brdf)))
+        ti, tr, y = _readings("fit", source, theta_r, brdf)
         # The CLI's limit, before the arrays become lists.
         _gonio._check_fit_readings(ti.size)
-        raw = _gonio._fit(None, ti.ravel().tolist(), tr.ravel().tolist(), y.ravel().tolist(),
+        raw = _gonio._fit(None, ti.tolist(), tr.tolist(), y.tolist(),
                           residual, loss, fix, models, **extra)
     return FitResult(raw)

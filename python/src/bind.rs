@@ -274,7 +274,7 @@ pub fn load_table(path: &Path) -> Result<MemberTable, String> {
 /// Per reading of the data: theta_i, theta_r, measured y, fitted f (as the fit
 /// compared it: the reading's own incidence's k_s, averaged over the aperture if the
 /// fit was; NaN where the model cannot be evaluated) and the residual of the kind the
-/// fit minimised (ln f - ln y, f/y - 1 or f - y): the rows of `gonio fit --export
+/// fit minimised, signed measured against fitted (ln(y / f), 1 - f/y or y - f): the rows of `gonio fit --export
 /// residuals=`.
 pub fn residuals(o: &FitOutcome, member: Member) -> Vec<[f64; 5]> {
     let fitted = o

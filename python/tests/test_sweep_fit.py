@@ -101,7 +101,8 @@ def test_fit_result_object():
     assert len(best.rmse_by_theta_i) == len(r.incidences)
     res = r.residuals()
     assert res["residual"].shape == (153,)
-    np.testing.assert_allclose(res["residual"], np.log(res["fitted"]) - np.log(res["measured"]))
+    # ln(measured / fitted), the sign of the export and the plots' panels.
+    np.testing.assert_allclose(res["residual"], np.log(res["measured"]) - np.log(res["fitted"]))
     # About the simulated 0.5 % noise (log residuals ~ relative).
     assert np.std(res["residual"]) < 0.02
     fitted = r.model()
@@ -266,3 +267,17 @@ def test_fit_refuses_more_readings_than_the_cli_before_converting_them():
     ti = np.broadcast_to(np.float64(20.0), (n,))
     with pytest.raises(gonio.GonioError, match=f"^{n} readings: more than one fit takes \\(2097152, what a 64 MiB sweep file holds\\)"):
         gonio.fit(ti, 10.0, 1.0)
+
+
+def test_readings_of_other_shapes_are_refused_never_broadcast(tmp_path):
+    # Issue 50 case 1: a theta_r column against theta_i and brdf rows broadcast to
+    # n x n fabricated readings, fitted and written without a word.
+    s = gonio.read_sweep(FE_SWEEP)
+    for args in ((s.theta_i, s.theta_r.reshape(-1, 1), s.brdf),
+                 (s.theta_i, s.theta_r[:-1], s.brdf),
+                 (s.theta_i[0], s.theta_r, s.brdf)):
+        with pytest.raises(gonio.GonioError, match="shapes .* must be the same"):
+            gonio.fit(*args, models="three")
+        with pytest.raises(gonio.GonioError, match="nothing is broadcast"):
+            gonio.write_sweep(tmp_path / "w.csv", *args)
+    assert not (tmp_path / "w.csv").exists()

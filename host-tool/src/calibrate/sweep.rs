@@ -1,12 +1,10 @@
 //! Sweep files and the calibration: a sweep's rows as [`Reading`]s, and a sweep
 //! converted to 1/sr with an instrument (the text of the converted file).
 
-use std::fmt::Write;
-
 use super::error::CalibrationError;
 use super::estimate::Reading;
 use super::instrument::{Instrument, to_absolute};
-use crate::sweep_file::{BRDF_KEY, BrdfUnits, Row, SweepData};
+use crate::sweep_file::{BRDF_KEY, BrdfUnits, Row, SweepData, text_problem, write_text};
 
 /// Why a sweep cannot be used as it is: its units (one line naming the file).
 pub fn require_relative(name: &str, data: &SweepData, what: &str) -> Result<(), CalibrationError> {
@@ -89,8 +87,9 @@ pub fn absolute_rows(rows: &[Row], inst: &Instrument) -> Result<Vec<Row>, Calibr
 /// The text of `data` (the sweep file `text` read by the sweep reader) converted to
 /// 1/sr with `inst` (read from `inst_name`): the file's `#` lines in order, with the
 /// `# brdf:` line saying `1/sr` and a `# calibration:` line saying how; the columns
-/// theta_i, theta_r, brdf and those of std, n, seq, t_ms the file has; its complete
-/// rows, brdf and std converted. Refuses a file already in 1/sr.
+/// theta_i, theta_r, brdf and those of std, n, seq, t_ms its rows hold; its complete
+/// rows, brdf and std converted; written by the sweep format's writer
+/// ([`write_text`]). Refuses a file already in 1/sr.
 pub fn convert_text(
     name: &str,
     text: &[u8],
@@ -100,72 +99,61 @@ pub fn convert_text(
 ) -> Result<String, CalibrationError> {
     require_relative(name, data, "convert")?;
     let rows = absolute_rows(&data.rows, inst)?;
-    let mut out = String::new();
-    let brdf_lines = format!(
-        "{}# calibration: brdf and std divided by K{} with K = {:?} ± {:?} ({:.3} %) from {} ({}, {}, {}); \
-         u(K) is a scale error common to every row, not included in std\n",
-        BrdfUnits::PerSr.header_line(),
-        match inst.quantity {
-            super::Quantity::DetectorSignal => " cos(theta_r)",
-            super::Quantity::RelativeBrdf => "",
-        },
-        inst.k,
-        inst.u_k,
-        100.0 * inst.relative_uncertainty(),
-        crate::text::escape_line(inst_name, 200),
-        crate::text::escape_line(&inst.standard, 80),
-        crate::text::escape_line(&inst.reference_file, 200),
-        inst.date,
-    );
+    let brdf_lines = [
+        format!("{BRDF_KEY}: {}", BrdfUnits::PerSr.word()),
+        format!(
+            "calibration: brdf and std divided by K{} with K = {:?} ± {:?} ({:.3} %) from {} ({}, {}, {}); \
+             u(K) is a scale error common to every row, not included in std",
+            match inst.quantity {
+                super::Quantity::DetectorSignal => " cos(theta_r)",
+                super::Quantity::RelativeBrdf => "",
+            },
+            inst.k,
+            inst.u_k,
+            100.0 * inst.relative_uncertainty(),
+            crate::text::escape_line(inst_name, 200),
+            crate::text::escape_line(&inst.standard, 80),
+            crate::text::escape_line(&inst.reference_file, 200),
+            inst.date,
+        ),
+    ];
+    // The file's `#` lines in order (the writer writes the first, `gonio sweep v1`),
+    // the units lines replaced.
+    let mut meta = Vec::new();
     let mut placed = false;
     let bytes = text.strip_prefix(b"\xef\xbb\xbf").unwrap_or(text);
     for line in String::from_utf8_lossy(bytes).lines() {
-        let Some(meta) = line.strip_prefix('#') else {
+        let Some(line) = line.strip_prefix('#').map(str::trim) else {
             if line.trim().is_empty() {
                 continue;
             }
             break; // the column header: the rows are written from the parsed data
         };
-        let key = meta.trim().split_once(':').map(|(k, _)| k.trim());
-        if matches!(key, Some(BRDF_KEY | "calibration")) {
+        let key = line
+            .split_once(':')
+            .map(|(k, _)| k.trim().to_ascii_lowercase());
+        if line.is_empty()
+            || line == "gonio sweep v1"
+            // The rows are written as read, theta_r in gonio's sign: not negated again.
+            || matches!(key.as_deref(), Some(BRDF_KEY | "calibration" | "theta_r"))
+        {
             continue;
         }
-        out.push_str(line);
-        out.push('\n');
-        if key == Some("units") && !placed {
-            out.push_str(&brdf_lines);
+        meta.push(line.to_string());
+        if key.as_deref() == Some("units") && !placed {
+            meta.extend(brdf_lines.clone());
             placed = true;
         }
     }
     if !placed {
-        out.push_str(&brdf_lines);
+        meta.extend(brdf_lines);
     }
-    let has = |c: &str| data.columns.iter().any(|x| x == c);
-    let optional = ["std", "n", "seq", "t_ms"].map(has);
-    out.push_str("theta_i,theta_r,brdf");
-    for (name, on) in ["std", "n", "seq", "t_ms"].iter().zip(optional) {
-        if on {
-            let _ = write!(out, ",{name}");
-        }
+    if let Some(why) = text_problem(&meta, &rows) {
+        return Err(CalibrationError::BadInstrument(format!("convert: {why}")));
     }
-    out.push('\n');
-    let opt = |v: Option<String>| v.unwrap_or_default();
-    for r in &rows {
-        let _ = write!(out, "{},{},{}", r.theta_i, r.theta_r, r.brdf);
-        let cells = [
-            opt(r.std.map(|v| v.to_string())),
-            opt(r.n.map(|v| v.to_string())),
-            opt(r.seq.map(|v| v.to_string())),
-            opt(r.t_ms.map(|v| v.to_string())),
-        ];
-        for (cell, on) in cells.iter().zip(optional) {
-            if on {
-                let _ = write!(out, ",{cell}");
-            }
-        }
-        out.push('\n');
-    }
-    Ok(out)
+    let mut out = Vec::new();
+    write_text(&mut out, &meta, &rows).expect("writing to memory");
+    Ok(String::from_utf8(out).expect("lines of text and numbers"))
 }
 
 #[cfg(test)]

@@ -8,6 +8,7 @@ use brdf_core::protocol::{Command, ErrorCode, Event, Info, Specimen};
 use super::error::{CaptureError, Result};
 use super::setup::CaptureSetup;
 use crate::device::{Connector, FramedLink, Transport};
+use crate::outfile;
 use crate::sweep_file::SweepFileError;
 
 /// Longest device text (board name, error detail) printed or written, in characters.
@@ -38,6 +39,11 @@ pub(super) fn prepare<C: Connector>(
             .custom_flags(nix::libc::O_NOFOLLOW)
             .open(raw)
             .map_err(|e| CaptureError::Device(format!("{}: {e}", raw.display())))?;
+        // Held while the log is written (the lock lives as long as the file), and
+        // checked again now that it is open: a sweep, or a file another writer holds,
+        // never receives device bytes.
+        lock_raw(&f, raw)?;
+        refuse_sweep(&f, raw)?;
         link.set_raw_log(Box::new(f));
     }
     let mut info = link.handshake(setup.handshake_timeout)?;
@@ -140,8 +146,50 @@ fn mount<T: Transport>(link: &mut FramedLink<T>, specimen: Specimen) -> Result {
     }
 }
 
-/// The raw log is appended to: it must be a regular file (or new), and not the sweep
-/// file itself.
+/// The raw log's exclusive lock ([`outfile::lock_exclusive`], the lock of every file
+/// that holds readings): refused where a capture writes `raw` (as its `--out` or its
+/// `--raw`), or any other writer holds it.
+fn lock_raw(f: &std::fs::File, raw: &std::path::Path) -> Result {
+    match outfile::lock_exclusive(f) {
+        Ok(()) => Ok(()),
+        Err(e @ outfile::LockError::Held(_)) => {
+            Err(CaptureError::File(SweepFileError::Invalid(format!(
+                "--raw {} is being written by {}, which has it locked: give --raw another file",
+                crate::text::escape_line(&raw.display().to_string(), 200),
+                e.holder("another capture")
+            ))))
+        }
+        Err(outfile::LockError::Failed(e)) => Err(CaptureError::File(SweepFileError::Io(format!(
+            "--raw {}: cannot lock: {e}",
+            raw.display()
+        )))),
+    }
+}
+
+/// Refuses a raw log that holds a sweep (its first line `# gonio sweep`, or text that
+/// reads as a sweep table): device bytes appended to it would spoil its readings.
+fn refuse_sweep(f: &std::fs::File, raw: &std::path::Path) -> Result {
+    use std::io::Read;
+    let mut head = Vec::new();
+    let _ = f.take(64 << 10).read_to_end(&mut head);
+    let complete = head
+        .iter()
+        .rposition(|&b| b == b'\n')
+        .map_or(&head[..0], |n| &head[..=n]);
+    let sweep = head.starts_with(b"# gonio sweep")
+        || crate::sweep_file::parse_sweep(complete).is_ok_and(|d| !d.columns.is_empty());
+    if sweep {
+        return Err(CaptureError::File(SweepFileError::Invalid(format!(
+            "--raw {} holds a sweep file: the device's bytes would be appended to its readings; give --raw another file",
+            crate::text::escape_line(&raw.display().to_string(), 200)
+        ))));
+    }
+    Ok(())
+}
+
+/// The raw log is appended to: it must be a regular file (or new), not the sweep file
+/// itself, not a sweep file at all, and not locked by another writer (checked before
+/// the device is touched; [`prepare`] takes the lock for the capture's length).
 pub(super) fn check_raw(raw: &std::path::Path, out: &std::path::Path) -> Result {
     use std::os::unix::fs::MetadataExt;
     let refuse = |m: String| CaptureError::File(SweepFileError::Invalid(m));
@@ -169,7 +217,10 @@ pub(super) fn check_raw(raw: &std::path::Path, out: &std::path::Path) -> Result 
             raw.display()
         )));
     }
-    Ok(())
+    let f = std::fs::File::open(raw)
+        .map_err(|e| CaptureError::File(SweepFileError::Io(format!("{}: {e}", raw.display()))))?;
+    lock_raw(&f, raw)?;
+    refuse_sweep(&f, raw)
 }
 
 /// The first wanted event within `limit`, `None` if none came; a broken link is an error.

@@ -17,6 +17,7 @@ use crate::fit::campaign_checks;
 use crate::fit::physical::CheckScope;
 use crate::fit::{self, Dataset, FamilyFit, FitOptions, Fixed, Loss, Residual};
 use crate::outfile::{self, Target};
+use crate::text::escape_line;
 use crate::{export, plot};
 
 /// Residual kind on the command line.
@@ -326,6 +327,17 @@ fn run_campaign(args: &FitArgs, opts: &FitOptions) -> CliResult {
     }
     campaign_checks::check_space(&args.out, &files, ext).map_err(CliError::usage)?;
     let _out_lock = campaign_checks::lock_out_dir(&args.out).map_err(CliError::usage)?;
+    // What a campaign killed here left (the lock says none is running): removed.
+    let mut ours = campaign::report_names(&files, ext);
+    ours.extend(["summary.csv".into(), "summary.json".into()]);
+    let left = campaign_checks::remove_leftovers(&args.out, &ours);
+    if !left.is_empty() {
+        eprintln!(
+            "gonio: removed {} temporary file(s) a killed campaign left in {}",
+            left.len(),
+            escape_line(&args.out.display().to_string(), 200)
+        );
+    }
     let units = super::fit_units::campaign_units(&files);
     super::fit_units::check_campaign_units(&files, &units)?;
     let inst = match &args.instrument {
@@ -370,8 +382,8 @@ fn run_campaign(args: &FitArgs, opts: &FitOptions) -> CliResult {
             Ok(fit) => fit
                 .warnings
                 .iter()
-                .for_each(|w| eprintln!("gonio: warning: {w}")),
-            Err(e) => eprintln!("gonio: skipped {e}"),
+                .for_each(|w| eprintln!("gonio: warning: {}", escape_line(w, 2000))),
+            Err(e) => eprintln!("gonio: skipped {}", escape_line(&e.to_string(), 2000)),
         }
     }
     if args.json {

@@ -129,8 +129,12 @@ fn run_merl(args: &MerlArgs) -> CliResult {
         || args.file.display().to_string(),
         |n| n.to_string_lossy().into_owned(),
     );
-    merl::write_file(&args.out, &sweep, &source, channel, args.force).map_err(CliError::from)?;
+    let merged = merl::write_file(&args.out, &sweep, &source, channel, args.force)
+        .map_err(CliError::from)?;
     super::output::say_written(std::slice::from_ref(&args.out));
+    if let Some(line) = crate::import::repeats_said(&args.file.display().to_string(), merged) {
+        eprintln!("{line}");
+    }
     if sweep.missing > 0 {
         eprintln!(
             "gonio: {} of {} requested points fall on missing MERL cells and were left out",

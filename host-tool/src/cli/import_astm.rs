@@ -6,7 +6,7 @@ use clap::Args;
 
 use super::error::{CliError, CliResult};
 use crate::import::astm::read_astm;
-use crate::import::write_file;
+use crate::import::{repeats_said, write_distinct};
 use crate::outfile::Target;
 use crate::sweep_file::{BrdfUnits, read_input};
 
@@ -66,8 +66,11 @@ pub fn run(args: &AstmArgs) -> CliResult {
             sweep.out_of_plane
         ),
     ];
-    write_file(target, &meta, &sweep.rows, &[])?;
+    let merged = write_distinct(target, &meta, &sweep.rows)?;
     super::output::say_written(std::slice::from_ref(&args.out));
+    if let Some(line) = repeats_said(&name.to_string(), merged) {
+        eprintln!("{line}");
+    }
     if sweep.out_of_plane > 0 {
         eprintln!(
             "gonio: {} of {} rows of {name} lie out of the plane of incidence and were left out",

@@ -7,7 +7,7 @@ use clap::{Args, ValueEnum};
 use super::args::{Angles, parse_angles, theta_r_angles};
 use super::error::{CliError, CliResult};
 use crate::import::rgl::{RglBrdf, RglChannel};
-use crate::import::write_file;
+use crate::import::{repeats_said, write_distinct};
 use crate::outfile::Target;
 use crate::sweep_file::{BRDF_MIN, BrdfUnits, read_input};
 
@@ -150,8 +150,11 @@ pub fn run(args: &RglArgs) -> CliResult {
     if let Some(w) = brdf.wavelengths() {
         meta.push(wavelength_line(channel, w));
     }
-    write_file(target, &meta, &rows, &[])?;
+    let merged = write_distinct(target, &meta, &rows)?;
     super::output::say_written(std::slice::from_ref(&args.out));
+    if let Some(line) = repeats_said(&name.to_string(), merged) {
+        eprintln!("{line}");
+    }
     Ok(())
 }
 

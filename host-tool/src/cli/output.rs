@@ -3,6 +3,7 @@
 use std::io::Write;
 
 use super::error::{CliError, CliResult};
+use crate::text::escape_line;
 
 /// Writes `bytes` to stdout and flushes. A reader that went away (`| head`) ends the
 /// output quietly; any other I/O error is a failed job.
@@ -47,15 +48,19 @@ fn written_lines(paths: &[std::path::PathBuf]) -> String {
                 .filter_map(|f| f.file_name())
                 .map(|n| n.to_string_lossy().into_owned())
                 .collect();
+            // Names escaped: a line break or escape sequence in one is shown, not obeyed.
             out.push_str(&format!(
                 "gonio: wrote {} files in {}: {}\n",
                 files.len(),
-                dir.display(),
-                names.join(" ")
+                escape_line(&dir.display().to_string(), 200),
+                escape_line(&names.join(" "), 4000)
             ));
         } else {
             for f in files {
-                out.push_str(&format!("gonio: wrote {}\n", f.display()));
+                out.push_str(&format!(
+                    "gonio: wrote {}\n",
+                    escape_line(&f.display().to_string(), 400)
+                ));
             }
         }
     }
@@ -78,6 +83,18 @@ mod tests {
         assert_eq!(
             super::written_lines(&all),
             "gonio: wrote 4 files in plots: a.png a.svg b.png b.svg\ngonio: wrote fit.json\n"
+        );
+        // Issue 50 case 12: a name holding a line break or an escape is shown, not obeyed.
+        let odd: Vec<PathBuf> = ["a\nb.txt", "c\x1b[2J.txt", "d.txt", "e.txt"]
+            .iter()
+            .map(|n| p(&format!("out/{n}")))
+            .collect();
+        let said = super::written_lines(&odd);
+        assert_eq!(said.lines().count(), 1, "{said}");
+        assert!(said.contains("a\\nb.txt c\\u{1b}[2J.txt"), "{said}");
+        assert_eq!(
+            super::written_lines(&[p("x\ry.csv")]),
+            "gonio: wrote x\\ry.csv\n"
         );
     }
 }

@@ -9,21 +9,24 @@ use brdf_core::member::Member;
 use crate::fit::{Dataset, FamilyFit, Residual};
 use crate::outfile::Target;
 
-/// The residual of a reading in the fit's kind (as [`Residual`] defines it: ln f - ln y,
-/// f / y - 1 or f - y), and the words the file's `#` line uses for it.
+/// The residual of a reading in the fit's kind ([`Residual`]: log, rel or abs), signed
+/// as everywhere gonio shows one (the plots' residual panels, Python's `residuals()`):
+/// measured against fitted, positive where the reading lies above the model:
+/// ln(measured / fitted), (measured - fitted) / measured, measured - fitted.
 pub fn residual_value(kind: Residual, fitted: f64, measured: f64) -> f64 {
     match kind {
-        Residual::Log => fitted.max(1e-300).ln() - measured.ln(),
-        Residual::Relative => fitted / measured - 1.0,
-        Residual::Absolute => fitted - measured,
+        Residual::Log => measured.ln() - fitted.max(1e-300).ln(),
+        Residual::Relative => 1.0 - fitted / measured,
+        Residual::Absolute => measured - fitted,
     }
 }
 
+/// The words of the file's `# residual:` line for `kind`.
 fn residual_words(kind: Residual) -> &'static str {
     match kind {
-        Residual::Log => "log: ln(fitted) - ln(measured)",
-        Residual::Relative => "rel: fitted / measured - 1",
-        Residual::Absolute => "abs: fitted - measured (the file's brdf units)",
+        Residual::Log => "log: ln(measured / fitted)",
+        Residual::Relative => "rel: (measured - fitted) / measured",
+        Residual::Absolute => "abs: measured - fitted (the file's brdf units)",
     }
 }
 
@@ -60,7 +63,7 @@ fn write_rows(
     writeln!(w, "# model: {member}")?;
     writeln!(
         w,
-        "# residual: {} (the fit's residual kind)",
+        "# residual: {} (the fit's residual kind; positive where the reading lies above the model)",
         residual_words(residual)
     )?;
     writeln!(

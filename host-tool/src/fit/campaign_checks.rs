@@ -127,6 +127,43 @@ pub fn lock_out_dir(dir: &Path) -> Result<OutLock, String> {
     }
 }
 
+/// Removes from `dir` the temporary files a campaign killed while writing left there
+/// (`.NAME.XXXXXX.tmp`, [`outfile`]'s temporary name, for NAME one of `names`: the
+/// reports and summaries this campaign writes), and returns their paths. Called with
+/// `dir` locked ([`lock_out_dir`]): no other campaign is writing them. Only regular
+/// files are removed.
+pub fn remove_leftovers(dir: &Path, names: &[String]) -> Vec<PathBuf> {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Vec::new();
+    };
+    let names: std::collections::HashSet<&str> = names.iter().map(String::as_str).collect();
+    let mut removed = Vec::new();
+    for entry in entries.flatten() {
+        let file = entry.file_name();
+        let Some(file) = file.to_str() else {
+            continue;
+        };
+        let ours = file
+            .strip_prefix('.')
+            .and_then(|f| f.strip_suffix(".tmp"))
+            .and_then(|f| f.rsplit_once('.'))
+            .is_some_and(|(name, random)| {
+                names.contains(name)
+                    && !random.is_empty()
+                    && random.chars().all(|c| c.is_ascii_alphanumeric())
+            });
+        let path = entry.path();
+        if ours
+            && std::fs::symlink_metadata(&path).is_ok_and(|m| m.file_type().is_file())
+            && std::fs::remove_file(&path).is_ok()
+        {
+            removed.push(path);
+        }
+    }
+    removed.sort();
+    removed
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -192,5 +229,37 @@ mod tests {
         );
         drop(held);
         assert!(lock_out_dir(&out).is_ok());
+    }
+
+    /// Issue 50 case 12: what a SIGKILLed campaign left (`.NAME.XXXXXX.tmp` of its
+    /// reports) is removed at the next run; other files, and other names, are not.
+    #[test]
+    fn a_killed_campaigns_temporary_files_are_removed() {
+        let dir = crate::outfile::test_dir("leftovers");
+        for f in [
+            ".a.txt.Xy12Zq.tmp",
+            ".summary.csv.AbC123.tmp",
+            ".b.txt.Q1w2E3.tmp",
+            "a.txt",
+            ".a.txt.tmp",
+        ] {
+            std::fs::write(dir.join(f), b"x").unwrap();
+        }
+        let names = ["a.txt".to_string(), "summary.csv".to_string()];
+        let removed = remove_leftovers(&dir, &names);
+        assert_eq!(
+            removed,
+            [
+                dir.join(".a.txt.Xy12Zq.tmp"),
+                dir.join(".summary.csv.AbC123.tmp")
+            ]
+        );
+        let mut left: Vec<String> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        left.sort();
+        assert_eq!(left, [".a.txt.tmp", ".b.txt.Q1w2E3.tmp", "a.txt"]);
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

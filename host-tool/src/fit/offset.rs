@@ -32,6 +32,10 @@ use crate::sweep_file::Row;
 /// tilt from a detector offset.
 pub const TILT_UNDETERMINED: f64 = 0.5;
 
+/// A shift this close (degrees) to the edge of its search is at the bound: not
+/// determined by the peaks (the golden-section search ends within 1e-4 of it).
+const BOUND_MARGIN: f64 = 1e-3;
+
 /// The instrument's angles the fit used.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Angles {
@@ -56,6 +60,9 @@ pub struct Angles {
     pub member: Option<Member>,
     /// Readings whose local angle fell outside [-90, 90] degrees, left out.
     pub left_out: usize,
+    /// `--offset fit` where the peaks do not determine an offset (the best shift at the
+    /// search's bound, or without a standard error): why, and no offset is applied.
+    pub not_determined: Option<String>,
 }
 
 impl Angles {
@@ -72,6 +79,7 @@ impl Angles {
             tilt_not_supported: None,
             member: None,
             left_out: 0,
+            not_determined: None,
         }
     }
 
@@ -79,7 +87,11 @@ impl Angles {
     pub fn notes(&self) -> Vec<String> {
         let se = |x: Option<f64>| x.map_or(String::new(), |s| format!(" ± {s:.3}"));
         let mut out = Vec::new();
-        if !self.fitted {
+        if let Some(why) = &self.not_determined {
+            out.push(format!(
+                "instrument angles: not determined: the peaks do not fix an offset ({why}); fitted on the angles as read, no offset applied"
+            ));
+        } else if !self.fitted {
             out.push(format!(
                 "instrument angles: detector zero offset {:+.3} deg (given), no tilt",
                 self.detector
@@ -142,6 +154,7 @@ impl Angles {
             "tilt_not_supported": self.tilt_not_supported.map(|(t, e)| serde_json::json!({"tilt_deg": t, "tilt_se": e})),
             "member": self.member.map(|m| m.to_string()),
             "left_out": self.left_out,
+            "not_determined": self.not_determined,
         })
     }
 }
@@ -274,6 +287,29 @@ pub fn fit_angles(data: &Dataset, member: Member, fit: &FitSsr<'_>, s0: f64) -> 
     };
     let se = |v: f64| (v.is_finite() && v >= 0.0).then(|| v.sqrt());
     let shift_se = if hss > 0.0 { se(2.0 * s2 / hss) } else { None };
+    // A minimum at the search's edge is the bound, not the peaks' shift; one without a
+    // curvature has no error: neither is an offset to report or apply.
+    let (lo, hi) = (s0 - span, s0 + span);
+    let at_bound = (untilted - lo).abs() < BOUND_MARGIN || (hi - untilted).abs() < BOUND_MARGIN;
+    let why = if at_bound {
+        Some(format!(
+            "the best shift, {untilted:+.3} deg, lies at the search's bound ({lo:+.3} to {hi:+.3} deg)"
+        ))
+    } else if shift_se.is_none() {
+        Some(format!(
+            "the best shift, {untilted:+.3} deg, has no standard error: the SSR has no minimum there"
+        ))
+    } else {
+        None
+    };
+    if let Some(why) = why {
+        return Angles {
+            fitted: true,
+            member: Some(member),
+            not_determined: Some(why),
+            ..Angles::given(0.0)
+        };
+    }
     let tilt_se = se(vt).filter(|&e| e <= TILT_UNDETERMINED);
     match tilt_se {
         Some(e) if t.abs() >= 2.0 * e => Angles {
@@ -287,6 +323,7 @@ pub fn fit_angles(data: &Dataset, member: Member, fit: &FitSsr<'_>, s0: f64) -> 
             tilt_not_supported: None,
             member: Some(member),
             left_out: left_out(data, s - 2.0 * t, t),
+            not_determined: None,
         },
         // No tilt (not told apart, or within two standard errors of none): all of the
         // peak's shift is the detector's, at its optimum without a tilt.
@@ -301,6 +338,7 @@ pub fn fit_angles(data: &Dataset, member: Member, fit: &FitSsr<'_>, s0: f64) -> 
             tilt_not_supported: tilt_se.map(|e| (t, e)),
             member: Some(member),
             left_out: left_out(data, untilted, 0.0),
+            not_determined: None,
         },
     }
 }
@@ -377,6 +415,48 @@ mod tests {
                 "d {d} t {t}: SSR ratio {ratio}"
             );
         }
+    }
+
+    /// Issue 50 case 7: a flat sweep has no peak to place: `--offset fit` reported the
+    /// search's bound (-2.000 deg, no standard error) as a detector offset and refitted
+    /// on shifted angles. Now: not determined, nothing applied.
+    #[test]
+    fn a_flat_sweep_determines_no_offset() {
+        let mut rng = brdf_core::sim::XorShift32::new(3);
+        let mut rows = Vec::new();
+        for ti in [10.0, 30.0, 50.0] {
+            for tr in (-80..=80).step_by(5).map(f64::from) {
+                rows.push(Row::new(
+                    ti,
+                    tr,
+                    0.3 * (1.0 + 0.01 * f64::from(rng.normal())),
+                ));
+            }
+        }
+        let data = Dataset::from_rows(&rows, true).unwrap();
+        let opts = FitOptions::default();
+        let a = fit_angles(
+            &data,
+            Member::IDEAL_DIFFUSE,
+            &member_ssr(&opts, Member::IDEAL_DIFFUSE),
+            0.0,
+        );
+        assert!(a.not_determined.is_some(), "{a:?}");
+        assert_eq!((a.detector, a.tilt, a.detector_se), (0.0, 0.0, None));
+        let (applied, kept) = a.apply(&data).unwrap();
+        assert_eq!(kept.len(), data.obs.len());
+        assert!(
+            applied
+                .obs
+                .iter()
+                .zip(&data.obs)
+                .all(|(a, b)| a.theta_r == b.theta_r)
+        );
+        let notes = a.notes().join("\n");
+        assert!(
+            notes.contains("not determined") && !notes.contains("detector zero offset"),
+            "{notes}"
+        );
     }
 
     #[test]

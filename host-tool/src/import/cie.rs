@@ -505,6 +505,12 @@ pub fn ybar_share(lo: f64, hi: f64) -> f64 {
     trapezoid(lo.max(YBAR_FIRST_NM), hi.min(830.0)) / total
 }
 
+/// The integral of [`ybar`] over [`lo`, `hi`] nm (nm; at the table's 1 nm steps,
+/// trapezoid), 0 where they hold nothing of it.
+pub fn ybar_integral(lo: f64, hi: f64) -> f64 {
+    trapezoid(lo.max(YBAR_FIRST_NM), hi.min(830.0))
+}
+
 /// The trapezoid integral of [`ybar`] over [lo, hi] nm, at the table's nodes plus the ends.
 fn trapezoid(lo: f64, hi: f64) -> f64 {
     if hi <= lo {

@@ -257,19 +257,20 @@ fn merl_meta(source: &str, channel: Channel, missing: usize) -> Vec<String> {
 }
 
 /// Writes `sweep` to `path` through the export's atomic writer (nothing is left under
-/// `path` on failure); an existing `path` is refused unless `force`.
+/// `path` on failure); an existing `path` is refused unless `force`. Each direction is
+/// one row ([`super::write::write_distinct`]): returns how many repeated rows (an angle
+/// given twice) were merged.
 pub fn write_file(
     path: &Path,
     sweep: &InPlaneSweep,
     source: &str,
     channel: Channel,
     force: bool,
-) -> Result<(), ImportError> {
-    super::write::write_file(
+) -> Result<usize, ImportError> {
+    super::write::write_distinct(
         crate::outfile::Target::new(path, force),
         &merl_meta(source, channel, sweep.missing),
         &sweep.rows,
-        &[],
     )
 }
 

@@ -13,7 +13,7 @@ mod write;
 
 pub use error::ImportError;
 pub use merl::{Channel, InPlaneSweep, MerlFile};
-pub use write::{write_file, write_sweep};
+pub use write::{distinct, repeats_said, write_distinct, write_file, write_sweep};
 
 /// Most rows one import writes (theta_i x theta_r): a sweep gonio reads back whole.
 pub const MAX_IMPORT_ROWS: usize = 1_000_000;

@@ -467,3 +467,29 @@ fn damaged_spectral_files_are_refused_in_one_line() {
     f.get_mut("spectra").unwrap().shape = vec![1, 3, 9, 25];
     check(&f, "rank 5 f32");
 }
+
+/// Issue 50 case 9: wavelengths that span ybar but cannot integrate it (380 and 780 nm
+/// alone gave Y 31 % below the file's own 560 nm value) give no Y; the committed
+/// 50 nm grid integrates ybar within 1.3 % and does.
+#[test]
+fn y_needs_wavelengths_that_integrate_ybar() {
+    let e = y_weights(&[380.0, 780.0]).unwrap_err();
+    assert!(
+        e.contains(
+            "2 wavelengths 380..780 nm integrate the CIE 1931 ybar with an error of 100.0 %"
+        ),
+        "{e}"
+    );
+    let grid: Vec<f64> = (0..9).map(|k| 380.0 + 50.0 * f64::from(k)).collect();
+    let w = y_weights(&grid).unwrap();
+    assert!((w.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+    let q: f64 = grid
+        .iter()
+        .enumerate()
+        .map(|(k, &nm)| {
+            crate::import::cie::ybar(nm) * 0.5 * (grid[(k + 1).min(8)] - grid[k.saturating_sub(1)])
+        })
+        .sum();
+    let err = (q / crate::import::cie::ybar_integral(380.0, 780.0) - 1.0).abs();
+    assert!(err < Y_MAX_ERROR && err > 0.005, "{err}");
+}

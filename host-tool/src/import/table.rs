@@ -116,17 +116,37 @@ pub fn read_table(text: &str, spec: &TableSpec) -> Result<Table, (usize, String)
         ));
     }
     let columns: Vec<&ColumnRef> = spec.columns.iter().chain(&spec.std).collect();
-    let idx = if spec.no_header {
-        positions(&columns)?
+    // Every row has as many fields as the header row (or, without one, the first
+    // row): a row of another width is refused, never read by position.
+    let (idx, mut width) = if spec.no_header {
+        (positions(&columns)?, None)
     } else {
         let (line, header) = lines.next().expect("peeked");
         let names = split(header, delimiter).map_err(|m| (line, m))?;
-        header_positions(&names, &columns, delimiter).map_err(|m| (line, m))?
+        let idx = header_positions(&names, &columns, delimiter).map_err(|m| (line, m))?;
+        (idx, Some((names.len(), "the header row")))
     };
     let mut rows = Vec::new();
     let mut std = Vec::new();
     for (line, raw) in lines {
         let fields = split(raw, delimiter).map_err(|m| (line, m))?;
+        let (want, whose) = *width.get_or_insert((fields.len(), "the first row"));
+        if fields.len() != want {
+            let hint = if fields.len() > want && delimiter == Delimiter::Char(b',') {
+                " (a decimal comma? give --delimiter ';' and --decimal-comma, or quote the field)"
+            } else if delimiter == Delimiter::Whitespace {
+                " (a blank cell? a whitespace table cannot hold one: give it a delimiter)"
+            } else {
+                ""
+            };
+            return Err((
+                line,
+                format!(
+                    "{} field(s) where {whose} has {want}: a row is not read by position{hint}",
+                    fields.len()
+                ),
+            ));
+        }
         let mut v = [0.0; 4];
         for (k, &i) in idx.iter().enumerate() {
             let field = fields.get(i).ok_or_else(|| {

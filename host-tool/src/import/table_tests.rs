@@ -71,7 +71,7 @@ fn bad_tables_are_refused_with_their_line() {
             "AOI,AOS,BRDF\n10,20\n",
             false,
             2,
-            "2 fields, the brdf column is number 3",
+            "2 field(s) where the header row has 3",
         ),
         (
             "AOI,AOS,BRDF\n10,20,nan\n",
@@ -218,7 +218,7 @@ fn a_std_column_becomes_the_sweeps_std() {
         ),
         (
             "AOI,AOS,BRDF,Sigma\n20,-10,0.5\n",
-            "the std column is number 4",
+            "3 field(s) where the header row has 4",
         ),
         ("AOI,AOS,BRDF\n20,-10,0.5\n", "no column 'Sigma' for std"),
     ] {
@@ -234,4 +234,34 @@ fn a_std_column_becomes_the_sweeps_std() {
     let sweep = crate::sweep_file::read_sweep(&path).unwrap();
     let got: Vec<_> = sweep.rows.iter().map(|r| (r.std, r.n)).collect();
     assert_eq!(got, vec![(Some(0.01), Some(1)), (Some(0.0), Some(1))]);
+}
+
+/// Issue 50 case 2: a row of another width than the header row is refused with its
+/// line: a decimal comma under four columns (`10,10,2,5,4` was read as brdf 2), a
+/// whitespace row with a blank cell (took its brdf from the next column), a row of
+/// another width than the first where there is no header.
+#[test]
+fn a_row_of_another_width_is_refused_never_read_by_position() {
+    let s = spec("theta_i=theta_i,theta_r=theta_r,brdf=brdf");
+    let (line, msg) =
+        read_table("theta_i,theta_r,brdf,n\n10,20,3,1\n10,10,2,5,4\n", &s).unwrap_err();
+    assert_eq!(line, 3);
+    assert!(
+        msg.starts_with("5 field(s) where the header row has 4") && msg.contains("--decimal-comma"),
+        "{msg}"
+    );
+    let (line, msg) = read_table("theta_i theta_r brdf n\n10 20 3 1\n10 30 4\n", &s).unwrap_err();
+    assert_eq!(line, 3);
+    assert!(
+        msg.contains("3 field(s) where the header row has 4") && msg.contains("blank cell"),
+        "{msg}"
+    );
+    let mut s = spec("theta_i=1,theta_r=2,brdf=3");
+    s.no_header = true;
+    let (line, msg) = read_table("10,20,3\n10,30,4,7\n", &s).unwrap_err();
+    assert_eq!(line, 2);
+    assert!(
+        msg.contains("4 field(s) where the first row has 3"),
+        "{msg}"
+    );
 }

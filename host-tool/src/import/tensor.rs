@@ -14,6 +14,11 @@ const MAX_FIELDS: u32 = 1024;
 /// Rank of a field at most.
 const MAX_RANK: u16 = 16;
 
+/// The values of all fields widened to f64 take at most this many times the file's
+/// size: one byte widened is 8 bytes, so fields that do not share data stay within it;
+/// many fields pointing at one buffer (each widened again) do not.
+const MAX_WIDENING: u64 = 8;
+
 /// One field's shape and values (as f64; u8 fields widened).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Field {
@@ -27,8 +32,9 @@ pub struct Field {
 
 /// Reads every field of `bytes`. A wrong header or version, a count, rank, type or
 /// shape that does not fit, data past the end of the file or overlapping the header,
-/// and a non-finite float are refused with one line (no panic, no allocation larger
-/// than the file).
+/// fields whose values widened to f64 would take more than [`MAX_WIDENING`] times the
+/// file (fields sharing one buffer), and a non-finite float are refused with one line
+/// (no panic, no allocation larger than that).
 pub fn read_tensor(bytes: &[u8]) -> Result<BTreeMap<String, Field>, String> {
     let mut at = 0usize;
     let take = |at: &mut usize, n: usize, what: &str| -> Result<&[u8], String> {
@@ -59,6 +65,7 @@ pub fn read_tensor(bytes: &[u8]) -> Result<BTreeMap<String, Field>, String> {
         ));
     }
     let mut fields = BTreeMap::new();
+    let mut widened = 0u64;
     for _ in 0..n {
         let len = u16::from_le_bytes(take(&mut at, 2, "field list")?.try_into().expect("2"));
         let name = String::from_utf8_lossy(take(&mut at, len as usize, "field list")?).into_owned();
@@ -105,6 +112,16 @@ pub fn read_tensor(bytes: &[u8]) -> Result<BTreeMap<String, Field>, String> {
         if end > bytes.len() as u64 {
             return Err(bad());
         }
+        if matches!(dtype, 1 | 10 | 11) {
+            widened = widened.saturating_add(count.saturating_mul(8));
+            if widened > MAX_WIDENING.saturating_mul(bytes.len() as u64) {
+                return Err(format!(
+                    "its fields would take {widened} bytes as f64, more than {MAX_WIDENING} times the file's {} bytes: fields share data (field '{}'); not a tensor file gonio reads",
+                    bytes.len(),
+                    crate::text::escape_line(&name, 40)
+                ));
+            }
+        }
         let data = &bytes[offset as usize..end as usize];
         let values: Vec<f64> = match dtype {
             1 => data.iter().map(|&b| f64::from(b)).collect(),
@@ -136,4 +153,41 @@ pub fn read_tensor(bytes: &[u8]) -> Result<BTreeMap<String, Field>, String> {
         );
     }
     Ok(fields)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A tensor file of `fields` f32 fields of `len` values, every one pointing at the
+    /// same data.
+    fn shared(fields: u32, len: u64) -> Vec<u8> {
+        let mut b = b"tensor_file\0".to_vec();
+        b.extend([1, 0]);
+        b.extend(fields.to_le_bytes());
+        let header = 18 + u64::from(fields) * (2 + 4 + 2 + 1 + 8 + 8);
+        for k in 0..fields {
+            b.extend(4u16.to_le_bytes());
+            b.extend(format!("f{k:03}").as_bytes());
+            b.extend(1u16.to_le_bytes());
+            b.push(10);
+            b.extend(header.to_le_bytes());
+            b.extend(len.to_le_bytes());
+        }
+        assert_eq!(b.len() as u64, header);
+        b.extend(std::iter::repeat_n(0u8, 4 * len as usize));
+        b
+    }
+
+    /// Issue 50 case 10: many fields on one buffer asked for gigabytes (a 4 MiB file
+    /// aborted); the total widened size is bounded by a multiple of the file's.
+    #[test]
+    fn fields_sharing_one_buffer_are_refused_before_they_are_widened() {
+        assert_eq!(read_tensor(&shared(2, 1000)).unwrap().len(), 2);
+        let e = read_tensor(&shared(20, 1000)).unwrap_err();
+        assert!(
+            e.contains("more than 8 times the file's") && e.contains("fields share data"),
+            "{e}"
+        );
+    }
 }

@@ -61,6 +61,29 @@ impl Row {
     }
 }
 
+/// One row as the table line every writer writes: theta_i, theta_r, brdf, then those
+/// of std, n, seq, t_ms that `optional` names (an empty field where the row has none),
+/// each value in its shortest exact form; a brdf of -0 is written `0`.
+pub(crate) fn row_line(row: &Row, optional: [bool; 4]) -> String {
+    use std::fmt::Write;
+    let brdf = if row.brdf == 0.0 { 0.0 } else { row.brdf };
+    let mut line = format!("{},{},{brdf}", row.theta_i, row.theta_r);
+    let opt = |v: Option<String>| v.unwrap_or_default();
+    let cells = [
+        opt(row.std.map(|v| v.to_string())),
+        opt(row.n.map(|v| v.to_string())),
+        opt(row.seq.map(|v| v.to_string())),
+        opt(row.t_ms.map(|v| v.to_string())),
+    ];
+    for (cell, on) in cells.iter().zip(optional) {
+        if on {
+            let _ = write!(line, ",{cell}");
+        }
+    }
+    line.push('\n');
+    line
+}
+
 /// Readings of a magnitude outside [`BRDF_MIN`, `BRDF_MAX`] (other than 0) are neither
 /// written nor read: the fit works with their logarithms and squares, which over- or
 /// underflow there. One range for the capture, the writers and the readers

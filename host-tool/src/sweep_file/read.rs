@@ -24,11 +24,37 @@ pub const MAX_SWEEP_BYTES: u64 = 64 << 20;
 /// Characters of a field quoted in a message (escaped, see [`escape_line`]).
 const QUOTE_CHARS: usize = 40;
 
+/// The `# key:` lines gonio reads or writes (keys in any case); others are kept in
+/// [`SweepData::meta`] and named by [`SweepData::warnings`]: gonio does not read them.
+pub const KNOWN_KEYS: [&str; 18] = [
+    "status",
+    "device",
+    "sample",
+    "units",
+    "brdf",
+    "plan",
+    "settings",
+    "started",
+    "points",
+    "source",
+    "calibration",
+    "aperture",
+    "offset",
+    "out-of-plane",
+    "wavelength",
+    "missing",
+    "repeats",
+    "theta_r",
+];
+
 /// What a sweep file holds.
 #[derive(Debug, Clone, Default)]
 pub struct SweepData {
-    /// `# key: value` metadata, in order of appearance (later keys win).
+    /// `# key: value` metadata, keys in lower case (a key given twice with different
+    /// values is refused).
     pub meta: BTreeMap<String, String>,
+    /// `# key:` lines not among [`KNOWN_KEYS`] (line, key in lower case), first of each.
+    pub unknown_keys: Vec<(usize, String)>,
     /// Column names of the header row.
     pub columns: Vec<String>,
     /// Complete rows.
@@ -103,6 +129,20 @@ impl SweepData {
                 }
                 _ => {}
             }
+        }
+        if let Some((line, key)) = self.unknown_keys.first() {
+            let more = match self.unknown_keys.len() {
+                1 => String::new(),
+                n => format!(" and {} more", n - 1),
+            };
+            w.push(format!(
+                "'# {}:' (line {line}){more} is not a line gonio reads: ignored (gonio reads {})",
+                escape_line(key, QUOTE_CHARS),
+                KNOWN_KEYS.join(", ")
+            ));
+        }
+        if let Some(s) = self.reversed_sign_warning() {
+            w.push(s);
         }
         if let Some((line, first, ti, tr, v, prev)) = self.repeats.first {
             w.push(format!(
@@ -251,10 +291,83 @@ pub fn parse_sweep(bytes: &[u8]) -> Result<SweepData, (usize, String)> {
             data.points.push(pt);
         }
     }
+    // `# theta_r: source`: the file signs theta_r positive on the source's side; gonio's
+    // convention is the specular side's.
+    if data
+        .meta
+        .get("theta_r")
+        .is_some_and(|v| theta_r_on_source_side(v))
+    {
+        for row in &mut data.rows {
+            row.theta_r = -row.theta_r + 0.0;
+        }
+    }
     // Offsets of the file itself, byte-order mark included (resume writes there).
     data.status_offset = data.status_offset.map(|o| o + bom as u64);
     data.complete_len += bom as u64;
     Ok(data)
+}
+
+/// The `# theta_r:` line says theta_r is positive on the source's side.
+fn theta_r_on_source_side(value: &str) -> bool {
+    value.eq_ignore_ascii_case("source")
+}
+
+/// Least incidence (degrees) whose peak says which side is specular: nearer the normal
+/// the two sides meet.
+const SIGN_MIN_THETA_I: f64 = 10.0;
+
+/// How far (degrees) a peak may sit from +-theta_i and still be read as there.
+const SIGN_PEAK_TOLERANCE: f64 = 5.0;
+
+/// How many times the readings at the other mirror angle a peak stands.
+const SIGN_PEAK_RATIO: f64 = 3.0;
+
+impl SweepData {
+    /// The warning where the readings peak at theta_r = -theta_i (the source's side,
+    /// [`SIGN_PEAK_RATIO`] times the readings at +theta_i) at some incidence of at
+    /// least [`SIGN_MIN_THETA_I`] measured near both, and at +theta_i at none: the file signs theta_r the other way (or the sample
+    /// retroreflects), and a fit would find no specular peak where gonio's convention
+    /// puts it.
+    pub fn reversed_sign_warning(&self) -> Option<String> {
+        let mut by_incidence: BTreeMap<u64, Vec<Row>> = BTreeMap::new();
+        for r in &self.rows {
+            by_incidence
+                .entry(r.theta_i.to_bits())
+                .or_default()
+                .push(*r);
+        }
+        // The largest reading within the tolerance of theta_r = `at`, if any.
+        let near = |rows: &[Row], at: f64| {
+            rows.iter()
+                .filter(|r| (r.theta_r - at).abs() <= SIGN_PEAK_TOLERANCE)
+                .map(|r| r.brdf)
+                .reduce(f64::max)
+        };
+        let (mut reversed, mut specular) = (0, 0);
+        for rows in by_incidence.values() {
+            let ti = rows[0].theta_i;
+            if ti < SIGN_MIN_THETA_I {
+                continue;
+            }
+            // A peak is [`SIGN_PEAK_RATIO`] times the readings at the other side's
+            // mirror angle: a slope across the sweep is no peak.
+            let (Some(minus), Some(plus)) = (near(rows, -ti), near(rows, ti)) else {
+                continue;
+            };
+            let top = rows.iter().map(|r| r.brdf).fold(f64::MIN, f64::max);
+            if minus == top && minus >= SIGN_PEAK_RATIO * plus.max(0.0) {
+                reversed += 1;
+            } else if plus == top && plus >= SIGN_PEAK_RATIO * minus.max(0.0) {
+                specular += 1;
+            }
+        }
+        (reversed > 0 && specular == 0).then(|| {
+            format!(
+                "the readings peak at theta_r = -theta_i (the source's side) at {reversed} incidence(s), none at +theta_i where gonio puts the specular peak: theta_r looks signed the other way. If so, add the line '# theta_r: source' to the file (theta_r is then negated on reading), or import the table again with gonio import table --theta-r-sign source (a retroreflecting sample peaks there too)"
+            )
+        })
+    }
 }
 
 /// The file's status says a capture may have been cut while writing (`running`).
@@ -287,44 +400,67 @@ fn read_metadata(bytes: &[u8], data: &mut SweepData) -> Result<(usize, usize), (
         let text = std::str::from_utf8(raw).map_err(|_| (lineno, NOT_TEXT.to_string()))?;
         let text = text.trim_end_matches(['\n', '\r']);
         let meta = &text[1..];
-        if text.starts_with(STATUS_PREFIX) {
+        let Some((key, value)) = meta.trim().split_once(':') else {
+            continue; // a comment, `# gonio sweep v1`
+        };
+        // Keys in any case, as column names are: `# BRDF: 1/sr` is the brdf line.
+        let (key, value) = (key.trim().to_ascii_lowercase(), value.trim());
+        let key = key.as_str();
+        if key == "status"
+            && text
+                .get(..STATUS_PREFIX.len())
+                .is_some_and(|p| p.eq_ignore_ascii_case(STATUS_PREFIX))
+        {
             data.status_offset = Some(start as u64);
             data.counters = parse_counters(text);
         }
-        if meta.trim_start().starts_with("points:") {
+        if key == "points" {
             data.points_line = lineno;
         }
-        if let Some((key, value)) = meta.trim().split_once(':') {
-            let (key, value) = (key.trim(), value.trim());
-            if key == "units" && !declares_degrees(value) {
-                return Err((
-                    lineno,
-                    format!(
-                        "units '{}': gonio reads angles in degrees only (convert the file, and write '# units: degrees')",
-                        escape_line(value, QUOTE_CHARS)
-                    ),
-                ));
-            }
-            if key == super::units::BRDF_KEY {
-                super::units::BrdfUnits::parse(value).map_err(|m| (lineno, m))?;
-            }
-            // A line a fit reads, given twice with different values: which was meant
-            // is not for gonio to guess (the last one used to win silently).
-            if ["brdf", "aperture", "offset", "units"].contains(&key)
-                && let Some(old) = data.meta.get(key)
-                && old != value
-            {
-                return Err((
-                    lineno,
-                    format!(
-                        "'# {key}:' is given twice, '{}' and '{}': keep the one that is meant",
-                        escape_line(old, QUOTE_CHARS),
-                        escape_line(value, QUOTE_CHARS)
-                    ),
-                ));
-            }
-            data.meta.insert(key.to_string(), value.to_string());
+        if !KNOWN_KEYS.contains(&key) && !data.unknown_keys.iter().any(|(_, k)| k == key) {
+            // Not read by gonio, and said so: a misspelt `# aperure:` would
+            // otherwise pass unseen.
+            data.unknown_keys.push((lineno, key.to_string()));
         }
+        if key == "units" && !declares_degrees(value) {
+            return Err((
+                lineno,
+                format!(
+                    "units '{}': gonio reads angles in degrees only (convert the file, and write '# units: degrees')",
+                    escape_line(value, QUOTE_CHARS)
+                ),
+            ));
+        }
+        if key == "theta_r"
+            && !value.eq_ignore_ascii_case("specular")
+            && !theta_r_on_source_side(value)
+        {
+            return Err((
+                lineno,
+                format!(
+                    "theta_r '{}': the sign of theta_r is 'specular' (positive on the specular side, gonio's) or 'source' (positive on the source's side: negated on reading)",
+                    escape_line(value, QUOTE_CHARS)
+                ),
+            ));
+        }
+        if key == super::units::BRDF_KEY {
+            super::units::BrdfUnits::parse(value).map_err(|m| (lineno, m))?;
+        }
+        // A line given twice with different values: which was meant is not for
+        // gonio to guess (the last one used to win silently).
+        if let Some(old) = data.meta.get(key)
+            && old != value
+        {
+            return Err((
+                lineno,
+                format!(
+                    "'# {key}:' is given twice, '{}' and '{}': keep the one that is meant",
+                    escape_line(old, QUOTE_CHARS),
+                    escape_line(value, QUOTE_CHARS)
+                ),
+            ));
+        }
+        data.meta.insert(key.to_string(), value.to_string());
     }
     Ok((
         bytes.len(),
@@ -426,6 +562,9 @@ fn read_table(
             return Err((lineno, "metadata line after the header row".into()));
         }
         data.no_final_newline = last_unterminated;
+        if col.is_some() && fields.len() != data.columns.len() {
+            return Err((lineno, wrong_width(&fields, &data.columns, delimiter)));
+        }
         let Some(idx) = &col else {
             data.columns = fields.iter().map(|c| c.to_string()).collect();
             col = Some(header_columns(&fields, delimiter).map_err(|m| (lineno, m))?);
@@ -474,6 +613,23 @@ fn read_table(
         data.rows.push(row);
     }
     Ok(())
+}
+
+/// Why a row of `fields` is refused under a header row of `columns` (another count):
+/// its fields are never read by position, so `10,10,2,5,4` (a decimal comma) under
+/// four columns is not brdf 2, and a row missing a cell does not take the next one's.
+fn wrong_width(fields: &[&str], columns: &[String], delimiter: u8) -> String {
+    let hint = if fields.len() > columns.len() && delimiter == b',' {
+        " (a decimal comma? gonio import table FILE --delimiter ';' --decimal-comma converts such a table)"
+    } else {
+        " (a cell missing? write an empty field between delimiters)"
+    };
+    format!(
+        "{} field(s) where the header row has {} ({}): the row is not read by position{hint}",
+        fields.len(),
+        columns.len(),
+        escape_line(&columns.join(","), 80)
+    )
 }
 
 /// One row from its fields (`idx`: where each of [`COLUMNS`] is).

@@ -465,3 +465,55 @@ fn rows_with_and_without_seq_at_the_same_angles_are_flagged() {
     let two_points = b"theta_i,theta_r,brdf,seq\n20,20,5,0\n20,20,7,1\n";
     assert!(parse_sweep(two_points).unwrap().warnings().is_empty());
 }
+
+/// Issue 50 case 2: a row is read by the header's names, never by position: a row of
+/// another width is refused with its line (a decimal comma made `10,10,2,5,4` brdf 2
+/// under four columns; a missing cell took the next column's value).
+#[test]
+fn a_row_of_another_width_is_refused_with_its_line() {
+    let (line, msg) =
+        parse_sweep(b"# brdf: 1/sr\ntheta_i,theta_r,brdf,std\n10,5,3,0.1\n10,10,2,5,4\n")
+            .unwrap_err();
+    assert_eq!(line, 4);
+    assert!(
+        msg.starts_with("5 field(s) where the header row has 4 (theta_i,theta_r,brdf,std)")
+            && msg.contains("decimal comma"),
+        "{msg}"
+    );
+    let (line, msg) = parse_sweep(b"theta_i,theta_r,brdf,n\n10,5,3\n").unwrap_err();
+    assert_eq!(line, 2);
+    assert!(
+        msg.contains("3 field(s) where the header row has 4"),
+        "{msg}"
+    );
+    // Empty fields are fields: a capture's row without std or n reads.
+    let ok = parse_sweep(b"theta_i,theta_r,brdf,std,n\n10,5,3,,\n").unwrap();
+    assert_eq!(ok.rows[0].std, None);
+}
+
+/// Issue 50 case 3: `#` keys are read in any case, as column names are; a key not
+/// read is said; any key given twice with different values is refused.
+#[test]
+fn metadata_keys_in_any_case_unknown_said_duplicates_refused() {
+    let data = parse_sweep(
+        b"# BRDF: 1/sr\n# Aperture: 2\n# colour: red\n# Colour: red\ntheta_i,theta_r,brdf\n0,0,1\n",
+    )
+    .unwrap();
+    assert_eq!(data.brdf_units(), BrdfUnits::PerSr);
+    assert_eq!(data.meta["aperture"], "2");
+    assert_eq!(data.unknown_keys, [(3, "colour".to_string())]);
+    let w = data.warnings().join("\n");
+    assert!(
+        w.contains("'# colour:' (line 3) is not a line gonio reads: ignored"),
+        "{w}"
+    );
+    let (line, msg) = parse_sweep(b"# Units: radians\ntheta_i,theta_r,brdf\n0,0,1\n").unwrap_err();
+    assert_eq!(line, 1);
+    assert!(msg.contains("degrees only"), "{msg}");
+    let (line, msg) =
+        parse_sweep(b"# plan: paper\n# PLAN: adaptive\ntheta_i,theta_r,brdf\n0,0,1\n").unwrap_err();
+    assert_eq!(line, 2);
+    assert!(msg.contains("'# plan:' is given twice"), "{msg}");
+    // The same value twice is one value.
+    parse_sweep(b"# plan: paper\n# Plan: paper\ntheta_i,theta_r,brdf\n0,0,1\n").unwrap();
+}

@@ -11,8 +11,8 @@ use std::path::{Path, PathBuf};
 use std::os::unix::fs::OpenOptionsExt;
 
 use super::format::{
-    COLUMNS, Counters, Header, Row, SweepFileError, SweepStatus, meta_problem, row_problem,
-    status_line,
+    COLUMNS, Counters, Header, Row, SweepFileError, SweepStatus, meta_problem, row_line,
+    row_problem, status_line,
 };
 use super::read::SweepData;
 use super::units::BrdfUnits;
@@ -263,17 +263,7 @@ impl SweepWriter {
         if !self.says_running {
             self.set_status(SweepStatus::Running)?;
         }
-        let opt = |v: Option<String>| v.unwrap_or_default();
-        let line = format!(
-            "{},{},{},{},{},{},{}\n",
-            row.theta_i,
-            row.theta_r,
-            row.brdf,
-            opt(row.std.map(|v| v.to_string())),
-            opt(row.n.map(|v| v.to_string())),
-            opt(row.seq.map(|v| v.to_string())),
-            opt(row.t_ms.map(|v| v.to_string())),
-        );
+        let line = row_line(row, [true; 4]);
         let start = self
             .file
             .stream_position()

@@ -131,6 +131,28 @@ fn fixtures() -> Scratch {
         "brdf-twice.csv",
         b"# brdf: relative\n# brdf: 1/sr\ntheta_i,theta_r,brdf\n20,20,5\n20,30,4\n20,40,3\n",
     );
+    // Issue 50 cases 2 and 3: a decimal-comma row under a four-column header (read as
+    // brdf 2 by position), metadata keys in another case, a key given twice.
+    w(
+        "comma-row.csv",
+        b"theta_i,theta_r,brdf,std\n10,10,2,5,4\n10,20,3,0.1\n10,30,4,0.1\n",
+    );
+    w(
+        "upper-persr.csv",
+        b"# BRDF: 1/sr\ntheta_i,theta_r,brdf\n20,20,5\n20,30,4\n20,40,3\n",
+    );
+    w(
+        "upper-rad.csv",
+        b"# Units: radians\ntheta_i,theta_r,brdf\n0.1,0.2,5\n0.1,0.3,4\n0.1,0.4,3\n",
+    );
+    w(
+        "plan-twice.csv",
+        b"# plan: paper\n# Plan: adaptive\ntheta_i,theta_r,brdf\n20,20,5\n20,30,4\n20,40,3\n",
+    );
+    w(
+        "k-ok.toml",
+        b"k = 2000\nu_k = 0.0\nstandard = \"lambertian:0.99\"\nreference_file = \"ref.csv\"\ndate = \"2026-12-01T18:30:00Z\"\nreadings = 9\n",
+    );
     let rgl = std::fs::read(
         crate::util::repo_root().join("host-tool/tests/data/rgl_ilm_l3_37_metallic_rgb.bsdf"),
     )
@@ -1007,7 +1029,7 @@ const CASES: &[Case] = &[
             "1/sr",
         ],
         2,
-        "table-short.csv:3: 2 fields, the brdf column is number 3",
+        "table-short.csv:3: 2 field(s) where the header row has 3",
         "t.csv",
     ),
     out(
@@ -2265,6 +2287,79 @@ const CASES: &[Case] = &[
         ],
         2,
         "being written by another capture",
+    ),
+    // Issue 50 case 4: --raw takes the lock as --out does, and never appends to a sweep.
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--raw",
+            "{d}/locked.csv",
+            "--out",
+            "{d}/raw-out.csv",
+            "-q",
+        ],
+        2,
+        "--raw {d}/locked.csv is being written by another capture",
+        "locked.csv",
+    ),
+    out(
+        &[
+            "simulate",
+            "--material",
+            "fe-0.115",
+            "--raw",
+            "{d}/rel.csv",
+            "--out",
+            "{d}/raw-out.csv",
+            "-q",
+        ],
+        2,
+        "holds a sweep file",
+        "rel.csv",
+    ),
+    // Issue 50 cases 2 and 3: rows by header name, # keys in any case, no duplicates.
+    case(
+        &["fit", "{d}/comma-row.csv"],
+        2,
+        "comma-row.csv:2: 5 field(s) where the header row has 4",
+    ),
+    out(
+        &[
+            "import",
+            "table",
+            "{d}/comma-row.csv",
+            "--out",
+            "{d}/comma-out.csv",
+            "--columns",
+            "theta_i=theta_i,theta_r=theta_r,brdf=brdf",
+            "--brdf",
+            "1/sr",
+        ],
+        2,
+        "5 field(s) where the header row has 4",
+        "comma-out.csv",
+    ),
+    case(
+        &[
+            "fit",
+            "{d}/upper-persr.csv",
+            "--instrument",
+            "{d}/k-ok.toml",
+        ],
+        2,
+        "already holds brdf in 1/sr",
+    ),
+    case(
+        &["fit", "{d}/upper-rad.csv"],
+        2,
+        "units 'radians': gonio reads angles in degrees only",
+    ),
+    case(
+        &["fit", "{d}/plan-twice.csv"],
+        2,
+        "'# plan:' is given twice, 'paper' and 'adaptive'",
     ),
     out(
         &[

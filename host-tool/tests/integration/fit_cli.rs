@@ -410,8 +410,9 @@ fn residuals_export_has_one_row_per_reading_in_file_order() {
     let mut ss = 0.0;
     for (r, (ti, tr, y)) in rows.iter().zip(&readings) {
         assert_eq!((r[0], r[1], r[2]), (*ti, *tr, *y));
-        // The residual is the log residual of the two values beside it.
-        assert!((r[4] - (r[3].ln() - r[2].ln())).abs() < 1e-12);
+        // The residual is ln(measured / fitted) of the two values beside it (issue 50
+        // case 13: the sign the plots' panels show, stated in the header).
+        assert!((r[4] - (r[2].ln() - r[3].ln())).abs() < 1e-12);
         ss += r[4] * r[4];
     }
     // 0.5 % noise per sample, 4 samples: the residuals are at that level.

@@ -150,7 +150,15 @@ fn an_astm_hemisphere_imports_its_plane_of_incidence() {
             (v[0], v[1], v[2])
         })
         .collect();
-    assert_eq!(rows.len(), 52);
+    // The normal (theta_s = 0) at each of 36 azimuths is one direction: one row
+    // (issue 50 case 8: it weighed 36 times), said on stderr and in the file.
+    assert_eq!(rows.len(), 52 - 35);
+    assert!(
+        out.stderr.contains("35 rows of") && sweep.contains("# repeats: 35 rows"),
+        "{}",
+        out.stderr
+    );
+    assert_eq!(rows.iter().filter(|r| r.1 == 0.0).count(), 1);
     for &(ti, tr, f) in &rows {
         assert!((ti - 30.0).abs() < 1e-9, "{ti}");
         let ts = tr.abs();
@@ -379,4 +387,62 @@ fn a_zemax_export_is_written_in_1_per_sr() {
         assert!((t - want).abs() <= 1e-6 * want, "{t} vs {want}");
     }
     assert!(tis.iter().all(|&t| t > 0.0 && t < 1.0), "{tis:?}");
+}
+
+/// Issue 50 case 5: a sweep whose theta_r is signed the other way (its peaks at
+/// -theta_i) fitted as "ideal-diffuse", exit 0, no hint. Now one line says the sign
+/// looks reversed and how to flip it; with the `# theta_r: source` line it says so
+/// the fit is the original's.
+#[test]
+fn a_reversed_theta_r_is_pointed_out_and_flipped_by_one_line() {
+    let d = scratch("sign");
+    let sweep = simulated(&d, "fe-0.115");
+    let text = std::fs::read_to_string(&sweep).unwrap();
+    let mut flipped = String::new();
+    let mut in_rows = false;
+    for line in text.lines() {
+        if in_rows {
+            let (tr_start, rest) = line.split_once(',').unwrap();
+            let (tr, rest) = rest.split_once(',').unwrap();
+            let tr: f64 = tr.parse().unwrap();
+            flipped.push_str(&format!("{tr_start},{},{rest}\n", -tr + 0.0));
+        } else {
+            flipped.push_str(line);
+            flipped.push('\n');
+            in_rows = line.starts_with("theta_i");
+        }
+    }
+    let reversed = d.join("reversed.csv");
+    std::fs::write(&reversed, &flipped).unwrap();
+    let out = gonio(&["fit", reversed.to_str().unwrap(), "--json"]);
+    assert_eq!(out.code, 0, "{}", out.stderr);
+    let hints: Vec<&str> = out
+        .stderr
+        .lines()
+        .filter(|l| l.contains("theta_r looks signed the other way"))
+        .collect();
+    assert_eq!(hints.len(), 1, "{}", out.stderr);
+    assert!(hints[0].contains("'# theta_r: source'") && hints[0].contains("--theta-r-sign source"));
+    let marked = d.join("marked.csv");
+    std::fs::write(
+        &marked,
+        flipped.replacen(
+            "# units: degrees\n",
+            "# units: degrees\n# theta_r: source\n",
+            1,
+        ),
+    )
+    .unwrap();
+    let selected = |p: &std::path::Path| {
+        let out = gonio(&["fit", p.to_str().unwrap(), "--json"]);
+        assert_eq!(out.code, 0, "{}", out.stderr);
+        assert!(
+            !out.stderr.contains("signed the other way"),
+            "{}",
+            out.stderr
+        );
+        let v: serde_json::Value = serde_json::from_str(&out.stdout).unwrap();
+        v["selected"].clone()
+    };
+    assert_eq!(selected(&marked), selected(&sweep));
 }

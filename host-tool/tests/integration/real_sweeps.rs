@@ -33,7 +33,7 @@ fn figures(json: &serde_json::Value, name: &str) -> Option<Figures> {
     })
 }
 
-/// RMS of the residuals export's `residual` column (ln fitted - ln measured).
+/// RMS of the residuals export's `residual` column (ln measured - ln fitted).
 fn rms_of_export(path: &Path) -> f64 {
     let text = std::fs::read_to_string(path).unwrap();
     let r: Vec<f64> = text

@@ -90,7 +90,7 @@ pub fn write_sweep(
 
 /// `gonio fit`'s options, as the command line spells them.
 pub struct FitRequest<'a> {
-    /// `--residual`: log, rel or abs.
+    /// `--residual`: noise, log, rel or abs.
     pub residual: &'a str,
     /// `--loss`: l2, huber:C or cauchy:C.
     pub loss: &'a str,
@@ -192,7 +192,7 @@ pub fn fit(path: Option<&Path>, rows: &[Row], req: &FitRequest) -> Result<FitOut
     Ok(FitOutcome {
         family,
         data,
-        residual: opts.residual,
+        residual: opts.residual.resolved(&data),
         instrument,
     })
 }

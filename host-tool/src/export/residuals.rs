@@ -13,6 +13,7 @@ use crate::outfile::Target;
 /// f / y - 1 or f - y), and the words the file's `#` line uses for it.
 pub fn residual_value(kind: Residual, fitted: f64, measured: f64) -> f64 {
     match kind {
+        Residual::Noise(m) => m.transform(fitted) - m.transform(measured),
         Residual::Log => fitted.max(1e-300).ln() - measured.ln(),
         Residual::Relative => fitted / measured - 1.0,
         Residual::Absolute => fitted - measured,
@@ -21,6 +22,9 @@ pub fn residual_value(kind: Residual, fitted: f64, measured: f64) -> f64 {
 
 fn residual_words(kind: Residual) -> &'static str {
     match kind {
+        Residual::Noise(_) => {
+            "noise: g(fitted) - g(measured), g(v) = asinh(b v / a) / b, a and b the fit's noise model (its note)"
+        }
         Residual::Log => "log: ln(fitted) - ln(measured)",
         Residual::Relative => "rel: fitted / measured - 1",
         Residual::Absolute => "abs: fitted - measured (the file's brdf units)",

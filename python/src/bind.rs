@@ -189,10 +189,12 @@ pub fn fit(path: Option<&Path>, rows: &[Row], req: &FitRequest) -> Result<FitOut
         data.aperture = opts.aperture;
     }
     let family = campaign::fit_data(source, &data, &opts).map_err(|e| e.to_string())?;
+    // The noise objective's model as the fit resolved it (the residuals need it).
+    let residual = opts.residual.resolved(&data);
     Ok(FitOutcome {
         family,
         data,
-        residual: opts.residual.resolved(&data),
+        residual,
         instrument,
     })
 }

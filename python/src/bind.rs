@@ -90,7 +90,7 @@ pub fn write_sweep(
 
 /// `gonio fit`'s options, as the command line spells them.
 pub struct FitRequest<'a> {
-    /// `--residual`: log, rel or abs.
+    /// `--residual`: noise, log, rel or abs.
     pub residual: &'a str,
     /// `--loss`: l2, huber:C or cauchy:C.
     pub loss: &'a str,
@@ -189,10 +189,12 @@ pub fn fit(path: Option<&Path>, rows: &[Row], req: &FitRequest) -> Result<FitOut
         data.aperture = opts.aperture;
     }
     let family = campaign::fit_data(source, &data, &opts).map_err(|e| e.to_string())?;
+    // The noise objective's model as the fit resolved it (the residuals need it).
+    let residual = opts.residual.resolved(&data);
     Ok(FitOutcome {
         family,
         data,
-        residual: opts.residual,
+        residual,
         instrument,
     })
 }

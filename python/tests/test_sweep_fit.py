@@ -176,7 +176,7 @@ def test_fit_arrays_and_errors():
         gonio.fit(FE_SWEEP, fix=["q=1"])
     with pytest.raises(gonio.GonioError, match="--models 'four': unknown component"):
         gonio.fit(FE_SWEEP, models=["four"])
-    with pytest.raises(gonio.GonioError, match="--residual 'lin': use log, rel or abs"):
+    with pytest.raises(gonio.GonioError, match="--residual 'lin': use noise, log, rel or abs"):
         gonio.fit(FE_SWEEP, residual="lin")
     with pytest.raises(gonio.GonioError, match="--aperture 11: expected a half-angle"):
         gonio.fit(FE_SWEEP, aperture=11.0)

@@ -23,8 +23,13 @@ use crate::{export, plot};
 /// Residual kind on the command line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum ResidualArg {
-    /// ln f - ln y: each decade of the curve counts alike (default; the specular peak
-    /// spans orders of magnitude).
+    /// g(f) - g(y), g(v) = asinh(b v / a) / b: each reading against its noise
+    /// sqrt(a^2 + (b y)^2), a floor a and a proportional part b: from the readings' std/n, --noise, or by rule (a
+    /// = the level of the lowest tenth of the readings, b = 2 %). The peak and the
+    /// haze both count.
+    Noise,
+    /// ln f - ln y: each decade of the curve counts alike (default; the haze's many
+    /// readings outvote the peak's few).
     Log,
     /// (f - y) / y.
     Rel,
@@ -139,6 +144,11 @@ pub struct FitArgs {
     /// Residuals to minimise.
     #[arg(long, value_enum, default_value_t = ResidualArg::Log)]
     pub residual: ResidualArg,
+    /// The instrument's noise for --residual noise: FLOOR,PROP, a floor in the file's
+    /// brdf units and a fraction of each reading (e.g. 0.002,0.03); overrides the
+    /// readings' std/n and the rule.
+    #[arg(long, value_name = "FLOOR,PROP", value_parser = fit::NoiseModel::parse)]
+    pub noise: Option<fit::NoiseModel>,
     /// Loss: l2, huber:C or cauchy:C (C in residual units, e.g. cauchy:0.05 for log
     /// residuals: readings off by more than ~5 % count less).
     #[arg(long, default_value = "l2", value_name = "LOSS", value_parser = Loss::parse)]
@@ -252,7 +262,13 @@ pub fn options(args: &FitArgs) -> CliResult<FitOptions> {
             .map_err(|e| CliError::usage(format!("--fresnel '{spec}': {e}")))?;
         (fixed.n, fixed.k) = (Some(ix.n), Some(ix.k));
     }
+    if args.noise.is_some() && args.residual != ResidualArg::Noise {
+        return Err(CliError::usage(
+            "--noise states the noise of --residual noise: give both",
+        ));
+    }
     let residual = match args.residual {
+        ResidualArg::Noise => Residual::Noise(args.noise.unwrap_or(fit::NoiseModel::FROM_DATA)),
         ResidualArg::Log => Residual::Log,
         ResidualArg::Rel => Residual::Relative,
         ResidualArg::Abs => Residual::Absolute,
@@ -297,11 +313,7 @@ fn file_error(e: FileError) -> CliError {
 }
 
 fn residual_name(r: Residual) -> &'static str {
-    match r {
-        Residual::Log => "log",
-        Residual::Relative => "rel",
-        Residual::Absolute => "abs",
-    }
+    r.word()
 }
 
 /// `gonio fit` over several sweeps: fits them all (a progress bar on a terminal),
@@ -494,7 +506,13 @@ pub fn run(args: &FitArgs) -> CliResult {
         let target = Target::new(path, args.force).inputs(&inputs);
         match format {
             ExportFormat::Residuals => {
-                export::write_residuals(target, &data, &fam, member, opts.residual)?;
+                export::write_residuals(
+                    target,
+                    &data,
+                    &fam,
+                    member,
+                    opts.residual.resolved(&data),
+                )?;
             }
             ExportFormat::Merl => {
                 let note = export::write_merl_export(target, &fam, member, args.scale)?;

@@ -12,9 +12,11 @@ use crate::outfile::Target;
 /// The residual of a reading in the fit's kind ([`Residual`]: log, rel or abs), signed
 /// as everywhere gonio shows one (the plots' residual panels, Python's `residuals()`):
 /// measured against fitted, positive where the reading lies above the model:
-/// ln(measured / fitted), (measured - fitted) / measured, measured - fitted.
+/// g(measured) - g(fitted) for the noise objective, ln(measured / fitted),
+/// (measured - fitted) / measured, measured - fitted.
 pub fn residual_value(kind: Residual, fitted: f64, measured: f64) -> f64 {
     match kind {
+        Residual::Noise(m) => m.transform(measured) - m.transform(fitted),
         Residual::Log => measured.ln() - fitted.max(1e-300).ln(),
         Residual::Relative => 1.0 - fitted / measured,
         Residual::Absolute => measured - fitted,
@@ -24,6 +26,9 @@ pub fn residual_value(kind: Residual, fitted: f64, measured: f64) -> f64 {
 /// The words of the file's `# residual:` line for `kind`.
 fn residual_words(kind: Residual) -> &'static str {
     match kind {
+        Residual::Noise(_) => {
+            "noise: g(measured) - g(fitted), g(v) = asinh(b v / a) / b, a and b the fit's noise model (its note)"
+        }
         Residual::Log => "log: ln(measured / fitted)",
         Residual::Relative => "rel: (measured - fitted) / measured",
         Residual::Absolute => "abs: measured - fitted (the file's brdf units)",

@@ -12,7 +12,7 @@ use serde_json::{Value, json};
 
 use super::data::Dataset;
 use super::family_fit::FamilyFit;
-use super::options::{FitOptions, Residual};
+use super::options::FitOptions;
 use super::report::{KEY_PARAMS, family_json_text, family_table};
 use super::stages::fit_family;
 use crate::outfile::{self, Target};
@@ -103,7 +103,7 @@ pub fn prepare(
     name: &str,
 ) -> Result<Dataset, String> {
     super::data::check_reading_count(rows.len())?;
-    let positive = opts.residual != Residual::Absolute;
+    let positive = opts.residual.needs_positive();
     let Some(inst) = &opts.instrument else {
         let mut data = Dataset::from_rows_floor(rows, positive, opts.floor).map_err(|e| e.0)?;
         data.units = units;

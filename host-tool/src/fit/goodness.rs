@@ -129,6 +129,7 @@ fn scaled_errors(data: &Dataset, residual: Residual) -> Option<Vec<f64>> {
         .map(|o| {
             let s = o.sigma_y?;
             Some(match residual {
+                Residual::Noise(m) => s / m.sigma(o.y),
                 Residual::Log | Residual::Relative => s / o.y.abs(),
                 Residual::Absolute => s,
             })
@@ -140,7 +141,14 @@ fn scaled_errors(data: &Dataset, residual: Residual) -> Option<Vec<f64>> {
 /// (more than [`ABSURD_NOISE_RATIO`] times the reading, or for `Residual::Absolute` the
 /// largest reading's magnitude); `None` when there are none or no reading has noise.
 pub fn absurd_noise(data: &Dataset, residual: Residual) -> Option<AbsurdNoise> {
-    let scaled = scaled_errors(data, residual)?;
+    // Against the reading for every kind but absolute residuals (the noise
+    // residual's model is fitted to these very errors: a wild one is judged by the
+    // reading, as in log residuals).
+    let as_kind = match residual {
+        Residual::Noise(_) => Residual::Relative,
+        other => other,
+    };
+    let scaled = scaled_errors(data, as_kind)?;
     let largest = data.obs.iter().map(|o| o.y.abs()).fold(0.0, f64::max);
     let against_largest = residual == Residual::Absolute;
     // The scaled error over its reference: already relative for log and relative

@@ -39,6 +39,7 @@ pub mod goodness;
 pub mod lm;
 pub mod member_fit;
 pub mod misses;
+pub mod noise;
 pub mod notes;
 pub mod offset;
 pub mod online;
@@ -54,6 +55,7 @@ pub mod stages;
 
 pub use data::{Dataset, Floor};
 pub use family_fit::FamilyFit;
+pub use noise::NoiseModel;
 pub use options::{FitOptions, Fixed, Loss, Residual};
 pub use paper::{Kind, Names};
 pub use stages::{AICC_MARGIN, fit_family};

@@ -99,6 +99,9 @@ pub fn family_notes(
             nearest.join(", ")
         ));
     }
+    if let Residual::Noise(m) = compared.residual {
+        notes.push(m.describe());
+    }
     if let Some(a) = aperture {
         notes.push(format!(
             "every model was averaged over the detector's aperture (half-angle {a} deg) before comparison; parameters are the surface's"

@@ -1,9 +1,17 @@
 //! What a fit is asked to do: the residual kind, the loss, parameters held fixed, and
 //! the options of one fit ([`FitOptions`]); the one residual and robust weight of each.
 
+use super::noise::NoiseModel;
+
 /// What the residuals measure.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Residual {
+    /// g(f) - g(y) with g the variance-stabilising transform of a floor a and a
+    /// proportional part b ([`NoiseModel::transform`]; slope 1 / sqrt(a^2 + (b y)^2):
+    /// each reading against its standard error), its noise from the data
+    /// ([`NoiseModel::of_data`]) unless stated. Readings well above a / b count as in log residuals
+    /// (over b), those near the floor as in absolute ones (over a).
+    Noise(NoiseModel),
     /// ln f - ln y: every decade of the curve counts alike (the default).
     Log,
     /// (f - y) / y.
@@ -13,17 +21,47 @@ pub enum Residual {
 }
 
 impl Residual {
-    /// Parses `log`, `rel` or `abs` (`gonio fit --residual`, Python's `residual=`).
+    /// [`Residual::Noise`] with the noise from the data (`--residual noise`).
+    pub const NOISE: Residual = Residual::Noise(NoiseModel::FROM_DATA);
+
+    /// Parses `noise`, `log`, `rel` or `abs` (`gonio fit --residual`, Python's
+    /// `residual=`).
     pub fn parse(s: &str) -> Result<Residual, String> {
         match s.trim() {
+            "noise" => Ok(Residual::NOISE),
             "log" => Ok(Residual::Log),
             "rel" => Ok(Residual::Relative),
             "abs" => Ok(Residual::Absolute),
             _ => Err(format!(
-                "--residual '{}': use log, rel or abs",
+                "--residual '{}': use noise, log, rel or abs",
                 crate::text::escape_line(s, 40)
             )),
         }
+    }
+
+    /// The word in reports: `noise`, `log`, `rel` or `abs`.
+    pub fn word(self) -> &'static str {
+        match self {
+            Residual::Noise(_) => "noise",
+            Residual::Log => "log",
+            Residual::Relative => "rel",
+            Residual::Absolute => "abs",
+        }
+    }
+
+    /// This kind with its noise model taken from `data` where it is to be
+    /// ([`NoiseModel::resolved`]); the other kinds as they are.
+    pub fn resolved(self, data: &super::data::Dataset) -> Residual {
+        match self {
+            Residual::Noise(m) => Residual::Noise(m.resolved(data)),
+            other => other,
+        }
+    }
+
+    /// The readings must be > 0 (log and relative residuals divide by them; the
+    /// noise residual's grid starts weight by 1 / y).
+    pub fn needs_positive(self) -> bool {
+        self != Residual::Absolute
     }
 }
 
@@ -112,9 +150,11 @@ impl Default for FitOptions {
     }
 }
 
-/// One residual of the given kind.
+/// One residual of the given kind (a [`Residual::Noise`] resolved: see
+/// [`Residual::resolved`]).
 pub fn residual_of(kind: Residual, f: f64, y: f64) -> f64 {
     match kind {
+        Residual::Noise(m) => m.transform(f) - m.transform(y),
         Residual::Log => f.max(1e-300).ln() - y.ln(),
         Residual::Relative => f / y - 1.0,
         Residual::Absolute => f - y,

@@ -216,6 +216,13 @@ pub(super) fn member_ssr(
 /// [`fit_family`] at the readings' own angles.
 fn fit_nominal(data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, String> {
     let t0 = Instant::now();
+    // The objective's noise model, from the data where it is to be: once, so that
+    // every member, the criteria and the notes share it.
+    let resolved = FitOptions {
+        residual: opts.residual.resolved(data),
+        ..opts.clone()
+    };
+    let opts = &resolved;
     let aperture = opts.aperture.or(data.aperture);
     let requested: Option<Vec<Member>> = opts.members.clone();
     let mut notes = Vec::new();
@@ -245,6 +252,7 @@ fn fit_nominal(data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, String> {
             bases.retain_for(&[m]);
             fitted.add(&bases, &[m], opts.residual, &mut notes);
         }
+        untested_components(&mut fitted, &mut bases, opts.residual, &mut notes);
         fitted
     };
     let fit_seconds = t0.elapsed().as_secs_f64();
@@ -296,6 +304,37 @@ fn fit_nominal(data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, String> {
         physical: Vec::new(),
         angles: None,
     })
+}
+
+/// The selected member without each of its components that no fit has tested yet
+/// (the member without it, or its reference member's, not fitted): fitted, so that
+/// every component the selection keeps is backed by a comparison the report names
+/// (the ideal diffuse of a GGX member was "on, not tested" on every real sweep).
+/// Repeated while the selection moves to a member with an untested component (at
+/// most three rounds).
+fn untested_components(
+    fitted: &mut Fitted,
+    bases: &mut GridBases<'_>,
+    residual: Residual,
+    notes: &mut Vec<String>,
+) {
+    for _ in 0..3 {
+        let Some(sel) = fitted.best() else {
+            return;
+        };
+        let s = Selection::new(&fitted.cands, Criterion::Aicc);
+        let more: Vec<Member> = sel
+            .components()
+            .filter(|&c| s.test(sel, c).is_none())
+            .map(|c| sel.without(c))
+            .filter(|m| m.is_valid() && !fitted.members.iter().any(|f| f.member() == *m))
+            .collect();
+        if more.is_empty() {
+            return;
+        }
+        bases.retain_for(&more);
+        fitted.add(bases, &more, residual, notes);
+    }
 }
 
 pub(super) fn candidates_of_members(

@@ -693,3 +693,35 @@ fn the_table_prints_parameters_with_their_units() {
     let sigma = line("sigma");
     assert!(sigma.ends_with(|c: char| c.is_ascii_digit()), "{sigma}");
 }
+
+#[test]
+fn the_noise_objective_states_its_noise_and_needs_asking_for() {
+    let d = scratch("noise-objective");
+    let f = simulated(&d, "fe-0.115");
+    let out = gonio(&["fit", f.to_str().unwrap(), "--residual", "noise", "--json"]);
+    assert!(out.ok(), "{}", out.stderr);
+    let v: serde_json::Value = serde_json::from_str(&out.stdout).unwrap();
+    assert_eq!(v["selected_paper"], "three-component");
+    // The simulated capture states std (0.5 % a sample) and n = 4: the noise model
+    // is fitted to them, about 0.25 % of each reading.
+    let notes = crate::util::notes(&v);
+    let said = notes
+        .iter()
+        .find(|n| n.starts_with("objective: g(fitted) - g(measured)"))
+        .unwrap_or_else(|| panic!("{notes:?}"));
+    assert!(
+        said.ends_with("(fitted to the readings' std/sqrt(n))"),
+        "{said}"
+    );
+    let b: f64 = said
+        .split(" and b = ")
+        .nth(1)
+        .and_then(|t| t.split(' ').next())
+        .and_then(|t| t.parse().ok())
+        .unwrap_or_else(|| panic!("{said}"));
+    assert!((0.0015..0.0035).contains(&b), "{said}");
+    // --noise states the noise of --residual noise only.
+    let bad = gonio(&["fit", f.to_str().unwrap(), "--noise", "0.1,0.02"]);
+    assert_eq!(bad.code, 2, "{}", bad.stderr);
+    assert!(bad.stderr.contains("--residual noise"), "{}", bad.stderr);
+}

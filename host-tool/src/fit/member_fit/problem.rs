@@ -17,7 +17,7 @@ use super::layout::*;
 /// logarithms are half of a cost evaluation otherwise).
 pub(super) struct Residuals {
     pub(super) kind: Residual,
-    /// ln y per reading (log residuals only).
+    /// ln y per reading (log residuals), or g(y) (noise residuals); else empty.
     pub(super) ln_y: Vec<f64>,
     /// Per reading: the square root of its IRLS weight under a robust loss (empty:
     /// least squares, every weight 1).
@@ -26,8 +26,12 @@ pub(super) struct Residuals {
 
 impl Residuals {
     pub(super) fn new(data: &Dataset, kind: Residual) -> Self {
+        // The noise model from the data where it is to be (the family resolves it once
+        // before; a member fitted alone does so here).
+        let kind = kind.resolved(data);
         let ln_y = match kind {
             Residual::Log => data.obs.iter().map(|o| o.y.ln()).collect(),
+            Residual::Noise(m) => data.obs.iter().map(|o| m.transform(o.y)).collect(),
             _ => Vec::new(),
         };
         Residuals {
@@ -49,6 +53,7 @@ impl Residuals {
     pub(super) fn raw(&self, f: f64, k: usize, y: f64) -> f64 {
         match self.kind {
             Residual::Log => f.max(1e-300).ln() - self.ln_y[k],
+            Residual::Noise(m) => m.transform(f) - self.ln_y[k],
             kind => residual_of(kind, f, y),
         }
     }
@@ -251,7 +256,8 @@ impl Problem<'_> {
                 let Some((e, g)) = at else {
                     return false;
                 };
-                let mut scale = match self.residual {
+                let mut scale = match self.resid.kind {
+                    Residual::Noise(m) => 1.0 / m.sigma(e.f),
                     Residual::Log => 1.0 / e.f.max(1e-300),
                     Residual::Relative => 1.0 / o.y,
                     Residual::Absolute => 1.0,

@@ -63,6 +63,32 @@ fn run(cli: Cli) -> CliResult {
 /// Characters of a command-line error shown (clap's message quotes the value given).
 const MAX_CLAP_MESSAGE: usize = 400;
 
+/// Clap's "did you mean" for a mistyped subcommand, flag or value (`fitt`: `fit`,
+/// `--polt`: `--plot`), as `: did you mean 'fit'?`; empty when it has none.
+fn did_you_mean(e: &clap::Error) -> String {
+    use clap::error::{ContextKind, ContextValue};
+    let mut names = Vec::new();
+    for kind in [
+        ContextKind::SuggestedSubcommand,
+        ContextKind::SuggestedArg,
+        ContextKind::SuggestedValue,
+    ] {
+        match e.get(kind) {
+            Some(ContextValue::String(s)) => names.push(s.clone()),
+            Some(ContextValue::Strings(v)) => names.extend(v.iter().cloned()),
+            _ => {}
+        }
+    }
+    if names.is_empty() {
+        return String::new();
+    }
+    let quoted: Vec<String> = names
+        .iter()
+        .map(|n| format!("'{}'", gonio::text::escape_line(n, MAX_CLAP_MESSAGE)))
+        .collect();
+    format!(": did you mean {}?", quoted.join(" or "))
+}
+
 fn main() -> ExitCode {
     gonio::memory::bound_resident_memory();
     let cli = match Cli::try_parse() {
@@ -96,7 +122,11 @@ fn main() -> ExitCode {
                 .collect();
             // It quotes the user's value: escaped and bounded like every quoted input.
             let what = gonio::text::escape_line(&what.join(" "), MAX_CLAP_MESSAGE);
-            eprintln!("gonio: {} (see --help)", what.trim_start_matches("error: "));
+            eprintln!(
+                "gonio: {}{} (see --help)",
+                what.trim_start_matches("error: "),
+                did_you_mean(&e)
+            );
             return ExitCode::from(EXIT_USAGE);
         }
     };

@@ -19,5 +19,5 @@ def test_readme_example_runs(tmp_path, capsys):
         exec(compile(blocks[0], "README.md", "exec"), {"__name__": "__readme__"})
     finally:
         os.chdir(cwd)
-    assert (tmp_path / "fe-fit.png").stat().st_size > 10_000
+    assert (tmp_path / "gonio-tour/fe-fit.png").stat().st_size > 10_000
     assert "three-component" in capsys.readouterr().out

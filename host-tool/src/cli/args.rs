@@ -103,6 +103,48 @@ impl PlanArgs {
 }
 
 impl PlanArgs {
+    /// Why an adaptive `plan` measures fewer readings than `--budget` asked for (each
+    /// incidence gets an equal whole share; angles that round to one another count
+    /// once), or `None` when it spends the budget or is not adaptive.
+    pub fn budget_note(&self, plan: &HostPlan) -> Option<String> {
+        if self.plan.as_deref() != Some("adaptive") {
+            return None;
+        }
+        budget_shortfall(
+            self.budget,
+            brdf_core::identity::PAPER_INCIDENCES.len(),
+            plan.points.len(),
+        )
+    }
+}
+
+/// [`PlanArgs::budget_note`] for a budget shared by `incidences` legs that placed
+/// `measured` readings.
+fn budget_shortfall(budget: usize, incidences: usize, measured: usize) -> Option<String> {
+    if measured >= budget || incidences == 0 {
+        return None;
+    }
+    let share = budget / incidences;
+    let left_over = budget - share * incidences;
+    let merged = (share * incidences).saturating_sub(measured);
+    let mut why = Vec::new();
+    if left_over > 0 {
+        why.push(format!(
+            "its {incidences} incidences get {share} each ({left_over} left over: a multiple of {incidences} leaves none)"
+        ));
+    }
+    if merged > 0 {
+        why.push(format!(
+            "{merged} fell on an angle already taken (angles are rounded to 0.5 degrees) or in the retro-reflection zone"
+        ));
+    }
+    Some(format!(
+        "--budget {budget}: the adaptive plan measures {measured} readings: {}",
+        why.join("; ")
+    ))
+}
+
+impl PlanArgs {
     /// With `--resume`: refuses plan options that differ from what the file `data` (at
     /// `path`) was captured with, since the file's plan and settings are continued.
     pub fn check_resume(
@@ -373,6 +415,20 @@ fn range(what: &str, start: f64, stop: f64, step: f64, out: &mut Vec<f64>) -> Cl
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_budget_not_spent_says_why() {
+        // 60 over 9 incidences: 6 each, 6 left over; 54 placed, none merged.
+        let n = budget_shortfall(60, 9, 54).unwrap();
+        assert!(n.contains("measures 54 readings"), "{n}");
+        assert!(n.contains("9 incidences get 6 each (6 left over"), "{n}");
+        assert!(!n.contains("already taken"), "{n}");
+        // 63: 7 each, none left over; 2 merged.
+        let n = budget_shortfall(63, 9, 61).unwrap();
+        assert!(n.contains("2 fell on an angle already taken"), "{n}");
+        assert!(!n.contains("left over"), "{n}");
+        assert_eq!(budget_shortfall(63, 9, 63), None);
+    }
 
     #[test]
     fn lists_ranges_and_mixes() {

@@ -129,7 +129,7 @@ pub fn run(args: &CalibrateArgs) -> CliResult {
     if let Some(p) = &args.plot {
         calibrate::chart::departure_plot(p, &cal, &inst.standard, args.force, &inputs)?;
     }
-    let mut text = if args.json {
+    let text = if args.json {
         let mut s = serde_json::to_string_pretty(&serde_json::json!({
             "instrument": inst,
             "calibration": cal,
@@ -140,16 +140,9 @@ pub fn run(args: &CalibrateArgs) -> CliResult {
     } else {
         calibrate::report::calibration_text(&cal, &inst)
     };
-    if !args.json {
-        text.push_str(&format!("\nwritten: {}\n", args.out.display()));
-        if let Some(p) = &args.plot {
-            text.push_str(&format!("written: {}\n", p.display()));
-        }
-    } else {
-        // stdout is the JSON: the files are named on stderr.
-        let mut written = vec![args.out.clone()];
-        written.extend(args.plot.clone());
-        super::output::say_written(&written);
-    }
+    // stdout is the report (or the JSON): the files are named on stderr.
+    let mut written = vec![args.out.clone()];
+    written.extend(args.plot.clone());
+    super::output::say_written(&written);
     write_stdout(text.as_bytes())
 }

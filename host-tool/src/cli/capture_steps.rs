@@ -38,6 +38,12 @@ pub(super) fn setup_from(plan: &PlanArgs, out: &OutArgs, session: bool) -> CliRe
         .ok_or_else(|| CliError::usage("--out SWEEP.csv is required"))?;
     let plan_args = plan;
     let plan = if out.resume { None } else { Some(plan.plan()?) };
+    if let (Some(note), false) = (
+        plan.as_ref().and_then(|p| plan_args.budget_note(p)),
+        out.quiet,
+    ) {
+        eprintln!("gonio: note: {note}");
+    }
     if out.resume && !session && !path.exists() {
         return Err(CliError::usage(format!(
             "--resume: {} does not exist",
@@ -61,9 +67,15 @@ pub(super) fn setup_from(plan: &PlanArgs, out: &OutArgs, session: bool) -> CliRe
     Ok(setup)
 }
 
-/// Reports how a capture into `out` ended: one line on stderr when complete, else an
-/// error saying what is missing and `resume`, the command that continues it.
-pub(super) fn finish(report: &CaptureReport, out: &std::path::Path, resume: &str) -> CliResult {
+/// Reports how a capture into `out` ended: one line on stderr when complete (none when
+/// `quiet`: `-q` prints errors only), else an error saying what is missing and
+/// `resume`, the command that continues it.
+pub(super) fn finish(
+    report: &CaptureReport,
+    out: &std::path::Path,
+    resume: &str,
+    quiet: bool,
+) -> CliResult {
     let c = &report.counters;
     let links = format!(
         "{} gaps, {} dropped frames, {} timeouts{}{}",
@@ -83,6 +95,7 @@ pub(super) fn finish(report: &CaptureReport, out: &std::path::Path, resume: &str
     );
     let done = report.total - report.missing.len();
     match report.status {
+        SweepStatus::Complete | SweepStatus::Until | SweepStatus::Budget if quiet => Ok(()),
         SweepStatus::Complete => {
             eprintln!(
                 "gonio: {done}/{} readings in {} ({links})",
@@ -148,7 +161,7 @@ pub(super) fn run_with<C: Connector>(
 ) -> CliResult {
     let flag = interrupt_flag();
     let report = capture(&mut conn, setup, progress_for(setup, out).as_mut(), &flag)?;
-    finish(&report, &setup.out, resume)
+    finish(&report, &setup.out, resume, out.quiet)
 }
 
 /// Measures the reference standard `standard`, then the sample, through `conn` in one
@@ -180,7 +193,7 @@ pub(super) fn run_session<C: Connector>(
             );
         }
         let report = capture(conn, s, progress_for(s, out).as_mut(), &flag)?;
-        finish(&report, &s.out, resume)?;
+        finish(&report, &s.out, resume, quiet)?;
         if flag.load(Ordering::Relaxed) {
             return Err(CliError::failed("interrupted"));
         }

@@ -16,7 +16,7 @@ use super::error::{CliError, CliResult};
 use super::fit::fit_file;
 use super::output::write_stdout;
 use crate::capture::reference::{capture_pair, reference_path};
-use crate::capture::{CaptureSetup, HostPlan, SettingsOverride, progress};
+use crate::capture::{CaptureSetup, HostPlan, ProgressSink, SettingsOverride, progress};
 use crate::device::{InProcessDevice, SharedInProcessConnector};
 use crate::fit::{Dataset, FamilyFit, FitOptions, report};
 use crate::outfile::Target;
@@ -75,10 +75,25 @@ pub fn run(args: &DemoArgs) -> CliResult {
     let mut setup = CaptureSetup::new(Some(plan), sweep.clone());
     setup.force = true;
     let mut conn = SharedInProcessConnector::new(InProcessDevice::new(&cfg));
-    let mut prog = progress::for_stderr(args.quiet);
     // The standard first, then the sample (its readings do not depend on it).
     let standard = format!("lambertian:{}", super::demo_units::DEMO_REFERENCE);
-    let [_, report] = capture_pair(&mut conn, &setup, &standard, prog.as_mut())?;
+    let mut prog = Labelled {
+        inner: progress::for_stderr(args.quiet),
+        quiet: args.quiet,
+        labels: [
+            format!(
+                "gonio demo: 1 of 2: the reference standard {standard} into {}",
+                reference_path(&sweep).display()
+            ),
+            format!(
+                "gonio demo: 2 of 2: the {} sample into {}",
+                args.material,
+                sweep.display()
+            ),
+        ],
+        started: 0,
+    };
+    let [_, report] = capture_pair(&mut conn, &setup, &standard, &mut prog)?;
     drop(prog);
     let (data, fam) = fit_file(&sweep, &FitOptions::default())?;
     let mut written = write_files(&args.dir, &data, &fam)?;
@@ -107,13 +122,52 @@ pub fn run(args: &DemoArgs) -> CliResult {
     out.push_str(&chain.text);
     written.push(reference_path(&sweep));
     written.extend(chain.written);
-    if !written.is_empty() {
-        out.push_str("\nwritten:\n");
-        for p in written {
-            out.push_str(&format!("  {}\n", p.display()));
-        }
+    // stdout is the report; the files are named on stderr, as every command does.
+    if !args.quiet {
+        super::output::say_written(&written);
     }
     write_stdout(out.as_bytes())
+}
+
+/// The demo's progress, each of its two captures announced first (which one is the
+/// reference standard), unless quiet.
+struct Labelled {
+    inner: Box<dyn ProgressSink>,
+    quiet: bool,
+    labels: [String; 2],
+    started: usize,
+}
+
+impl ProgressSink for Labelled {
+    fn start(&mut self, total: u64, done: u64) {
+        if let (Some(label), false) = (self.labels.get(self.started), self.quiet) {
+            eprintln!("{label}");
+        }
+        self.started += 1;
+        self.inner.start(total, done);
+    }
+    fn reading(&mut self, done: u64, theta_i: f32, theta_r: f32) {
+        self.inner.reading(done, theta_i, theta_r);
+    }
+    fn note(&mut self, text: &str) {
+        self.inner.note(text);
+    }
+    fn finish(&mut self) {
+        self.inner.finish();
+    }
+    fn wants_fit(&self) -> bool {
+        self.inner.wants_fit()
+    }
+    fn row(&mut self, row: &crate::sweep_file::Row, counters: &crate::sweep_file::Counters) {
+        self.inner.row(row, counters);
+    }
+    fn estimate(
+        &mut self,
+        est: Result<&crate::fit::online::Estimate, &str>,
+        until: Option<&crate::capture::until::Until>,
+    ) {
+        self.inner.estimate(est, until);
+    }
 }
 
 /// What the demo found, in three lines: the member selected against the one simulated,

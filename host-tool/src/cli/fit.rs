@@ -112,6 +112,12 @@ pub struct FitArgs {
     /// Print one JSON object instead of the table.
     #[arg(long)]
     pub json: bool,
+    /// Print the whole report: every fitted member's parameters and criteria, the RMSE
+    /// per incidence (the paper's Table 3) and the physical checks of every model. By
+    /// default the report is the verdict: the selected member, its parameters, the fit
+    /// against the noise and the notes, in at most 40 lines.
+    #[arg(long, short = 'v')]
+    pub all: bool,
     /// Write PNG and SVG plots of measured and fitted curves into DIR.
     #[arg(long, value_name = "DIR")]
     pub plot: Option<PathBuf>,
@@ -132,8 +138,8 @@ pub struct FitArgs {
     #[arg(long)]
     pub force: bool,
     /// The factor from a relative-unit fit to 1/sr (1/sr per relative unit, from a
-    /// calibration) for the exports: those that hold 1/sr (merl) refuse a relative fit
-    /// without it; json says it; a mitsuba plugin renders with it.
+    /// calibration) for the exports: those that hold 1/sr (merl, zemax, astm) refuse a
+    /// relative fit without it; json says it; a mitsuba plugin renders with it.
     #[arg(long, value_name = "S", value_parser = parse_scale)]
     pub scale: Option<f64>,
     /// Which fitted model to export [default: the selected one]: a name as --models
@@ -369,7 +375,8 @@ fn run_campaign(args: &FitArgs, opts: &FitOptions) -> CliResult {
     let inst_ref = inst.as_ref().map(|(i, p)| (i, p.as_path()));
     let residual = residual_name(opts.residual);
     let json = args.json;
-    let report = |fam: &FamilyFit| report_bytes(fam, json, residual, inst_ref);
+    // A campaign's report files hold the whole report.
+    let report = |fam: &FamilyFit| report_bytes(fam, json, true, residual, inst_ref);
     let sink = campaign::ReportSink {
         dir: &args.out,
         ext,
@@ -526,7 +533,7 @@ pub fn run(args: &FitArgs) -> CliResult {
     // allocates its own.
     crate::memory::release_freed_memory();
     // Streamed: the JSON of many incidences is tens of MB.
-    write_stdout_with(|w| write_report(&fam, args.json, residual, inst, w))
+    write_stdout_with(|w| write_report(&fam, args.json, args.all, residual, inst, w))
 }
 
 /// The report of one fit, the same for `gonio fit SWEEP` and each file of a campaign:
@@ -535,18 +542,21 @@ pub fn run(args: &FitArgs) -> CliResult {
 fn report_bytes(
     fam: &FamilyFit,
     json: bool,
+    all: bool,
     residual: &str,
     inst: Option<(&Instrument, &std::path::Path)>,
 ) -> Vec<u8> {
     let mut out = Vec::new();
-    write_report(fam, json, residual, inst, &mut out).expect("writing to memory");
+    write_report(fam, json, all, residual, inst, &mut out).expect("writing to memory");
     out
 }
 
-/// [`report_bytes`] written to `w` as it is made (the JSON as it is serialised).
+/// [`report_bytes`] written to `w` as it is made (the JSON as it is serialised); the
+/// text is the verdict ([`fit::report::verdict_text`]) unless `all`.
 fn write_report(
     fam: &FamilyFit,
     json: bool,
+    all: bool,
     residual: &str,
     inst: Option<(&Instrument, &std::path::Path)>,
     w: &mut dyn std::io::Write,
@@ -554,9 +564,12 @@ fn write_report(
     if json {
         let inst = inst.map(|(i, p)| super::fit_units::instrument_json(fam, i, p));
         fit::report::write_family_json(fam, inst.as_ref(), w)
-    } else {
+    } else if all {
         let mut t = fit::report::family_table(fam, residual);
         t.push_str(&super::fit_units::report_text(fam, inst));
         w.write_all(t.as_bytes())
+    } else {
+        let extra = super::fit_units::verdict_extra(fam, inst);
+        w.write_all(fit::report::verdict_text(fam, &extra).as_bytes())
     }
 }

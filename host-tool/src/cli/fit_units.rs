@@ -217,6 +217,24 @@ pub fn report_text(fam: &FamilyFit, inst: Option<(&Instrument, &Path)>) -> Strin
     s
 }
 
+/// What the short report adds to the verdict: the instrument's line (its u(K) table
+/// is the `--all` report's) and the ABg block when ABg was fitted.
+pub fn verdict_extra(fam: &FamilyFit, inst: Option<(&Instrument, &Path)>) -> String {
+    let mut s = String::new();
+    if let Some((i, p)) = inst {
+        let _ = writeln!(
+            s,
+            "in 1/sr with instrument {} (K = {:.6e} ± {:.3} %): amplitudes carry u(K)/K besides the errors above (--all: u(fit), u(K), u(total))",
+            p.display(),
+            i.k,
+            100.0 * i.relative_uncertainty()
+        );
+    }
+    // The block begins with a blank line, as in the whole report.
+    s.push_str(crate::fit::abg_text::abg_text(fam).trim_start_matches('\n'));
+    s
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

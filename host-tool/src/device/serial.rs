@@ -37,6 +37,11 @@ impl SerialTransport {
                     path: path.to_string(),
                     what: what.to_string(),
                 },
+                // Nothing at that path: most often the device is unplugged or has
+                // another name; say where to look.
+                None if std::fs::symlink_metadata(path).is_err() => cannot(format!(
+                    "{e}: no such port; is the device plugged in? (gonio ports lists the ports found)"
+                )),
                 None => cannot(e.to_string()),
             })?;
         flock(port.as_raw_fd(), FlockArg::LockExclusiveNonblock).map_err(|e| {

@@ -606,3 +606,128 @@ pub fn family_table(f: &FamilyFit, residual: &str) -> String {
     let _ = writeln!(out, "fit time: {:.3} ms", f.fit_seconds * 1e3);
     out
 }
+
+/// Most lines [`verdict_text`] prints, whatever the sweep.
+pub const VERDICT_LINES: usize = 40;
+
+/// Most per-incidence k_s the short report lists one per line; past this, one line
+/// gives their range.
+const KS_LINES: usize = 9;
+
+/// The short report `gonio fit` prints by default, at most [`VERDICT_LINES`] lines: the
+/// selected member and its parameters (units, standard errors), the fit against the
+/// readings' noise, `extra` (the instrument's line, the ABg block: whole lines), the
+/// physical checks' verdict on it, then the notes in their order of importance as far
+/// as the lines allow. The members' table, the RMSE per incidence and the physical
+/// checks in full are the `--all` report ([`family_table`]).
+pub fn verdict_text(f: &FamilyFit, extra: &str) -> String {
+    use std::fmt::Write;
+    let mut head = String::new();
+    let sel = f.selected_member;
+    let Some(fit) = f.selected_fit() else {
+        let _ = writeln!(head, "selected: {sel} (not fitted)");
+        return head;
+    };
+    let _ = writeln!(
+        head,
+        "selected: {sel} ({}; the lowest-AICc member whose every component the data support)",
+        crate::text::count(fit.k(), "free parameter")
+    );
+    let params = member_params(fit);
+    let per_inc: Vec<&Param> = params.iter().filter(|p| p.theta_i.is_some()).collect();
+    let listed = |p: &&Param| p.theta_i.is_none() || per_inc.len() <= KS_LINES;
+    let width = params
+        .iter()
+        .filter(listed)
+        .map(|p| p.label().chars().count())
+        .fold(12, usize::max);
+    for p in params.iter().filter(listed) {
+        let line = format!(
+            "  {:<width$} {} {}",
+            p.label(),
+            fmt_value(p.value, p.se, p.held),
+            p.unit(f.units)
+        );
+        let _ = writeln!(head, "{}", line.trim_end());
+    }
+    for base in ["k_s", "k_s_haze"] {
+        let of: Vec<&&Param> = per_inc.iter().filter(|p| p.base == base).collect();
+        if per_inc.len() > KS_LINES && !of.is_empty() {
+            let (lo, hi) = of
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| {
+                    (l.min(p.value), h.max(p.value))
+                });
+            let _ = writeln!(
+                head,
+                "  {base:<12} {lo:.4e} to {hi:.4e} {} over {} incidences (--all lists each)",
+                f.units.word(),
+                of.len()
+            );
+        }
+    }
+    let chi = f.candidate(sel).and_then(|c| c.goodness).map_or(
+        "no std column: not judged against noise".to_string(),
+        |g| {
+            format!(
+                "chi2/dof {:.2} against the readings' noise ({} at most {:.2})",
+                g.reduced(),
+                if g.within_noise() {
+                    "within it:"
+                } else {
+                    "NOT within it:"
+                },
+                g.limit()
+            )
+        },
+    );
+    let _ = writeln!(
+        head,
+        "fit: {chi}; RMSE of normalised curves {}; {} readings",
+        fit.rmse.map_or("n/d".into(), |r| format!("{r:.4}")),
+        fit.n
+    );
+    if let Some(c) = f.physical.iter().find(|c| c.name == sel.to_string()) {
+        let _ = match f.units {
+            crate::sweep_file::BrdfUnits::PerSr if c.max_rho() > 1.0 => writeln!(
+                head,
+                "physical checks: NON-PHYSICAL: rho up to {:.4} > 1 (creates energy)",
+                c.max_rho()
+            ),
+            crate::sweep_file::BrdfUnits::PerSr => writeln!(
+                head,
+                "physical checks: rho <= 1 at every incidence checked (largest {:.4})",
+                c.max_rho()
+            ),
+            crate::sweep_file::BrdfUnits::Relative => Ok(()),
+        };
+    }
+    head.push_str(extra);
+    let footer = format!(
+        "(--all: the {} fitted members, the RMSE per incidence, the physical checks in full)\n",
+        f.members.len()
+    );
+    let used = head.lines().count() + footer.lines().count() + 1;
+    let room = VERDICT_LINES.saturating_sub(used);
+    if !f.notes.is_empty() && room > 0 {
+        let _ = writeln!(head, "notes:");
+        // The notes come most important first; the last line left says how many more.
+        let shown = if f.notes.len() <= room {
+            f.notes.len()
+        } else {
+            room - 1
+        };
+        for n in &f.notes[..shown] {
+            let _ = writeln!(head, "  - {n}");
+        }
+        if shown < f.notes.len() {
+            let _ = writeln!(
+                head,
+                "  ({} more: --all)",
+                crate::text::count(f.notes.len() - shown, "note")
+            );
+        }
+    }
+    head.push_str(&footer);
+    head
+}

@@ -261,7 +261,7 @@ pub(super) fn component_curves(
 /// long member name after a `+` (member names have no spaces:
 /// `specular:ggx+specular-haze:ggx+ideal-diffuse`; a line broken there keeps its `+`
 /// at its end). A longer piece stays whole.
-pub(super) fn wrap(text: &str, width: usize) -> Vec<String> {
+pub(crate) fn wrap(text: &str, width: usize) -> Vec<String> {
     // Pieces: each ends at a space (joined back with one) or after a '+' (joined as is).
     let mut pieces: Vec<(String, &str)> = Vec::new();
     for word in text.split_whitespace() {
@@ -510,7 +510,7 @@ pub(super) fn incidence_figure(data: &Dataset, fam: &FamilyFit, j: usize) -> Fig
 
 /// Colour `k` of `n` along a dark purple -> blue -> teal -> green -> gold -> red scale
 /// (every stop dark enough to read on white).
-pub(super) fn ramp_color(k: usize, n: usize) -> RGBColor {
+pub(crate) fn ramp_color(k: usize, n: usize) -> RGBColor {
     const STOPS: [(f64, f64, f64); 6] = [
         (68.0, 1.0, 84.0),
         (59.0, 82.0, 139.0),

@@ -22,6 +22,7 @@ mod figures;
 mod render;
 mod text;
 
+pub(crate) use figures::{ramp_color, wrap as wrap_text};
 pub(crate) use render::{FONT, one_line};
 pub(crate) use text::CrispText;
 

@@ -102,6 +102,51 @@ pub(super) fn clip_runs(points: &[(f64, f64)], lo: f64, hi: f64) -> Vec<Vec<(f64
     runs
 }
 
+/// The theta_r span of a figure's readings (degrees), `None` without readings.
+pub(super) fn measured_span(fig: &Figure) -> Option<(f64, f64)> {
+    fig.markers
+        .iter()
+        .flat_map(|m| m.points.iter().map(|p| p.0))
+        .filter(|x| x.is_finite())
+        .fold(None, |s, x| match s {
+            None => Some((x, x)),
+            Some((a, b)) => Some((f64::min(a, x), f64::max(b, x))),
+        })
+}
+
+/// A curve (x ascending) cut where it leaves and enters `span`: the pieces in order,
+/// each marked inside the span or not; a piece ends where the next begins (at the
+/// span's edge, interpolated), so the drawn curve stays joined.
+pub(super) fn split_at_span(
+    points: &[(f64, f64)],
+    span: Option<(f64, f64)>,
+) -> Vec<(bool, Vec<(f64, f64)>)> {
+    let Some((a, b)) = span else {
+        return vec![(true, points.to_vec())];
+    };
+    let inside = |x: f64| (a..=b).contains(&x);
+    let mut out: Vec<(bool, Vec<(f64, f64)>)> = Vec::new();
+    for (k, &p) in points.iter().enumerate() {
+        let now = inside(p.0);
+        match out.last_mut() {
+            Some((was, part)) if *was == now => part.push(p),
+            Some((_, part)) => {
+                // The edge crossed between the last point and this one (in ln y: the
+                // axis is logarithmic).
+                let q = points[k - 1];
+                let edge = if (q.0 < a) != (p.0 < a) { a } else { b };
+                let w = (edge - q.0) / (p.0 - q.0);
+                let y = (q.1.ln() + w * (p.1.ln() - q.1.ln())).exp();
+                part.push((edge, y));
+                out.push((now, vec![(edge, y), p]));
+            }
+            None => out.push((now, vec![p])),
+        }
+    }
+    out.retain(|(_, part)| part.len() > 1);
+    out
+}
+
 /// Saves a figure as `<stem>.png` and `<stem>.svg` in `dir`.
 pub(super) fn save_both(
     dir: &Path,
@@ -232,13 +277,37 @@ fn render<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, fig: &Figure) -> Re
                 .map_err(err)?;
         }
     }
+    // Beyond the readings the curves are the model's extrapolation: that stretch is
+    // shaded and the curves there dashed.
+    let span = measured_span(fig);
+    if let Some((a, b)) = span {
+        let shade = RGBColor(238, 238, 238).filled();
+        for (x0, x1) in [(-90.0, a), (b, 90.0)]
+            .into_iter()
+            .filter(|(x0, x1)| x1 > x0)
+        {
+            chart
+                .draw_series(std::iter::once(Rectangle::new([(x0, lo), (x1, hi)], shade)))
+                .map_err(err)?;
+        }
+    }
     for c in &fig.curves {
-        chart
-            .draw_series(LineSeries::new(
-                c.points.iter().copied(),
-                c.color.stroke_width(c.width),
-            ))
-            .map_err(err)?;
+        // Clipped to the chart (nothing drawn along its edge, no fragment above a
+        // clipped peak), solid over the readings and dashed beyond them.
+        for run in clip_runs(&c.points, lo, hi) {
+            for (inside, part) in split_at_span(&run, span) {
+                let style = c.color.stroke_width(c.width);
+                if inside {
+                    chart
+                        .draw_series(LineSeries::new(part, style))
+                        .map_err(err)?;
+                } else {
+                    chart
+                        .draw_series(DashedLineSeries::new(part, 7, 5, style))
+                        .map_err(err)?;
+                }
+            }
+        }
     }
     for m in &fig.markers {
         chart
@@ -320,7 +389,15 @@ fn render<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, fig: &Figure) -> Re
     }
     let note_style = (FONT, 13).into_font().color(&RGBColor(80, 80, 80));
     let y_notes = y + 12;
-    let lines: Vec<String> = fig.notes.iter().flat_map(|n| wrap(n, 38)).collect();
+    let mut notes = fig.notes.clone();
+    if let Some((a, b)) = span.filter(|&(a, b)| a > -90.0 || b < 90.0) {
+        notes.push(format!(
+            "Shaded: beyond the readings (theta_r {} to {}); the curves there are dashed, the models extrapolated.",
+            angle_text(a),
+            angle_text(b)
+        ));
+    }
+    let lines: Vec<String> = notes.iter().flat_map(|n| wrap(n, 38)).collect();
     for (k, n) in lines.iter().enumerate() {
         legend_area
             .draw(&Text::new(

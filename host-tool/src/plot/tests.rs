@@ -266,6 +266,24 @@ fn component_curves_are_clipped_to_the_chart_not_drawn_along_its_edge() {
 }
 
 #[test]
+fn curves_beyond_the_readings_are_split_off_at_the_span_edge() {
+    use super::render::split_at_span;
+    let pts: Vec<(f64, f64)> = (-4..=4).map(|k| (k as f64 * 25.0, 10f64.powi(k))).collect();
+    let parts = split_at_span(&pts, Some((-80.0, 80.0)));
+    let kinds: Vec<bool> = parts.iter().map(|p| p.0).collect();
+    assert_eq!(kinds, [false, true, false], "{parts:?}");
+    // Joined at the edges, interpolated in ln y: -100 (1e-4) to -75 (1e-3) meets -80
+    // four fifths of the way.
+    let left_end = *parts[0].1.last().unwrap();
+    assert_eq!(left_end, parts[1].1[0]);
+    assert!((left_end.0 + 80.0).abs() < 1e-12, "{left_end:?}");
+    assert!((left_end.1.log10() + 3.2).abs() < 1e-12, "{left_end:?}");
+    assert_eq!(parts[1].1.last(), parts[2].1.first());
+    // Without readings, one solid piece.
+    assert_eq!(split_at_span(&pts, None), vec![(true, pts.clone())]);
+}
+
+#[test]
 fn each_component_has_its_own_dash_and_legend_entry() {
     let (data, fam) = fixture();
     let fig = incidence_figure(data, fam, 0);

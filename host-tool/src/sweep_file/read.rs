@@ -177,8 +177,37 @@ pub(super) fn read_capped(
 
 /// [`parse_sweep`] with errors naming `path`.
 pub(super) fn parse_named(bytes: &[u8], path: &Path) -> Result<SweepData, SweepFileError> {
-    parse_sweep(bytes)
-        .map_err(|(line, msg)| SweepFileError::Invalid(format!("{}:{line}: {msg}", path.display())))
+    parse_sweep(bytes).map_err(|(line, msg)| {
+        // The decimal comma's hint names this file and a sweep file beside it.
+        let msg = if msg.contains(DECIMAL_COMMA_HINT_START) {
+            let out = path.with_extension("sweep.csv");
+            msg.replacen(" FILE ", &format!(" {} ", shell_word(path)), 1)
+                .replacen(" SWEEP.csv ", &format!(" {} ", shell_word(&out)), 1)
+        } else {
+            msg
+        };
+        SweepFileError::Invalid(format!("{}:{line}: {msg}", path.display()))
+    })
+}
+
+/// The start of [`DECIMAL_COMMA_HINT`], to find it in a message.
+const DECIMAL_COMMA_HINT_START: &str = " (a decimal comma? convert the file: gonio import table";
+
+/// The hint after a number written with a decimal comma: a complete command that
+/// converts the file (FILE, SWEEP.csv and UNITS filled in where known).
+const DECIMAL_COMMA_HINT: &str = " (a decimal comma? convert the file: gonio import table FILE --out SWEEP.csv --columns theta_i=theta_i,theta_r=theta_r,brdf=brdf --brdf UNITS --decimal-comma)";
+
+/// `path` as one shell word: as it is when it holds only safe characters, else quoted.
+fn shell_word(path: &Path) -> String {
+    let s = path.display().to_string();
+    if !s.is_empty()
+        && s.chars()
+            .all(|c| c.is_ascii_alphanumeric() || "._/-+,=:@".contains(c))
+    {
+        s
+    } else {
+        format!("'{}'", s.replace('\'', "'\\''"))
+    }
 }
 
 /// Reads a sweep file: a regular file of at most [`MAX_SWEEP_BYTES`] (a device, FIFO
@@ -570,7 +599,17 @@ fn read_table(
             col = Some(header_columns(&fields, delimiter).map_err(|m| (lineno, m))?);
             continue;
         };
-        let row = parse_row(&fields, idx, lineno)?;
+        let row = parse_row(&fields, idx, lineno).map_err(|(l, m)| {
+            // The hint's command converts with this file's units.
+            (
+                l,
+                m.replacen(
+                    "--brdf UNITS",
+                    &format!("--brdf {}", data.brdf_units().word()),
+                    1,
+                ),
+            )
+        })?;
         if let Some(seq) = row.seq {
             if let Some((first, prev)) = seq_line.get(&seq) {
                 let same =
@@ -659,7 +698,7 @@ fn parse_row(
                     // A ';' or tab table may write decimals with a comma.
                     let hint = if s.contains(',') && s.replacen(',', ".", 1).parse::<f64>().is_ok()
                     {
-                        " (a decimal comma? gonio import table FILE --decimal-comma converts such a table)"
+                        DECIMAL_COMMA_HINT
                     } else {
                         ""
                     };

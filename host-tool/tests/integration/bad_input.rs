@@ -2878,3 +2878,128 @@ fn the_reliability_page_counts_these_cases() {
         );
     }
 }
+
+/// The words of the command a message names, from `start` (e.g. `gonio import table`)
+/// to the first `end` after it, without the leading `gonio`; a word in single quotes
+/// is one word.
+fn hinted(msg: &str, start: &str, end: char) -> Vec<String> {
+    let from = msg
+        .find(start)
+        .unwrap_or_else(|| panic!("no '{start}' in: {msg}"));
+    let rest = &msg[from + "gonio ".len()..];
+    let cmd = &rest[..rest.find(end).unwrap_or(rest.len())];
+    let mut words = Vec::new();
+    let mut word = String::new();
+    let mut quoted = false;
+    for c in cmd.chars() {
+        match c {
+            '\'' => quoted = !quoted,
+            c if c.is_whitespace() && !quoted => {
+                if !word.is_empty() {
+                    words.push(std::mem::take(&mut word));
+                }
+            }
+            c => word.push(c),
+        }
+    }
+    if !word.is_empty() {
+        words.push(word);
+    }
+    words
+}
+
+/// Runs `gonio words...` in `dir`.
+fn run_in(dir: &Path, words: &[String]) -> Run {
+    gonio_command()
+        .args(words)
+        .current_dir(dir)
+        .output()
+        .unwrap()
+        .into()
+}
+
+/// Every hint that names a command names one that works: the command is run as the
+/// message gives it, and succeeds.
+#[test]
+fn hinted_commands_run() {
+    let d = scratch("hints");
+    let sweep = simulated(&d, "fe-0.115");
+    // A sweep written with ';' and decimal commas: fit refuses it and names the import
+    // that converts it; that import works, and its output fits.
+    let text = std::fs::read_to_string(&sweep).unwrap();
+    let comma: String = text
+        .lines()
+        .map(|l| {
+            if l.starts_with('#') {
+                format!("{l}\n")
+            } else {
+                format!("{}\n", l.replace(',', ";").replace('.', ","))
+            }
+        })
+        .collect();
+    std::fs::write(d.join("comma.csv"), comma).unwrap();
+    let refused = run_in(&d, &["fit".into(), "comma.csv".into()]);
+    assert_eq!(refused.code, 2, "{}", refused.stderr);
+    let import = hinted(&refused.stderr, "gonio import table", ')');
+    assert!(
+        import.contains(&"--decimal-comma".to_string()),
+        "{import:?}"
+    );
+    let converted = run_in(&d, &import);
+    assert!(converted.ok(), "{import:?}: {}", converted.stderr);
+    let out = &import[import.iter().position(|w| w == "--out").unwrap() + 1];
+    let fitted = run_in(&d, &["fit".into(), out.clone(), "--json".into()]);
+    assert!(fitted.ok(), "fit {out}: {}", fitted.stderr);
+
+    // A mistyped subcommand and flag: clap's suggestion is kept, and works.
+    let typo = run_in(&d, &["fitt".into(), "fe-0.115.csv".into()]);
+    assert_eq!(typo.code, 2);
+    assert!(
+        typo.stderr.contains("did you mean 'fit'?"),
+        "{}",
+        typo.stderr
+    );
+    let typo = run_in(
+        &d,
+        &[
+            "fit".into(),
+            sweep.display().to_string(),
+            "--polt".into(),
+            "plots".into(),
+        ],
+    );
+    assert_eq!(typo.code, 2);
+    assert!(
+        typo.stderr.contains("did you mean '--plot'?"),
+        "{}",
+        typo.stderr
+    );
+    let plotted = run_in(
+        &d,
+        &[
+            "fit".into(),
+            sweep.display().to_string(),
+            "--plot".into(),
+            "plots".into(),
+        ],
+    );
+    assert!(plotted.ok(), "{}", plotted.stderr);
+
+    // A port that does not exist: the message names `gonio ports`, which runs.
+    let missing = run_in(
+        &d,
+        &[
+            "capture".into(),
+            "--port".into(),
+            d.join("ttyACM9").display().to_string(),
+            "--out".into(),
+            "x.csv".into(),
+            "--reconnect".into(),
+            "0".into(),
+        ],
+    );
+    assert_eq!(missing.code, 1, "{}", missing.stderr);
+    let ports = hinted(&missing.stderr, "gonio ports", ' ');
+    assert_eq!(ports, ["ports"], "{}", missing.stderr);
+    assert!(run_in(&d, &ports).ok());
+}

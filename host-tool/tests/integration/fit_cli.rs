@@ -97,6 +97,7 @@ fn table_shows_parameters_and_the_papers_rmse_table() {
         "ts,three",
         "--fix",
         "kdd=900",
+        "--all",
     ]);
     assert!(out.ok(), "{}", out.stderr);
     let t = out.stdout;

@@ -258,3 +258,41 @@ fn a_campaigns_summary_answers_as_pinned() {
     let diff = check("campaign-summary", &pinned(&summary, "summary.json"));
     assert!(diff.is_none(), "{}", diff.unwrap_or_default());
 }
+
+/// `gonio fit SWEEP` of every sweep of the corpus and the repository's real one prints
+/// its verdict first, in at most 40 lines: the member the pinned `--json` answer
+/// selects, the fit against the noise, the notes; `--all` has the rest.
+#[test]
+fn the_text_report_leads_with_its_verdict() {
+    let mut failures = Vec::new();
+    for c in CASES.iter().filter(|c| c.args.len() == 1) {
+        let expected = std::fs::read_to_string(expected().join(format!("{}.json", c.name)))
+            .expect("expected answer");
+        let v: serde_json::Value = serde_json::from_str(&expected).unwrap();
+        let selected = v["selected"].as_str().unwrap();
+        let out: Run = Command::new(env!("CARGO_BIN_EXE_gonio"))
+            .arg("fit")
+            .args(c.args)
+            .current_dir(inputs())
+            .output()
+            .unwrap()
+            .into();
+        assert!(out.ok(), "{}: {}", c.name, out.stderr);
+        let lines: Vec<&str> = out.stdout.lines().collect();
+        if lines.len() > 40 {
+            failures.push(format!("{}: {} lines", c.name, lines.len()));
+        }
+        if !lines
+            .first()
+            .is_some_and(|l| l.starts_with(&format!("selected: {selected} (")))
+        {
+            failures.push(format!("{}: does not lead with {selected}", c.name));
+        }
+        for want in ["fit: ", "notes:", "--all"] {
+            if !out.stdout.contains(want) {
+                failures.push(format!("{}: no '{want}'", c.name));
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}

@@ -382,6 +382,17 @@ impl<P: AxisPins> Axis<P> {
         self.phase = Phase::Idle;
     }
 
+    /// Disables the driver (no holding torque). The next move enables it again.
+    pub fn disable(&mut self) -> Result<(), PinError> {
+        self.dir_high = None;
+        self.pins.set_enabled(false)
+    }
+
+    /// Forgets the position (steps may have been lost): the axis must home again.
+    pub fn lose_position(&mut self) {
+        self.homed = false;
+    }
+
     /// Takes at most one step. `now_ms` drives the homing timeout.
     pub fn tick(&mut self, now_ms: u32) -> Result<Tick, AxisError> {
         let result = self.tick_inner(now_ms);

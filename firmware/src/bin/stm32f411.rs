@@ -2,12 +2,24 @@
 //! USB CDC-ACM link to the host, two step/dir arms, a laser enable and a photodiode
 //! amplifier on ADC1. Logs go out over RTT (defmt); panics print there too.
 //!
+//! # Faults
+//!
+//! A panic or HardFault first drives the laser pin low and both drivers' enable pins
+//! high (disabled) by raw register writes ([`SAFE_PINS`], `firmware::safety`), then logs
+//! and restarts the chip (the next boot reports `ResetCause::Software`). The
+//! independent watchdog ([`WATCHDOG_MS`]) is fed only by the main loop after each
+//! service iteration: a hang anywhere restarts the chip (`ResetCause::Watchdog`). The
+//! reset cause is read from RCC_CSR at boot and reported by `GetStatus`; the
+//! brown-out level is set to 2.7 V in the option bytes at the first boot that finds
+//! it otherwise.
+//!
 //! Build and flash: `cargo run --release --bin stm32f411 --features stm32f411`
 //! (from `firmware/`, with a debug probe on SWD).
 //!
 //! # Pins
 //!
-//! This table and [`Board::take`] are the only places that name pins; keep them in step.
+//! This table, [`Board::take`] and [`SAFE_PINS`] are the only places that name pins;
+//! keep them in step.
 //!
 //! | Pin  | Function                  | Notes                                                      |
 //! |------|---------------------------|------------------------------------------------------------|
@@ -61,7 +73,7 @@ use cortex_m_rt::entry;
 use defmt_rtt as _;
 use embedded_hal::delay::DelayNs;
 use embedded_hal::digital::{ErrorType, OutputPin, PinState};
-use panic_probe as _;
+use firmware::safety::{self, SafePins, Watchdog};
 use stm32f4xx_hal::adc::Adc;
 use stm32f4xx_hal::adc::config::{AdcConfig, Clock, Resolution, SampleTime};
 use stm32f4xx_hal::dwt::{Delay, DwtExt};
@@ -79,6 +91,15 @@ use usb_link::UsbLink;
 
 /// Board name reported in the handshake.
 const BOARD: &str = "stm32f411";
+/// The pins a panic or fault forces: port B, laser enable PB10 low, the drivers' enable
+/// inputs PB14 (source) and PB8 (detector) high (active low: disabled).
+const SAFE_PINS: SafePins = SafePins {
+    port: 1,
+    low: 1 << 10,
+    high: (1 << 14) | (1 << 8),
+};
+/// The independent watchdog's timeout (milliseconds, at the LSI's nominal 32 kHz).
+const WATCHDOG_MS: u16 = 500;
 /// Step pulse width (A4988 >= 1 us, DRV8825 >= 1.9 us, TMC2209 >= 0.1 us).
 const STEP_PULSE_NS: u32 = 2_000;
 /// Direction setup time before the next step edge (DRV8825 >= 650 ns, A4988 >= 200 ns).
@@ -313,6 +334,8 @@ impl Board {
 
 #[entry]
 fn main() -> ! {
+    let reset_cause = safety::take_reset_cause();
+    let bor = safety::ensure_bor_level3();
     let Board {
         source,
         detector,
@@ -338,20 +361,29 @@ fn main() -> ! {
         detector: mechanics::DETECTOR,
     };
     let mut service = Service::new(Controller::new(cfg, source, detector, laser, photodiode));
+    service.ctrl.set_reset_cause(reset_cause);
 
     led.set_low();
-    defmt::info!("gonio {} ready", BOARD);
+    defmt::info!(
+        "gonio {} ready; reset cause {}, brown-out level before boot {}",
+        BOARD,
+        defmt::Debug2Format(&reset_cause),
+        defmt::Debug2Format(&bor)
+    );
+    // From here on a main loop that stops making progress restarts the chip.
+    let mut watchdog = Watchdog::start(WATCHDOG_MS);
 
     let (mut errors, mut open) = (0, false);
     loop {
         let now = clock.now_us();
         service.poll(&mut link, now);
+        watchdog.feed();
         if link.host_open() != open {
             open = link.host_open();
             if open {
                 defmt::info!("usb: host opened the port (DTR on)");
             } else {
-                defmt::info!("usb: host closed the port (DTR off): stopped, output discarded");
+                defmt::info!("usb: host closed the port (DTR off): safe state, output discarded");
             }
         }
         if link.errors() != errors {
@@ -359,4 +391,26 @@ fn main() -> ! {
             defmt::warn!("usb: {} read/write errors so far", errors);
         }
     }
+}
+
+/// Makes the pins safe before anything else, then logs and restarts the chip.
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    safety::force_safe_pins(SAFE_PINS);
+    defmt::error!(
+        "panic: {}; laser off, drivers disabled; restarting",
+        defmt::Display2Format(info)
+    );
+    cortex_m::peripheral::SCB::sys_reset()
+}
+
+/// A HardFault (any fault, escalated): the same as a panic.
+#[cortex_m_rt::exception]
+unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
+    safety::force_safe_pins(SAFE_PINS);
+    defmt::error!(
+        "HardFault at pc={:#010x}; laser off, drivers disabled; restarting",
+        frame.pc()
+    );
+    cortex_m::peripheral::SCB::sys_reset()
 }

@@ -209,13 +209,13 @@ fn firmware_in_qemu_serves_gonio_over_a_pty() {
     let ev = collect(&mut link, Duration::from_secs(30), |e| {
         matches!(e, Event::DeviceStatus(_))
     });
-    if let Some(Event::DeviceStatus(s)) = ev.last() {
-        if s.position_lost {
-            link.send(&Command::Home).unwrap();
-            collect(&mut link, Duration::from_secs(120), |e| {
-                matches!(e, Event::Status(_))
-            });
-        }
+    if let Some(Event::DeviceStatus(s)) = ev.last()
+        && s.position_lost
+    {
+        link.send(&Command::Home).unwrap();
+        collect(&mut link, Duration::from_secs(120), |e| {
+            matches!(e, Event::Status(_))
+        });
     }
     // A new sweep after the abort, resuming the paper plan from point 70.
     link.send(&Command::StartSweep(SweepPlan {

@@ -33,13 +33,15 @@
 //! | PB9  | detector arm HOME switch  | input, internal pull-up, switch to GND = pressed           |
 //! | PB10 | laser enable              | push-pull, active high; driven low (off) at boot           |
 //! | PA1  | photodiode amplifier out  | analog, ADC1_IN1, 0..3.3 V; keep the amp output <= VDDA    |
+//! | PA0  | interlock input           | pull-up; loop closed to GND = closed, high = open (a cut wire) |
 //! | PC13 | status LED (on board)     | push-pull, active low; lit once the firmware is running    |
 //! | PA11 | USB D-                    | OTG_FS (on board USB-C)                                    |
 //! | PA12 | USB D+                    | OTG_FS (on board USB-C)                                    |
 //! | PA13 | SWDIO                     | debug probe, not reassigned                                |
 //! | PA14 | SWCLK                     | debug probe, not reassigned                                |
 //!
-//! Left free on purpose: PA0 (the on-board KEY button), PB2 (BOOT1, has a resistor on
+//! The interlock on PA0 shares the pin with the on-board KEY button (to GND): pressing
+//! KEY holds the loop "closed", so leave it alone. Left free on purpose: PB2 (BOOT1, has a resistor on
 //! the board), PA15/PB3/PB4 (JTAG; PB3 is SWO), PC14/PC15 (32 kHz crystal), PA9/PA10
 //! (USART1, the ROM bootloader's UART). The F411CE package has no PB11. Both arms are
 //! on one header row (PB12..PB15, PB6..PB9); the laser and the analog input are on the
@@ -79,7 +81,7 @@ use stm32f4xx_hal::adc::config::{AdcConfig, Clock, Resolution, SampleTime};
 use stm32f4xx_hal::dwt::{Delay, DwtExt};
 use stm32f4xx_hal::gpio::PinState as Level;
 use stm32f4xx_hal::gpio::{
-    Analog, Input, Output, PA1, PB6, PB7, PB8, PB9, PB10, PB12, PB13, PB14, PB15, PC13,
+    Analog, Input, Output, PA0, PA1, PB6, PB7, PB8, PB9, PB10, PB12, PB13, PB14, PB15, PC13,
 };
 use stm32f4xx_hal::otg_fs::{USB, UsbBus, UsbBusType};
 use stm32f4xx_hal::pac;
@@ -243,6 +245,7 @@ struct Board {
     source: SourcePins,
     detector: DetectorPins,
     laser: PB10<Output>,
+    interlock: PA0<Input>,
     photodiode: Photodiode,
     led: PC13<Output>,
     clock: MicrosClock,
@@ -292,6 +295,8 @@ impl Board {
             delay,
         );
         let laser = gpiob.pb10.into_push_pull_output_in_state(Level::Low);
+        let interlock = gpioa.pa0.into_pull_up_input();
+        interlock::listen();
         let led = gpioc.pc13.into_push_pull_output_in_state(Level::High);
 
         // ADC clock = APB2 / 4 = 24 MHz (the F411 allows at most 36 MHz).
@@ -324,11 +329,55 @@ impl Board {
             source,
             detector,
             laser,
+            interlock,
             photodiode,
             led,
             clock,
             usb_bus,
         }
+    }
+}
+
+/// The interlock's interrupt: EXTI line 0 (PA0, the reset default of SYSCFG_EXTICR1)
+/// on its rising edge, the loop opening. The handler forces the safe pins at once;
+/// the main loop then reads the level and puts the controller in its safe state.
+mod interlock {
+    use core::ptr::write_volatile;
+    use core::sync::atomic::{AtomicBool, Ordering};
+    use stm32f4xx_hal::pac::interrupt;
+
+    /// Set by the interrupt: the loop opened, if only for a glitch. The pins were
+    /// forced, so the controller must hear of it even if the loop reads closed again.
+    static TRIPPED: AtomicBool = AtomicBool::new(false);
+
+    /// Whether the interrupt fired since the last call.
+    pub fn tripped() -> bool {
+        TRIPPED.swap(false, Ordering::AcqRel)
+    }
+
+    const EXTI_IMR: *mut u32 = 0x4001_3C00 as *mut u32;
+    const EXTI_RTSR: *mut u32 = 0x4001_3C08 as *mut u32;
+    const EXTI_PR: *mut u32 = 0x4001_3C14 as *mut u32;
+    /// EXTI0 is IRQ 6.
+    const NVIC_ISER0: *mut u32 = 0xE000_E100 as *mut u32;
+
+    /// Unmasks EXTI0 on a rising edge and enables its interrupt.
+    pub fn listen() {
+        // SAFETY: EXTI line 0's mask and trigger bits and EXTI0's NVIC enable bit;
+        // nothing else uses them.
+        unsafe {
+            write_volatile(EXTI_RTSR, 1);
+            write_volatile(EXTI_IMR, 1);
+            write_volatile(NVIC_ISER0, 1 << 6);
+        }
+    }
+
+    #[interrupt]
+    fn EXTI0() {
+        // SAFETY: clearing line 0's pending bit (write 1).
+        unsafe { write_volatile(EXTI_PR, 1) };
+        firmware::safety::force_safe_pins(super::SAFE_PINS);
+        TRIPPED.store(true, Ordering::Release);
     }
 }
 
@@ -340,6 +389,7 @@ fn main() -> ! {
         source,
         detector,
         laser,
+        interlock,
         photodiode,
         mut led,
         mut clock,
@@ -373,9 +423,26 @@ fn main() -> ! {
     // From here on a main loop that stops making progress restarts the chip.
     let mut watchdog = Watchdog::start(WATCHDOG_MS);
 
-    let (mut errors, mut open) = (0, false);
+    let (mut errors, mut open, mut interlock_open) = (0, false, false);
     loop {
         let now = clock.now_us();
+        // Open (high: the loop broken or a wire cut) is a fault; the interrupt has
+        // already forced the pins.
+        let cut = interlock.is_high();
+        if interlock::tripped() && !cut {
+            // A glitch the interrupt saw: the pins were forced, so the controller
+            // goes to its safe state as well before the loop reads closed.
+            service.ctrl.set_interlock(true, now);
+            interlock_open = true;
+        }
+        if cut != interlock_open {
+            interlock_open = cut;
+            service.ctrl.set_interlock(cut, now);
+            defmt::warn!(
+                "interlock {}",
+                if cut { "open: safe state" } else { "closed" }
+            );
+        }
         service.poll(&mut link, now);
         watchdog.feed();
         if link.host_open() != open {

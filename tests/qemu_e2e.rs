@@ -204,6 +204,19 @@ fn firmware_in_qemu_serves_gonio_over_a_pty() {
         "{ev:?}"
     );
     assert!(got < 16 * 81 / 2, "stopped half-way, not at the end: {got}");
+    // Stopped mid-move, the arms need homing again (steps may have been lost).
+    link.send(&Command::GetStatus).unwrap();
+    let ev = collect(&mut link, Duration::from_secs(30), |e| {
+        matches!(e, Event::DeviceStatus(_))
+    });
+    if let Some(Event::DeviceStatus(s)) = ev.last()
+        && s.position_lost
+    {
+        link.send(&Command::Home).unwrap();
+        collect(&mut link, Duration::from_secs(120), |e| {
+            matches!(e, Event::Status(_))
+        });
+    }
     // A new sweep after the abort, resuming the paper plan from point 70.
     link.send(&Command::StartSweep(SweepPlan {
         skip: 70,

@@ -157,6 +157,13 @@ where
     }
 }
 
+/// Consecutive samples of a pressed home switch, [`HOME_CONFIRM_US`] apart, that make
+/// a trigger (the arm stands still meanwhile): a glitch or a bounce shorter than that
+/// does not set the zero.
+pub const HOME_CONFIRM: u8 = 4;
+/// Microseconds between the samples that confirm a home switch trigger (3 ms in all).
+pub const HOME_CONFIRM_US: u32 = 1_000;
+
 /// Back-offs of `backoff_deg` tried after the first before the switch counts as stuck
 /// (a lever switch can stay pressed over several degrees).
 pub const BACKOFF_TRIES: u8 = 9;
@@ -208,6 +215,9 @@ enum Phase {
         interval: u32,
         travelled: u32,
         max_travel: u32,
+        /// Consecutive samples that read the switch pressed (a trigger is confirmed at
+        /// [`HOME_CONFIRM`]).
+        pressed: u8,
     },
     /// Homing: backing off the switch; `left` more back-offs allowed if still pressed.
     BackOff {
@@ -348,6 +358,7 @@ impl<P: AxisPins> Axis<P> {
             interval: (1e6 / (speed * self.cfg.steps_per_deg())) as u32,
             travelled: 0,
             max_travel: (travel_deg * self.cfg.steps_per_deg()) as u32,
+            pressed: 0,
         };
         Ok(())
     }
@@ -380,6 +391,17 @@ impl<P: AxisPins> Axis<P> {
             self.homed = false;
         }
         self.phase = Phase::Idle;
+    }
+
+    /// Disables the driver (no holding torque). The next move enables it again.
+    pub fn disable(&mut self) -> Result<(), PinError> {
+        self.dir_high = None;
+        self.pins.set_enabled(false)
+    }
+
+    /// Forgets the position (steps may have been lost): the axis must home again.
+    pub fn lose_position(&mut self) {
+        self.homed = false;
     }
 
     /// Takes at most one step. `now_ms` drives the homing timeout.
@@ -420,6 +442,7 @@ impl<P: AxisPins> Axis<P> {
                 interval,
                 travelled,
                 max_travel,
+                pressed,
             } => {
                 if now_ms.wrapping_sub(self.homing_started_ms) > self.cfg.home_timeout_ms
                     || travelled >= max_travel
@@ -428,6 +451,18 @@ impl<P: AxisPins> Axis<P> {
                     return Err(AxisError::HomingTimeout);
                 }
                 if self.pins.home_pressed()? {
+                    if pressed + 1 < HOME_CONFIRM {
+                        // Not yet believed: stand still and read it again (a glitch or
+                        // a bounce must not set the zero).
+                        self.phase = Phase::Seek {
+                            slow,
+                            interval,
+                            travelled,
+                            max_travel,
+                            pressed: pressed + 1,
+                        };
+                        return Ok(Tick::Wait(HOME_CONFIRM_US));
+                    }
                     if slow {
                         self.pos = self.cfg.to_steps(self.cfg.home_deg);
                         self.homed = true;
@@ -443,6 +478,7 @@ impl<P: AxisPins> Axis<P> {
                     interval,
                     travelled: travelled + 1,
                     max_travel,
+                    pressed: 0,
                 };
                 Ok(Tick::Wait(interval))
             }

@@ -302,3 +302,52 @@ proptest! {
         }
     }
 }
+
+/// A switch that reads pressed for `glitches` single samples on the way down, far from
+/// the real switch: a wire picking up the step pulses' noise.
+struct Glitchy {
+    arm: SimArm,
+    glitch_every: u32,
+    reads: u32,
+}
+
+impl AxisPins for Glitchy {
+    fn set_dir(&mut self, high: bool) -> Result<(), PinError> {
+        self.arm.set_dir(high)
+    }
+    fn pulse(&mut self) -> Result<(), PinError> {
+        self.arm.pulse()
+    }
+    fn set_enabled(&mut self, on: bool) -> Result<(), PinError> {
+        self.arm.set_enabled(on)
+    }
+    fn home_pressed(&mut self) -> Result<bool, PinError> {
+        self.reads += 1;
+        Ok(self.arm.home_pressed()? || self.reads % self.glitch_every == 0)
+    }
+}
+
+#[test]
+fn a_glitching_home_switch_does_not_set_the_zero() {
+    // A one-sample glitch every 97 reads (each step reads the switch once).
+    let mut axis = Axis::new(
+        CFG,
+        Glitchy {
+            arm: SimArm::new(CFG.to_steps(30.0), CFG.to_steps(CFG.home_deg)),
+            glitch_every: 97,
+            reads: 0,
+        },
+    );
+    let mut t = 0;
+    axis.start_homing(0).unwrap();
+    run(&mut axis, &mut t).unwrap();
+    assert!(axis.is_homed());
+    // Homed where the switch really is: the shaft at the switch, not 97 steps above.
+    let shaft = axis.pins().arm.shaft;
+    let switch = CFG.to_steps(CFG.home_deg);
+    assert!(
+        (shaft - switch).abs() <= 1,
+        "shaft {shaft}, switch {switch}"
+    );
+    assert_eq!(axis.position(), switch);
+}

@@ -3,6 +3,18 @@
 //! (as frames). It has no I/O of its own and never blocks: the board feeds it bytes,
 //! calls [`Controller::tick`] when it asks to be called, and sends the frames it hands
 //! out. The same code runs on the MCU, in QEMU, in host tests and in `gonio simulate`.
+//!
+//! # The safe state
+//!
+//! One state every fault ends in ([`Controller::safe_state`]): laser off, both drivers
+//! disabled, motion stopped, a running sweep ended (`SweepDone { aborted: true }`), the
+//! position marked lost when an arm was moving (steps may have been lost: `Home`
+//! again), and the reason kept for [`Command::GetStatus`]. It is reached, within the
+//! same call, from `Abort` (any state), a failed homing, jog or sweep move, a detector
+//! fault, the board's [`Controller::fault`] (link lost, interlock) and the host lease:
+//! the laser is on, and a sweep runs, only while a command frame from the host arrived
+//! within [`HOST_LEASE_MS`]; [`Controller::tick`] asks to be called no later than the
+//! lease's end. The laser is off while an arm moves (homing, jogs, sweep moves).
 
 use embedded_hal::digital::OutputPin;
 use heapless::Deque;
@@ -11,14 +23,22 @@ use crate::axis::{Axis, AxisConfig, AxisError, AxisPins, Tick};
 use crate::frame::{self, FrameDecoder, FrameError, FrameStats, MAX_FRAME_LEN};
 use crate::plan::{PlanCursor, PlanError};
 use crate::protocol::{
-    Arm, Command, ErrorCode, ErrorEvent, Event, Info, MAX_INCIDENCES, MAX_PLAN_POINTS,
-    MAX_SWEEP_POINTS, PROTOCOL_VERSION, Point, Progress, Reading, Specimen, Status, SweepDone,
-    SweepPlan, Undecoded,
+    Arm, Command, DeviceStatus, ErrorCode, ErrorEvent, Event, HOST_LEASE_MS, Info, MAX_INCIDENCES,
+    MAX_PLAN_POINTS, MAX_SWEEP_POINTS, PROTOCOL_VERSION, Point, Progress, Reading, ResetCause,
+    SafeReason, Specimen, Status, SweepDone, SweepPlan, Undecoded,
 };
+
+/// The host lease in microseconds of the lease clock.
+const LEASE_US: u64 = HOST_LEASE_MS as u64 * 1000;
 
 /// Events the controller can hold before the board takes them. A sweep pauses while
 /// the outbox is nearly full, so readings are never dropped.
 pub const OUTBOX_LEN: usize = 8;
+
+/// Detector samples taken per tick at most: a reading of many samples is spread over
+/// ticks, so the link, `Abort` and the board's watchdog are served meanwhile (16
+/// samples of the stm32f411's photodiode block about 1.7 ms).
+pub const SAMPLES_PER_TICK: u16 = 16;
 
 /// A detector failed to deliver a sample.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -58,8 +78,15 @@ enum Step {
     NextPoint,
     MoveSource,
     MoveDetector,
-    Settle { until_us: u64, dark_done: bool },
-    Measure { dark_done: bool },
+    Settle {
+        until_us: u64,
+        dark_done: bool,
+    },
+    /// Sampling; `stats` holds the samples taken so far.
+    Measure {
+        dark_done: bool,
+        stats: Stats,
+    },
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -127,6 +154,14 @@ pub struct Controller<S, D, L, DET> {
     state: State,
     dropped_events: u32,
     now_us: u64,
+    /// The board's wall clock for the lease, where its controller time is simulated.
+    lease_clock: Option<u64>,
+    /// Lease clock when the last command frame from the host arrived.
+    host_seen_us: u64,
+    position_lost: bool,
+    interlock_open: bool,
+    last_safe: Option<SafeReason>,
+    reset_cause: ResetCause,
 }
 
 impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, DET> {
@@ -144,9 +179,77 @@ impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, 
             state: State::Idle,
             dropped_events: 0,
             now_us: 0,
+            lease_clock: None,
+            host_seen_us: 0,
+            position_lost: false,
+            interlock_open: false,
+            last_safe: None,
+            reset_cause: ResetCause::Unknown,
         };
         c.set_laser(false);
+        c.disable_drivers();
         c
+    }
+
+    /// Tells the controller what reset the board (reported by `GetStatus`).
+    pub fn set_reset_cause(&mut self, cause: ResetCause) {
+        self.reset_cause = cause;
+    }
+
+    /// Gives the lease a wall clock of its own (microseconds, monotonic), for boards
+    /// whose controller time is simulated and jumps ahead (QEMU, gonio's simulated
+    /// devices): the host keeps its lease in wall time. Call before each `receive` and
+    /// `tick`. Without it the lease runs on controller time, as on a real board.
+    pub fn set_lease_clock(&mut self, wall_us: u64) {
+        self.lease_clock = Some(wall_us);
+    }
+
+    fn lease_now(&self) -> u64 {
+        self.lease_clock.unwrap_or(self.now_us)
+    }
+
+    /// The laser pin's state as the controller set it.
+    pub fn laser_on(&self) -> bool {
+        self.laser_on
+    }
+
+    /// Steps may have been lost since the last homing.
+    pub fn position_lost(&self) -> bool {
+        self.position_lost
+    }
+
+    /// Why the controller last went to its safe state, if ever.
+    pub fn last_safe(&self) -> Option<SafeReason> {
+        self.last_safe
+    }
+
+    /// A fault the board detected (the link lost, the interlock opened): the safe state
+    /// at once, with an `Error` naming it where the host can still hear it.
+    pub fn fault(&mut self, reason: SafeReason, now_us: u64) {
+        self.now_us = now_us;
+        match reason {
+            SafeReason::Interlock => self.error(
+                ErrorCode::Interlock,
+                "interlock open: laser off, motion stopped",
+            ),
+            SafeReason::HostSilent => self.error(
+                ErrorCode::HostSilent,
+                "host silent: laser off, motion stopped",
+            ),
+            _ => {}
+        }
+        self.safe_state(reason);
+    }
+
+    /// The interlock input's level (`open`: the circuit is broken, a cut wire reads
+    /// open). Opening it is a fault ([`Controller::fault`]); while open, `SetLaser(true)`
+    /// and `StartSweep` are refused.
+    pub fn set_interlock(&mut self, open: bool, now_us: u64) {
+        let was = self.interlock_open;
+        self.interlock_open = open;
+        if open && !was {
+            self.fault(SafeReason::Interlock, now_us);
+        }
     }
 
     /// The source arm.
@@ -187,7 +290,10 @@ impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, 
         for &b in bytes {
             match self.decoder.push::<Command>(b) {
                 None => {}
-                Some(Ok(cmd)) => self.handle(cmd),
+                Some(Ok(cmd)) => {
+                    self.host_seen_us = self.lease_now();
+                    self.handle(cmd)
+                }
                 Some(Err(FrameError::Decode)) => {
                     let mut text: heapless::String<48> = heapless::String::new();
                     let code = match Undecoded::of(self.decoder.undecoded_payload()) {
@@ -286,33 +392,109 @@ impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, 
     }
 
     fn set_laser(&mut self, on: bool) {
-        if self.laser_on != on {
-            // A laser pin that fails is reported by the detector readings; the state
-            // follows the request.
+        if on && self.interlock_open {
+            return;
+        }
+        if self.laser_on != on || !on {
+            // Off is always driven again (a glitched pin gets a second chance). A laser
+            // pin that fails is reported by the detector readings; the state follows
+            // the request.
             let _ = self.laser.set_state(on.into());
             self.laser_on = on;
         }
+    }
+
+    fn disable_drivers(&mut self) {
+        // A pin that fails here has nothing better to fall back on: the laser is off.
+        let _ = self.source.disable();
+        let _ = self.detector.disable();
+    }
+
+    /// The one safe state (see the module docs): laser off, drivers disabled, motion
+    /// stopped, a running sweep ended, the position lost if an arm was moving.
+    pub fn safe_state(&mut self, reason: SafeReason) {
+        self.set_laser(false);
+        let moving = self.source.is_busy() || self.detector.is_busy();
+        self.source.stop_now();
+        self.detector.stop_now();
+        self.disable_drivers();
+        let state = core::mem::replace(&mut self.state, State::Idle);
+        if moving || reason == SafeReason::MotionFault {
+            self.position_lost = true;
+            self.source.lose_position();
+            self.detector.lose_position();
+        }
+        self.last_safe = Some(reason);
+        if let State::Sweep(sw) = state {
+            self.end_sweep(&sw, true);
+        }
+    }
+
+    fn device_status(&self) -> Event {
+        Event::DeviceStatus(DeviceStatus {
+            source_deg: self.source.degrees(),
+            detector_deg: self.detector.degrees(),
+            laser: self.laser_on,
+            homed: self.homed(),
+            position_lost: self.position_lost,
+            interlock_open: self.interlock_open,
+            busy: self.is_busy(),
+            last_safe: self.last_safe,
+            reset_cause: self.reset_cause,
+            lease_ms: HOST_LEASE_MS,
+        })
+    }
+
+    /// The host lease ran out while it mattered (the laser on or a sweep running).
+    fn lease_expired(&self) -> bool {
+        (self.laser_on || matches!(self.state, State::Sweep(_)))
+            && self.lease_now().saturating_sub(self.host_seen_us) > LEASE_US
+    }
+
+    /// Microseconds until the lease must be checked again (in lease-clock time; the
+    /// same as controller time on a real board).
+    fn lease_left_us(&self) -> u32 {
+        (self.host_seen_us + LEASE_US + 1)
+            .saturating_sub(self.lease_now())
+            .min(u32::MAX as u64) as u32
     }
 
     fn handle(&mut self, cmd: Command) {
         match cmd {
             Command::GetInfo => self.push(self.info()),
             Command::Ping(token) => self.push(Event::Pong(token)),
+            Command::GetStatus => self.push(self.device_status()),
             Command::Abort => self.abort(),
             _ if self.is_busy() => self.error(ErrorCode::Busy, "busy: send Abort first"),
-            Command::Home => match self.detector.start_homing(self.now_ms()) {
-                Ok(()) => self.state = State::Homing(Arm::Detector),
-                Err(e) => self.axis_error(e),
-            },
+            Command::Home => {
+                // The beam is off while arms move.
+                self.set_laser(false);
+                match self.detector.start_homing(self.now_ms()) {
+                    Ok(()) => self.state = State::Homing(Arm::Detector),
+                    Err(e) => {
+                        self.axis_error(e);
+                        self.safe_state(SafeReason::MotionFault);
+                    }
+                }
+            }
             Command::Jog { arm, degrees } => {
+                self.set_laser(false);
                 let r = match arm {
                     Arm::Source => self.source.move_to(degrees),
                     Arm::Detector => self.detector.move_to(degrees),
                 };
                 match r {
                     Ok(()) => self.state = State::Jogging(arm),
-                    Err(e) => self.axis_error(e),
+                    // A refused target moved nothing: no fault.
+                    Err(e @ (AxisError::OutOfLimits | AxisError::NotHomed)) => self.axis_error(e),
+                    Err(e) => {
+                        self.axis_error(e);
+                        self.safe_state(SafeReason::MotionFault);
+                    }
                 }
+            }
+            Command::SetLaser(true) if self.interlock_open => {
+                self.error(ErrorCode::Interlock, "interlock open: laser refused")
             }
             Command::SetLaser(on) => {
                 self.set_laser(on);
@@ -331,6 +513,9 @@ impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, 
             AxisError::OutOfLimits => {
                 self.error(ErrorCode::OutOfLimits, "target outside the soft limits")
             }
+            AxisError::NotHomed if self.position_lost => {
+                self.error(ErrorCode::NotHomed, "position lost: send Home")
+            }
             AxisError::NotHomed => self.error(ErrorCode::NotHomed, "arms not homed: send Home"),
             AxisError::Busy => self.error(ErrorCode::Busy, "arm is moving"),
             AxisError::HomingTimeout => {
@@ -344,8 +529,11 @@ impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, 
     }
 
     fn start_sweep(&mut self, plan: SweepPlan) {
+        if self.interlock_open {
+            return self.error(ErrorCode::Interlock, "interlock open: sweep refused");
+        }
         if !self.homed() {
-            return self.error(ErrorCode::NotHomed, "arms not homed: send Home");
+            return self.axis_error(AxisError::NotHomed);
         }
         let total = match plan.validate(&self.cfg.source.limits(), &self.cfg.detector.limits()) {
             Ok(n) => n,
@@ -391,11 +579,10 @@ impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, 
     }
 
     fn abort(&mut self) {
-        self.source.stop_now();
-        self.detector.stop_now();
-        match core::mem::replace(&mut self.state, State::Idle) {
-            State::Sweep(sw) => self.end_sweep(&sw, true),
-            _ => self.push(self.status()),
+        let sweep = matches!(self.state, State::Sweep(_));
+        self.safe_state(SafeReason::Abort);
+        if !sweep {
+            self.push(self.status());
         }
     }
 
@@ -417,6 +604,23 @@ impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, 
     /// Returns when to call again; [`Tick::Idle`] means "only after new input".
     pub fn tick(&mut self, now_us: u64) -> Tick {
         self.now_us = now_us;
+        if self.lease_expired() {
+            self.fault(SafeReason::HostSilent, now_us);
+            return Tick::Idle;
+        }
+        let t = self.tick_work(now_us);
+        if self.laser_on || matches!(self.state, State::Sweep(_)) {
+            // Back no later than the lease's end.
+            let left = self.lease_left_us();
+            return match t {
+                Tick::Wait(us) => Tick::Wait(us.min(left)),
+                Tick::Idle => Tick::Wait(left),
+            };
+        }
+        t
+    }
+
+    fn tick_work(&mut self, now_us: u64) -> Tick {
         let now_ms = self.now_ms();
         match &mut self.state {
             State::Idle => Tick::Idle,
@@ -494,6 +698,7 @@ impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, 
     /// Homing is over: both arms rest at their lowest soft limits.
     fn park_done(&mut self) -> Tick {
         self.state = State::Idle;
+        self.position_lost = false;
         self.push(self.status());
         Tick::Idle
     }
@@ -507,14 +712,8 @@ impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, 
     }
 
     fn fail(&mut self, e: AxisError) -> Tick {
-        self.source.stop_now();
-        self.detector.stop_now();
-        if let State::Sweep(sw) = core::mem::replace(&mut self.state, State::Idle) {
-            self.axis_error(e);
-            self.end_sweep(&sw, true);
-        } else {
-            self.axis_error(e);
-        }
+        self.axis_error(e);
+        self.safe_state(SafeReason::MotionFault);
         Tick::Idle
     }
 
@@ -591,14 +790,18 @@ impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, 
                 if now_us < until_us {
                     return Tick::Wait((until_us - now_us).min(u32::MAX as u64) as u32);
                 }
-                sw.step = Step::Measure { dark_done };
+                sw.step = Step::Measure {
+                    dark_done,
+                    stats: Stats::default(),
+                };
                 Tick::Wait(0)
             }
-            Step::Measure { dark_done } => self.measure(now_us, dark_done),
+            Step::Measure { dark_done, stats } => self.measure(now_us, dark_done, stats),
         }
     }
 
     fn begin_move(&mut self, arm: Arm, deg: f32) -> Tick {
+        self.set_laser(false);
         let r = match arm {
             Arm::Source => self.source.move_to(deg),
             Arm::Detector => self.detector.move_to(deg),
@@ -616,24 +819,26 @@ impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, 
         Tick::Wait(0)
     }
 
-    fn measure(&mut self, now_us: u64, dark_done: bool) -> Tick {
+    fn measure(&mut self, now_us: u64, dark_done: bool, mut stats: Stats) -> Tick {
         let (ti, tr) = (self.source.degrees(), self.detector.degrees());
         let State::Sweep(sw) = &mut self.state else {
             return Tick::Idle;
         };
         let samples = sw.plan.settings.samples;
-        let mut stats = Stats::default();
-        for _ in 0..samples {
+        let now = (samples - stats.n).min(SAMPLES_PER_TICK);
+        for _ in 0..now {
             match self.det.sample(ti, tr, self.laser_on) {
                 Ok(x) => stats.push(x),
                 Err(_) => {
-                    if let State::Sweep(sw) = core::mem::replace(&mut self.state, State::Idle) {
-                        self.error(ErrorCode::DetectorFault, "detector gave no sample");
-                        self.end_sweep(&sw, true);
-                    }
+                    self.error(ErrorCode::DetectorFault, "detector gave no sample");
+                    self.safe_state(SafeReason::DetectorFault);
                     return Tick::Idle;
                 }
             }
+        }
+        if stats.n < samples {
+            sw.step = Step::Measure { dark_done, stats };
+            return Tick::Wait(0);
         }
         if !dark_done {
             // Dark level taken; now the lit reading after another settle.

@@ -59,8 +59,15 @@ struct Rig {
 
 impl Rig {
     fn new(noise: f32) -> Self {
+        Rig::with(controller(noise))
+    }
+
+    /// A rig whose host never falls silent: the lease clock stands still (the lease
+    /// has tests of its own).
+    fn with(mut c: Ctl) -> Self {
+        c.set_lease_clock(0);
         Rig {
-            c: controller(noise),
+            c,
             now: 0,
             events: Vec::new(),
         }
@@ -293,6 +300,11 @@ fn abort_stops_within_one_step_and_resume_completes() {
         }))
     );
     assert!(!rig.c.laser.high);
+    // Stopped mid-move: steps may have been lost, so home again first.
+    assert!(rig.c.position_lost());
+    rig.send(&Command::StartSweep(SweepPlan::paper(2, SETTINGS)));
+    assert_eq!(errors(&rig.take()), [ErrorCode::NotHomed]);
+    rig.home();
     // Resume from the next point: the rest of the plan, numbered on.
     rig.send(&Command::StartSweep(SweepPlan {
         skip: got as u16,
@@ -480,15 +492,17 @@ fn homing_failure_is_reported() {
         SimPin::default(),
         VirtualSample::new(fe, 0.0, 1),
     );
-    let mut rig = Rig {
-        c,
-        now: 0,
-        events: Vec::new(),
-    };
+    let mut rig = Rig::with(c);
+    rig.send(&Command::SetLaser(true));
     rig.send(&Command::Home);
     rig.run();
     assert_eq!(errors(&rig.take()), vec![ErrorCode::HomingFailed]);
     assert!(!rig.c.is_busy());
+    // The safe state: laser off (it went off as homing began), drivers disabled.
+    assert!(!rig.c.laser.high);
+    assert!(!rig.c.source().pins().enabled && !rig.c.detector().pins().enabled);
+    assert_eq!(rig.c.last_safe(), Some(SafeReason::MotionFault));
+    assert!(rig.c.position_lost());
 }
 
 #[test]
@@ -583,6 +597,9 @@ proptest! {
         }
     }
 }
+
+#[path = "controller_safety_tests.rs"]
+mod safety;
 
 #[path = "protocol_doc_tests.rs"]
 mod protocol_doc;

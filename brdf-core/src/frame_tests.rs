@@ -73,6 +73,7 @@ pub fn every_message() -> (StdVec<Command>, StdVec<Event>) {
         },
         Command::SetLaser(true),
         Command::Mount(Specimen::Reference),
+        Command::GetStatus,
     ];
     let events = vec![
         Event::Info(Info {
@@ -118,6 +119,22 @@ pub fn every_message() -> (StdVec<Command>, StdVec<Event>) {
             laser: true,
             homed: true,
         }),
+        Event::DeviceStatus(DeviceStatus {
+            source_deg: 0.0,
+            detector_deg: -90.0,
+            laser: false,
+            homed: false,
+            position_lost: true,
+            interlock_open: false,
+            busy: false,
+            last_safe: Some(SafeReason::HostSilent),
+            reset_cause: ResetCause::Watchdog,
+            lease_ms: HOST_LEASE_MS,
+        }),
+        Event::Error(ErrorEvent::new(
+            ErrorCode::HostSilent,
+            "host silent: laser off, motion stopped",
+        )),
     ];
     (commands, events)
 }

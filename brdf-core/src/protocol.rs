@@ -11,7 +11,7 @@ use serde::{Deserialize, Serialize};
 
 /// Version of this protocol. Bump it on any change of a message's encoding or of what
 /// an existing field means (docs/protocol.md, "Version history").
-pub const PROTOCOL_VERSION: u16 = 2;
+pub const PROTOCOL_VERSION: u16 = 3;
 /// Most explicit points a plan may carry ([`Grid::Points`]).
 pub const MAX_PLAN_POINTS: usize = 240;
 /// Most incidence angles a [`Grid::Custom`] plan may carry.
@@ -24,6 +24,11 @@ pub const MAX_SWEEP_POINTS: u16 = u16::MAX;
 pub const MAX_MESSAGE_LEN: usize = 2048;
 /// Longest error detail text in bytes.
 pub const MAX_DETAIL_LEN: usize = 48;
+/// The host lease in milliseconds: the laser stays on, and a sweep runs, only while a
+/// command frame from the host arrived within this time. A host keeps it by sending
+/// any command (`Ping` while it waits); a host that stops finds the sweep ended and
+/// the laser off ([`SafeReason::HostSilent`]).
+pub const HOST_LEASE_MS: u32 = 5_000;
 
 /// Commands, host to device.
 // No heap in the core: a plan is held inline at its fixed capacity (about 2 KB).
@@ -55,6 +60,9 @@ pub enum Command {
     /// `Error(Unsupported)` for a specimen the device does not have. Stays until the
     /// next `Mount` or a reset (which mounts the sample).
     Mount(Specimen),
+    /// Asks what state the device is in; changes nothing, served while busy. Answered
+    /// with [`Event::DeviceStatus`] (protocol 3).
+    GetStatus,
 }
 
 /// What is on the stage.
@@ -84,6 +92,70 @@ pub enum Event {
     Error(ErrorEvent),
     /// Arm positions and laser state, after Home, Jog, SetLaser or an idle Abort.
     Status(Status),
+    /// The answer to [`Command::GetStatus`] (protocol 3).
+    DeviceStatus(DeviceStatus),
+}
+
+/// Why the device last went to its safe state (laser off, drivers disabled, motion
+/// stopped, a running sweep ended).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum SafeReason {
+    /// The host sent `Abort`.
+    Abort,
+    /// No command frame from the host within [`HOST_LEASE_MS`] while the laser was on or
+    /// a sweep ran.
+    HostSilent,
+    /// An arm failed: homing failed, a step was refused, a pin failed.
+    MotionFault,
+    /// The detector gave no sample.
+    DetectorFault,
+    /// The interlock input opened.
+    Interlock,
+    /// The link to the host went away (USB suspend, VBUS lost, port closed).
+    LinkLost,
+}
+
+/// What reset the board last, as its reset flags tell (RCC_CSR on the STM32F4).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub enum ResetCause {
+    /// No flag set, or a board that cannot tell (QEMU, simulations).
+    #[default]
+    Unknown,
+    /// Power was switched on.
+    PowerOn,
+    /// The reset pin (NRST: the button, a debug probe).
+    Pin,
+    /// The firmware reset itself (after a panic or fault, or on request).
+    Software,
+    /// The independent watchdog: the main loop stopped making progress.
+    Watchdog,
+    /// The supply fell below the brown-out level.
+    BrownOut,
+}
+
+/// The device's state, as [`Command::GetStatus`] reads it (protocol 3).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct DeviceStatus {
+    /// Source arm angle (degrees; meaningless unless homed).
+    pub source_deg: f32,
+    /// Detector arm angle (degrees; meaningless unless homed).
+    pub detector_deg: f32,
+    /// Laser on.
+    pub laser: bool,
+    /// Both arms homed (and parked).
+    pub homed: bool,
+    /// Steps may have been lost (motion stopped abruptly or failed): `Home` again.
+    pub position_lost: bool,
+    /// The interlock input is open (laser and sweeps refused).
+    pub interlock_open: bool,
+    /// A sweep, homing or jog is running.
+    pub busy: bool,
+    /// Why the device last went to its safe state since it started (`None`: never).
+    pub last_safe: Option<SafeReason>,
+    /// What reset the board before this start.
+    pub reset_cause: ResetCause,
+    /// The host lease in milliseconds ([`HOST_LEASE_MS`]).
+    pub lease_ms: u32,
 }
 
 /// The two arms of the goniometer.
@@ -265,6 +337,12 @@ pub enum ErrorCode {
     DetectorFault,
     /// The device cannot do this (e.g. `Mount(Reference)` without a reference standard).
     Unsupported,
+    /// No command from the host within [`HOST_LEASE_MS`]: the laser went off and a
+    /// running sweep ended (protocol 3).
+    HostSilent,
+    /// The interlock is open: the laser is off and a sweep ended, or `SetLaser(true)` /
+    /// `StartSweep` was refused (protocol 3).
+    Interlock,
 }
 
 /// An error report.

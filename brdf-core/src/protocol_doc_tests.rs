@@ -8,11 +8,11 @@ use crate::sim::simulated_controller;
 
 fn rig() -> Rig {
     let fe = Preset::by_name("fe-0.115").unwrap();
-    Rig {
-        c: simulated_controller("sim", [0, 1, 0], VirtualSample::new(fe, 0.0, 1)),
-        now: 0,
-        events: Vec::new(),
-    }
+    Rig::with(simulated_controller(
+        "sim",
+        [0, 1, 0],
+        VirtualSample::new(fe, 0.0, 1),
+    ))
 }
 
 fn status(ev: &[Event]) -> Status {

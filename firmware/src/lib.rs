@@ -4,5 +4,7 @@
 #![no_std]
 #![deny(missing_docs)]
 
+pub mod safety;
+
 /// Firmware version reported in the handshake (major, minor, patch), from Cargo.
 pub use brdf_core::identity::FIRMWARE_VERSION;

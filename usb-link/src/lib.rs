@@ -16,6 +16,10 @@
 //!   discards output until DTR rises again, so the next host starts on a clean stream.
 //!   A host that never raises DTR is served as usual. docs/protocol.md says the same
 //!   for client writers.
+//! - **A bus that goes away stops the device too.** USB suspend (the host suspended
+//!   the port, or the cable was pulled on a board whose VBUS is not sensed: the bus
+//!   falls idle) and a bus reset of a configured device (re-plugged, or the host
+//!   restarted it) hand the controller an `Abort` as well: the safe state.
 //! - **Descriptors from one source**: VID, PID, manufacturer and product strings are
 //!   brdf-core's [`identity`](brdf_core::identity), which `gonio ports` matches.
 #![no_std]
@@ -28,7 +32,9 @@ use brdf_core::service::Link;
 use usb_device::UsbError;
 use usb_device::bus::{UsbBus, UsbBusAllocator};
 use usb_device::class::UsbClass;
-use usb_device::device::{StringDescriptors, UsbDevice, UsbDeviceBuilder, UsbVidPid};
+use usb_device::device::{
+    StringDescriptors, UsbDevice, UsbDeviceBuilder, UsbDeviceState, UsbVidPid,
+};
 use usbd_serial::SerialPort;
 
 /// Largest packet of the CDC data endpoints (bytes): full-speed bulk maximum, fixed by
@@ -45,6 +51,8 @@ pub struct UsbLink<'a, B: UsbBus> {
     serial: SerialPort<'a, B>,
     /// DTR as last seen.
     dtr: bool,
+    /// The device state as last seen (suspend and bus resets are noticed by change).
+    state: UsbDeviceState,
     /// DTR fell after having been raised: the host closed the port; output is discarded.
     closed: bool,
     /// Bytes of the pending `Abort` not yet handed to the controller.
@@ -74,6 +82,7 @@ impl<'a, B: UsbBus> UsbLink<'a, B> {
             dev,
             serial,
             dtr: false,
+            state: UsbDeviceState::Default,
             closed: false,
             abort: [0; ABORT_LEN],
             abort_len: 0,
@@ -106,6 +115,18 @@ impl<'a, B: UsbBus> UsbLink<'a, B> {
         self.dtr = dtr;
     }
 
+    /// Reacts to a suspend or to a bus reset of a configured device (see the crate
+    /// docs): the host is gone for now.
+    fn watch_bus(&mut self) {
+        let state = self.dev.state();
+        let gone = (state == UsbDeviceState::Suspend && self.state != UsbDeviceState::Suspend)
+            || (self.state == UsbDeviceState::Configured && state == UsbDeviceState::Default);
+        if gone {
+            self.queue_abort();
+        }
+        self.state = state;
+    }
+
     /// Queues `0x00 ++ frame(Abort)`: the 0x00 ends any command the host left half sent.
     fn queue_abort(&mut self) {
         self.abort[0] = 0;
@@ -119,6 +140,7 @@ impl<'a, B: UsbBus> UsbLink<'a, B> {
 impl<B: UsbBus> Link for UsbLink<'_, B> {
     fn poll(&mut self) {
         self.dev.poll(&mut [&mut self.serial]);
+        self.watch_bus();
         self.watch_dtr();
     }
 

@@ -16,8 +16,17 @@
 //!   `brdf_core::sim::SIM_K`), so a capture can calibrate against it.
 //! - Time: simulated. When the controller asks to be called again in N microseconds
 //!   the clock jumps there, so motion and settle times cost no wall time; readings'
-//!   `t_ms` are simulated milliseconds.
-//! - Semihosting only to exit: a panic or HardFault exits QEMU with status 1.
+//!   `t_ms` are simulated milliseconds. The host lease runs on wall time instead
+//!   ([`WallClock`], TIM2, which QEMU models on its virtual clock), since the host keeps
+//!   it in wall time.
+//! - Faults: a panic or HardFault first forces the STM32F411 board's safe pins
+//!   ([`SAFE_PINS`]: laser low, drivers disabled; QEMU does not model the GPIO, so the
+//!   writes are only seen with `-d unimp`), then says so over semihosting and exits QEMU
+//!   with status 1. For the tests, the byte sequences [`TEST_PANIC`] and [`TEST_FAULT`]
+//!   on the link make the firmware panic or take a HardFault (an undefined
+//!   instruction); they exist only in this image.
+//! - Watchdog and reset cause: the IWDG is started and fed as on the STM32F411, but
+//!   QEMU does not model it (nor RCC_CSR, which reads 0: reset cause `Unknown`).
 #![no_std]
 #![no_main]
 
@@ -29,12 +38,56 @@ use brdf_core::sim::{VirtualSample, simulated_controller};
 use cortex_m_rt::{ExceptionFrame, entry, exception};
 use cortex_m_semihosting::{debug, hprintln};
 use firmware::FIRMWARE_VERSION;
+use firmware::safety::{self, SafePins, Watchdog};
+
+/// The STM32F411 board's safe pins (see its pin table): PB10 low, PB14 and PB8 high.
+const SAFE_PINS: SafePins = SafePins {
+    port: 1,
+    low: 1 << 10,
+    high: (1 << 14) | (1 << 8),
+};
+/// Bytes that make this image panic (test-only): a 0x00-delimited "frame" that is no
+/// valid COBS frame of a command.
+pub const TEST_PANIC: &[u8] = b"\0gonio-test:panic\0";
+/// Bytes that make this image take a HardFault (test-only).
+pub const TEST_FAULT: &[u8] = b"\0gonio-test:fault\0";
 
 /// The reflectance factor of the board's simulated reference standard.
 const REFERENCE_R: f32 = 0.99;
 
-/// USART1 of the STM32F4 family, by its registers (RM0383 section 19.6).
-struct Usart1;
+/// USART1 of the STM32F4 family, by its registers (RM0383 section 19.6), with the
+/// test-only fault triggers watched in what it receives.
+struct Usart1 {
+    panic: Matcher,
+    fault: Matcher,
+}
+
+/// Finds a fixed byte sequence in a stream.
+struct Matcher {
+    want: &'static [u8],
+    at: usize,
+}
+
+impl Matcher {
+    const fn new(want: &'static [u8]) -> Self {
+        Matcher { want, at: 0 }
+    }
+
+    /// Takes one byte; true when it completes the sequence.
+    fn push(&mut self, b: u8) -> bool {
+        if b == self.want[self.at] {
+            self.at += 1;
+        } else {
+            // 0x00 appears only at both ends of a sequence: a 0x00 may start one.
+            self.at = usize::from(b == self.want[0]);
+        }
+        if self.at == self.want.len() {
+            self.at = 0;
+            return true;
+        }
+        false
+    }
+}
 
 impl Usart1 {
     const BASE: usize = 0x4001_1000;
@@ -71,7 +124,10 @@ impl Usart1 {
             cortex_m::interrupt::disable();
             write_volatile(Self::NVIC_ISER1, Self::IRQ_BIT);
         }
-        Usart1
+        Usart1 {
+            panic: Matcher::new(TEST_PANIC),
+            fault: Matcher::new(TEST_FAULT),
+        }
     }
 
     /// Sleeps (WFI) until a byte arrives, unless one is already waiting. Without it the
@@ -95,7 +151,14 @@ impl Link for Usart1 {
         let mut n = 0;
         // SAFETY: reads of USART1 status/data registers; reading DR clears RXNE.
         while n < buf.len() && unsafe { read_volatile(Self::SR) } & Self::SR_RXNE != 0 {
-            buf[n] = unsafe { read_volatile(Self::DR) } as u8;
+            let b = unsafe { read_volatile(Self::DR) } as u8;
+            if self.panic.push(b) {
+                panic!("test-only panic requested over the link");
+            }
+            if self.fault.push(b) {
+                cortex_m::asm::udf();
+            }
+            buf[n] = b;
             n += 1;
         }
         n
@@ -111,9 +174,52 @@ impl Link for Usart1 {
     }
 }
 
+/// TIM2 counting microseconds of QEMU's virtual clock (wall time without `-icount`),
+/// extended to 64 bits. QEMU clocks its STM32 timers at 1 GHz whatever the RCC says
+/// (measured: PSC = 999 gives 1 MHz); silicon would count at its APB1 timer clock.
+struct WallClock {
+    last: u32,
+    wraps: u32,
+}
+
+impl WallClock {
+    const BASE: usize = 0x4000_0000;
+    const CR1: *mut u32 = Self::BASE as *mut u32;
+    const CNT: *const u32 = (Self::BASE + 0x24) as *const u32;
+    const PSC: *mut u32 = (Self::BASE + 0x28) as *mut u32;
+    const ARR: *mut u32 = (Self::BASE + 0x2C) as *mut u32;
+    /// RCC APB1ENR, bit 0: TIM2 clock.
+    const RCC_APB1ENR: *mut u32 = 0x4002_3840 as *mut u32;
+
+    fn start() -> Self {
+        // SAFETY: TIM2's and RCC's documented registers, used by nothing else.
+        unsafe {
+            write_volatile(Self::RCC_APB1ENR, read_volatile(Self::RCC_APB1ENR) | 1);
+            write_volatile(Self::PSC, 999);
+            write_volatile(Self::ARR, u32::MAX);
+            write_volatile(Self::CR1, 1);
+        }
+        WallClock { last: 0, wraps: 0 }
+    }
+
+    /// Microseconds; a wrap-around (71.6 minutes) missed while asleep only makes the
+    /// clock lag, and the board never sleeps while the lease matters.
+    fn now_us(&mut self) -> u64 {
+        // SAFETY: a read of TIM2's counter.
+        let now = unsafe { read_volatile(Self::CNT) };
+        if now < self.last {
+            self.wraps += 1;
+        }
+        self.last = now;
+        (u64::from(self.wraps) << 32) | u64::from(now)
+    }
+}
+
 #[entry]
 fn main() -> ! {
+    let reset_cause = safety::take_reset_cause();
     let mut link = Usart1::init();
+    let mut wall = WallClock::start();
     let sample = Preset::by_name("fe-0.115").unwrap_or(&brdf_core::presets::PRESETS[4]);
     let ctrl = simulated_controller(
         "qemu",
@@ -121,9 +227,14 @@ fn main() -> ! {
         VirtualSample::new(sample, 0.005, 0x6F6E_6F67).with_reference(REFERENCE_R),
     );
     let mut service = Service::new(ctrl);
+    service.ctrl.set_reset_cause(reset_cause);
+    let mut watchdog = Watchdog::start(500);
     let mut now_us: u64 = 0;
     loop {
-        match service.poll(&mut link, now_us) {
+        service.ctrl.set_lease_clock(wall.now_us());
+        let next = service.poll(&mut link, now_us);
+        watchdog.feed();
+        match next {
             // Simulated time: jump to the next deadline.
             Some(at) => now_us = now_us.max(at),
             // Nothing to do until the host sends something.
@@ -135,6 +246,8 @@ fn main() -> ! {
 
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo) -> ! {
+    safety::force_safe_pins(SAFE_PINS);
+    hprintln!("safe state: laser pin low, drivers disabled");
     hprintln!("firmware panic: {}", info);
     debug::exit(debug::EXIT_FAILURE);
     loop {
@@ -144,6 +257,8 @@ fn panic(info: &core::panic::PanicInfo) -> ! {
 
 #[exception]
 unsafe fn HardFault(frame: &ExceptionFrame) -> ! {
+    safety::force_safe_pins(SAFE_PINS);
+    hprintln!("safe state: laser pin low, drivers disabled");
     hprintln!("firmware HardFault at pc={:#010x}", frame.pc());
     debug::exit(debug::EXIT_FAILURE);
     loop {

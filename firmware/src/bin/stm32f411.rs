@@ -2,12 +2,24 @@
 //! USB CDC-ACM link to the host, two step/dir arms, a laser enable and a photodiode
 //! amplifier on ADC1. Logs go out over RTT (defmt); panics print there too.
 //!
+//! # Faults
+//!
+//! A panic or HardFault first drives the laser pin low and both drivers' enable pins
+//! high (disabled) by raw register writes ([`SAFE_PINS`], `firmware::safety`), then logs
+//! and restarts the chip (the next boot reports `ResetCause::Software`). The
+//! independent watchdog ([`WATCHDOG_MS`]) is fed only by the main loop after each
+//! service iteration: a hang anywhere restarts the chip (`ResetCause::Watchdog`). The
+//! reset cause is read from RCC_CSR at boot and reported by `GetStatus`; the
+//! brown-out level is set to 2.7 V in the option bytes at the first boot that finds
+//! it otherwise.
+//!
 //! Build and flash: `cargo run --release --bin stm32f411 --features stm32f411`
 //! (from `firmware/`, with a debug probe on SWD).
 //!
 //! # Pins
 //!
-//! This table and [`Board::take`] are the only places that name pins; keep them in step.
+//! This table, [`Board::take`] and [`SAFE_PINS`] are the only places that name pins;
+//! keep them in step.
 //!
 //! | Pin  | Function                  | Notes                                                      |
 //! |------|---------------------------|------------------------------------------------------------|
@@ -21,13 +33,15 @@
 //! | PB9  | detector arm HOME switch  | input, internal pull-up, switch to GND = pressed           |
 //! | PB10 | laser enable              | push-pull, active high; driven low (off) at boot           |
 //! | PA1  | photodiode amplifier out  | analog, ADC1_IN1, 0..3.3 V; keep the amp output <= VDDA    |
+//! | PA0  | interlock input           | pull-up; loop closed to GND = closed, high = open (a cut wire) |
 //! | PC13 | status LED (on board)     | push-pull, active low; lit once the firmware is running    |
 //! | PA11 | USB D-                    | OTG_FS (on board USB-C)                                    |
 //! | PA12 | USB D+                    | OTG_FS (on board USB-C)                                    |
 //! | PA13 | SWDIO                     | debug probe, not reassigned                                |
 //! | PA14 | SWCLK                     | debug probe, not reassigned                                |
 //!
-//! Left free on purpose: PA0 (the on-board KEY button), PB2 (BOOT1, has a resistor on
+//! The interlock on PA0 shares the pin with the on-board KEY button (to GND): pressing
+//! KEY holds the loop "closed", so leave it alone. Left free on purpose: PB2 (BOOT1, has a resistor on
 //! the board), PA15/PB3/PB4 (JTAG; PB3 is SWO), PC14/PC15 (32 kHz crystal), PA9/PA10
 //! (USART1, the ROM bootloader's UART). The F411CE package has no PB11. Both arms are
 //! on one header row (PB12..PB15, PB6..PB9); the laser and the analog input are on the
@@ -61,13 +75,13 @@ use cortex_m_rt::entry;
 use defmt_rtt as _;
 use embedded_hal::delay::DelayNs;
 use embedded_hal::digital::{ErrorType, OutputPin, PinState};
-use panic_probe as _;
+use firmware::safety::{self, SafePins, Watchdog};
 use stm32f4xx_hal::adc::Adc;
 use stm32f4xx_hal::adc::config::{AdcConfig, Clock, Resolution, SampleTime};
 use stm32f4xx_hal::dwt::{Delay, DwtExt};
 use stm32f4xx_hal::gpio::PinState as Level;
 use stm32f4xx_hal::gpio::{
-    Analog, Input, Output, PA1, PB6, PB7, PB8, PB9, PB10, PB12, PB13, PB14, PB15, PC13,
+    Analog, Input, Output, PA0, PA1, PB6, PB7, PB8, PB9, PB10, PB12, PB13, PB14, PB15, PC13,
 };
 use stm32f4xx_hal::otg_fs::{USB, UsbBus, UsbBusType};
 use stm32f4xx_hal::pac;
@@ -79,6 +93,15 @@ use usb_link::UsbLink;
 
 /// Board name reported in the handshake.
 const BOARD: &str = "stm32f411";
+/// The pins a panic or fault forces: port B, laser enable PB10 low, the drivers' enable
+/// inputs PB14 (source) and PB8 (detector) high (active low: disabled).
+const SAFE_PINS: SafePins = SafePins {
+    port: 1,
+    low: 1 << 10,
+    high: (1 << 14) | (1 << 8),
+};
+/// The independent watchdog's timeout (milliseconds, at the LSI's nominal 32 kHz).
+const WATCHDOG_MS: u16 = 500;
 /// Step pulse width (A4988 >= 1 us, DRV8825 >= 1.9 us, TMC2209 >= 0.1 us).
 const STEP_PULSE_NS: u32 = 2_000;
 /// Direction setup time before the next step edge (DRV8825 >= 650 ns, A4988 >= 200 ns).
@@ -222,6 +245,7 @@ struct Board {
     source: SourcePins,
     detector: DetectorPins,
     laser: PB10<Output>,
+    interlock: PA0<Input>,
     photodiode: Photodiode,
     led: PC13<Output>,
     clock: MicrosClock,
@@ -271,6 +295,8 @@ impl Board {
             delay,
         );
         let laser = gpiob.pb10.into_push_pull_output_in_state(Level::Low);
+        let interlock = gpioa.pa0.into_pull_up_input();
+        interlock::listen();
         let led = gpioc.pc13.into_push_pull_output_in_state(Level::High);
 
         // ADC clock = APB2 / 4 = 24 MHz (the F411 allows at most 36 MHz).
@@ -303,6 +329,7 @@ impl Board {
             source,
             detector,
             laser,
+            interlock,
             photodiode,
             led,
             clock,
@@ -311,12 +338,58 @@ impl Board {
     }
 }
 
+/// The interlock's interrupt: EXTI line 0 (PA0, the reset default of SYSCFG_EXTICR1)
+/// on its rising edge, the loop opening. The handler forces the safe pins at once;
+/// the main loop then reads the level and puts the controller in its safe state.
+mod interlock {
+    use core::ptr::write_volatile;
+    use core::sync::atomic::{AtomicBool, Ordering};
+    use stm32f4xx_hal::pac::interrupt;
+
+    /// Set by the interrupt: the loop opened, if only for a glitch. The pins were
+    /// forced, so the controller must hear of it even if the loop reads closed again.
+    static TRIPPED: AtomicBool = AtomicBool::new(false);
+
+    /// Whether the interrupt fired since the last call.
+    pub fn tripped() -> bool {
+        TRIPPED.swap(false, Ordering::AcqRel)
+    }
+
+    const EXTI_IMR: *mut u32 = 0x4001_3C00 as *mut u32;
+    const EXTI_RTSR: *mut u32 = 0x4001_3C08 as *mut u32;
+    const EXTI_PR: *mut u32 = 0x4001_3C14 as *mut u32;
+    /// EXTI0 is IRQ 6.
+    const NVIC_ISER0: *mut u32 = 0xE000_E100 as *mut u32;
+
+    /// Unmasks EXTI0 on a rising edge and enables its interrupt.
+    pub fn listen() {
+        // SAFETY: EXTI line 0's mask and trigger bits and EXTI0's NVIC enable bit;
+        // nothing else uses them.
+        unsafe {
+            write_volatile(EXTI_RTSR, 1);
+            write_volatile(EXTI_IMR, 1);
+            write_volatile(NVIC_ISER0, 1 << 6);
+        }
+    }
+
+    #[interrupt]
+    fn EXTI0() {
+        // SAFETY: clearing line 0's pending bit (write 1).
+        unsafe { write_volatile(EXTI_PR, 1) };
+        firmware::safety::force_safe_pins(super::SAFE_PINS);
+        TRIPPED.store(true, Ordering::Release);
+    }
+}
+
 #[entry]
 fn main() -> ! {
+    let reset_cause = safety::take_reset_cause();
+    let bor = safety::ensure_bor_level3();
     let Board {
         source,
         detector,
         laser,
+        interlock,
         photodiode,
         mut led,
         mut clock,
@@ -338,20 +411,46 @@ fn main() -> ! {
         detector: mechanics::DETECTOR,
     };
     let mut service = Service::new(Controller::new(cfg, source, detector, laser, photodiode));
+    service.ctrl.set_reset_cause(reset_cause);
 
     led.set_low();
-    defmt::info!("gonio {} ready", BOARD);
+    defmt::info!(
+        "gonio {} ready; reset cause {}, brown-out level before boot {}",
+        BOARD,
+        defmt::Debug2Format(&reset_cause),
+        defmt::Debug2Format(&bor)
+    );
+    // From here on a main loop that stops making progress restarts the chip.
+    let mut watchdog = Watchdog::start(WATCHDOG_MS);
 
-    let (mut errors, mut open) = (0, false);
+    let (mut errors, mut open, mut interlock_open) = (0, false, false);
     loop {
         let now = clock.now_us();
+        // Open (high: the loop broken or a wire cut) is a fault; the interrupt has
+        // already forced the pins.
+        let cut = interlock.is_high();
+        if interlock::tripped() && !cut {
+            // A glitch the interrupt saw: the pins were forced, so the controller
+            // goes to its safe state as well before the loop reads closed.
+            service.ctrl.set_interlock(true, now);
+            interlock_open = true;
+        }
+        if cut != interlock_open {
+            interlock_open = cut;
+            service.ctrl.set_interlock(cut, now);
+            defmt::warn!(
+                "interlock {}",
+                if cut { "open: safe state" } else { "closed" }
+            );
+        }
         service.poll(&mut link, now);
+        watchdog.feed();
         if link.host_open() != open {
             open = link.host_open();
             if open {
                 defmt::info!("usb: host opened the port (DTR on)");
             } else {
-                defmt::info!("usb: host closed the port (DTR off): stopped, output discarded");
+                defmt::info!("usb: host closed the port (DTR off): safe state, output discarded");
             }
         }
         if link.errors() != errors {
@@ -359,4 +458,26 @@ fn main() -> ! {
             defmt::warn!("usb: {} read/write errors so far", errors);
         }
     }
+}
+
+/// Makes the pins safe before anything else, then logs and restarts the chip.
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    safety::force_safe_pins(SAFE_PINS);
+    defmt::error!(
+        "panic: {}; laser off, drivers disabled; restarting",
+        defmt::Display2Format(info)
+    );
+    cortex_m::peripheral::SCB::sys_reset()
+}
+
+/// A HardFault (any fault, escalated): the same as a panic.
+#[cortex_m_rt::exception]
+unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
+    safety::force_safe_pins(SAFE_PINS);
+    defmt::error!(
+        "HardFault at pc={:#010x}; laser off, drivers disabled; restarting",
+        frame.pc()
+    );
+    cortex_m::peripheral::SCB::sys_reset()
 }

@@ -1,8 +1,10 @@
 //! `gonio info`: handshakes with a goniometer and prints what it is.
 
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
-use brdf_core::protocol::{MAX_PLAN_POINTS, PROTOCOL_VERSION};
+use brdf_core::protocol::{
+    Command, DeviceStatus, Event, MAX_PLAN_POINTS, PROTOCOL_VERSION, ResetCause, SafeReason,
+};
 use clap::Args;
 
 use super::error::CliResult;
@@ -16,7 +18,7 @@ use crate::text::escape_line;
     about = "Handshake with a goniometer and print what it is",
     long_about = "Handshake with a goniometer \
 and print its firmware and protocol versions, board, arm travel, the most points one plan may have and whether \
-it is homed. Device text is printed with control characters escaped. A protocol version that differs from this \
+it is homed; then its state (GetStatus): laser, position lost, interlock, why it last went to its safe state and what reset it. Device text is printed with control characters escaped. A protocol version that differs from this \
 gonio's is an error that says which side to update; an Info that does not decode or does not hold together \
 (travel not finite or outside the protocol's ranges, no resolution, plans of 0 points) is an error quoting it. \
 Waits at most --timeout seconds."
@@ -56,5 +58,96 @@ pub fn run(args: &InfoArgs) -> CliResult {
         arm(&info.detector),
         info.max_points,
     );
+    let deadline = Instant::now() + Duration::from_secs(args.timeout);
+    link.send(&Command::GetStatus)?;
+    let status = loop {
+        let left = deadline.saturating_duration_since(Instant::now());
+        if left.is_zero() {
+            break None;
+        }
+        if let Some(Event::DeviceStatus(s)) = link.recv(left.min(Duration::from_millis(200)))? {
+            break Some(s);
+        }
+    };
+    let text = match status {
+        Some(s) => text + &status_lines(&s),
+        None => text + "status:    no answer to GetStatus\n",
+    };
     write_stdout(text.as_bytes())
+}
+
+/// `gonio info`'s lines for a `DeviceStatus`.
+pub fn status_lines(s: &DeviceStatus) -> String {
+    format!(
+        "laser:     {}\nposition:  {}\ninterlock: {}\nlast safe: {}\nreset by:  {}\nlease:     {} ms (the laser and a sweep stop when the host is silent this long)\n",
+        if s.laser { "on" } else { "off" },
+        if s.position_lost {
+            "lost (steps may have been lost: capture homes again)"
+        } else {
+            "kept"
+        },
+        if s.interlock_open {
+            "open (laser and sweeps refused)"
+        } else {
+            "closed"
+        },
+        s.last_safe.map_or("none since start", safe_reason),
+        reset_cause(s.reset_cause),
+        s.lease_ms,
+    )
+}
+
+/// What a [`SafeReason`] means, in a few words.
+pub fn safe_reason(r: SafeReason) -> &'static str {
+    match r {
+        SafeReason::Abort => "Abort",
+        SafeReason::HostSilent => "the host was silent longer than the lease",
+        SafeReason::MotionFault => "an arm failed (homing, a step or a pin)",
+        SafeReason::DetectorFault => "the detector gave no sample",
+        SafeReason::Interlock => "the interlock opened",
+        SafeReason::LinkLost => "the link to the host went away",
+    }
+}
+
+/// What a [`ResetCause`] means, in a few words.
+pub fn reset_cause(c: ResetCause) -> &'static str {
+    match c {
+        ResetCause::Unknown => "unknown (no reset flag; QEMU and simulations have none)",
+        ResetCause::PowerOn => "power-on",
+        ResetCause::Pin => "the reset pin (button or debug probe)",
+        ResetCause::Software => "the firmware (after a panic or fault)",
+        ResetCause::Watchdog => "the watchdog (the firmware stopped making progress)",
+        ResetCause::BrownOut => "a brown-out (the supply fell below 2.7 V)",
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use brdf_core::protocol::HOST_LEASE_MS;
+
+    #[test]
+    fn status_lines_say_what_the_device_reports() {
+        let s = DeviceStatus {
+            source_deg: 0.0,
+            detector_deg: -90.0,
+            laser: false,
+            homed: false,
+            position_lost: true,
+            interlock_open: false,
+            busy: false,
+            last_safe: Some(SafeReason::HostSilent),
+            reset_cause: ResetCause::Watchdog,
+            lease_ms: HOST_LEASE_MS,
+        };
+        let t = status_lines(&s);
+        assert!(t.contains("laser:     off\n"), "{t}");
+        assert!(t.contains("position:  lost"), "{t}");
+        assert!(
+            t.contains("last safe: the host was silent longer than the lease"),
+            "{t}"
+        );
+        assert!(t.contains("reset by:  the watchdog"), "{t}");
+        assert!(t.contains("lease:     5000 ms"), "{t}");
+    }
 }

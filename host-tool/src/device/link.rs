@@ -8,7 +8,16 @@ use std::io::{self, Write};
 use std::time::{Duration, Instant};
 
 use brdf_core::frame::{self, FrameDecoder, FrameError, FrameStats, MAX_FRAME_LEN};
-use brdf_core::protocol::{Command, Event, Info, PROTOCOL_VERSION, peek_info_version};
+use brdf_core::protocol::{
+    Command, Event, HOST_LEASE_MS, Info, PROTOCOL_VERSION, peek_info_version,
+};
+
+/// A link that sent nothing for this long sends a `Ping`, so the device's host lease
+/// ([`HOST_LEASE_MS`]) never runs out while gonio waits: a fifth of the lease.
+pub const KEEPALIVE: Duration = Duration::from_millis(HOST_LEASE_MS as u64 / 5);
+/// The token of the lease-keeping `Ping`; its `Pong` is taken by the link, never
+/// returned.
+pub const KEEPALIVE_TOKEN: u32 = 0x6C65_6173; // "leas"
 
 /// A byte pipe to a device.
 pub trait Transport {
@@ -135,6 +144,8 @@ pub struct FramedLink<T> {
     foreign_version: Option<u16>,
     /// An Info of our protocol version arrived that did not decode.
     bad_info: bool,
+    /// When a frame (or raw bytes) last went to the device.
+    last_sent: Instant,
 }
 
 impl<T: Transport> FramedLink<T> {
@@ -148,6 +159,7 @@ impl<T: Transport> FramedLink<T> {
             log_error: None,
             foreign_version: None,
             bad_info: false,
+            last_sent: Instant::now(),
         }
     }
 
@@ -176,12 +188,14 @@ impl<T: Transport> FramedLink<T> {
         let mut buf = [0u8; MAX_FRAME_LEN];
         let n = frame::encode(cmd, &mut buf).expect("every command fits MAX_FRAME_LEN");
         self.transport.send(&buf[..n])?;
+        self.last_sent = Instant::now();
         Ok(())
     }
 
     /// Sends raw bytes (tests of the device's robustness).
     pub fn send_raw(&mut self, bytes: &[u8]) -> Result<(), LinkError> {
         self.transport.send(bytes)?;
+        self.last_sent = Instant::now();
         Ok(())
     }
 
@@ -199,10 +213,17 @@ impl<T: Transport> FramedLink<T> {
             if let Some(e) = self.log_error.take() {
                 return Err(LinkError::Log(e));
             }
-            let left = deadline.saturating_duration_since(Instant::now());
+            // Keep the device's host lease while waiting.
+            if self.last_sent.elapsed() >= KEEPALIVE {
+                self.send(&Command::Ping(KEEPALIVE_TOKEN))?;
+            }
+            let left = deadline
+                .saturating_duration_since(Instant::now())
+                .min(KEEPALIVE);
             let n = self.transport.recv(&mut buf, left)?;
             for &b in &buf[..n] {
                 match self.decoder.push::<Event>(b) {
+                    Some(Ok(Event::Pong(KEEPALIVE_TOKEN))) => {}
                     Some(Ok(ev)) => self.inbox.push_back(ev),
                     Some(Err(FrameError::Decode)) => {
                         // Intact but not ours: a device of another protocol version

@@ -183,8 +183,13 @@ pub struct InProcessDevice {
 impl InProcessDevice {
     /// A fresh device (arms not homed).
     pub fn new(cfg: &SimConfig) -> Self {
+        let mut service = cfg.service();
+        // The device runs only inside the host's `recv`, so it can never outlive a
+        // silent host: its lease clock stands still (the lease is tested on the pty
+        // device, in brdf-core and on the QEMU board).
+        service.ctrl.set_lease_clock(0);
         InProcessDevice {
-            service: cfg.service(),
+            service,
             to_device: VecDeque::new(),
             from_device: VecDeque::new(),
             now_us: 0,
@@ -275,6 +280,10 @@ impl PtyDevice {
                     // homing with the arms still on their way.
                     now_us = now_us.max(next_at.map_or(wall, |at| wall.min(at)));
                 }
+                // The host keeps its lease in wall time, whatever the device's clock.
+                service
+                    .ctrl
+                    .set_lease_clock(started.elapsed().as_micros() as u64);
                 let poll = service.poll(&mut port, now_us);
                 next_at = poll;
                 match (poll, speed) {

@@ -511,6 +511,12 @@ fn info_prints_device_text_escaped() {
     assert!(!text.contains('\u{1b}'), "{text:?}");
     let device = text.lines().next().unwrap();
     assert!(device.starts_with("device:    x\\n0,0,1"), "{device:?}");
-    assert_eq!(text.lines().count(), 7, "{text}");
+    // Seven lines of Info, then the status line: this fake device answers only Info.
+    assert_eq!(text.lines().count(), 8, "{text}");
+    assert_eq!(
+        text.lines().last(),
+        Some("status:    no answer to GetStatus"),
+        "{text}"
+    );
     drop(h);
 }

@@ -48,6 +48,8 @@ pub struct State {
     pub in_complete: u16,
     /// A bus reset waits to be reported.
     pub reset: bool,
+    /// A suspend (the bus fell idle) waits to be reported.
+    pub suspend: bool,
     /// Address the device answers to (0 until SET_ADDRESS takes effect).
     pub address: u8,
     /// Device-side writes refused since the rig last cleared the count.
@@ -201,6 +203,9 @@ impl UsbBus for SimBus {
         if std::mem::take(&mut s.reset) {
             return PollResult::Reset;
         }
+        if std::mem::take(&mut s.suspend) {
+            return PollResult::Suspend;
+        }
         let mut ep_out = 0u16;
         let mut ep_setup = 0u16;
         for (i, ep) in s.out.iter().enumerate() {
@@ -241,7 +246,13 @@ impl Wire {
         lock(&self.0)
     }
 
-    /// Signals a bus reset.
+    /// The bus falls idle: the host suspends the port, or the cable is pulled on a
+    /// board that does not sense VBUS.
+    pub fn suspend(&self) {
+        self.state().suspend = true;
+    }
+
+    /// The host resets the bus (a re-plug, or the host restarting the device).
     pub fn bus_reset(&self) {
         self.state().reset = true;
     }

@@ -11,4 +11,5 @@ mod rig;
 mod descriptors;
 mod dtr;
 mod frames;
+mod suspend;
 mod sweep;

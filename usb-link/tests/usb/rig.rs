@@ -57,6 +57,8 @@ pub struct Rig {
     pub service: SimService,
     /// Simulated time (microseconds).
     pub now_us: u64,
+    /// When the rig started: the lease's wall clock.
+    pub started: std::time::Instant,
     /// Service-loop iterations run.
     pub steps: u64,
     /// EP0's packet size as the host knows it (8 until the device descriptor says).
@@ -93,6 +95,7 @@ impl Rig {
             link,
             service,
             now_us: 0,
+            started: std::time::Instant::now(),
             steps: 0,
             ep0_max: 8,
             cdc: None,
@@ -109,6 +112,10 @@ impl Rig {
     /// something scheduled (a sweep, homing or jog under way, or a frame to send).
     pub fn step(&mut self) -> bool {
         self.wire.state().spins = 0;
+        // The host keeps its lease in wall time (as on the QEMU board).
+        self.service
+            .ctrl
+            .set_lease_clock(self.started.elapsed().as_micros() as u64);
         let next = self.service.poll(&mut self.link, self.now_us);
         self.steps += 1;
         // The clock jumps to the controller's next tick, as on the QEMU board; with

@@ -391,3 +391,34 @@ proptest! {
         prop_assert!((a - b).abs() <= tol * a + 1e-37, "{} vs {} (tol {})", a, b, tol);
     }
 }
+
+#[test]
+fn albedo_is_at_most_one_and_brackets_the_tail() {
+    // D is normalised and V-cavity G <= 1, so the unit lobe's directional albedo is
+    // <= 1. At normal incidence a facet tilted by alpha reflects to 2 alpha with
+    // G = min(1, 2 cos 2 alpha): G = 1 below 30 degrees, the light is lost beyond 45. So
+    // rho(0) lies between the slope mass below tan 30 and below tan 45, from P22's
+    // closed-form tail P(r > R) = (1 + R^2 / (k m^2))^(1 - gamma): a heavy tail loses
+    // energy (gamma = 1.3, sigma = 0.05: about 17 %).
+    use crate::albedo::{Rule, albedo};
+    let sigma = 0.05f64;
+    for gamma in [1.3f64, 2.0, 10.0] {
+        let l = StudentT::new(sigma, gamma, "sigma").unwrap();
+        let tail = |r: f64| (1.0 + r * r / ((gamma - 1.0) * 2.0 * sigma * sigma)).powf(1.0 - gamma);
+        for ti in [0.0f64, 30.0, 60.0] {
+            let rule = Rule::for_width(Some(0.7 * sigma));
+            let a = albedo(ti, 0.0, &rule, |wi, wo| {
+                Ok(l.value(&Geometry::from_vectors(*wi, *wo)?))
+            })
+            .unwrap();
+            assert!(a.rho - a.error <= 1.0, "gamma {gamma} theta_i {ti}: {a:?}");
+            if ti == 0.0 {
+                let (lo, hi) = (1.0 - tail(30f64.to_radians().tan()), 1.0 - tail(1.0));
+                assert!(
+                    a.rho + a.error >= lo && a.rho - a.error <= hi,
+                    "gamma {gamma}: {a:?} not in [{lo}, {hi}]"
+                );
+            }
+        }
+    }
+}

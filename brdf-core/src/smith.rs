@@ -34,7 +34,9 @@ pub enum Masking {
 }
 
 /// cos(theta) Lambda(theta) of `dist` at cos(theta) = `c` in [0, 1], m^2 = `m2` > 0:
-/// finite everywhere, 0 at normal incidence, >= 0.
+/// finite everywhere, 0 at normal incidence, >= 0. NaN for
+/// [`Distribution::StudentT`], which has no Smith G here (it keeps the V-cavity G; see
+/// the module docs), so that asking for one cannot pass for a value.
 pub fn cos_lambda<T: Real>(dist: Distribution, c: T, m2: T) -> T {
     let one = T::one();
     let two = T::lit(2.0);
@@ -62,6 +64,7 @@ pub fn cos_lambda<T: Real>(dist: Distribution, c: T, m2: T) -> T {
             let v = (ms * (-a * a).exp() / root_pi - c * a.erfc()) / two;
             v.max(T::zero())
         }
+        Distribution::StudentT => T::nan(),
     }
 }
 

@@ -75,6 +75,7 @@ fn grazing_is_finite_and_both_grazing_is_zero() {
         let want = match d {
             Distribution::Beckmann => m2.sqrt() / (2.0 * core::f64::consts::PI.sqrt()),
             Distribution::Ggx => m2.sqrt() / 2.0,
+            Distribution::StudentT => unreachable!("not in Distribution::ALL"),
         };
         assert!((lim - want).abs() < 1e-15, "{d:?}: {lim} vs {want}");
         assert_eq!(correlated_over_cos(d, 0.0, 0.0, m2), 0.0);

@@ -385,6 +385,7 @@ fn members_meet_the_stated_error_with_the_rule_for_their_width() {
             dist,
             ks: Ks::PerIncidence(ks),
             sigma,
+            gamma: None,
         })
     };
     // A GGX core alone; a GGX core on a Beckmann haze with the paper's diffuse terms;
@@ -415,6 +416,7 @@ fn members_meet_the_stated_error_with_the_rule_for_their_width() {
                     c: [-3.0, 0.5, 0.2],
                 }),
                 sigma: 0.1,
+                gamma: None,
             }),
             directional: None,
             ideal: None,

@@ -12,6 +12,7 @@ fn single(dist: Distribution, sigma: f64) -> MemberModel<f64> {
             dist,
             ks: Ks::PerIncidence(1.0),
             sigma,
+            gamma: None,
         }),
         haze: None,
         directional: None,
@@ -27,11 +28,13 @@ fn full() -> MemberModel<f64> {
             dist: Distribution::Ggx,
             ks: Ks::Smooth(SmoothKs { c: [0.5, 0.3, 0.1] }),
             sigma: 0.01,
+            gamma: None,
         }),
         haze: Some(LobeParams {
             dist: Distribution::Beckmann,
             ks: Ks::PerIncidence(0.2),
             sigma: 0.15,
+            gamma: None,
         }),
         directional: Some(DirectionalParams {
             kdd: 0.05,
@@ -166,6 +169,35 @@ fn automatic_order_meets_its_error_bound() {
 }
 
 #[test]
+fn automatic_order_meets_its_error_bound_for_student_t() {
+    // Lobe::angular_width's 0.7 sigma sqrt(min(gamma - 1, 8)), heavy tails to light.
+    for gamma in [1.2, 1.5, 2.0, 4.0, 20.0] {
+        for (a_deg, sigma) in [(1.0, 0.035), (1.0, 0.01), (1.0, 0.003), (0.5, 0.0011)] {
+            let m = MemberModel::new(&MemberParams {
+                core: Some(LobeParams {
+                    dist: Distribution::StudentT,
+                    ks: Ks::PerIncidence(1.0),
+                    sigma,
+                    gamma: Some(gamma),
+                }),
+                haze: None,
+                directional: None,
+                ideal: None,
+                abg: None,
+            })
+            .unwrap();
+            let ap = Aperture::for_model(a_deg, &m).unwrap();
+            let err = quadrature_error(&m, &ap, 41.4, (2.0 * sigma).to_degrees(), a_deg);
+            assert!(
+                err < 1e-6,
+                "gamma {gamma} A {a_deg} sigma {sigma} nodes {:?}: {err:e}",
+                ap.nodes()
+            );
+        }
+    }
+}
+
+#[test]
 fn averaged_gradient_is_the_gradient_of_the_average() {
     let m = full();
     let ap = Aperture::for_model(1.0, &m).unwrap();
@@ -205,11 +237,13 @@ fn finite_near_the_horizon_and_in_f32() {
             dist: Distribution::Ggx,
             ks: Ks::PerIncidence(100.0f32),
             sigma: 1e-4,
+            gamma: None,
         }),
         haze: Some(LobeParams {
             dist: Distribution::Beckmann,
             ks: Ks::PerIncidence(1.0f32),
             sigma: 0.3,
+            gamma: None,
         }),
         directional: Some(DirectionalParams {
             kdd: 1.0f32,

@@ -73,6 +73,8 @@ pub enum ModelError {
     UnknownPreset,
     /// A member with a haze lobe but no core lobe.
     HazeWithoutCore,
+    /// A Student-t lobe without its tail exponent gamma.
+    MissingGamma,
     /// A detector-aperture quadrature asked for more nodes than it holds.
     TooManyNodes {
         /// Nodes asked for.
@@ -117,6 +119,9 @@ impl fmt::Display for ModelError {
             ModelError::Overflow => write!(f, "the BRDF value overflows this float precision"),
             ModelError::HazeWithoutCore => {
                 write!(f, "a specular-haze lobe needs a core specular lobe")
+            }
+            ModelError::MissingGamma => {
+                write!(f, "a student-t lobe needs its tail exponent gamma (> 1)")
             }
             ModelError::TooManyNodes { asked, max } => {
                 write!(f, "{asked} quadrature nodes asked for, at most {max}")

@@ -15,6 +15,9 @@ pub trait Real: Float + FloatConst + Debug + Display + Default + Send + Sync + '
     fn lit(x: f64) -> Self;
     /// Widens to `f64` (exact for both implementations).
     fn widen(self) -> f64;
+    /// The complementary error function erfc(x) = 1 - erf(x) (libm's, accurate where
+    /// it is tiny), for Beckmann's Smith Lambda.
+    fn erfc(self) -> Self;
 }
 
 impl Real for f64 {
@@ -27,6 +30,10 @@ impl Real for f64 {
     fn widen(self) -> f64 {
         self
     }
+    #[inline(always)]
+    fn erfc(self) -> f64 {
+        libm::erfc(self)
+    }
 }
 
 impl Real for f32 {
@@ -38,6 +45,10 @@ impl Real for f32 {
     #[inline(always)]
     fn widen(self) -> f64 {
         self as f64
+    }
+    #[inline(always)]
+    fn erfc(self) -> f32 {
+        libm::erfcf(self)
     }
 }
 

@@ -6,6 +6,9 @@
 //!   components (Beckmann and GGX lobes, a haze lobe, the diffuse terms, smooth k_s),
 //!   its names, its evaluation with basis and gradient, and detector-aperture averaging;
 //!   [`abg`]: the optics programs' ABg model, the member `abg`.
+//! - [`smith`]: height-correlated Smith masking-shadowing, an option beside V-cavity.
+//! - [`student_t`]: the Student-t slope distribution lobe (tail exponent gamma between
+//!   GGX and Beckmann).
 //! - [`geometry`]: in-plane and 3-D measurement geometry.
 //! - [`fresnel`]: unpolarised Fresnel reflectance (conductor n + ik, dielectric n)
 //!   and tabulated optical constants of Al, Cu, Fe, Au, Ag.
@@ -49,6 +52,8 @@ pub mod protocol;
 pub mod ramp;
 pub mod service;
 pub mod sim;
+pub mod smith;
+pub mod student_t;
 
 pub use error::ModelError;
 pub use float::Real;

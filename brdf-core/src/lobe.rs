@@ -9,6 +9,7 @@
 use crate::error::ModelError;
 use crate::float::Real;
 use crate::geometry::{Geometry, check_angle};
+use crate::student_t::StudentT;
 
 /// A microfacet distribution of slopes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -17,18 +18,29 @@ pub enum Distribution {
     Beckmann,
     /// Trowbridge–Reitz (GGX), alpha = sqrt(2) sigma, with the separable Smith G of GGX.
     Ggx,
+    /// The Student-t slope distribution with a fitted tail exponent gamma > 1
+    /// ([`crate::student_t`]; V-cavity G). Named (`student-t`) but in no lattice: a
+    /// member takes it only when asked for.
+    StudentT,
 }
 
 impl Distribution {
-    /// Both distributions, the paper's first.
+    /// The lattice's distributions, the paper's first ([`Distribution::StudentT`] is
+    /// named only).
     pub const ALL: [Distribution; 2] = [Distribution::Beckmann, Distribution::Ggx];
 
-    /// The vocabulary name: `beckmann` or `ggx`.
+    /// The vocabulary name: `beckmann`, `ggx` or `student-t`.
     pub fn name(self) -> &'static str {
         match self {
             Distribution::Beckmann => "beckmann",
             Distribution::Ggx => "ggx",
+            Distribution::StudentT => "student-t",
         }
+    }
+
+    /// Whether the lobe has a tail exponent gamma (only [`Distribution::StudentT`]).
+    pub fn has_gamma(self) -> bool {
+        self == Distribution::StudentT
     }
 
     /// The distribution of a vocabulary name (`ggx` also as `trowbridge-reitz`).
@@ -36,6 +48,7 @@ impl Distribution {
         match name {
             "beckmann" => Some(Distribution::Beckmann),
             "ggx" | "trowbridge-reitz" => Some(Distribution::Ggx),
+            "student-t" => Some(Distribution::StudentT),
             _ => None,
         }
     }
@@ -128,20 +141,50 @@ pub struct Lobe<T> {
     norm: T,
     /// m^2 = 2 sigma^2, as 1/inv_2s2 (so > 0 whenever inv_2s2 is finite).
     a2: T,
+    /// The Student-t lobe (Some exactly when `dist` is [`Distribution::StudentT`]).
+    st: Option<StudentT<T>>,
 }
 
 impl<T: Real> Lobe<T> {
     /// A lobe of distribution `dist` and width `sigma` (dimensionless, > 0); `what`
-    /// names the width in errors (e.g. `"sigma"`, `"sigma_haze"`).
+    /// names the width in errors (e.g. `"sigma"`, `"sigma_haze"`). A Student-t lobe
+    /// needs its gamma: [`Lobe::with_gamma`] (here it is refused as
+    /// [`ModelError::MissingGamma`]).
     pub fn new(dist: Distribution, sigma: T, what: &'static str) -> Result<Self, ModelError> {
+        Self::with_gamma(dist, sigma, None, what)
+    }
+
+    /// A lobe of distribution `dist`, width `sigma` and, for
+    /// [`Distribution::StudentT`], tail exponent `gamma` (finite, > 1; required);
+    /// Beckmann and GGX ignore `gamma`.
+    pub fn with_gamma(
+        dist: Distribution,
+        sigma: T,
+        gamma: Option<T>,
+        what: &'static str,
+    ) -> Result<Self, ModelError> {
         let inv_2s2 = check_width(what, sigma)?;
+        let st = match dist {
+            Distribution::StudentT => Some(StudentT::new(
+                sigma,
+                gamma.ok_or(ModelError::MissingGamma)?,
+                what,
+            )?),
+            Distribution::Beckmann | Distribution::Ggx => None,
+        };
         Ok(Lobe {
             dist,
             sigma,
             inv_2s2,
             norm: inv_2s2 / (T::lit(4.0) * T::PI()),
             a2: T::one() / inv_2s2,
+            st,
         })
+    }
+
+    /// The tail exponent gamma of a Student-t lobe (`None` for Beckmann and GGX).
+    pub fn gamma(&self) -> Option<T> {
+        self.st.map(|s| s.gamma())
     }
 
     /// The distribution.
@@ -159,11 +202,18 @@ impl<T: Real> Lobe<T> {
     /// detector's offset from the mirror direction), 0.7 sigma for GGX (its peak is
     /// sqrt(2) narrower and its poles at tan alpha = +-i m slow convergence further; the
     /// factor is set so the quadrature meets the same error bound, see
-    /// [`crate::aperture`]).
+    /// [`crate::aperture`]). Student-t: 0.7 sigma sqrt(min(gamma - 1, 8)): its poles
+    /// sit at tan alpha = +-i m sqrt(gamma - 1), so it is GGX's scale times the poles'
+    /// relative distance, up to Beckmann's 2 sigma (0.7 sqrt 8 = 1.98) as the tail
+    /// lightens.
     pub fn angular_width(&self) -> T {
-        match self.dist {
-            Distribution::Beckmann => T::lit(2.0) * self.sigma,
-            Distribution::Ggx => T::lit(0.7) * self.sigma,
+        match (self.dist, self.st) {
+            (Distribution::Beckmann, _) => T::lit(2.0) * self.sigma,
+            (Distribution::Ggx, _) => T::lit(0.7) * self.sigma,
+            (Distribution::StudentT, st) => {
+                let k = st.map_or(T::one(), |s| s.gamma() - T::one());
+                T::lit(0.7) * self.sigma * k.min(T::lit(8.0)).sqrt()
+            }
         }
     }
 
@@ -173,6 +223,9 @@ impl<T: Real> Lobe<T> {
     pub fn distribution(&self, cos_a: T, sin_a: T) -> T {
         let c2 = cos_a * cos_a;
         let s2 = sin_a * sin_a * self.inv_2s2;
+        if let Some(st) = self.st {
+            return st.distribution(cos_a, sin_a);
+        }
         match self.dist {
             Distribution::Beckmann => {
                 if c2 <= T::zero() {
@@ -185,7 +238,7 @@ impl<T: Real> Lobe<T> {
                 // exp(-x) / (pi m^2 cos^4), the 1/cos^2 split so it cannot overflow first.
                 (-x).exp() / c2 * self.inv_2s2 / c2 / T::PI()
             }
-            Distribution::Ggx => {
+            Distribution::Ggx | Distribution::StudentT => {
                 let q = c2 + s2;
                 self.inv_2s2 / q / q / T::PI()
             }
@@ -203,8 +256,27 @@ impl<T: Real> Lobe<T> {
     /// - Beckmann: `2x - 2`, x = tan^2 alpha / (2 sigma^2).
     /// - GGX: `2 (2w - 1 + l_i + l_r)` with w = tan^2 alpha/(m^2 + tan^2 alpha) and
     ///   l = d ln(G1/cos) / d ln m^2 of each direction.
+    /// - Student-t: see [`StudentT::value_dlog`].
     #[inline]
     pub fn value_dlog(&self, g: &Geometry<T>) -> (T, T) {
+        let (f, ds, _) = self.value_dlog_gamma(g);
+        (f, ds)
+    }
+
+    /// f_s, d ln f_s / d ln sigma and d ln f_s / d ln(gamma - 1) (0 but for a
+    /// Student-t lobe).
+    #[inline]
+    pub fn value_dlog_gamma(&self, g: &Geometry<T>) -> (T, T, T) {
+        if let Some(st) = self.st {
+            return st.value_dlog(g);
+        }
+        let (f, ds) = self.value_dlog_bg(g);
+        (f, ds, T::zero())
+    }
+
+    /// Beckmann's and GGX's f_s and d ln f_s / d ln sigma.
+    #[inline]
+    fn value_dlog_bg(&self, g: &Geometry<T>) -> (T, T) {
         match self.dist {
             Distribution::Beckmann => {
                 let (f, x) = beckmann_blinn(g, self.inv_2s2, self.norm);
@@ -218,7 +290,8 @@ impl<T: Real> Lobe<T> {
                     },
                 )
             }
-            Distribution::Ggx => self.ggx(g),
+            // StudentT is handled by value_dlog_gamma (st is Some for it).
+            Distribution::Ggx | Distribution::StudentT => self.ggx(g),
         }
     }
 

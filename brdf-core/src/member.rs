@@ -8,7 +8,8 @@
 //! when its k_s is the smooth k_s(theta_i), `:smooth-ks`, when it is k0 times the
 //! Fresnel reflectance on the facet's local angle, `:fresnel`. For example
 //! `specular:ggx+specular-haze:beckmann+ideal-diffuse` or
-//! `specular:beckmann:smooth-ks+directional-diffuse+ideal-diffuse`. The optics
+//! `specular:beckmann:smooth-ks+directional-diffuse+ideal-diffuse`. `:student-t` (a
+//! Student-t lobe with a tail exponent gamma) is a name in no lattice. The optics
 //! programs' ABg model ([`crate::abg`]) is the member `abg`, alone: it is a whole
 //! scatter model of its own, not a part of the paper's family, so it is in no lattice
 //! and is fitted when asked for.
@@ -167,7 +168,7 @@ impl fmt::Display for NameError {
                 "unknown component (known: specular, specular-haze, directional-diffuse, ideal-diffuse, abg, or a paper name: ideal-diffuse, torrance-sparrow, three-component, three-component-smooth-ks)"
             }
             NameError::BadAttribute => {
-                "bad lobe attribute (a lobe takes :beckmann or :ggx and optionally :smooth-ks or :fresnel)"
+                "bad lobe attribute (a lobe takes :beckmann, :ggx or :student-t and optionally :smooth-ks or :fresnel)"
             }
             NameError::Repeated => "a component is named twice",
             NameError::Invalid => {

@@ -83,6 +83,9 @@ pub struct LobeParams<T> {
     pub ks: Ks<T>,
     /// Its width sigma (dimensionless, > 0; m = sqrt(2) sigma).
     pub sigma: T,
+    /// The tail exponent gamma (> 1) of a [`Distribution::StudentT`] lobe, which needs
+    /// it; `None` (ignored) for Beckmann and GGX.
+    pub gamma: Option<T>,
 }
 
 impl<T: Real> LobeParams<T> {
@@ -143,7 +146,7 @@ impl<T: Real> MemberParams<T> {
     }
 
     /// Starting parameters for `member`: every k_s, k_dd and k_id = 1 (smooth k_s: all
-    /// c = 0; Fresnel k_s: k0 = 1, n = 1.5, k = 0), the given widths for whichever components are on; ABg A = 1, B = 0.01,
+    /// c = 0; Fresnel k_s: k0 = 1, n = 1.5, k = 0; Student-t gamma = 1.5), the given widths for whichever components are on; ABg A = 1, B = 0.01,
     /// g = 2.
     pub fn start(member: &Member, sigma: T, sigma_haze: T, sigma_m: T) -> Self {
         let lobe = |spec: LobeSpec, sigma: T| LobeParams {
@@ -158,6 +161,7 @@ impl<T: Real> MemberParams<T> {
                 }),
             },
             sigma,
+            gamma: spec.dist.has_gamma().then(|| T::lit(1.5)),
         };
         MemberParams {
             core: member.core.map(|s| lobe(s, sigma)),
@@ -220,6 +224,8 @@ pub struct LobeGradient<T> {
     pub n: T,
     /// d f / d k (Fresnel k_s only, else 0): k itself (it may be 0).
     pub k: T,
+    /// d f / d ln(gamma - 1) (Student-t lobe only, else 0).
+    pub ln_gamma_m1: T,
 }
 
 /// Derivatives of f with respect to the logarithms of the parameters (and the smooth
@@ -254,6 +260,7 @@ impl<T: Real> MemberGradient<T> {
             a.c2 = a.c2 + w * b.c2;
             a.n = a.n + w * b.n;
             a.k = a.k + w * b.k;
+            a.ln_gamma_m1 = a.ln_gamma_m1 + w * b.ln_gamma_m1;
         }
         self.ln_kdd = self.ln_kdd + w * o.ln_kdd;
         self.ln_sigma_m = self.ln_sigma_m + w * o.ln_sigma_m;
@@ -289,7 +296,7 @@ impl<T: Real> WeightedLobe<T> {
             })?,
         }
         Ok(WeightedLobe {
-            lobe: Lobe::new(p.dist, p.sigma, sigma_name)?,
+            lobe: Lobe::with_gamma(p.dist, p.sigma, p.gamma, sigma_name)?,
             ks: p.ks,
         })
     }
@@ -304,12 +311,14 @@ impl<T: Real> WeightedLobe<T> {
         }
     }
 
-    /// (basis, weighted term, d ln f_s / d ln sigma, (d term / d n, d term / d k)),
-    /// `smooth` being [`WeightedLobe::smooth_at`] at the reading's incidence; the last
-    /// pair is 0 but for a Fresnel k_s.
+    /// (basis, weighted term, (d ln f_s / d ln sigma, d ln f_s / d ln(gamma - 1)),
+    /// (d term / d n, d term / d k)), `smooth` being [`WeightedLobe::smooth_at`] at
+    /// the reading's incidence; the last pair is 0 but for a Fresnel k_s, the gamma
+    /// derivative 0 but for a Student-t lobe.
     #[inline(always)]
-    fn eval(&self, g: &Geometry<T>, smooth: (T, T)) -> (T, T, T, (T, T)) {
-        let (fs, dlog) = self.lobe.value_dlog(g);
+    fn eval(&self, g: &Geometry<T>, smooth: (T, T)) -> (T, T, (T, T), (T, T)) {
+        let (fs, ds, dgm) = self.lobe.value_dlog_gamma(g);
+        let dlog = (ds, dgm);
         let z = T::zero();
         match self.ks {
             Ks::PerIncidence(k) => (fs, if k > z { k * fs } else { z }, dlog, (z, z)),
@@ -331,11 +340,12 @@ impl<T: Real> WeightedLobe<T> {
         }
     }
 
-    fn gradient(&self, term: T, dlog: T, t: T, nk: (T, T)) -> LobeGradient<T> {
+    fn gradient(&self, term: T, dlog: (T, T), t: T, nk: (T, T)) -> LobeGradient<T> {
         let smooth = matches!(self.ks, Ks::Smooth(_));
         LobeGradient {
             ln_ks: term,
-            ln_sigma: term * dlog,
+            ln_sigma: term * dlog.0,
+            ln_gamma_m1: term * dlog.1,
             c1: if smooth { term * t } else { T::zero() },
             c2: if smooth { term * t * t } else { T::zero() },
             n: nk.0,
@@ -373,8 +383,8 @@ struct Directional<T> {
 /// // paper's two diffuse terms.
 /// let member = Member::parse("specular:ggx+specular-haze:beckmann:smooth-ks+directional-diffuse+ideal-diffuse").unwrap();
 /// let params = MemberParams {
-///     core: Some(LobeParams { dist: Distribution::Ggx, ks: Ks::PerIncidence(2.0f64), sigma: 0.005 }),
-///     haze: Some(LobeParams { dist: Distribution::Beckmann, ks: Ks::Smooth(SmoothKs { c: [-3.0, 0.5, 0.0] }), sigma: 0.15 }),
+///     core: Some(LobeParams { dist: Distribution::Ggx, ks: Ks::PerIncidence(2.0f64), sigma: 0.005, gamma: None }),
+///     haze: Some(LobeParams { dist: Distribution::Beckmann, ks: Ks::Smooth(SmoothKs { c: [-3.0, 0.5, 0.0] }), sigma: 0.15, gamma: None }),
 ///     directional: Some(DirectionalParams { kdd: 0.01, sigma_m: 0.7 }),
 ///     ideal: Some(1e-4),
 ///     abg: None,
@@ -646,7 +656,7 @@ impl<T: Real> MemberModel<T> {
         let t = inc.t;
         let mut basis = Parts::default();
         let (mut s, mut h, mut d, mut i) = (z, z, z, z);
-        let (mut ds, mut dh, mut y) = (z, z, z);
+        let (mut ds, mut dh, mut y) = ((z, z), (z, z), z);
         let (mut ns, mut nh) = ((z, z), (z, z));
         if let Some(l) = &self.core {
             (basis.core, s, ds, ns) = l.eval(g, inc.smooth[0]);

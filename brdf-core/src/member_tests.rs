@@ -8,7 +8,12 @@ use crate::presets::Preset;
 use proptest::prelude::*;
 
 fn lobe<T: Real>(dist: Distribution, ks: Ks<T>, sigma: T) -> Option<LobeParams<T>> {
-    Some(LobeParams { dist, ks, sigma })
+    Some(LobeParams {
+        dist,
+        ks,
+        sigma,
+        gamma: None,
+    })
 }
 
 /// The paper's three-component model as a member, from `Params`.
@@ -849,6 +854,136 @@ fn fresnel_gradient_matches_finite_differences() {
                 let tol = if haze && name == "k" { 1e-5 } else { 1e-7 };
                 assert!(
                     (analytic - numeric).abs() <= tol * e.f,
+                    "({ti},{tr}) haze={haze} {name}: {analytic} vs {numeric}"
+                );
+            }
+        }
+    }
+}
+
+/// A Student-t core (gamma 1.4, smooth k_s) on a Student-t haze (gamma 3, per
+/// incidence) with both diffuse terms.
+fn student_t_member() -> MemberParams<f64> {
+    MemberParams {
+        core: Some(LobeParams {
+            dist: Distribution::StudentT,
+            ks: Ks::Smooth(SmoothKs {
+                c: [1.0, 0.3, -0.2],
+            }),
+            sigma: 0.03,
+            gamma: Some(1.4),
+        }),
+        haze: Some(LobeParams {
+            dist: Distribution::StudentT,
+            ks: Ks::PerIncidence(0.2),
+            sigma: 0.2,
+            gamma: Some(3.0),
+        }),
+        directional: Some(DirectionalParams {
+            kdd: 0.05,
+            sigma_m: 0.6,
+        }),
+        ideal: Some(0.01),
+        abg: None,
+    }
+}
+
+#[test]
+fn student_t_members_parse_print_evaluate_the_exact_lobe_and_need_gamma() {
+    let name =
+        "specular:student-t:smooth-ks+specular-haze:student-t+directional-diffuse+ideal-diffuse";
+    let m = Member::parse(name).unwrap();
+    assert_eq!(m.name().as_str(), name);
+    assert!(name.len() < Member::MAX_NAME_LEN);
+    // Named, but in no lattice.
+    assert!(Member::lattice().all(|l| l.core.is_none_or(|c| c.dist != Distribution::StudentT)));
+    let p = student_t_member();
+    assert_eq!(p.member(), m);
+    let model = MemberModel::new(&p).unwrap();
+    let st = crate::student_t::StudentT::new(0.03, 1.4, "sigma").unwrap();
+    for (ti, tr) in [(0.0, 1.0), (30.0, 32.0), (60.0, 45.0)] {
+        let g = Geometry::in_plane(ti, tr).unwrap();
+        let e = model.eval(ti, &g).unwrap();
+        assert_eq!(
+            e.basis.core,
+            st.value(&g)
+                * SmoothKs {
+                    c: [0.0, 0.3, -0.2]
+                }
+                .ks(ti)
+                .unwrap()
+        );
+    }
+    // Start parameters carry gamma 1.5; without gamma the lobe is refused.
+    let start = MemberParams::<f64>::start(&m, 0.01, 0.1, 0.5);
+    assert_eq!(start.core.unwrap().gamma, Some(1.5));
+    let mut bad = p;
+    bad.core.as_mut().unwrap().gamma = None;
+    assert_eq!(MemberModel::new(&bad), Err(ModelError::MissingGamma));
+    bad.core.as_mut().unwrap().gamma = Some(1.0);
+    assert!(MemberModel::new(&bad).is_err());
+    // Beckmann and GGX ignore gamma.
+    let mut f = full();
+    let plain = MemberModel::new(&f)
+        .unwrap()
+        .eval_in_plane(30.0, 31.0)
+        .unwrap();
+    f.core.as_mut().unwrap().gamma = Some(7.0);
+    assert_eq!(
+        MemberModel::new(&f)
+            .unwrap()
+            .eval_in_plane(30.0, 31.0)
+            .unwrap(),
+        plain
+    );
+}
+
+#[test]
+fn student_t_gradient_matches_finite_differences() {
+    type Bump = fn(&mut LobeParams<f64>, f64);
+    type Read = fn(&LobeGradient<f64>) -> f64;
+    let coords: [(&str, Bump, Read); 2] = [
+        ("ln sigma", |l, u| l.sigma *= u.exp(), |g| g.ln_sigma),
+        (
+            "ln(gamma-1)",
+            |l, u| l.gamma = l.gamma.map(|g| 1.0 + (g - 1.0) * u.exp()),
+            |g| g.ln_gamma_m1,
+        ),
+    ];
+    let h = 1e-6;
+    let base = student_t_member();
+    for (ti, tr) in [
+        (0.0, 0.0),
+        (0.0, 3.0),
+        (41.4, 44.0),
+        (70.0, 60.0),
+        (20.0, -10.0),
+    ] {
+        let m = MemberModel::new(&base).unwrap();
+        let (e, grad) = m.eval_in_plane_with_gradient(ti, tr).unwrap();
+        for haze in [false, true] {
+            for (name, bump, read) in coords {
+                let at = |u: f64| {
+                    let mut p = base;
+                    bump(
+                        if haze {
+                            p.haze.as_mut()
+                        } else {
+                            p.core.as_mut()
+                        }
+                        .unwrap(),
+                        u,
+                    );
+                    MemberModel::new(&p)
+                        .unwrap()
+                        .eval_in_plane(ti, tr)
+                        .unwrap()
+                        .f
+                };
+                let numeric = (at(h) - at(-h)) / (2.0 * h);
+                let analytic = read(if haze { &grad.haze } else { &grad.core });
+                assert!(
+                    (analytic - numeric).abs() <= 1e-7 * e.f,
                     "({ti},{tr}) haze={haze} {name}: {analytic} vs {numeric}"
                 );
             }

@@ -23,6 +23,7 @@ fn lobe_only<T: Real>(d: Distribution, sigma: T) -> MemberModel<T> {
             dist: d,
             ks: Ks::PerIncidence(T::one()),
             sigma,
+            gamma: None,
         }),
         haze: None,
         directional: None,

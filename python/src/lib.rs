@@ -136,6 +136,8 @@ impl PyModel {
                 dist: spec.dist,
                 ks: lobe_ks("specular", spec.ks, ks)?,
                 sigma: sigma.ok_or_else(|| err("specular needs sigma"))?,
+                // A Student-t lobe is refused at evaluation without it (MissingGamma).
+                gamma: None,
             }),
             None => {
                 absent(ks.is_some() || sigma.is_some(), "ks/sigma", "specular")?;
@@ -147,6 +149,8 @@ impl PyModel {
                 dist: spec.dist,
                 ks: lobe_ks("specular-haze", spec.ks, ks_haze)?,
                 sigma: sigma_haze.ok_or_else(|| err("specular-haze needs sigma_haze"))?,
+                // A Student-t lobe is refused at evaluation without it (MissingGamma).
+                gamma: None,
             }),
             None => {
                 absent(
@@ -245,6 +249,9 @@ impl PyModel {
         let lobe = |pre: &str, l: &LobeDef| -> PyResult<()> {
             d.set_item(format!("{pre}dist"), l.dist.name())?;
             d.set_item(format!("{pre}sigma"), l.sigma)?;
+            if let Some(g) = l.gamma {
+                d.set_item(format!("{pre}gamma"), g)?;
+            }
             match &l.ks {
                 KsSrc::Const(k) => d.set_item(format!("{pre}ks"), k),
                 KsSrc::Smooth(c) | KsSrc::Fresnel(c) => d.set_item(format!("{pre}ks"), c.to_vec()),

@@ -39,6 +39,8 @@ pub struct LobeDef {
     pub ks: KsSrc,
     /// sigma (dimensionless).
     pub sigma: f64,
+    /// A Student-t lobe's tail exponent gamma (None for Beckmann and GGX).
+    pub gamma: Option<f64>,
 }
 
 /// A member with its parameters; a component is on when its entry is `Some`.
@@ -124,6 +126,7 @@ impl ModelDef {
                 dist: l.dist,
                 ks: ks_of(&l.ks, theta_i)?,
                 sigma: l.sigma,
+                gamma: l.gamma,
             })
         };
         MemberModel::new(&MemberParams {
@@ -331,6 +334,7 @@ pub fn preset_def(
             dist: Distribution::Beckmann,
             ks: KsSrc::Preset(p),
             sigma: sigma.unwrap_or(p.sigma),
+            gamma: None,
         }),
         haze: None,
         directional: Some((kdd.unwrap_or(KDD_PAPER), sigma_m.unwrap_or(SIGMA_M_PAPER))),
@@ -350,6 +354,7 @@ pub fn table_def(t: MemberTable, origin: String) -> ModelDef {
         l.map(|l| LobeDef {
             dist: l.dist,
             sigma: l.sigma,
+            gamma: l.gamma,
             ks: match l.ks {
                 Ks::Smooth(s) => KsSrc::Smooth(s.c),
                 Ks::Fresnel(f) => KsSrc::Fresnel([f.k0, f.n, f.k]),

@@ -274,6 +274,7 @@ fn build_model<T: Real>(args: &EvalArgs) -> CliResult<MemberModel<T>> {
                 dist: spec.dist,
                 ks,
                 sigma: T::lit(sigma),
+                gamma: None,
             })
         }
     };
@@ -374,5 +375,6 @@ fn core_lobe<T: Real>(args: &EvalArgs, spec: LobeSpec, ti: T) -> CliResult<LobeP
         dist: spec.dist,
         ks,
         sigma,
+        gamma: None,
     })
 }

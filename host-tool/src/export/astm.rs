@@ -91,6 +91,7 @@ mod tests {
                 dist: Distribution::Beckmann,
                 ks: Ks::PerIncidence(0.3),
                 sigma: 0.12,
+                gamma: None,
             }),
             haze: None,
             directional: Some(DirectionalParams {

@@ -40,6 +40,7 @@ pub(super) fn export_json(fam: &FamilyFit, table: &MemberTable) -> Value {
             json!({
                 "angles": "degrees (theta_i; theta_r signed, positive on the specular side)",
                 "sigma": "dimensionless microfacet slope parameter (sigma, sigma_haze)",
+                "gamma": "dimensionless tail exponent of a student-t lobe (gamma, gamma_haze; > 1, GGX at 2, Beckmann as gamma grows)",
                 "sigma_m": "radians",
                 "brdf": brdf_units(table),
                 "k_s": ks_between.join("; "),

@@ -118,6 +118,9 @@ impl MemberTable {
             let mut m = Map::new();
             m.insert("dist".into(), json!(first.dist.name()));
             m.insert("sigma".into(), json!(first.sigma));
+            if let Some(g) = first.gamma {
+                m.insert("gamma".into(), json!(g));
+            }
             match first.ks {
                 Ks::Smooth(s) => m.insert("ks_smooth".into(), json!(s.c)),
                 Ks::Fresnel(f) => m.insert("ks_fresnel".into(), json!([f.k0, f.n, f.k])),
@@ -229,9 +232,15 @@ impl MemberTable {
                 .as_object()
                 .ok_or(format!("\"{key}\" must be an object"))?;
             let dname = l.get("dist").and_then(Value::as_str).unwrap_or("");
-            let dist = Distribution::parse(dname)
-                .ok_or(format!("{key}: dist '{dname}': use beckmann or ggx"))?;
+            let dist = Distribution::parse(dname).ok_or(format!(
+                "{key}: dist '{dname}': use beckmann, ggx or student-t"
+            ))?;
             let sigma = num(l, "sigma", key)?;
+            // A Student-t lobe's tail exponent; the model refuses the lobe without it.
+            let gamma = match l.get("gamma") {
+                None => None,
+                Some(_) => Some(num(l, "gamma", key)?),
+            };
             let ks: Vec<Ks<f64>> = match (l.get("ks"), l.get("ks_smooth"), l.get("ks_fresnel")) {
                 (None, None, Some(c)) => {
                     let c: Vec<f64> = c
@@ -284,7 +293,12 @@ impl MemberTable {
             };
             Ok(Some(
                 ks.into_iter()
-                    .map(|ks| LobeParams { dist, ks, sigma })
+                    .map(|ks| LobeParams {
+                        dist,
+                        ks,
+                        sigma,
+                        gamma,
+                    })
                     .collect(),
             ))
         };
@@ -375,6 +389,19 @@ fn scene_for(table: &MemberTable) -> String {
 /// `target.inputs` apply to each file.
 pub fn write_mitsuba(target: Target<'_>, table: &MemberTable) -> Result<(), ExportError> {
     let dir = target.path;
+    // The plugin renders Beckmann and GGX lobes (Mitsuba's microfacet distributions).
+    if let Some(l) = [table.member.core, table.member.haze]
+        .into_iter()
+        .flatten()
+        .find(|l| l.dist.has_gamma())
+    {
+        return Err(ExportError::Refused(format!(
+            "{}: the Mitsuba plugin renders Beckmann and GGX lobes only, not {}'s {} lobe: export it as merl=, zemax=, astm= or json= (tables of the exact model)",
+            dir.display(),
+            table.member,
+            l.dist.name()
+        )));
+    }
     if dir.exists() && !dir.is_dir() {
         return Err(ExportError::Refused(format!(
             "{}: mitsuba=DIR needs a directory, and this is a file",

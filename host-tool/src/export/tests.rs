@@ -413,11 +413,13 @@ fn haze_fixture() -> &'static FamilyFit {
                         c: [-1.0, 0.5, 0.0],
                     }),
                     sigma: 0.01,
+                    gamma: None,
                 }),
                 haze: Some(LobeParams {
                     dist: Distribution::Beckmann,
                     ks: Ks::PerIncidence(0.2 + 0.05 * j as f64),
                     sigma: 0.2,
+                    gamma: None,
                 }),
                 directional: None,
                 ideal: Some(0.01),

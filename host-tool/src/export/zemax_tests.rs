@@ -113,6 +113,7 @@ fn broad() -> MemberParams<f64> {
             dist: Distribution::Beckmann,
             ks: Ks::PerIncidence(0.3),
             sigma: 0.12,
+            gamma: None,
         }),
         haze: None,
         directional: Some(DirectionalParams {
@@ -132,11 +133,13 @@ fn sharp() -> MemberParams<f64> {
                 c: [-1.0, 0.5, 0.0],
             }),
             sigma: 0.02,
+            gamma: None,
         }),
         haze: Some(LobeParams {
             dist: Distribution::Beckmann,
             ks: Ks::PerIncidence(0.2),
             sigma: 0.2,
+            gamma: None,
         }),
         directional: None,
         ideal: Some(0.01),

@@ -106,11 +106,13 @@ mod tests {
                     c: [1.2, 0.8, -0.5],
                 }),
                 sigma: 0.02,
+                gamma: None,
             }),
             haze: Some(LobeParams {
                 dist: Distribution::Beckmann,
                 ks: Ks::PerIncidence(0.3),
                 sigma: 0.2,
+                gamma: None,
             }),
             directional: Some(DirectionalParams {
                 kdd: 0.05,

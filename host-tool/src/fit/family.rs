@@ -106,7 +106,8 @@ pub fn variants_of(selected: Member) -> Vec<Member> {
 /// The third stage: the selected member with its haze lobe's distribution switched
 /// (Beckmann to GGX or back), `None` without a haze. A haze's tail decides how a sharp
 /// core's wings fall (a Beckmann haze is Gaussian in slope, a GGX one falls as a power
-/// law), and the core's shape was decided on the reference haze.
+/// law), and the core's shape was decided on the reference haze. A Student-t haze
+/// fits its own tail: `None`.
 pub fn haze_variant_of(selected: Member) -> Option<Member> {
     use brdf_core::lobe::Distribution;
     let mut m = selected;
@@ -114,6 +115,7 @@ pub fn haze_variant_of(selected: Member) -> Option<Member> {
     h.dist = match h.dist {
         Distribution::Beckmann => Distribution::Ggx,
         Distribution::Ggx => Distribution::Beckmann,
+        Distribution::StudentT => return None,
     };
     Some(m)
 }

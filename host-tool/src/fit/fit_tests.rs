@@ -453,6 +453,7 @@ pub(super) fn lobe(sigma: f64, ks: f64) -> Option<brdf_core::member_model::LobeP
         dist: brdf_core::lobe::Distribution::Beckmann,
         ks: brdf_core::member_model::Ks::PerIncidence(ks),
         sigma,
+        gamma: None,
     })
 }
 
@@ -521,6 +522,7 @@ fn two_lobe_sweeps_across_the_issues_ranges_select_a_haze_and_recover_both_width
                     dist,
                     ks: Ks::PerIncidence(0.4 + ti / 100.0),
                     sigma: core,
+                    gamma: None,
                 }),
                 haze: lobe(haze, 0.3 - ti / 500.0),
                 directional: None,

@@ -63,7 +63,12 @@ pub fn family_notes(
             &selected_member.to_string(),
         ));
         if let (Some(core), Some((sigma, _))) = (selected_member.core, f.sigma()) {
-            summary.extend(peak::unresolved_core_note(data, core.dist, sigma));
+            summary.extend(peak::unresolved_core_note(
+                data,
+                core.dist,
+                sigma,
+                f.gamma(),
+            ));
         }
         summary.extend(super::misses::miss_notes(data, f, &fitted, members));
     }

@@ -100,13 +100,17 @@ pub fn offset_note(data: &Dataset, fitted: &[Option<f64>], member: &str) -> Opti
 
 /// The full width at half maximum in theta_r (degrees) of a lobe of width `sigma`
 /// near the mirror direction: its distribution of slopes (D cos^4 alpha) falls to half
-/// at tan^2 alpha = 2 ln 2 sigma^2 (Beckmann) or (sqrt 2 - 1) 2 sigma^2 (GGX), and in
-/// the plane theta_r moves twice as fast as the half-vector angle alpha, so the width
-/// is 4 alpha.
-pub fn lobe_fwhm_deg(dist: Distribution, sigma: f64) -> f64 {
+/// at tan^2 alpha = 2 ln 2 sigma^2 (Beckmann), (sqrt 2 - 1) 2 sigma^2 (GGX) or
+/// (2^(1/gamma) - 1) (gamma - 1) 2 sigma^2 (Student-t, whose tail exponent is `gamma`;
+/// NaN without it), and in the plane theta_r moves twice as fast as the half-vector
+/// angle alpha, so the width is 4 alpha.
+pub fn lobe_fwhm_deg(dist: Distribution, sigma: f64, gamma: Option<f64>) -> f64 {
     let t2 = match dist {
         Distribution::Beckmann => 2.0 * std::f64::consts::LN_2,
         Distribution::Ggx => 2.0 * (std::f64::consts::SQRT_2 - 1.0),
+        Distribution::StudentT => {
+            gamma.map_or(f64::NAN, |g| 2.0 * (g - 1.0) * (2f64.powf(1.0 / g) - 1.0))
+        }
     } * sigma
         * sigma;
     4.0 * t2.sqrt().atan().to_degrees()
@@ -144,10 +148,15 @@ pub fn step_at_peak(data: &Dataset) -> Option<f64> {
 
 /// A note when the selected core lobe is narrower (FWHM in theta_r) than the readings'
 /// step at the peak: the readings then see the lobe's integral over a step, not its
-/// shape, so its width is not measured. `dist` and `sigma` are the core lobe's.
-pub fn unresolved_core_note(data: &Dataset, dist: Distribution, sigma: f64) -> Option<String> {
+/// shape, so its width is not measured. `dist`, `sigma` and `gamma` are the core lobe's.
+pub fn unresolved_core_note(
+    data: &Dataset,
+    dist: Distribution,
+    sigma: f64,
+    gamma: Option<f64>,
+) -> Option<String> {
     let step = step_at_peak(data)?;
-    let w = lobe_fwhm_deg(dist, sigma);
+    let w = lobe_fwhm_deg(dist, sigma, gamma);
     (w < step).then(|| {
         format!(
             "the core lobe (sigma {sigma:.2e}, about {w:.2} deg wide at half maximum in theta_r) is narrower than the \
@@ -221,9 +230,14 @@ mod tests {
         // D cos^4 alpha is the distribution of slopes tan alpha (Beckmann: Gaussian,
         // GGX: (1 + tan^2 / m^2)^-2); its half maximum sets the width.
         for sigma in [0.003, 0.05, 0.3] {
-            for dist in [Distribution::Beckmann, Distribution::Ggx] {
-                let lobe = Lobe::new(dist, sigma, "sigma").unwrap();
-                let a = (lobe_fwhm_deg(dist, sigma) / 4.0).to_radians();
+            for (dist, gamma) in [
+                (Distribution::Beckmann, None),
+                (Distribution::Ggx, None),
+                (Distribution::StudentT, Some(1.3)),
+                (Distribution::StudentT, Some(6.0)),
+            ] {
+                let lobe = Lobe::with_gamma(dist, sigma, gamma, "sigma").unwrap();
+                let a = (lobe_fwhm_deg(dist, sigma, gamma) / 4.0).to_radians();
                 let r = lobe.distribution(a.cos(), a.sin()) * a.cos().powi(4)
                     / lobe.distribution(1.0, 0.0);
                 assert!((r - 0.5).abs() < 1e-9, "{dist:?} {sigma}: {r}");

@@ -305,6 +305,7 @@ fn a_ggx_core_is_told_from_a_beckmann_one() {
                 dist,
                 ks: Ks::PerIncidence(0.4 + ti / 100.0),
                 sigma: 0.01,
+                gamma: None,
             }),
             ..two_lobes(ti)
         };

@@ -37,7 +37,8 @@ pub const KEY_PARAMS: [&str; 9] = [
 /// One reported parameter of a fitted member.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Param {
-    /// Its name without an incidence: `sigma`, `sigma_haze`, `sigma_m`, `k_dd`, `k_id`
+    /// Its name without an incidence: `sigma`, `sigma_haze`, `gamma`, `gamma_haze` (a
+    /// Student-t lobe's tail exponent), `sigma_m`, `k_dd`, `k_id`
     /// (`k_d` for Torrance–Sparrow), `ln_ks_c0..2`, `ln_ks_haze_c0..2`, `k_s`,
     /// `k_s_haze`, and ABg's `A`, `B`, `g`.
     pub base: &'static str,
@@ -231,7 +232,7 @@ pub fn member_params(fit: &MemberFit) -> Vec<Param> {
 /// A member's widths and scalar weights: where each sits in its parameter vector (if
 /// the member has it) and its report name, in report order (`k_d` for the paper's
 /// Torrance–Sparrow ideal diffuse, `k_id` for every other member's).
-fn scalar_slots(fit: &MemberFit) -> [(Option<usize>, &'static str); 5] {
+fn scalar_slots(fit: &MemberFit) -> [(Option<usize>, &'static str); 7] {
     let l = &fit.layout;
     let kid = if fit.member() == Member::TORRANCE_SPARROW {
         "k_d"
@@ -241,6 +242,8 @@ fn scalar_slots(fit: &MemberFit) -> [(Option<usize>, &'static str); 5] {
     [
         (l.sigma, "sigma"),
         (l.sigma_haze, "sigma_haze"),
+        (l.core_gamma, "gamma"),
+        (l.haze_gamma, "gamma_haze"),
         (l.sigma_m, "sigma_m"),
         (l.kdd, "k_dd"),
         (l.kid, kid),

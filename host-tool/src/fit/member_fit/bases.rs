@@ -24,6 +24,10 @@ pub fn haze_grid() -> Vec<f64> {
     log_grid(0.02, 2.0, 11)
 }
 
+/// A Student-t lobe's tail exponent gamma at the grid (and the fit's start): between
+/// GGX's 2 and the 1.3 measured metals fit.
+pub const START_GAMMA: f64 = 1.5;
+
 /// sigma_m (radians) of the grid.
 pub const SIGMA_M_GRID: [f64; 3] = [0.3, 0.7, 1.5];
 
@@ -55,7 +59,7 @@ pub(super) fn basis_of(
 /// member's evaluation around it (52 of these on the paper grid were 7 % of the
 /// family's instructions). `None` where a value is not finite, as there.
 pub(super) fn unit_lobe_values(data: &Dataset, dist: Distribution, sigma: f64) -> Option<Vec<f64>> {
-    let lobe = Lobe::new(dist, sigma, "sigma").ok()?;
+    let lobe = Lobe::with_gamma(dist, sigma, grid_gamma(dist), "sigma").ok()?;
     let mut b = Vec::with_capacity(data.obs.len());
     for o in &data.obs {
         let v = lobe.value(&o.geom);
@@ -80,12 +84,18 @@ pub(super) fn directional_values(data: &Dataset, params: &MemberParams<f64>) -> 
 
 pub(super) type Parts = brdf_core::member_model::Parts<f64>;
 
+/// The grid's gamma of a lobe of `dist`: [`START_GAMMA`] for a Student-t lobe.
+pub(super) fn grid_gamma(dist: Distribution) -> Option<f64> {
+    dist.has_gamma().then_some(START_GAMMA)
+}
+
 pub(super) fn unit_lobe(dist: Distribution, sigma: f64) -> MemberParams<f64> {
     MemberParams {
         core: Some(LobeParams {
             dist,
             ks: Ks::PerIncidence(1.0),
             sigma,
+            gamma: grid_gamma(dist),
         }),
         haze: None,
         directional: None,
@@ -125,13 +135,13 @@ pub struct GridBases<'a> {
     pub(super) m1y: Vec<f64>,
     pub(super) myy: Vec<f64>,
     /// [role (core, haze)][distribution]: one basis per width of the role's grid.
-    pub(super) lobes: [[OnceLock<Vec<Option<Basis>>>; 2]; 2],
+    pub(super) lobes: [[OnceLock<Vec<Option<Basis>>>; N_DIST]; 2],
     pub(super) dd: OnceLock<Vec<Option<Basis>>>,
     /// [core distribution][haze distribution]: the core-haze cross moments of every
     /// width pair a grid point can combine (see [`GridBases::core_haze`]).
-    pub(super) core_haze: [[OnceLock<Crosses>; 2]; 2],
+    pub(super) core_haze: [[OnceLock<Crosses>; N_DIST]; N_DIST],
     /// [role][distribution]: the lobe-directional cross moments of every width pair.
-    pub(super) lobe_dd: [[OnceLock<Crosses>; 2]; 2],
+    pub(super) lobe_dd: [[OnceLock<Crosses>; N_DIST]; 2],
     /// The best points of each grid searched so far, by the grid's member (k_s per
     /// incidence) and residual (see [`GridBases::starts`]).
     pub(super) starts: Mutex<Vec<SharedStarts>>,
@@ -157,9 +167,16 @@ pub(super) type SharedStarts = (Member, Residual, Arc<OnceLock<Vec<usize>>>);
 /// (`None` where a basis is missing or the pair is not combined).
 pub(super) type Crosses = Vec<Option<Vec<f64>>>;
 
-/// Index 0 Beckmann, 1 GGX.
+/// Distributions the bases are kept for ([`dist_index`]).
+pub(super) const N_DIST: usize = 3;
+
+/// Index 0 Beckmann, 1 GGX, 2 Student-t (at [`START_GAMMA`]).
 pub(super) fn dist_index(dist: Distribution) -> usize {
-    usize::from(dist == Distribution::Ggx)
+    match dist {
+        Distribution::Beckmann => 0,
+        Distribution::Ggx => 1,
+        Distribution::StudentT => 2,
+    }
 }
 
 impl<'a> GridBases<'a> {
@@ -272,7 +289,7 @@ impl<'a> GridBases<'a> {
     pub fn retain_for(&mut self, members: &[Member]) {
         let uses = |f: &dyn Fn(&Member) -> bool| members.iter().any(f);
         let is = |l: Option<LobeSpec>, d: usize| l.is_some_and(|l| dist_index(l.dist) == d);
-        for d in 0..2 {
+        for d in 0..N_DIST {
             for (role, pick) in [
                 (0, (|m| m.core) as fn(&Member) -> Option<LobeSpec>),
                 (1, |m| m.haze),
@@ -284,7 +301,7 @@ impl<'a> GridBases<'a> {
                     self.lobe_dd[role][d].take();
                 }
             }
-            for h in 0..2 {
+            for h in 0..N_DIST {
                 if !uses(&|m| is(m.core, d) && is(m.haze, h)) {
                     self.core_haze[d][h].take();
                 }
@@ -322,7 +339,7 @@ impl<'a> GridBases<'a> {
 
     /// The lobe bases of `role` (0 core, 1 haze) for `dist`, one per grid width.
     pub(super) fn lobes(&self, role: usize, dist: Distribution) -> &[Option<Basis>] {
-        let d = usize::from(dist == Distribution::Ggx);
+        let d = dist_index(dist);
         self.lobes[role][d].get_or_init(|| {
             let widths = if role == 0 {
                 &self.core_w

@@ -25,6 +25,7 @@ fn fresnel_sweep(k0: f64, n: f64, k: f64, noise: f64, seed: u32) -> Dataset {
             dist: Distribution::Beckmann,
             ks: Ks::Fresnel(FresnelKs { k0, n, k }),
             sigma: 0.1,
+            gamma: None,
         }),
         haze: None,
         directional: None,

@@ -27,6 +27,10 @@ pub const ABG_B_BOUNDS: (f64, f64) = (1e-12, 1e3);
 /// degree off the peak to the horizon, and g trades against B.
 pub const ABG_G_MIN: f64 = 0.05;
 
+/// A Student-t lobe's gamma - 1, bounded: at 0.05 the tail falls as tan^-2.1 (hardly
+/// normalisable), at 50 the lobe is Beckmann's to within 2 % of its peak value.
+pub const GAMMA_M1_BOUNDS: (f64, f64) = (0.05, 50.0);
+
 /// Where each parameter lives in the LM vector: globals first, then per incidence the
 /// local k_s of the core lobe, then of the haze lobe (per-incidence lobes only).
 #[derive(Debug, Clone, PartialEq)]
@@ -53,6 +57,10 @@ pub struct Layout {
     pub core_fresnel: Option<usize>,
     /// ln k0, n, k of the haze's Fresnel k_s.
     pub haze_fresnel: Option<usize>,
+    /// ln(gamma - 1) of a Student-t core lobe.
+    pub core_gamma: Option<usize>,
+    /// ln(gamma - 1) of a Student-t haze lobe.
+    pub haze_gamma: Option<usize>,
     /// ln A of ABg (an amplitude).
     pub abg_a: Option<usize>,
     /// ln B of ABg.
@@ -89,6 +97,9 @@ impl Layout {
         let haze_poly = take(form(member.haze, KsForm::Smooth), 3);
         let core_fresnel = take(form(member.core, KsForm::Fresnel), 3);
         let haze_fresnel = take(form(member.haze, KsForm::Fresnel), 3);
+        let tailed = |l: Option<LobeSpec>| l.is_some_and(|l| l.dist.has_gamma());
+        let core_gamma = take(tailed(member.core), 1);
+        let haze_gamma = take(tailed(member.haze), 1);
         let abg_a = take(member.abg, 1);
         let abg_b = take(member.abg, 1);
         let abg_g = take(member.abg, 1);
@@ -104,6 +115,8 @@ impl Layout {
             haze_poly,
             core_fresnel,
             haze_fresnel,
+            core_gamma,
+            haze_gamma,
             abg_a,
             abg_b,
             abg_g,
@@ -186,9 +199,27 @@ impl Layout {
             || self.fresnel_nk(i).is_some()
     }
 
+    /// Parameter `i` is a Student-t lobe's ln(gamma - 1).
+    #[inline]
+    pub fn is_gamma(&self, i: usize) -> bool {
+        Some(i) == self.core_gamma || Some(i) == self.haze_gamma
+    }
+
+    /// gamma of the core (or haze) lobe at `x`, if it is a Student-t lobe.
+    #[inline]
+    pub fn gamma(&self, x: &[f64], haze: bool) -> Option<f64> {
+        let slot = if haze {
+            self.haze_gamma
+        } else {
+            self.core_gamma
+        };
+        slot.map(|i| 1.0 + x[i].exp())
+    }
+
     /// Box bounds of parameter `i` (log coordinates; smooth c1, c2, ABg's g and a
     /// Fresnel n, k plain). ABg's B in [`ABG_B_BOUNDS`], g in [[`ABG_G_MIN`],
-    /// [`G_MAX`]]; n in [`FRESNEL_N_BOUNDS`], k in [`FRESNEL_K_BOUNDS`].
+    /// [`G_MAX`]]; n in [`FRESNEL_N_BOUNDS`], k in [`FRESNEL_K_BOUNDS`]; a Student-t
+    /// ln(gamma - 1) in ln [`GAMMA_M1_BOUNDS`].
     #[inline]
     pub fn bounds(&self, i: usize) -> (f64, f64) {
         let poly = |p: Option<usize>| p.is_some_and(|p| i > p && i < p + 3);
@@ -208,6 +239,8 @@ impl Layout {
             ln(SIGMA_M_BOUNDS)
         } else if Some(i) == self.abg_b {
             ln(ABG_B_BOUNDS)
+        } else if self.is_gamma(i) {
+            ln(GAMMA_M1_BOUNDS)
         } else if Some(i) == self.abg_g {
             (ABG_G_MIN, G_MAX)
         } else if poly(self.core_poly) || poly(self.haze_poly) {
@@ -241,6 +274,7 @@ impl Layout {
                 (None, None) => Ks::PerIncidence(x[self.local(j, haze)].exp()),
             },
             sigma: ln_sigma.exp(),
+            gamma: self.gamma(x, haze),
         };
         MemberParams {
             core: self

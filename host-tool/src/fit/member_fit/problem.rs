@@ -279,6 +279,8 @@ impl Problem<'_> {
                 set(l.sigma, core_sigma);
                 set(l.sigma_haze, g.haze.ln_sigma);
                 set(l.sigma_m, g.ln_sigma_m);
+                set(l.core_gamma, g.core.ln_gamma_m1);
+                set(l.haze_gamma, g.haze.ln_gamma_m1);
                 set(l.kdd, g.ln_kdd);
                 set(l.kid, g.ln_kid);
                 set(l.abg_a, g.abg_ln_a);

@@ -233,6 +233,8 @@ pub(super) fn start_vector(
         false,
     );
     put(l.sigma_m, sigma_m, false);
+    put(l.core_gamma, START_GAMMA - 1.0, false);
+    put(l.haze_gamma, START_GAMMA - 1.0, false);
     put(l.kdd, amp.kdd, true);
     put(l.kid, amp.kid, true);
     let lobes = [(l.core_poly, l.core_local), (l.haze_poly, l.haze_local)];

@@ -62,8 +62,9 @@ impl MemberFit {
         super::super::criteria::bic(self.ssr, self.n, self.k())
     }
 
-    /// A parameter's value in natural units (exp of its log coordinate) and its standard
-    /// error by the delta method, if determined.
+    /// A parameter's value in natural units (exp of its log coordinate; a Student-t
+    /// lobe's gamma = 1 + exp of its ln(gamma - 1)) and its standard error by the delta
+    /// method, if determined.
     pub fn natural(&self, i: usize) -> (f64, Option<f64>) {
         // A parameter held fixed is reported at the value asked for, to the last bit.
         if let Some(v) = self.held[i] {
@@ -71,12 +72,29 @@ impl MemberFit {
         }
         let v = self.x[i].exp();
         let se = self.identifiable[i].then(|| v * self.cov.get(i, i).max(0.0).sqrt());
-        (v, se)
+        let offset = if self.layout.is_gamma(i) { 1.0 } else { 0.0 };
+        (offset + v, se)
     }
 
     /// The core lobe's sigma and its standard error.
     pub fn sigma(&self) -> Option<(f64, Option<f64>)> {
         self.layout.sigma.map(|i| self.natural(i))
+    }
+
+    /// A Student-t lobe's gamma (core, or `haze`) and its standard error by the delta
+    /// method from ln(gamma - 1): se = (gamma - 1) se(ln(gamma - 1)).
+    pub fn gamma_of(&self, haze: bool) -> Option<(f64, Option<f64>)> {
+        let i = if haze {
+            self.layout.haze_gamma
+        } else {
+            self.layout.core_gamma
+        }?;
+        Some(self.natural(i))
+    }
+
+    /// The core lobe's gamma (a Student-t core), without its error.
+    pub fn gamma(&self) -> Option<f64> {
+        self.gamma_of(false).map(|g| g.0)
     }
 
     /// The haze lobe's sigma and its standard error (delta method; with a core lobe

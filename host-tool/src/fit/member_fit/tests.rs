@@ -20,6 +20,7 @@ fn lobe(sigma: f64, ks: f64) -> Option<LobeParams<f64>> {
         dist: Distribution::Beckmann,
         ks: Ks::PerIncidence(ks),
         sigma,
+        gamma: None,
     })
 }
 
@@ -559,6 +560,8 @@ fn analytic_jacobian_matches_numeric() {
         Member::parse("specular:ggx+specular-haze+directional-diffuse+ideal-diffuse").unwrap(),
         Member::parse("specular:beckmann:fresnel+directional-diffuse+ideal-diffuse").unwrap(),
         Member::parse("specular:ggx+specular-haze:beckmann:fresnel+ideal-diffuse").unwrap(),
+        Member::parse("specular:student-t:smooth-ks+specular-haze:student-t+ideal-diffuse")
+            .unwrap(),
     ];
     for member in members {
         for residual in [Residual::Log, Residual::Relative, Residual::Absolute] {
@@ -570,6 +573,9 @@ fn analytic_jacobian_matches_numeric() {
                 (layout.sigma_m, 0.6f64.ln()),
                 (layout.kdd, 800f64.ln()),
                 (layout.kid, 30f64.ln()),
+                // gamma 1.4 (core) and 3 (haze).
+                (layout.core_gamma, 0.4f64.ln()),
+                (layout.haze_gamma, 2f64.ln()),
             ] {
                 if let Some(i) = slot {
                     x[i] = v;
@@ -620,5 +626,48 @@ fn analytic_jacobian_matches_numeric() {
                 );
             }
         }
+    }
+}
+
+#[test]
+fn a_student_t_lobe_is_fitted_back_with_its_gamma_within_the_standard_error() {
+    let member = Member::parse("specular:student-t+ideal-diffuse").unwrap();
+    for (gamma, seed) in [(1.5, 11), (3.0, 12)] {
+        let mut rng = XorShift32::new(seed);
+        let mut rows = Vec::new();
+        for (j, &ti) in [10.0, 30.0, 50.0].iter().enumerate() {
+            let m = MemberModel::new(&MemberParams {
+                core: Some(LobeParams {
+                    dist: Distribution::StudentT,
+                    ks: Ks::PerIncidence(0.5 * (1.0 + 0.2 * j as f64)),
+                    sigma: 0.04,
+                    gamma: Some(gamma),
+                }),
+                haze: None,
+                directional: None,
+                ideal: Some(0.01),
+                abg: None,
+            })
+            .unwrap();
+            for k in 0..=356 {
+                let tr = -89.0 + 0.5 * k as f64;
+                let f = m.eval_in_plane(ti, tr).unwrap().f;
+                rows.push(Row::new(ti, tr, f * (1.0 + 0.01 * rng.normal() as f64)));
+            }
+        }
+        let data = Dataset::from_rows(&rows, true).unwrap();
+        let bases = GridBases::new(&data, None);
+        let fit = fit_member_with(&bases, member, Residual::Log).unwrap();
+        let (g, se) = fit.gamma_of(false).unwrap();
+        let se = se.unwrap();
+        assert!(
+            (g - gamma).abs() <= 3.0 * se && se < 0.05 * gamma,
+            "gamma {gamma}: fitted {g} +- {se}"
+        );
+        let (s, s_se) = fit.sigma().unwrap();
+        assert!(
+            (s - 0.04).abs() <= 3.0 * s_se.unwrap(),
+            "sigma {s} +- {s_se:?}"
+        );
     }
 }

@@ -272,6 +272,11 @@ impl<T: Transport> FramedLink<T> {
             while Instant::now() < wait_until {
                 if let Some(Event::Pong(t)) = self.recv(Duration::from_millis(10))? {
                     if t == token {
+                        // Bytes before this Pong were sent to an earlier session (the
+                        // tail of a frame the last link left half read, a keep-alive's
+                        // Pong sent after it closed): not this session's drops. The
+                        // decoder is empty between frames, so nothing else is lost.
+                        self.decoder = FrameDecoder::new();
                         break 'ping;
                     }
                 }

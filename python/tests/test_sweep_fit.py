@@ -264,9 +264,11 @@ def test_fit_refuses_more_readings_than_the_cli_before_converting_them():
     # (what a 64 MiB sweep file holds), checked before the arrays become lists.
     n = gonio.MAX_FIT_READINGS + 1
     assert gonio.MAX_FIT_READINGS == 2_097_152
-    ti = np.broadcast_to(np.float64(20.0), (n,))
+    # Three columns of n readings each (views, no memory): scalars are refused since
+    # nothing is broadcast (issue 50 case 1).
+    ti, tr, f = (np.broadcast_to(np.float64(v), (n,)) for v in (20.0, 10.0, 1.0))
     with pytest.raises(gonio.GonioError, match=f"^{n} readings: more than one fit takes \\(2097152, what a 64 MiB sweep file holds\\)"):
-        gonio.fit(ti, 10.0, 1.0)
+        gonio.fit(ti, tr, f)
 
 
 def test_readings_of_other_shapes_are_refused_never_broadcast(tmp_path):

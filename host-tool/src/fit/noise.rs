@@ -1,6 +1,6 @@
-//! The default objective's noise model: each reading's standard error sqrt(a^2 + (b y)^2),
-//! a floor `a` and a proportional part `b`, from the readings' std/n, stated, or by rule;
-//! the residual is the difference of its variance-stabilising transform.
+//! The noise objective's model (`--residual noise`): each reading's standard error
+//! sqrt(a^2 + (b y)^2), a floor `a` and a proportional part `b`, from the readings' std/n,
+//! stated, or by rule; the residual is the difference of its variance-stabilising transform.
 
 use super::data::Dataset;
 

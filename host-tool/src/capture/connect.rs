@@ -51,22 +51,27 @@ pub(super) fn prepare<C: Connector>(
         |link: &mut FramedLink<C::T>, cmd: &Command| link.send(cmd).map_err(CaptureError::from);
     // A device that survived a lost link may still be sweeping: stop it. On a noisy
     // link the Abort or its answer may be lost: ask again.
-    let mut stopped = false;
+    let mut stopped = None;
     for _ in 0..5 {
         send(&mut link, &Command::Abort)?;
-        if recv_until(&mut link, Duration::from_secs(1), |e| {
+        stopped = recv_until(&mut link, Duration::from_secs(1), |e| {
             matches!(e, Event::Status(_) | Event::SweepDone(_))
-        })?
-        .is_some()
-        {
-            stopped = true;
+        })?;
+        if stopped.is_some() {
             break;
         }
     }
-    if !stopped {
-        return Err(CaptureError::Device(
-            "device did not answer Abort within 5 s".into(),
-        ));
+    match stopped {
+        None => {
+            return Err(CaptureError::Device(
+                "device did not answer Abort within 5 s".into(),
+            ));
+        }
+        Some(Event::Status(s)) => info.homed = s.homed,
+        // The Abort stopped a sweep, perhaps an arm mid-move: the device then marks its
+        // position lost and wants homing (its safe state). The Info read before the
+        // Abort no longer says; ask again.
+        Some(_) => info.homed = homed_now(&mut link)?,
     }
     if !info.homed {
         send(&mut link, &Command::Home)?;
@@ -108,6 +113,22 @@ pub(super) fn prepare<C: Connector>(
         mount(&mut link, specimen)?;
     }
     Ok((link, info))
+}
+
+/// Whether the device's arms are homed now, from a fresh `Info` (asked up to five
+/// times: on a noisy link the GetInfo or its answer may be lost).
+fn homed_now<T: Transport>(link: &mut FramedLink<T>) -> Result<bool> {
+    for _ in 0..5 {
+        link.send(&Command::GetInfo)?;
+        if let Some(Event::Info(i)) = recv_until(link, Duration::from_secs(1), |e| {
+            matches!(e, Event::Info(_))
+        })? {
+            return Ok(i.homed);
+        }
+    }
+    Err(CaptureError::Device(
+        "device did not answer GetInfo within 5 s after Abort".into(),
+    ))
 }
 
 /// Puts `specimen` on the stage. A device that does not know `Mount` (older firmware)

@@ -497,6 +497,18 @@ fn fit_line(
     )
 }
 
+/// One parameter's report line: its label padded to `width`, value with standard
+/// error, unit (trailing blanks trimmed). The full report and the verdict share it.
+fn param_line(p: &Param, units: crate::sweep_file::BrdfUnits, width: usize) -> String {
+    let line = format!(
+        "  {:<width$} {} {}",
+        p.label(),
+        fmt_value(p.value, p.se, p.held),
+        p.unit(units)
+    );
+    line.trim_end().to_string()
+}
+
 fn member_block(out: &mut String, f: &FamilyFit, fit: &MemberFit, residual: &str) {
     use std::fmt::Write;
     let m = fit.member();
@@ -511,13 +523,7 @@ fn member_block(out: &mut String, f: &FamilyFit, fit: &MemberFit, residual: &str
         crate::text::count(fit.k(), "free parameter")
     );
     for p in member_params(fit) {
-        let line = format!(
-            "  {:<12} {} {}",
-            p.label(),
-            fmt_value(p.value, p.se, p.held),
-            p.unit(f.units)
-        );
-        let _ = writeln!(out, "{}", line.trim_end());
+        let _ = writeln!(out, "{}", param_line(&p, f.units, 12));
     }
     let _ = writeln!(
         out,
@@ -645,13 +651,7 @@ pub fn verdict_text(f: &FamilyFit, extra: &str) -> String {
         .map(|p| p.label().chars().count())
         .fold(12, usize::max);
     for p in params.iter().filter(listed) {
-        let line = format!(
-            "  {:<width$} {} {}",
-            p.label(),
-            fmt_value(p.value, p.se, p.held),
-            p.unit(f.units)
-        );
-        let _ = writeln!(head, "{}", line.trim_end());
+        let _ = writeln!(head, "{}", param_line(p, f.units, width));
     }
     for base in ["k_s", "k_s_haze"] {
         let of: Vec<&&Param> = per_inc.iter().filter(|p| p.base == base).collect();

@@ -288,7 +288,7 @@ class FitResult:
         return f"gonio.FitResult(selected={self.selected!r}, models={list(self.models)})"
 
 
-def fit(source, theta_r=None, brdf=None, *, residual: str = "log", loss: str = "l2",
+def fit(source, theta_r=None, brdf=None, *, residual: str = "noise", loss: str = "l2",
         fix: Union[None, Mapping[str, float], Iterable[str]] = None,
         models: Union[None, str, Sequence[str]] = None, aperture: Optional[float] = None,
         instrument: Union[None, str, os.PathLike] = None,

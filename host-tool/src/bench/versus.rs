@@ -152,8 +152,10 @@ pub fn fit_versus(data: &Dataset, x0: &[f64], repeat: usize) -> Result<Versus, S
             evaluations: Some(local.evaluations),
             ..row(us, &local.fit)
         };
+        // Log residuals, as the one LM and scipy minimise: the same optimum.
         let opts = FitOptions {
             members: Some(vec![member]),
+            residual: Residual::Log,
             ..FitOptions::default()
         };
         let (us, family) = best_of(repeat, || fit_family(data, &opts))?;

@@ -25,11 +25,11 @@ use crate::{export, plot};
 pub enum ResidualArg {
     /// g(f) - g(y), g(v) = asinh(b v / a) / b: each reading against its noise
     /// sqrt(a^2 + (b y)^2), a floor a and a proportional part b: from the readings' std/n, --noise, or by rule (a
-    /// = the level of the lowest tenth of the readings, b = 2 %). The peak and the
-    /// haze both count.
+    /// = the level of the lowest tenth of the readings, b = 3 %). The peak and the
+    /// haze both count (default).
     Noise,
-    /// ln f - ln y: each decade of the curve counts alike (default; the haze's many
-    /// readings outvote the peak's few).
+    /// ln f - ln y: each decade of the curve counts alike (the haze's many readings
+    /// outvote the peak's few).
     Log,
     /// (f - y) / y.
     Rel,
@@ -148,7 +148,7 @@ pub struct FitArgs {
     #[arg(long = "export-model", value_name = "MODEL", value_parser = fit::paper::member_by_name)]
     pub export_model: Option<Member>,
     /// Residuals to minimise.
-    #[arg(long, value_enum, default_value_t = ResidualArg::Log)]
+    #[arg(long, value_enum, default_value_t = ResidualArg::Noise)]
     pub residual: ResidualArg,
     /// The instrument's noise for --residual noise: FLOOR,PROP, a floor in the file's
     /// brdf units and a fraction of each reading (e.g. 0.002,0.03); overrides the

@@ -53,7 +53,13 @@ pub fn synthetic_sweep(
         for tr in detectors(ti) {
             let f = m.eval_in_plane(ti, tr).map_or(f64::NAN, |e| e.f);
             let y = f * (1.0 + noise * rng.normal() as f64);
-            rows.push(Row::new(ti, tr, y));
+            // The reading states its noise as a capture does (std of its one sample):
+            // the default objective weighs it by that, not by the rule.
+            let mut row = Row::new(ti, tr, y);
+            if noise > 0.0 {
+                (row.std, row.n) = (Some(noise * f), Some(1));
+            }
+            rows.push(row);
         }
     }
     rows

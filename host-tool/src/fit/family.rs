@@ -87,12 +87,17 @@ pub fn needed(fits: &[MemberFit], cands: &[Candidate], tried: &[Member]) -> Vec<
 }
 
 /// The second stage: the variants of the selected member's component set that decide
-/// its core lobe's distribution (Beckmann or GGX) and k_s form (per incidence or
-/// smooth), from the lattice: same components, same haze lobe, any core lobe.
+/// its core lobe's distribution (Beckmann, GGX or Student-t) and k_s form (per
+/// incidence or smooth): the lattice's (same components, same haze lobe, any core
+/// lobe) and the same with a Student-t core ([`STUDENT_T`]).
 pub fn variants_of(selected: Member) -> Vec<Member> {
     if selected.core.is_none() {
         return Vec::new();
     }
+    let student_t = STUDENT_T.iter().map(|&core| Member {
+        core: Some(core),
+        ..selected
+    });
     Member::lattice()
         .filter(|m| {
             m.core.is_some()
@@ -100,24 +105,49 @@ pub fn variants_of(selected: Member) -> Vec<Member> {
                 && m.directional == selected.directional
                 && m.ideal == selected.ideal
         })
+        .chain(student_t)
         .collect()
 }
 
-/// The third stage: the selected member with its haze lobe's distribution switched
-/// (Beckmann to GGX or back), `None` without a haze. A haze's tail decides how a sharp
-/// core's wings fall (a Beckmann haze is Gaussian in slope, a GGX one falls as a power
-/// law), and the core's shape was decided on the reference haze. A Student-t haze
-/// fits its own tail: `None`.
-pub fn haze_variant_of(selected: Member) -> Option<Member> {
+/// The Student-t lobes the family's shape stages try beside the lattice's Beckmann and
+/// GGX ones (its k_s per incidence, then smooth). Not in brdf-core's lattice (the
+/// reference members and the first stage stay the paper's Beckmann), but in the
+/// default family: its fitted tail (GGX one member, Beckmann the limit) is what lets a
+/// real metal's narrow core and wide wings be followed at once (MERL aluminium's peaks
+/// went from 0.16-0.74 to 0.84-1.24 of the readings; docs/accuracy.md).
+pub const STUDENT_T: [LobeSpec; 2] = [
+    LobeSpec {
+        dist: brdf_core::lobe::Distribution::StudentT,
+        ks: KsForm::PerIncidence,
+    },
+    LobeSpec {
+        dist: brdf_core::lobe::Distribution::StudentT,
+        ks: KsForm::Smooth,
+    },
+];
+
+/// The third stage: the selected member with its haze lobe's distribution switched to
+/// each of the others (of Beckmann, GGX and Student-t), none without a haze. A haze's
+/// tail decides how a sharp core's wings fall (a Beckmann haze is Gaussian in slope, a
+/// GGX one falls as a power law, a Student-t one with a fitted power), and the core's
+/// shape was decided on the reference haze.
+pub fn haze_variants_of(selected: Member) -> Vec<Member> {
     use brdf_core::lobe::Distribution;
-    let mut m = selected;
-    let h = m.haze.as_mut()?;
-    h.dist = match h.dist {
-        Distribution::Beckmann => Distribution::Ggx,
-        Distribution::Ggx => Distribution::Beckmann,
-        Distribution::StudentT => return None,
+    let Some(h) = selected.haze else {
+        return Vec::new();
     };
-    Some(m)
+    [
+        Distribution::Beckmann,
+        Distribution::Ggx,
+        Distribution::StudentT,
+    ]
+    .into_iter()
+    .filter(|&d| d != h.dist)
+    .map(|dist| Member {
+        haze: Some(LobeSpec { dist, ..h }),
+        ..selected
+    })
+    .collect()
 }
 
 /// The member with `m`'s core k_s per incidence instead of smooth (`None` when `m`'s

@@ -81,8 +81,17 @@ fn recovers_preset_parameters_within_their_standard_errors() {
                 value(three, &c)
             );
         }
-        // The residual scatter matches the noise that was put in.
-        let rms = (three.ssr / three.n as f64).sqrt();
+        // The scatter of ln(measured / fitted) matches the noise that was put in.
+        let data = Dataset::from_rows(&preset_sweep(name, noise, seed), true).unwrap();
+        let fitted = super::goodness::member_fitted(three, &data);
+        let rms = (data
+            .obs
+            .iter()
+            .zip(&fitted)
+            .map(|(o, f)| (o.y / f.unwrap()).ln().powi(2))
+            .sum::<f64>()
+            / data.obs.len() as f64)
+            .sqrt();
         assert!(
             (rms / noise - 1.0).abs() < 0.35,
             "{name}: residual rms {rms} for noise {noise}"

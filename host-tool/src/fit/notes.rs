@@ -70,6 +70,15 @@ pub fn family_notes(
                 f.gamma(),
             ));
         }
+        summary.extend(super::misses::peak_miss_note(
+            data,
+            selected_member,
+            &fitted,
+            match compared.residual {
+                super::options::Residual::Noise(m) => Some(m),
+                _ => None,
+            },
+        ));
         summary.extend(super::misses::miss_notes(data, f, &fitted, members));
     }
     summary.append(&mut fitting);

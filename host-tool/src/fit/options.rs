@@ -10,9 +10,9 @@ pub enum Residual {
     /// proportional part b ([`NoiseModel::transform`]; slope 1 / sqrt(a^2 + (b y)^2):
     /// each reading against its standard error), its noise from the data
     /// ([`NoiseModel::of_data`]) unless stated. Readings well above a / b count as in log residuals
-    /// (over b), those near the floor as in absolute ones (over a).
+    /// (over b), those near the floor as in absolute ones (over a). The default.
     Noise(NoiseModel),
-    /// ln f - ln y: every decade of the curve counts alike (the default).
+    /// ln f - ln y: every decade of the curve counts alike.
     Log,
     /// (f - y) / y.
     Relative,
@@ -136,7 +136,7 @@ impl FitOptions {
 impl Default for FitOptions {
     fn default() -> Self {
         FitOptions {
-            residual: Residual::Log,
+            residual: Residual::NOISE,
             loss: Loss::L2,
             fixed: Fixed::default(),
             members: None,

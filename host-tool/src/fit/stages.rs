@@ -236,7 +236,7 @@ fn fit_nominal(data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, String> {
         fitted
     } else {
         let (mut fitted, tried) = stage_one(&bases, opts.residual, &mut notes);
-        // Stage two: the selected component set's lobe variants (GGX, smooth k_s).
+        // Stage two: the selected component set's lobe variants (GGX, Student-t, smooth k_s).
         if let Some(best) = fitted.best() {
             let more: Vec<Member> = family::variants_of(best)
                 .into_iter()
@@ -245,12 +245,14 @@ fn fit_nominal(data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, String> {
             bases.retain_for(&more);
             stage_two(&mut fitted, &bases, &more, opts.residual, &mut notes);
         }
-        // Stage three: the selected member's haze with the other distribution.
-        if let Some(m) = fitted.best().and_then(family::haze_variant_of)
-            && !fitted.members.iter().any(|f| f.member() == m)
-        {
-            bases.retain_for(&[m]);
-            fitted.add(&bases, &[m], opts.residual, &mut notes);
+        // Stage three: the selected member's haze with the other distributions.
+        if let Some(best) = fitted.best() {
+            let more: Vec<Member> = family::haze_variants_of(best)
+                .into_iter()
+                .filter(|m| !fitted.members.iter().any(|f| f.member() == *m))
+                .collect();
+            bases.retain_for(&more);
+            fitted.add(&bases, &more, opts.residual, &mut notes);
         }
         untested_components(&mut fitted, &mut bases, opts.residual, &mut notes);
         fitted

@@ -48,7 +48,9 @@ fn json_follows_the_contract() {
         }
         if comps.iter().any(|c| c == "specular") {
             let lobe = &m["lobes"]["specular"];
-            assert!(["beckmann", "ggx"].contains(&lobe["distribution"].as_str().unwrap()));
+            assert!(
+                ["beckmann", "ggx", "student-t"].contains(&lobe["distribution"].as_str().unwrap())
+            );
             assert!(["per-incidence", "smooth"].contains(&lobe["ks"].as_str().unwrap()));
         }
     }
@@ -379,9 +381,12 @@ fn residuals_export_has_one_row_per_reading_in_file_order() {
     let d = scratch("residuals");
     let f = simulated(&d, "fe-0.115");
     let out_path = d.join("res.csv");
+    // Log residuals, so that the column is ln(measured / fitted) itself.
     let out = gonio(&[
         "fit",
         f.to_str().unwrap(),
+        "--residual",
+        "log",
         "--export",
         &format!("residuals={}", out_path.display()),
     ]);
@@ -696,10 +701,10 @@ fn the_table_prints_parameters_with_their_units() {
 }
 
 #[test]
-fn the_noise_objective_states_its_noise_and_needs_asking_for() {
+fn the_noise_objective_is_the_default_and_states_its_noise() {
     let d = scratch("noise-objective");
     let f = simulated(&d, "fe-0.115");
-    let out = gonio(&["fit", f.to_str().unwrap(), "--residual", "noise", "--json"]);
+    let out = gonio(&["fit", f.to_str().unwrap(), "--json"]);
     assert!(out.ok(), "{}", out.stderr);
     let v: serde_json::Value = serde_json::from_str(&out.stdout).unwrap();
     assert_eq!(v["selected_paper"], "three-component");
@@ -721,8 +726,15 @@ fn the_noise_objective_states_its_noise_and_needs_asking_for() {
         .and_then(|t| t.parse().ok())
         .unwrap_or_else(|| panic!("{said}"));
     assert!((0.0015..0.0035).contains(&b), "{said}");
-    // --noise states the noise of --residual noise only.
-    let bad = gonio(&["fit", f.to_str().unwrap(), "--noise", "0.1,0.02"]);
+    // --noise states the noise of the noise objective only.
+    let bad = gonio(&[
+        "fit",
+        f.to_str().unwrap(),
+        "--residual",
+        "log",
+        "--noise",
+        "0.1,0.02",
+    ]);
     assert_eq!(bad.code, 2, "{}", bad.stderr);
     assert!(bad.stderr.contains("--residual noise"), "{}", bad.stderr);
 }

@@ -25,6 +25,7 @@
 
 pub mod bench;
 pub mod calibrate;
+pub mod campaign;
 pub mod capture;
 pub mod cli;
 pub mod device;
@@ -36,6 +37,7 @@ pub mod live;
 pub mod memory;
 pub mod outfile;
 pub mod plot;
+pub mod request;
 pub mod sweep_file;
 #[cfg(feature = "testing")]
 pub mod testing;

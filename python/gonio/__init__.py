@@ -298,7 +298,7 @@ def fit(source, theta_r=None, brdf=None, *, residual: str = "noise", loss: str =
 
     ``source`` is a sweep file path, or the theta_i array with ``theta_r`` and ``brdf``
     (one reading per element: the three shapes must be the same, nothing is broadcast).
-    Options as on the command line: ``residual`` log | rel | abs; ``loss`` l2 |
+    Options as on the command line: ``residual`` noise (the default) | log | rel | abs; ``loss`` l2 |
     huber:C | cauchy:C; ``fix`` {'sigma_m': 0.7} or ['sigma_m=0.7']; ``models`` any
     names ``--models`` takes (ideal, ts, three, three-smooth or systematic member names;
     list or comma-separated); ``aperture`` the detector's acceptance half-angle in

@@ -1,16 +1,14 @@
 //! The only file that touches the `gonio` host library (sweep files and the fitter):
 //! when its module paths or the fit API change, this is the file to port.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use brdf_core::member::Member;
-use gonio::calibrate::Instrument;
-use gonio::cli::fit_units;
 use gonio::export::mitsuba::{self, MemberTable};
-use gonio::fit::data::{OffsetSpec, check_aperture, parse_floor};
+use gonio::fit;
 use gonio::fit::paper::member_by_name;
-use gonio::fit::{self, Dataset, FamilyFit, FitOptions, Loss, Residual, campaign};
 use gonio::outfile::Target;
+use gonio::request::{InstrumentFile, render};
 use gonio::sweep_file::{
     self, BrdfUnits, Header, Row, SweepData, SweepStatus as Status, SweepWriter,
 };
@@ -88,126 +86,50 @@ pub fn write_sweep(
     w.set_status(Status::Complete).map_err(|e| e.to_string())
 }
 
-/// `gonio fit`'s options, as the command line spells them.
-pub struct FitRequest<'a> {
-    /// `--residual`: noise, log, rel or abs.
-    pub residual: &'a str,
-    /// `--loss`: l2, huber:C or cauchy:C.
-    pub loss: &'a str,
-    /// `--fix NAME=VALUE`, repeatable.
-    pub fix: Vec<String>,
-    /// `--models`: ideal, ts, three, three-smooth (empty: all).
-    pub models: Vec<String>,
-    /// `--aperture`: the detector's acceptance half-angle in degrees (0: off; `None`:
-    /// the sweep's `# aperture:` line).
-    pub aperture: Option<f64>,
-    /// `--instrument`: an instrument file (`gonio calibrate`); the readings are fitted
-    /// in 1/sr.
-    pub instrument: Option<&'a Path>,
-    /// `--floor`: `auto` or a value in the data's units; readings at or below it are
-    /// left out of the fit.
-    pub floor: Option<&'a str>,
-    /// `--all-starts`: refine every one of each member's best grid starts to its end.
-    pub all_starts: bool,
-    /// `--offset`: `fit` (fit a detector zero offset and a sample tilt) or a known
-    /// detector zero offset in degrees (`None`: the sweep's `# offset:` line).
-    pub offset: Option<&'a str>,
-}
+/// `gonio fit`'s options, as the command line spells them (the request's words,
+/// parsed by the command line's own parsers).
+pub use gonio::request::Words as FitRequest;
 
-/// The engine's fit options from a request, by the parsers `gonio fit` uses for the
-/// same words (so values, defaults and messages are the CLI's), and the instrument
-/// when one is named.
-fn fit_options(req: &FitRequest) -> Result<(FitOptions, Option<(Instrument, PathBuf)>), String> {
-    let mut opts = FitOptions {
-        residual: Residual::parse(req.residual)?,
-        loss: Loss::parse(req.loss)?,
-        all_starts: req.all_starts,
-        ..FitOptions::default()
-    };
-    for f in &req.fix {
-        opts.fixed.set(f)?;
-    }
-    if !req.models.is_empty() {
-        // Comma-separated as on the command line.
-        let members = req
-            .models
-            .iter()
-            .flat_map(|m| m.split(','))
-            .filter(|m| !m.trim().is_empty())
-            .map(|m| member_by_name(m).map_err(|e| format!("--models {e}")))
-            .collect::<Result<_, _>>()?;
-        opts.set_members(members);
-    }
-    if let Some(a) = req.aperture {
-        opts.aperture = check_aperture(a).map_err(|e| format!("--{e}"))?;
-    }
-    if let Some(f) = req.floor {
-        opts.floor = Some(parse_floor(f).map_err(|e| format!("--{e}"))?);
-    }
-    if let Some(o) = req.offset {
-        opts.offset = Some(OffsetSpec::parse(o).map_err(|e| format!("--{e}"))?);
-    }
-    let instrument = match req.instrument {
-        Some(p) => Some((Instrument::read(p)?, p.to_path_buf())),
-        None => None,
-    };
-    opts.instrument = instrument.as_ref().map(|(i, _)| i.clone());
-    Ok((opts, instrument))
-}
-
-/// A finished fit: the family, the data and the residual kind it minimised.
+/// A finished fit: the outcome (data, family, the residual kind it minimised) and
+/// `--instrument`'s file, when the data were fitted in 1/sr.
 pub struct FitOutcome {
-    /// Every model fitted.
-    pub family: FamilyFit,
-    /// The data.
-    pub data: Dataset,
-    /// The residual kind.
-    pub residual: Residual,
-    /// `--instrument`'s instrument and file, when the data were fitted in 1/sr.
-    pub instrument: Option<(Instrument, PathBuf)>,
+    /// The fit.
+    pub fit: fit::Outcome,
+    /// The instrument the readings were converted with.
+    pub instrument: Option<InstrumentFile>,
+}
+
+impl std::ops::Deref for FitOutcome {
+    type Target = fit::Outcome;
+    fn deref(&self) -> &fit::Outcome {
+        &self.fit
+    }
 }
 
 /// Fits a sweep file, or rows when `path` is `None`, as `gonio fit` fits one sweep:
-/// the engine's options (`FitOptions`, parsed as the CLI parses the same words), its
-/// reader and preparation (floor, `--instrument`'s conversion to 1/sr), `--aperture`
-/// over the file's line, and the fitter.
+/// the same front door (the request resolved with the sweep's `#` lines into a job),
+/// the same run.
 pub fn fit(path: Option<&Path>, rows: &[Row], req: &FitRequest) -> Result<FitOutcome, String> {
-    let (opts, instrument) = fit_options(req)?;
-    let source = path.unwrap_or(Path::new("the arrays"));
-    let mut data = match path {
-        Some(p) => {
-            let (data, warnings) = campaign::read_data(p, &opts).map_err(|e| e.to_string())?;
-            for w in &warnings {
-                eprintln!("gonio: warning: {w}");
-            }
-            data
-        }
-        None => campaign::prepare(rows, BrdfUnits::Relative, &opts, "the arrays")?,
-    };
-    if req.aperture.is_some() {
-        // --aperture wins over the file's line; 0 turns it off.
-        data.aperture = opts.aperture;
+    let request = req.request()?;
+    let job = match path {
+        Some(p) => request.job_for_file(p),
+        None => request.job_for_rows(rows, BrdfUnits::Relative, "the arrays"),
     }
-    let family = campaign::fit_data(source, &data, &opts).map_err(|e| e.to_string())?;
-    // The noise objective's model as the fit resolved it (the residuals need it).
-    let residual = opts.residual.resolved(&data);
+    .map_err(|e| e.to_string())?;
+    for w in &job.warnings {
+        eprintln!("gonio: warning: {w}");
+    }
+    let fit = fit::run(job).map_err(|e| e.to_string())?;
     Ok(FitOutcome {
-        family,
-        data,
-        residual,
-        instrument,
+        fit,
+        instrument: request.instrument,
     })
 }
 
 /// `gonio fit --json`'s text for a fit (the CLI's writer, with `--instrument`'s
 /// section when there is one).
 pub fn to_json(o: &FitOutcome) -> String {
-    let inst = o
-        .instrument
-        .as_ref()
-        .map(|(i, p)| fit_units::instrument_json(&o.family, i, p));
-    String::from_utf8(fit::report::family_json_text(&o.family, inst.as_ref()))
-        .expect("JSON is UTF-8")
+    String::from_utf8(render::json_text(&o.family, o.instrument.as_ref())).expect("JSON is UTF-8")
 }
 
 /// The names of the fitted models (every member the family fitted, in the order

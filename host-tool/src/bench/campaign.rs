@@ -196,11 +196,11 @@ mod tests {
     fn the_sweeps_written_are_fitted_by_a_campaign() {
         let d = crate::outfile::test_dir("bench-campaign");
         write_sweeps(&d, 3).unwrap();
-        let files = crate::fit::campaign::expand_inputs(std::slice::from_ref(&d)).unwrap();
+        let files = crate::campaign::expand_inputs(std::slice::from_ref(&d)).unwrap();
         assert_eq!(files.len(), 3);
-        let fits = crate::fit::campaign::fit_files(
+        let fits = crate::campaign::fit_files(
             &files,
-            &crate::fit::FitOptions::default(),
+            &crate::request::Request::default(),
             None,
             &|_, _| {},
         );

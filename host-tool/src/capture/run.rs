@@ -175,7 +175,12 @@ pub fn capture<C: Connector>(
     run.watch.refit(run.progress);
     let status = run.all_rounds(&mut link);
     run.progress.finish();
-    let status = status?;
+    let status = match status? {
+        // The targets met with the plan's last reading: the plan is complete, not
+        // stopped short of it.
+        SweepStatus::Until if run.present.len() == run.plan.points.len() => SweepStatus::Complete,
+        s => s,
+    };
     run.writer.counters().dropped = run.dropped_before + link.stats().dropped() as u64;
     run.writer.set_status(status)?;
     let missing: Vec<u32> = (0..run.plan.points.len() as u32)
@@ -189,6 +194,7 @@ pub fn capture<C: Connector>(
         info,
         reconnects: run.reconnects,
         until: run.watch.standing(),
+        until_met: run.watch.targets_met(),
     })
 }
 

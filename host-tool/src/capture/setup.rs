@@ -80,4 +80,8 @@ pub struct CaptureReport {
     pub reconnects: u32,
     /// How the `--until` targets stand in the last refit (`None` without targets).
     pub until: Option<String>,
+    /// The `--until` targets were met in the last refit (a plan measured to its end may
+    /// meet them: the capture stops early only once every incidence has readings and
+    /// the estimate is settled, [`super::watch::Watch::met`]).
+    pub until_met: bool,
 }

@@ -143,10 +143,11 @@ fn fit_vs(args: &BenchArgs, sweep: &std::path::Path) -> CliResult {
         return Err(CliError::usage("--repeat must be in 1..=10000"));
     }
     let x0 = bench::parse_start(args.start.as_deref().unwrap_or("")).map_err(CliError::usage)?;
-    let (data, warnings) =
-        crate::fit::campaign::read_data(sweep, &crate::fit::FitOptions::default())
-            .map_err(|e| CliError::usage(e.to_string()))?;
-    for w in &warnings {
+    let job = crate::request::Request::default()
+        .job_for_file(sweep)
+        .map_err(|e| CliError::usage(e.to_string()))?;
+    let data = job.data;
+    for w in &job.warnings {
         eprintln!("gonio: warning: {w}");
     }
     bench::check_start(&data, &x0).map_err(CliError::usage)?;

@@ -102,8 +102,12 @@ pub(super) fn finish(
                 report.total,
                 out.display()
             );
-            if let Some(until) = &report.until {
-                eprintln!("gonio: the plan ended before --until was met: {until}");
+            match &report.until {
+                Some(until) if report.until_met => eprintln!(
+                    "gonio: --until met with the whole plan measured (a capture stops early only once every incidence has readings and the fit has settled): {until}"
+                ),
+                Some(until) => eprintln!("gonio: the plan ended before --until was met: {until}"),
+                None => {}
             }
             Ok(())
         }

@@ -18,8 +18,9 @@ use super::output::write_stdout;
 use crate::capture::reference::{capture_pair, reference_path};
 use crate::capture::{CaptureSetup, HostPlan, ProgressSink, SettingsOverride, progress};
 use crate::device::{InProcessDevice, SharedInProcessConnector};
-use crate::fit::{Dataset, FamilyFit, FitOptions, report};
+use crate::fit::{Dataset, FamilyFit, report};
 use crate::outfile::Target;
+use crate::request::Request;
 use crate::{export, plot};
 
 /// `gonio demo`.
@@ -95,8 +96,9 @@ pub fn run(args: &DemoArgs) -> CliResult {
     };
     let [_, report] = capture_pair(&mut conn, &setup, &standard, &mut prog)?;
     drop(prog);
-    let (data, fam) = fit_file(&sweep, &FitOptions::default())?;
-    let mut written = write_files(&args.dir, &data, &fam)?;
+    let fitted = fit_file(&sweep, &Request::default())?;
+    let (data, fam) = (&fitted.data, &fitted.family);
+    let mut written = write_files(&args.dir, data, fam)?;
     let chain = super::demo_units::absolute_chain(
         &args.dir,
         &sweep,
@@ -104,7 +106,7 @@ pub fn run(args: &DemoArgs) -> CliResult {
         super::demo_units::DEMO_REFERENCE,
         preset,
     )?;
-    let (truth, worst_param) = truth_table(preset, &fam);
+    let (truth, worst_param) = truth_table(preset, fam);
     let mut out = format!(
         "gonio demo: {} readings of a simulated {} sample ({}% noise per sample, {} samples per reading)\n\
          sweep file: {}\n\n",
@@ -115,9 +117,9 @@ pub fn run(args: &DemoArgs) -> CliResult {
         sweep.display()
     );
     // The verdict first; the family's blocks and the comparisons it rests on follow.
-    out.push_str(&verdict(&fam, worst_param, &chain));
+    out.push_str(&verdict(fam, worst_param, &chain));
     out.push_str("\nthe fit in full:\n\n");
-    out.push_str(&report::family_table(&fam, "log"));
+    out.push_str(&report::family_table(fam, "log"));
     out.push_str(&truth);
     out.push_str(&chain.text);
     written.push(reference_path(&sweep));

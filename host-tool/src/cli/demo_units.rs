@@ -12,8 +12,9 @@ use brdf_core::sim::SIM_K;
 use super::error::{CliError, CliResult};
 use super::fit::fit_file;
 use crate::calibrate::{self, Instrument, Quantity, Standard, now_utc};
-use crate::fit::{FamilyFit, FitOptions, physical, report};
+use crate::fit::{FamilyFit, physical, report};
 use crate::outfile::{self, Target};
+use crate::request::Request;
 use crate::sweep_file::read_sweep;
 use brdf_core::member::Member;
 
@@ -74,7 +75,8 @@ pub fn absolute_chain(
     )?;
     let abs = sweep.with_extension("abs.csv");
     outfile::write(Target::new(&abs, true), |w| w.write_all(text.as_bytes()))?;
-    let (abs_data, fam) = fit_file(&abs, &FitOptions::default())?;
+    let fitted = fit_file(&abs, &Request::default())?;
+    let (abs_data, fam) = (fitted.data, fitted.family);
     let k = f64::from(SIM_K);
     let mut s = String::new();
     let _ = writeln!(

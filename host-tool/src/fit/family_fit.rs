@@ -45,7 +45,7 @@ pub struct FamilyFit {
     /// Which fitted models the reports' physical checks cover ([`FitOptions::checks`]).
     pub checks: CheckScope,
     /// The physical checks of the models [`FamilyFit::checks`] names, made once after
-    /// the fit ([`super::campaign::fit_data`]) for every report to format (empty until
+    /// the fit ([`super::job::run`]) for every report to format (empty until
     /// then).
     pub physical: Vec<ModelCheck>,
     /// The instrument's angles the family was fitted at (`--offset`), if any: the

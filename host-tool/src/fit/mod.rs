@@ -28,14 +28,13 @@
 
 pub mod abg_text;
 pub mod arrow;
-pub mod campaign;
-pub mod campaign_checks;
 pub mod criteria;
 pub mod data;
 pub mod factors;
 pub mod family;
 pub mod family_fit;
 pub mod goodness;
+pub mod job;
 pub mod lm;
 pub mod member_fit;
 pub mod misses;
@@ -55,6 +54,7 @@ pub mod stages;
 
 pub use data::{Dataset, Floor};
 pub use family_fit::FamilyFit;
+pub use job::{Job, Outcome, run};
 pub use noise::NoiseModel;
 pub use options::{FitOptions, Fixed, Loss, Residual};
 pub use paper::{Kind, Names};

@@ -1,5 +1,5 @@
 //! The online fit: the family refitted to the readings captured so far, by the one fit
-//! `gonio fit` makes ([`super::campaign::prepare`], [`super::fit_family`]), for the
+//! `gonio fit` makes ([`super::job::prepare`], [`super::fit_family`]), for the
 //! live view, `--until` and the sequential plan alike.
 
 use brdf_core::member::Member;
@@ -103,7 +103,7 @@ impl OnlineFit {
     /// then, since it no longer describes the data.
     pub fn refit(&mut self) -> Result<&Estimate, String> {
         self.last = None;
-        let data = super::campaign::prepare(&self.rows, BrdfUnits::Relative, &self.opts, "")?;
+        let data = super::job::prepare(&self.rows, BrdfUnits::Relative, &self.opts, None)?;
         let family = super::fit_family(&data, &self.opts)?;
         let params = family
             .selected_fit()
@@ -134,7 +134,7 @@ mod tests {
         let est = online.refit().unwrap().clone();
         // The same numbers as the fit command's path over the same rows.
         let opts = FitOptions::default();
-        let data = crate::fit::campaign::prepare(&rows, BrdfUnits::Relative, &opts, "").unwrap();
+        let data = crate::fit::job::prepare(&rows, BrdfUnits::Relative, &opts, None).unwrap();
         let fam = crate::fit::fit_family(&data, &opts).unwrap();
         assert_eq!(est.member(), fam.selected_member);
         let want = member_params(fam.selected_fit().unwrap());

@@ -115,10 +115,6 @@ pub struct FitOptions {
     /// them) 12 of 886 member fits missed a lower optimum that way. Only the width
     /// grid's starts are stopped early.
     pub all_starts: bool,
-    /// Convert the readings (relative units) to 1/sr with this instrument before the
-    /// fit (`gonio fit --instrument`), by calibrate's conversion, the one `gonio
-    /// convert` writes with: the readings and their standard errors alike.
-    pub instrument: Option<crate::calibrate::Instrument>,
     /// The instrument's angles: a detector zero offset given, or the offset and a
     /// sample tilt fitted (`gonio fit --offset`, or the sweep's `# offset:` line).
     pub offset: Option<super::data::OffsetSpec>,
@@ -144,7 +140,6 @@ impl Default for FitOptions {
             checks: CheckScope::All,
             floor: None,
             all_starts: false,
-            instrument: None,
             offset: None,
         }
     }

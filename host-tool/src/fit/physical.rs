@@ -169,7 +169,7 @@ fn finish(
 
 /// The checks of the fitted `members` that `scope` names (the selected one alone for
 /// [`CheckScope::Selected`]), in the order reported, members and incidences in
-/// parallel: what [`super::campaign::fit_data`] puts in [`FamilyFit::physical`] once,
+/// parallel: what [`super::job::run`] puts in [`FamilyFit::physical`] once,
 /// for every report to format.
 ///
 /// [`FamilyFit::physical`]: super::family_fit::FamilyFit::physical

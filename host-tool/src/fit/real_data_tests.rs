@@ -331,7 +331,11 @@ fn scatterworks(floor: Option<Floor>) -> FamilyFit {
 fn scatterworks_data(opts: &FitOptions) -> Dataset {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("tests/data/scatterworks-solar-array-532nm.sweep.csv");
-    let (data, _) = campaign::read_data(&path, opts).unwrap();
+    let request = crate::request::Request {
+        fit: opts.clone(),
+        ..Default::default()
+    };
+    let data = request.job_for_file(&path).unwrap().data;
     assert_eq!(data.units, crate::sweep_file::BrdfUnits::PerSr);
     data
 }

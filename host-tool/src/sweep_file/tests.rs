@@ -517,3 +517,29 @@ fn metadata_keys_in_any_case_unknown_said_duplicates_refused() {
     // The same value twice is one value.
     parse_sweep(b"# plan: paper\n# Plan: paper\ntheta_i,theta_r,brdf\n0,0,1\n").unwrap();
 }
+
+/// Issue 50 case 7's other side: the sign check says theta_r looks reversed only where
+/// the peaks sit at -theta_i and not at +theta_i. Peaks on both sides alike (a
+/// symmetric sweep: the data cannot tell the sign) give no such line; the same sweep
+/// with only the -theta_i peak does.
+#[test]
+fn symmetric_peaks_do_not_fire_the_sign_check() {
+    let d = tempdir();
+    let sweep = |name: &str, peak: &dyn Fn(f64, f64) -> f64| {
+        let mut s = String::from("theta_i,theta_r,brdf\n");
+        for ti in [20.0, 40.0, 60.0] {
+            for tr in (-80..=80).step_by(5).map(f64::from) {
+                s.push_str(&format!("{ti},{tr},{}\n", 1.0 + peak(ti, tr)));
+            }
+        }
+        let p = d.join(name);
+        std::fs::write(&p, s).unwrap();
+        read_sweep(&p).unwrap().reversed_sign_warning()
+    };
+    let bump = |x: f64| 100.0 * (-(x / 3.0) * (x / 3.0)).exp();
+    assert_eq!(
+        sweep("both.csv", &|ti, tr| bump(tr - ti) + bump(tr + ti)),
+        None
+    );
+    assert!(sweep("source.csv", &|ti, tr| bump(tr + ti)).is_some());
+}

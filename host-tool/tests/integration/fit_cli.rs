@@ -738,3 +738,52 @@ fn the_noise_objective_is_the_default_and_states_its_noise() {
     assert_eq!(bad.code, 2, "{}", bad.stderr);
     assert!(bad.stderr.contains("--residual noise"), "{}", bad.stderr);
 }
+
+/// Issue 50 case 11: in a campaign `--aperture 0` means a point detector, over every
+/// sweep's `# aperture:` line, as it does for one sweep (it was dropped and the lines
+/// used); without the flag the lines hold.
+#[test]
+fn a_campaigns_aperture_0_turns_the_sweeps_aperture_lines_off() {
+    let d = scratch("campaign-aperture");
+    let sweeps = d.join("sweeps");
+    std::fs::create_dir_all(&sweeps).unwrap();
+    let text = std::fs::read_to_string(simulated(&d, "fe-0.115")).unwrap();
+    for name in ["a.csv", "b.csv"] {
+        std::fs::write(sweeps.join(name), format!("# aperture: 1.5\n{text}")).unwrap();
+    }
+    let apertures = |extra: &[&str], out: &str| {
+        let out = d.join(out);
+        let mut args = vec![
+            "fit",
+            sweeps.to_str().unwrap(),
+            "--models",
+            "ideal",
+            "--json",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend(extra);
+        let o = gonio(&args);
+        assert!(o.ok(), "{}", o.stderr);
+        ["a.json", "b.json"].map(|r| {
+            let v: serde_json::Value =
+                serde_json::from_str(&std::fs::read_to_string(out.join(r)).unwrap()).unwrap();
+            v["aperture_deg"].as_f64()
+        })
+    };
+    assert_eq!(apertures(&[], "lines"), [Some(1.5); 2]);
+    assert_eq!(apertures(&["--aperture", "0"], "off"), [None; 2]);
+    assert_eq!(apertures(&["--aperture", "0.5"], "half"), [Some(0.5); 2]);
+    // One sweep, the same request.
+    let one = gonio(&[
+        "fit",
+        sweeps.join("a.csv").to_str().unwrap(),
+        "--models",
+        "ideal",
+        "--json",
+        "--aperture",
+        "0",
+    ]);
+    let v: serde_json::Value = serde_json::from_str(&one.stdout).unwrap();
+    assert_eq!(v["aperture_deg"], serde_json::Value::Null);
+}

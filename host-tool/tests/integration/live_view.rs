@@ -69,7 +69,7 @@ fn the_live_panel_shows_readings_fit_and_targets_and_leaves_the_terminal_clean()
         "sigma",
         "target 0.50 % met",
         "warnings",
-        "gonio: --until met after",
+        "gonio: --until met with the whole plan measured",
     ] {
         assert!(pane.contains(want), "'{want}' not shown:\n{pane}");
     }

@@ -21,8 +21,14 @@ fn fitted(path: &std::path::Path, name: &str) -> (f64, f64) {
     )
 }
 
+/// Issue 50 case 6: the paper plan measures incidence by incidence, and one
+/// incidence's fit cannot be stopped on (on al-0.782 `--until k_id:5%` stopped after 17
+/// readings with k_id 14 standard errors from the full sweep's): the capture runs the
+/// whole plan, says the targets were met with it, and `gonio fit` of the file meets
+/// them. (Before issue 50 this test asked for fewer readings than the plan: that was
+/// the early stop.)
 #[test]
-fn until_ends_the_capture_once_the_fit_of_the_file_meets_the_target() {
+fn until_on_a_plan_measured_incidence_by_incidence_measures_every_incidence() {
     let d = scratch("until");
     let f = d.join("fe.csv");
     let p = f.to_str().unwrap();
@@ -36,30 +42,51 @@ fn until_ends_the_capture_once_the_fit_of_the_file_meets_the_target() {
         p,
     ]);
     assert!(run.ok(), "{}", run.stderr);
+    let data = gonio::sweep_file::read_sweep(&f).unwrap();
+    let incidences: std::collections::BTreeSet<u64> =
+        data.rows.iter().map(|r| r.theta_i.to_bits()).collect();
+    assert_eq!(incidences.len(), 9, "{}", run.stderr);
+    assert_eq!(data.rows.len(), 153, "{}", run.stderr);
     assert!(
-        run.last_line().contains("--until met after"),
+        run.stderr
+            .contains("--until met with the whole plan measured"),
         "{}",
         run.stderr
     );
-    let data = gonio::sweep_file::read_sweep(&f).unwrap();
-    assert_eq!(data.status_word(), Some("until"));
-    let n = data.rows.len();
-    assert!(n < 153, "{n} readings: fewer than the plan");
-    // The file's own fit (gonio fit) meets the target the capture stopped at.
+    // The file's own fit (gonio fit) meets the target.
     let (sigma, se) = fitted(&f, "sigma");
     assert!(se / sigma <= 0.005, "sigma {sigma} ± {se}");
     assert!(
         (sigma - 0.115).abs() < 3.0 * se + 1e-3,
         "sigma {sigma} ± {se}"
     );
-    // --resume measures the rest of the plan.
-    let run = gonio(&["simulate", "--material", "fe-0.115", "--resume", "--out", p]);
-    assert!(run.ok(), "{}", run.stderr);
-    let data = gonio::sweep_file::read_sweep(&f).unwrap();
-    assert_eq!(
-        (data.status_word(), data.rows.len()),
-        (Some("complete"), 153)
-    );
+}
+
+/// Issue 50 case 6, as filed: `--until k_id:5%` on al-0.782 ends within 2 standard
+/// errors of the full sweep's k_id, on several seeds.
+#[test]
+fn until_on_aluminium_ends_within_two_standard_errors_of_the_full_sweep() {
+    let d = scratch("until-al");
+    for seed in ["1", "2", "3"] {
+        let sweep = |name: &str, until: bool| {
+            let f = d.join(format!("{name}-{seed}.csv"));
+            let p = f.to_str().unwrap().to_string();
+            let mut args = vec!["simulate", "--material", "al-0.782", "--seed", seed];
+            if until {
+                args.extend(["--until", "k_id:5%"]);
+            }
+            args.extend(["--out", &p, "-q"]);
+            let run = gonio(&args);
+            assert!(run.ok(), "{}", run.stderr);
+            fitted(&f, "k_id")
+        };
+        let (full, full_se) = sweep("full", false);
+        let (k_id, se) = sweep("until", true);
+        assert!(
+            (k_id - full).abs() <= 2.0 * full_se.max(se),
+            "seed {seed}: --until k_id {k_id} ± {se}, full sweep {full} ± {full_se}"
+        );
+    }
 }
 
 #[test]

@@ -78,11 +78,11 @@ pub fn check_space(dir: &Path, inputs: &[PathBuf], ext: &str) -> Result<(), Stri
 }
 
 /// One line per input whose report name is not its own stem's, because an earlier
-/// input has the same stem ([`super::campaign::report_names`] numbers them): which two
+/// input has the same stem ([`super::report_names`] numbers them): which two
 /// inputs, which names, and what to do. Said before any fitting, so that a report
 /// name refused later is one the user was told of.
 pub fn renamed_reports(inputs: &[PathBuf], ext: &str) -> Vec<String> {
-    let names = super::campaign::report_names(inputs, ext);
+    let names = super::report_names(inputs, ext);
     let mut first_of: std::collections::HashMap<String, usize> = Default::default();
     let mut out = Vec::new();
     for (k, p) in inputs.iter().enumerate() {

@@ -1,149 +1,25 @@
-//! Fitting many sweep files at once: each file read, checked and fitted on all cores
-//! (rayon), one report each, and a summary table (CSV and JSON) of the selected models.
-//! A bad file is recorded with its reason and never stops the others.
+//! Fitting many sweep files at once: each file resolved by the one front door
+//! ([`crate::request`]) and fitted on all cores (rayon), one report each, and a
+//! summary table (CSV and JSON) of the selected models. A bad file is recorded with
+//! its reason and never stops the others. Above `fit`: the batch's I/O, its lock,
+//! its units and its summaries.
+
+pub mod checks;
+pub mod units;
 
 use std::collections::HashSet;
-use std::fmt;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::{Path, PathBuf};
 
 use rayon::prelude::*;
 use serde_json::{Value, json};
 
-use super::data::Dataset;
-use super::family_fit::FamilyFit;
-use super::options::FitOptions;
-use super::report::{KEY_PARAMS, family_json_text, family_table};
-use super::stages::fit_family;
+use crate::fit::FamilyFit;
+pub use crate::fit::job::FileError;
+use crate::fit::job::Outcome;
+use crate::fit::report::{self, KEY_PARAMS, family_json_text, family_table};
 use crate::outfile::{self, Target};
-use crate::sweep_file::{looks_like_radians, radians_warning, read_sweep};
-
-/// Why one file could not be fitted.
-#[derive(Debug, Clone, PartialEq)]
-pub enum FileError {
-    /// The file cannot be read or its readings cannot be fitted as they are (bad input).
-    Input(String),
-    /// The readings are valid but no model could be fitted.
-    Fit(String),
-    /// The fit's report could not be written.
-    Output(String),
-}
-
-impl fmt::Display for FileError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            FileError::Input(m) | FileError::Fit(m) | FileError::Output(m) => f.write_str(m),
-        }
-    }
-}
-
-/// One sweep file fitted.
-#[derive(Debug, Clone)]
-pub struct SweepFit {
-    /// The data as fitted.
-    pub data: Dataset,
-    /// Every model fitted, and the selection.
-    pub family: FamilyFit,
-    /// Things worth telling that did not stop the fit (angles that look like radians).
-    pub warnings: Vec<String>,
-}
-
-/// Reads and checks one sweep file into the data to fit, with the warnings worth
-/// telling (rows left out of a cut capture, missing plan points, angles that look
-/// like radians); every message starts with the path.
-pub fn read_data(path: &Path, opts: &FitOptions) -> Result<(Dataset, Vec<String>), FileError> {
-    let sweep = read_sweep(path).map_err(|e| FileError::Input(e.to_string()))?;
-    let mut warnings: Vec<String> = sweep
-        .warnings()
-        .into_iter()
-        .map(|w| format!("{}: {w}", path.display()))
-        .collect();
-    if sweep.rows.is_empty() {
-        return Err(FileError::Input(format!("{}: no readings", path.display())));
-    }
-    if let Some(max) = looks_like_radians(&sweep.rows) {
-        warnings.push(radians_warning(&path.display().to_string(), max));
-    }
-    let name = path.display().to_string();
-    let mut data = prepare(&sweep.rows, sweep.brdf_units(), opts, &name)
-        .map_err(|e| FileError::Input(format!("{name}: {e}")))?;
-    if let Some(a) = sweep.meta.get("aperture") {
-        data.aperture = super::data::parse_aperture(a)
-            .map_err(|e| FileError::Input(format!("{name}: # aperture: {e}")))?;
-    }
-    if let Some(o) = sweep.meta.get("offset") {
-        data.offset = Some(
-            super::offset::OffsetSpec::parse(o)
-                .map_err(|e| FileError::Input(format!("{name}: # offset: {e}")))?,
-        );
-    }
-    if opts
-        .instrument
-        .as_ref()
-        .is_some_and(|i| i.quantity == crate::calibrate::Quantity::DetectorSignal)
-    {
-        warnings.push(format!(
-            "{name}: readings are detector signals: divided by K cos(theta_r)"
-        ));
-    }
-    Ok((data, warnings))
-}
-
-/// The data to fit from a sweep's rows in `units` (named `name` in messages): the
-/// detection floor left out ([`FitOptions::floor`], in the rows' units), then with
-/// [`FitOptions::instrument`] every reading and its std converted to 1/sr by
-/// [`crate::calibrate::sweep::absolute_rows`], the conversion `gonio convert` writes
-/// with, so that fitting with the instrument and fitting the converted file are one
-/// fit. Refuses an instrument for rows already in 1/sr, and more rows than one fit
-/// takes ([`super::data::MAX_FIT_READINGS`]) before anything else.
-pub fn prepare(
-    rows: &[crate::sweep_file::Row],
-    units: crate::sweep_file::BrdfUnits,
-    opts: &FitOptions,
-    name: &str,
-) -> Result<Dataset, String> {
-    super::data::check_reading_count(rows.len())?;
-    let positive = opts.residual.needs_positive();
-    let Some(inst) = &opts.instrument else {
-        let mut data = Dataset::from_rows_floor(rows, positive, opts.floor).map_err(|e| e.0)?;
-        data.units = units;
-        return Ok(data);
-    };
-    if units != crate::sweep_file::BrdfUnits::Relative {
-        return Err(format!(
-            "already holds brdf in {units} (its '# brdf:' line): the instrument converts relative readings only (fit it without --instrument)"
-        ));
-    }
-    let convert = |rows: &[crate::sweep_file::Row]| {
-        crate::calibrate::sweep::absolute_rows(rows, inst)
-            .map_err(|e| format!("--instrument {name}: {e}"))
-    };
-    let mut data = Dataset::from_rows_converted(rows, positive, opts.floor, Some(&convert))
-        .map_err(|e| e.0)?;
-    data.units = crate::sweep_file::BrdfUnits::PerSr;
-    Ok(data)
-}
-
-/// Fits the family to data read from `path` (named in the message of a failure), then
-/// assesses it: the physical checks its options name, made once into the result.
-pub fn fit_data(path: &Path, data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, FileError> {
-    let mut fam =
-        fit_family(data, opts).map_err(|e| FileError::Fit(format!("{}: {e}", path.display())))?;
-    // Assessed once, here: every report formats these.
-    fam.physical = super::physical::check_family(&fam.members, fam.selected_member, fam.checks);
-    Ok(fam)
-}
-
-/// Reads, checks and fits one sweep file; every message starts with the path.
-pub fn fit_sweep_file(path: &Path, opts: &FitOptions) -> Result<SweepFit, FileError> {
-    let (data, warnings) = read_data(path, opts)?;
-    let family = fit_data(path, &data, opts)?;
-    Ok(SweepFit {
-        data,
-        family,
-        warnings,
-    })
-}
+use crate::request::Request;
 
 /// One file of a campaign and what came of it.
 #[derive(Debug, Clone)]
@@ -180,10 +56,10 @@ pub struct FileSummary {
 
 impl FileSummary {
     /// The summary of `fit`, its report written as `report`.
-    pub fn of(fit: &SweepFit, report: Option<String>) -> Self {
+    pub fn of(fit: &Outcome, report: Option<String>) -> Self {
         let fam = &fit.family;
         let params = fam.selected_fit().map_or_else(Vec::new, |f| {
-            super::report::member_params(f)
+            report::member_params(f)
                 .into_iter()
                 .filter_map(|p| {
                     let key = KEY_PARAMS
@@ -290,7 +166,7 @@ pub struct ReportSink<'a> {
 /// written.
 pub fn fit_files(
     files: &[PathBuf],
-    opts: &FitOptions,
+    request: &Request,
     sink: Option<&ReportSink<'_>>,
     done: &(dyn Fn(&Path, bool) + Sync),
 ) -> Vec<CampaignFile> {
@@ -310,7 +186,7 @@ pub fn fit_files(
     // The reports are synced in batches, not one by one (each still lands whole).
     let batch = outfile::Batch::new(REPORT_BATCH);
     let one = |k: usize, path: &Path| -> Result<FileSummary, FileError> {
-        let fit = fit_sweep_file(path, opts)?;
+        let fit = request.fit_file(path)?;
         let name = match (sink, &names) {
             (Some(s), Some(names)) => {
                 let name = names[k].clone();
@@ -561,7 +437,7 @@ fn file_json(f: &CampaignFile) -> Value {
                 "file": f.path.display().to_string(),
                 "status": "ok",
                 "selected_member": fit.selected_member.to_string(),
-                "selected_components": super::report::member_components(fit.selected_member),
+                "selected_components": report::member_components(fit.selected_member),
                 "readings": fit.readings,
                 "incidences": fit.incidences,
                 "params": params,
@@ -613,7 +489,7 @@ pub fn summary_table(files: &[CampaignFile]) -> String {
                     .iter()
                     .find(|p| p.0 == "sigma")
                     .map_or("-".into(), |&(_, v, se, held)| {
-                        super::report::fmt_value(v, se, held).trim().to_string()
+                        report::fmt_value(v, se, held).trim().to_string()
                     });
                 let rmse = fit.rmse.map_or("n/d".into(), |r| format!("{r:.4}"));
                 let _ = writeln!(
@@ -652,9 +528,9 @@ mod tests {
     fn a_parameter_held_fixed_is_said_to_be_in_the_summary() {
         let dir = crate::outfile::test_dir("campaign-fixed");
         let a = write_sweep(&dir, "a.csv", "fe-0.115", 1);
-        let mut opts = FitOptions::default();
-        opts.fixed.set("sigma=0.115").unwrap();
-        let files = fit_files(&[a], &opts, None, &|_, _| {});
+        let mut request = Request::default();
+        request.fit.fixed.set("sigma=0.115").unwrap();
+        let files = fit_files(&[a], &request, None, &|_, _| {});
         let v = summary_json(&files);
         let sigma = &v["files"][0]["params"]["sigma"];
         assert_eq!(
@@ -728,12 +604,7 @@ mod tests {
             report: &plain,
             force,
         };
-        let files = fit_files(
-            &inputs,
-            &FitOptions::default(),
-            Some(&sink(false)),
-            &|_, _| {},
-        );
+        let files = fit_files(&inputs, &Request::default(), Some(&sink(false)), &|_, _| {});
         let status: Vec<bool> = files.iter().map(|f| f.outcome.is_ok()).collect();
         assert_eq!(status, [true, true, false, true, false]);
         let sigma = |i: usize| {
@@ -771,7 +642,7 @@ mod tests {
         assert!(check_outputs(&out, &inputs, "txt", true).is_ok());
         let refused = fit_files(
             &inputs[..1],
-            &FitOptions::default(),
+            &Request::default(),
             Some(&sink(false)),
             &|_, _| {},
         );
@@ -782,7 +653,7 @@ mod tests {
         );
         let forced = fit_files(
             &inputs[..1],
-            &FitOptions::default(),
+            &Request::default(),
             Some(&sink(true)),
             &|_, _| {},
         );

@@ -1,90 +1,68 @@
-//! The units side of `gonio fit`: the sweep's `# brdf:` units, `--instrument` (the data
-//! converted to 1/sr, K's uncertainty beside the fit's in the amplitudes) and the
-//! physical checks section of the report.
+//! The report of a fit as `gonio fit`, campaigns and Python print it: the family's
+//! report ([`crate::fit::report`]) with the `--instrument` section (each amplitude's
+//! u(K) beside its fit uncertainty) and the physical checks.
 
 use std::fmt::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use serde_json::{Value, json};
 
-use super::convert::read_instrument;
-use super::error::{CliError, CliResult};
+use super::resolve::InstrumentFile;
 use crate::calibrate::{FittedParam, Instrument, ParamKind, combine_uncertainty};
 use crate::fit::member_fit::MemberFit;
 use crate::fit::report::{Param, member_params};
-use crate::fit::{FamilyFit, Kind, physical};
-use crate::sweep_file::{BrdfUnits, read_sweep};
+use crate::fit::{self, FamilyFit, Kind, physical};
 
-/// The units a sweep file declares (relative when it has no `# brdf:` line).
-pub fn units_of(path: &Path) -> CliResult<BrdfUnits> {
-    Ok(read_sweep(path)?.brdf_units())
+/// How a report is printed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Format {
+    /// One JSON object.
+    pub json: bool,
+    /// The whole report, not the verdict.
+    pub all: bool,
 }
 
-/// Each file's units (`None` where it cannot be read: the campaign reports it), the
-/// files read on all cores: one by one, this pass was a serial part of every campaign
-/// (about 5 % of its instructions on paper-grid sweeps).
-pub fn campaign_units(files: &[PathBuf]) -> Vec<Option<BrdfUnits>> {
-    use rayon::prelude::*;
-    files.par_iter().map(|f| units_of(f).ok()).collect()
+/// The report of one fit, the same for `gonio fit SWEEP` and each file of a campaign:
+/// the JSON (with the `--instrument` section) or the table (`residual` named), the
+/// u(K) table and the physical checks of every model.
+pub fn report_bytes(
+    fam: &FamilyFit,
+    format: Format,
+    residual: &str,
+    inst: Option<&InstrumentFile>,
+) -> Vec<u8> {
+    let mut out = Vec::new();
+    write_report(fam, format, residual, inst, &mut out).expect("writing to memory");
+    out
 }
 
-/// Refuses a campaign whose files are in different units (`units`: each file's, from
-/// [`campaign_units`]; files that cannot be read are left to the campaign, which
-/// reports them).
-pub fn check_campaign_units(files: &[PathBuf], units: &[Option<BrdfUnits>]) -> CliResult {
-    let mut first: Option<(&PathBuf, BrdfUnits)> = None;
-    for (f, u) in files.iter().zip(units) {
-        let Some(u) = *u else { continue };
-        match first {
-            None => first = Some((f, u)),
-            Some((p, pu)) => {
-                crate::sweep_file::refuse_mixed("fit", (p, pu), (&f.display().to_string(), u))
-                    .map_err(CliError::usage)?
-            }
-        }
+/// [`report_bytes`] written to `w` as it is made (the JSON as it is serialised); the
+/// text is the verdict ([`fit::report::verdict_text`]) unless `format.all`.
+pub fn write_report(
+    fam: &FamilyFit,
+    format: Format,
+    residual: &str,
+    inst: Option<&InstrumentFile>,
+    w: &mut dyn std::io::Write,
+) -> std::io::Result<()> {
+    let inst = inst.map(|i| (&i.instrument, i.path.as_path()));
+    if format.json {
+        let inst = inst.map(|(i, p)| instrument_json(fam, i, p));
+        fit::report::write_family_json(fam, inst.as_ref(), w)
+    } else if format.all {
+        let mut t = fit::report::family_table(fam, residual);
+        t.push_str(&report_text(fam, inst));
+        w.write_all(t.as_bytes())
+    } else {
+        let extra = verdict_extra(fam, inst);
+        w.write_all(fit::report::verdict_text(fam, &extra).as_bytes())
     }
-    Ok(())
 }
 
-/// `fit A.csv B.csv --instrument I.toml`: the instrument, once every readable file of
-/// the campaign is known to be in relative units (a file in 1/sr is refused, naming it).
-pub fn campaign_instrument(
-    instrument: &Path,
-    files: &[PathBuf],
-    units: &[Option<BrdfUnits>],
-) -> CliResult<Instrument> {
-    for (f, u) in files.iter().zip(units) {
-        if let Some(u) = *u
-            && u != BrdfUnits::Relative
-        {
-            return Err(CliError::usage(format!(
-                "fit --instrument: {} already holds brdf in {u} (its '# brdf:' line): the instrument converts relative readings only",
-                f.display()
-            )));
-        }
-    }
-    read_instrument(instrument)
-}
-
-/// The line a campaign's summary ends with under `--instrument`: the fit is in 1/sr and
-/// every amplitude carries u(K)/K besides its fit uncertainty.
-pub fn campaign_instrument_text(inst: &Instrument, path: &Path) -> String {
-    format!(
-        "\nin 1/sr with instrument {} (K = {:.6e} ± {:.3} %, {}, {}): amplitudes (k_dd, k_id, k_s) carry u(K)/K = {:.3} % beside their fit uncertainty; widths do not\n",
-        path.display(),
-        inst.k,
-        100.0 * inst.relative_uncertainty(),
-        inst.standard,
-        inst.date,
-        100.0 * inst.relative_uncertainty()
-    )
-}
-
-/// The `instrument` entry of a campaign's `--json` summary.
-pub fn campaign_instrument_json(inst: &Instrument, path: &Path) -> Value {
-    json!({"file": path.display().to_string(), "k": inst.k, "u_k": inst.u_k,
-           "relative_uncertainty": inst.relative_uncertainty(), "standard": inst.standard,
-           "reference_file": inst.reference_file, "date": inst.date, "brdf_units": "1/sr"})
+/// `gonio fit --json`'s text for a fit, with `--instrument`'s section when there is one.
+pub fn json_text(fam: &FamilyFit, inst: Option<&InstrumentFile>) -> Vec<u8> {
+    let inst = inst.map(|i| instrument_json(fam, &i.instrument, &i.path));
+    fit::report::family_json_text(fam, inst.as_ref())
 }
 
 /// A model's name and its parameters: name, [value, u(fit), u(K), u(total)].

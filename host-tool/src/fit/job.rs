@@ -1,0 +1,116 @@
+//! One fit resolved: the job (the data as fitted, its aperture and offset final, and
+//! the options), [`run`] over it, and the [`Outcome`] every front end renders.
+//!
+//! A job is made once, by the request layer above (`crate::request`: the command line,
+//! `demo`, campaigns and Python), from a sweep and its `#` lines; nothing below it
+//! looks at a flag or a file again.
+
+use std::fmt;
+
+use super::data::{ConvertRows, Dataset};
+use super::family_fit::FamilyFit;
+use super::options::{FitOptions, Residual};
+use super::stages::fit_family;
+use crate::sweep_file::{BrdfUnits, Row};
+
+/// Why one sweep could not be fitted.
+#[derive(Debug, Clone, PartialEq)]
+pub enum FileError {
+    /// The file cannot be read or its readings cannot be fitted as they are (bad input).
+    Input(String),
+    /// The readings are valid but no model could be fitted.
+    Fit(String),
+    /// The fit's report could not be written.
+    Output(String),
+}
+
+impl fmt::Display for FileError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            FileError::Input(m) | FileError::Fit(m) | FileError::Output(m) => f.write_str(m),
+        }
+    }
+}
+
+/// A fit whose every choice is made: the data (units, floor, instrument conversion,
+/// aperture and offset final) and the options it is fitted with.
+#[derive(Debug, Clone)]
+pub struct Job {
+    /// The sweep's name in messages (its path, or "the arrays").
+    pub name: String,
+    /// The data as fitted: [`Dataset::aperture`] and [`Dataset::offset`] are the final
+    /// choice (the request's over the sweep's `#` lines).
+    pub data: Dataset,
+    /// The options; their aperture and offset overrides are cleared, so the data's hold.
+    pub options: FitOptions,
+    /// Things worth telling that did not stop the fit, each starting with the name.
+    pub warnings: Vec<String>,
+}
+
+impl Job {
+    /// A job over `data` whose aperture and offset are final: the options' own
+    /// overrides are cleared, so that one value, the data's, is fitted.
+    pub fn new(name: String, data: Dataset, mut options: FitOptions, warnings: Vec<String>) -> Job {
+        options.aperture = None;
+        options.offset = None;
+        Job {
+            name,
+            data,
+            options,
+            warnings,
+        }
+    }
+}
+
+/// A finished fit.
+#[derive(Debug, Clone)]
+pub struct Outcome {
+    /// The sweep's name in messages.
+    pub name: String,
+    /// The data as fitted.
+    pub data: Dataset,
+    /// Every model fitted, the selection, and the physical checks.
+    pub family: FamilyFit,
+    /// The residual kind minimised, its noise model resolved from the data.
+    pub residual: Residual,
+    /// Things worth telling that did not stop the fit.
+    pub warnings: Vec<String>,
+}
+
+/// Fits the family to the job's data, then assesses it: the physical checks its
+/// options name, made once into the result. A failure names the sweep.
+pub fn run(job: Job) -> Result<Outcome, FileError> {
+    let mut family = fit_family(&job.data, &job.options)
+        .map_err(|e| FileError::Fit(format!("{}: {e}", job.name)))?;
+    // Assessed once, here: every report formats these.
+    family.physical =
+        super::physical::check_family(&family.members, family.selected_member, family.checks);
+    let residual = job.options.residual.resolved(&job.data);
+    Ok(Outcome {
+        name: job.name,
+        data: job.data,
+        family,
+        residual,
+        warnings: job.warnings,
+    })
+}
+
+/// The data to fit from a sweep's rows in `units`: more rows than one fit takes
+/// ([`super::data::MAX_FIT_READINGS`]) refused first, the detection floor left out
+/// ([`FitOptions::floor`], in the rows' units), then the rows converted by `convert`
+/// when given, with the units they are converted to (an instrument's conversion to
+/// 1/sr).
+pub fn prepare(
+    rows: &[Row],
+    units: BrdfUnits,
+    opts: &FitOptions,
+    convert: Option<(&ConvertRows<'_>, BrdfUnits)>,
+) -> Result<Dataset, String> {
+    super::data::check_reading_count(rows.len())?;
+    let positive = opts.residual.needs_positive();
+    let mut data =
+        Dataset::from_rows_converted(rows, positive, opts.floor, convert.map(|(c, _)| c))
+            .map_err(|e| e.0)?;
+    data.units = convert.map_or(units, |(_, u)| u);
+    Ok(data)
+}

@@ -1,0 +1,83 @@
+use super::*;
+use crate::fit::data::synthetic_paper_sweep;
+use crate::fit::offset::OffsetSpec;
+use std::path::PathBuf;
+
+/// A paper sweep of fe-0.115 with these `#` lines, written into a test directory.
+fn sweep_with(lines: &str, name: &str) -> PathBuf {
+    let fe = brdf_core::Preset::by_name("fe-0.115").unwrap();
+    let rows = synthetic_paper_sweep(|ti| fe.model(ti).unwrap(), 0.002, 3);
+    let mut s = String::from(lines);
+    s.push_str("theta_i,theta_r,brdf\n");
+    for r in rows {
+        s.push_str(&format!("{},{},{}\n", r.theta_i, r.theta_r, r.brdf));
+    }
+    let path = crate::outfile::test_dir("request").join(name);
+    std::fs::write(&path, s).unwrap();
+    path
+}
+
+/// Issue 50 case 11: the request's aperture is final over the sweep's `# aperture:`
+/// line, 0 (off) included; without one the line holds.
+#[test]
+fn the_requests_aperture_is_final_over_the_sweeps_line() {
+    let path = sweep_with("# aperture: 1.5\n", "aperture.csv");
+    let job = |aperture| {
+        let r = Request {
+            aperture,
+            ..Request::default()
+        };
+        let job = r.job_for_file(&path).unwrap();
+        assert_eq!(
+            job.options.aperture, None,
+            "the data's aperture is the one fitted"
+        );
+        job.data.aperture
+    };
+    assert_eq!(job(Aperture::FromSweep), Some(1.5));
+    assert_eq!(job(Aperture::Off), None);
+    assert_eq!(job(Aperture::Deg(0.5)), Some(0.5));
+}
+
+#[test]
+fn the_requests_offset_is_final_over_the_sweeps_line() {
+    let path = sweep_with("# offset: 0.25\n", "offset.csv");
+    let r = Request::default();
+    assert_eq!(
+        r.job_for_file(&path).unwrap().data.offset,
+        Some(OffsetSpec::Detector(0.25))
+    );
+    let r = Request {
+        offset: Some(OffsetSpec::Fit),
+        ..Request::default()
+    };
+    assert_eq!(
+        r.job_for_file(&path).unwrap().data.offset,
+        Some(OffsetSpec::Fit)
+    );
+}
+
+#[test]
+fn words_are_read_as_the_command_line_reads_them() {
+    let w = Words {
+        residual: "noise",
+        loss: "cauchy:0.05",
+        models: vec!["ts,three".into()],
+        aperture: Some(0.0),
+        floor: Some("auto"),
+        offset: Some("fit"),
+        ..Words::default()
+    };
+    let r = w.request().unwrap();
+    assert_eq!(r.fit.residual.word(), "noise");
+    assert_eq!(r.fit.members.as_ref().map(Vec::len), Some(2));
+    assert_eq!(r.aperture, Aperture::Off);
+    assert_eq!(r.offset, Some(OffsetSpec::Fit));
+    let bad = Words {
+        residual: "log",
+        loss: "l2",
+        aperture: Some(20.0),
+        ..Words::default()
+    };
+    assert!(bad.request().unwrap_err().starts_with("--aperture"));
+}

@@ -652,6 +652,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
         ],
     ),
     ("flash", &["outfile", "text"]),
+    ("uncertainty", &["calibrate", "fit", "sweep_file", "text"]),
     (
         "testing",
         &["capture", "device", "fit", "sweep_file", "text"],
@@ -673,6 +674,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "plot",
             "sweep_file",
             "text",
+            "uncertainty",
         ],
     ),
 ];

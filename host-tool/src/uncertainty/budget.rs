@@ -157,7 +157,7 @@ pub fn compute(
         }
         if t.raised > 0 {
             notes.push(format!(
-                "{} perturbed readings at or below 0 were raised to the least reading / 1000 (the objective takes logarithms)",
+                "{} perturbed readings fell at or below 0: their noise was drawn again from the normal truncated at 0 (the objective takes logarithms; readings near the noise floor are not well described by it)",
                 t.raised
             ));
         }

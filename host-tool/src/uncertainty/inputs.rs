@@ -269,11 +269,17 @@ impl Draw {
                     (Some(a), Some(b)) if b > 0.0 && a.is_finite() => a / b,
                     _ => 1.0,
                 };
-                let lin = 1.0 + self.linearity * lin_decades(y, y_lin);
-                y * ratio * gain * lin + s.sigma(y) * self.z[k]
+                perturb(y, ratio, gain, self.linearity, y_lin) + s.sigma(y) * self.z[k]
             })
             .collect()
     }
+}
+
+/// A reading `y` under the systematic part of the model: its angles' `ratio`
+/// m(shifted) / m(recorded), the `gain` (1 + e_scale)(1 + e_ref) and the `linearity`
+/// per decade from `y_lin` (the noise is added by the caller).
+pub fn perturb(y: f64, ratio: f64, gain: f64, linearity: f64, y_lin: f64) -> f64 {
+    y * ratio * gain * (1.0 + linearity * lin_decades(y, y_lin))
 }
 
 /// log10(y / y_lin), 0 where either is not positive.

@@ -6,6 +6,7 @@
 //!
 //! - [`inputs`]: the measurement model of a reading, a draw of every source (also the
 //!   simulated device's injection), the generator;
+//! - [`inject`]: the sources injected into a simulated device's sample;
 //! - [`linear`]: the sensitivities and the law of propagation;
 //! - [`monte_carlo`]: trials in parallel, each an LM refit from the fit's optimum;
 //! - [`budget`]: the budget (per source: value, sensitivity, contribution; combined
@@ -16,6 +17,7 @@
 //! the command line.
 
 pub mod budget;
+pub mod inject;
 pub mod inputs;
 pub mod linear;
 pub mod monte_carlo;

@@ -17,8 +17,9 @@ pub struct Trials {
     pub samples: Vec<Vec<f64>>,
     /// Trials whose refit failed or whose outputs could not be computed.
     pub failed: usize,
-    /// Perturbed readings at or below zero raised to the least positive reading /
-    /// 1000, under an objective that takes logarithms (over all trials).
+    /// Perturbed readings at or below zero whose noise was drawn again, from the
+    /// normal truncated at zero, under an objective that takes logarithms (over all
+    /// trials).
     pub raised: usize,
 }
 
@@ -50,10 +51,10 @@ pub fn run(ctx: &Context<'_>, trials: usize, seed: u64, tick: &(dyn Fn() + Sync)
             let yp = draw.apply(&ctx.sources, &ctx.points, &y, ctx.y_lin, &model);
             let mut data = ctx.data.clone();
             let mut raised = 0;
-            for (o, v) in data.obs.iter_mut().zip(yp) {
+            for (k, (o, v)) in data.obs.iter_mut().zip(yp).enumerate() {
                 o.y = if positive && v <= 0.0 {
                     raised += 1;
-                    least * 1e-3
+                    truncated(v, ctx.sources.sigma(y[k]), draw.z[k], least, &mut rng)
                 } else {
                     v
                 };
@@ -77,6 +78,21 @@ pub fn run(ctx: &Context<'_>, trials: usize, seed: u64, tick: &(dyn Fn() + Sync)
         failed,
         raised,
     }
+}
+
+/// A reading `v` at or below zero under an objective that needs it positive: its noise
+/// (`sigma z`) drawn again from the normal truncated at zero (the quantity being
+/// positive, its PDF is bounded there); after 100 draws without one, a thousandth of
+/// the least reading.
+fn truncated(v: f64, sigma: f64, z: f64, least: f64, rng: &mut Rng) -> f64 {
+    let clean = v - sigma * z;
+    for _ in 0..100 {
+        let w = clean + sigma * rng.normal();
+        if w > 0.0 {
+            return w;
+        }
+    }
+    least * 1e-3
 }
 
 /// Mean, standard deviation and the probabilistically symmetric 95 % coverage

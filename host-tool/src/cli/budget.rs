@@ -52,6 +52,10 @@ pub struct BudgetArgs {
     /// The fit's objective: noise, log, rel or abs [default: the fit's].
     #[arg(long, value_name = "KIND")]
     pub residual: Option<String>,
+    /// A detection floor (a value in the file's brdf units, or `auto`): readings at or
+    /// below it are left out before the fit, as `gonio fit --floor`.
+    #[arg(long, value_name = "VALUE|auto")]
+    pub floor: Option<String>,
     /// Print every reading's expanded uncertainty (the JSON always holds them).
     #[arg(long)]
     pub per_reading: bool,
@@ -87,6 +91,9 @@ pub fn run(args: &BudgetArgs) -> CliResult {
         instrument: instrument.clone(),
         ..FitOptions::default()
     };
+    if let Some(f) = &args.floor {
+        opts.floor = Some(crate::fit::data::parse_floor(f).map_err(CliError::usage)?);
+    }
     if let Some(r) = &args.residual {
         opts.residual = Residual::parse(r).map_err(CliError::usage)?;
     }

@@ -8,8 +8,9 @@ use std::fmt::Write as _;
 
 use serde_json::{Value, json};
 
+use super::context::Context;
 use super::inputs::Kind;
-use super::{Context, linear, monte_carlo};
+use super::{linear, monte_carlo};
 use crate::calibrate::uncertainty_model::Source;
 
 /// Where the law of propagation and Monte Carlo differ by more than this (relative, in

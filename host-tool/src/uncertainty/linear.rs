@@ -5,7 +5,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::Context;
+use super::context::Context;
 use super::inputs::{Kind, lin_decades};
 use crate::fit::options::residual_of;
 

@@ -6,7 +6,7 @@
 
 use rayon::prelude::*;
 
-use super::Context;
+use super::context::Context;
 use super::inputs::{Draw, Rng};
 use crate::fit::member_fit::fit_member_from;
 

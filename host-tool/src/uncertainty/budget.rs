@@ -108,6 +108,8 @@ pub struct Budget {
     pub sources: Vec<(Kind, f64, Source)>,
     /// The noise model (floor, proportional part).
     pub noise: (f64, f64),
+    /// The reference certificate is inside u(K) (not counted again).
+    pub reference_in_k: bool,
     /// Every output.
     pub outputs: Vec<Output>,
     /// Every reading.
@@ -245,6 +247,7 @@ pub fn compute(
         units: ctx.data.units.word().to_string(),
         sources: ctx.sources.u.clone(),
         noise: ctx.sources.noise,
+        reference_in_k: ctx.sources.reference_in_k,
         outputs,
         readings,
         assumptions,
@@ -256,6 +259,7 @@ pub fn compute(
 fn source_value(b: &Budget, kind: Kind, u: f64) -> String {
     match kind {
         Kind::Noise => format!("{:.3e} + {:.2} % y", b.noise.0, 100.0 * b.noise.1),
+        Kind::Reference if b.reference_in_k => "in u(K)".to_string(),
         Kind::Scale | Kind::Reference | Kind::Linearity => format!("{:.3} %", 100.0 * u),
         _ => format!("{u:.4} deg"),
     }
@@ -425,6 +429,7 @@ impl Budget {
             "trials": self.trials.0,
             "trials_refitted": self.trials.1,
             "noise": {"floor": self.noise.0, "prop": self.noise.1},
+            "reference_in_k": self.reference_in_k,
             "sources": self.sources.iter().map(|(k, u, s)| json!({
                 "source": k.name(), "u": u, "origin": s.word(),
                 "distribution": k.distribution(), "shared_by": k.scope()})).collect::<Vec<_>>(),

@@ -76,6 +76,7 @@ fn an_injected_simulation_gets_a_budget_with_every_source() {
     let j: serde_json::Value = serde_json::from_str(&out.stdout).unwrap();
     assert_eq!(j["trials"], 40);
     assert_eq!(j["units"], "1/sr");
+    assert_eq!(j["reference_in_k"], true);
     // Nothing assumed but the solid angle and beam (not given): the reference is in u(K).
     let assumed: Vec<&str> = j["assumptions"]
         .as_array()

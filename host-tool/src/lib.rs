@@ -8,6 +8,7 @@
 //! | [`capture`] | the capture engine: host plans, the per-sweep state, progress display |
 //! | [`sweep_file`] | the sweep file format: reading, writing row by row, resuming |
 //! | [`fit`] | fitting the nested model family to a sweep, reports |
+//! | [`uncertainty`] | the measurement uncertainty of a fit: error sources propagated by the law of propagation and Monte Carlo, the budget |
 //! | [`export`] | a fitted model as JSON, a MERL table or an in-plane CSV grid |
 //! | [`import`] | measurements from elsewhere (MERL BRDF tables, other instruments' tables) as sweep files |
 //! | [`live`] | the live panel of a capture on a terminal: readings, the online fit, warnings |
@@ -42,3 +43,4 @@ pub mod sweep_file;
 #[cfg(feature = "testing")]
 pub mod testing;
 pub mod text;
+pub mod uncertainty;

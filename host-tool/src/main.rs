@@ -4,8 +4,8 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use gonio::cli::{
-    CliResult, EXIT_USAGE, bench, calibrate, capture, convert, demo, eval, fit, flash, import,
-    info, ports, simulate,
+    CliResult, EXIT_USAGE, bench, budget, calibrate, capture, convert, demo, eval, fit, flash,
+    import, info, ports, simulate,
 };
 
 /// gonio: measure and model how metal surfaces reflect light.
@@ -35,6 +35,7 @@ enum Command {
     Capture(capture::CaptureArgs),
     Simulate(simulate::SimulateArgs),
     Fit(fit::FitArgs),
+    Budget(budget::BudgetArgs),
     Calibrate(calibrate::CalibrateArgs),
     Convert(convert::ConvertArgs),
     Import(import::ImportArgs),
@@ -51,6 +52,7 @@ fn run(cli: Cli) -> CliResult {
         Command::Capture(args) => capture::run(&args),
         Command::Simulate(args) => simulate::run(&args),
         Command::Fit(args) => fit::run(&args),
+        Command::Budget(args) => budget::run(&args),
         Command::Calibrate(args) => calibrate::run(&args),
         Command::Convert(args) => convert::run(&args),
         Command::Import(args) => import::run(&args),

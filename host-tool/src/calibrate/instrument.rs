@@ -39,6 +39,10 @@ pub struct Instrument {
     /// `relative-brdf`.
     #[serde(default = "relative_brdf")]
     pub quantity: Quantity,
+    /// The instrument's uncertainty model (the `[uncertainty]` table; issue 51), if
+    /// written: what `gonio budget` propagates besides u(K).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub uncertainty: Option<super::uncertainty_model::UncertaintyModel>,
 }
 
 fn relative_brdf() -> Quantity {
@@ -85,6 +89,7 @@ impl Instrument {
             date: date.to_string(),
             readings: cal.residuals.len(),
             quantity,
+            uncertainty: None,
         }
     }
 
@@ -127,6 +132,9 @@ impl Instrument {
             CalibrationError::BadInstrument(e.message().lines().next().unwrap_or("").to_string())
         })?;
         inst.check()?;
+        if let Some(u) = &inst.uncertainty {
+            u.check().map_err(CalibrationError::BadInstrument)?;
+        }
         Ok(inst)
     }
 }
@@ -252,6 +260,7 @@ mod tests {
             date: "2026-12-01T18:30:00Z".into(),
             readings: 153,
             quantity: Quantity::RelativeBrdf,
+            uncertainty: None,
         }
     }
 

@@ -6,6 +6,7 @@
 //! - [`estimate`]: [`calibrate`]: K by weighted least squares, u(K), the residual table.
 //! - [`instrument`]: the instrument file (TOML), [`to_absolute`] and [`absolute_parameters`].
 //! - [`sweep`]: sweep files as readings, and a sweep converted to 1/sr.
+//! - [`uncertainty_model`]: the instrument file's uncertainty model (`[uncertainty]`).
 //! - [`report`], [`chart`]: the calibration's text report and departure plot.
 //!
 //! Engine only: plain slices of [`Reading`] in, values out, errors as
@@ -20,6 +21,7 @@ pub mod instrument;
 pub mod report;
 pub mod standard;
 pub mod sweep;
+pub mod uncertainty_model;
 
 pub use error::CalibrationError;
 pub use estimate::{Calibration, Quantity, Reading, ResidualRow, calibrate};
@@ -28,6 +30,7 @@ pub use instrument::{
     now_utc, to_absolute,
 };
 pub use standard::{ReflectanceTable, SpecError, Standard};
+pub use uncertainty_model::UncertaintyModel;
 
 #[cfg(test)]
 mod sim_tests;

@@ -171,6 +171,7 @@ mod tests {
             date: "2026-12-01T00:00:00Z".into(),
             readings: 150,
             quantity,
+            uncertainty: None,
         }
     }
 

@@ -5,6 +5,7 @@
 
 pub mod args;
 pub mod bench;
+pub mod budget;
 pub mod calibrate;
 pub mod capture;
 pub mod capture_steps;

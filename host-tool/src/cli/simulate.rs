@@ -74,6 +74,14 @@ pub struct SimulateArgs {
     /// With --resume: continues the session, as `gonio capture --reference --resume`.
     #[arg(long, value_name = "lambertian:R|table:FILE")]
     pub reference: Option<String>,
+    /// Inject the instrument's error sources into the readings, each at the magnitude
+    /// FILE states (an uncertainty model: the instrument file's [uncertainty] table or
+    /// its fields; `gonio budget` reads the same): the scale, the reference certificate,
+    /// linearity, each arm's step, backlash and home, the noise floor (the relative
+    /// noise stays --noise). Drawn from --seed; a source the file does not state is
+    /// not injected.
+    #[arg(long, value_name = "FILE")]
+    pub inject: Option<std::path::PathBuf>,
     /// Which plan to run.
     #[command(flatten)]
     pub plan: PlanArgs,
@@ -119,6 +127,9 @@ pub fn run(args: &SimulateArgs) -> CliResult {
             ));
         }
     };
+    if let Some(path) = &args.inject {
+        cfg.sample = injected(path, cfg.sample.clone(), args.seed)?;
+    }
     if let Some(speed) = args.speed {
         if !(speed.is_finite() && speed > 0.0) {
             return Err(CliError::usage(format!(
@@ -241,6 +252,45 @@ fn simulated_standard(spec: &str, cfg: &mut SimConfig) -> CliResult {
         None => cfg.reference_table = Some(std::sync::Arc::new(std)),
     }
     Ok(())
+}
+
+/// The sample seen through the error sources the uncertainty model at `path` states
+/// (`--inject`); those it does not state are not injected (zero), unlike a budget,
+/// which assumes them.
+fn injected(path: &std::path::Path, sample: Sample, seed: u32) -> CliResult<Sample> {
+    use crate::calibrate::UncertaintyModel;
+    use crate::uncertainty::{Sources, inject::Injected};
+    let model = UncertaintyModel::read(path).map_err(CliError::usage)?;
+    let mut r = model.resolve(None, (0.0, 0.0));
+    // What the file does not state is not injected.
+    let stated = |a: Option<crate::calibrate::uncertainty_model::Arm>| a.unwrap_or_default();
+    for (i, arm) in [stated(model.source_arm), stated(model.detector_arm)]
+        .iter()
+        .enumerate()
+    {
+        for (j, e) in [arm.step_deg, arm.backlash_deg, arm.home_deg]
+            .iter()
+            .enumerate()
+        {
+            if e.is_none() {
+                r.arms[i][j].u = 0.0;
+            }
+        }
+    }
+    if model.reference.is_none() {
+        r.reference.u = 0.0;
+    }
+    if model.scale.is_none() {
+        r.scale.u = 0.0;
+    }
+    if model.linearity.is_none() {
+        r.linearity.u = 0.0;
+    }
+    let sources = Sources::new(&r, false);
+    let inner: Arc<dyn brdf_core::sim::SampleSource + Send + Sync> = Arc::new(sample);
+    Ok(Sample::Other(crate::device::OtherSample(Arc::new(
+        Injected::new(inner, sources, u64::from(seed)),
+    ))))
 }
 
 #[cfg(test)]

@@ -11,5 +11,6 @@ pub mod simulated;
 pub use link::{Connector, FramedLink, LinkError, Transport};
 pub use serial::{SerialConnector, SerialTransport};
 pub use simulated::{
-    InProcessConnector, InProcessDevice, PtyDevice, Sample, SharedInProcessConnector, SimConfig,
+    InProcessConnector, InProcessDevice, OtherSample, PtyDevice, Sample, SharedInProcessConnector,
+    SimConfig,
 };

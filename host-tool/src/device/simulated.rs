@@ -77,6 +77,19 @@ pub enum Sample {
     Preset(&'static Preset),
     /// A measured sweep, replayed (`gonio simulate --replay`).
     Replay(Arc<Replay>),
+    /// Any other source: a sample seen through injected instrument errors
+    /// (`gonio simulate --inject`: the uncertainty engine's injection).
+    Other(OtherSample),
+}
+
+/// A [`SampleSource`] the device module does not know (shared between threads).
+#[derive(Clone)]
+pub struct OtherSample(pub Arc<dyn SampleSource + Send + Sync>);
+
+impl std::fmt::Debug for OtherSample {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("OtherSample")
+    }
 }
 
 impl SampleSource for Sample {
@@ -84,6 +97,7 @@ impl SampleSource for Sample {
         match self {
             Sample::Preset(p) => p.reading(theta_i, theta_r),
             Sample::Replay(r) => r.as_ref().reading(theta_i, theta_r),
+            Sample::Other(o) => o.0.reading(theta_i, theta_r),
         }
     }
 
@@ -91,6 +105,7 @@ impl SampleSource for Sample {
         match self {
             Sample::Preset(p) => p.noise(theta_i, theta_r),
             Sample::Replay(r) => r.as_ref().noise(theta_i, theta_r),
+            Sample::Other(o) => o.0.noise(theta_i, theta_r),
         }
     }
 }

@@ -243,6 +243,7 @@ mod tests {
             date: "2026-12-02T00:00:00Z".into(),
             readings: 153,
             quantity: Quantity::RelativeBrdf,
+            uncertainty: None,
         };
         let all = rows(&fam, &inst);
         let (name, params) = all.last().unwrap();

@@ -5,6 +5,7 @@ mod util;
 
 mod accuracy_bar;
 mod bad_input;
+mod budget_cli;
 mod capture_pty;
 mod crash_safety;
 mod docs_examples;

@@ -666,6 +666,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
         ],
     ),
     ("flash", &["outfile", "text"]),
+    ("uncertainty", &["calibrate", "fit", "sweep_file", "text"]),
     (
         "testing",
         &["capture", "device", "fit", "sweep_file", "text"],
@@ -689,6 +690,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "request",
             "sweep_file",
             "text",
+            "uncertainty",
         ],
     ),
 ];

@@ -8,9 +8,9 @@ use clap::Args;
 use super::error::{CliError, CliResult};
 use super::output::write_stdout;
 use crate::calibrate::{Instrument, UncertaintyModel};
-use crate::fit::campaign::{self, FileError};
 use crate::fit::physical::CheckScope;
 use crate::fit::{FitOptions, NoiseModel, Residual};
+use crate::request::{InstrumentFile, Request};
 use crate::uncertainty::{Context, Sources, budget};
 
 /// `gonio budget`.
@@ -76,19 +76,18 @@ pub fn run(args: &BudgetArgs) -> CliResult {
         )));
     }
     let instrument = match &args.instrument {
-        Some(p) => Some(Instrument::read(p).map_err(CliError::usage)?),
+        Some(p) => Some(InstrumentFile::read(p).map_err(CliError::usage)?),
         None => None,
     };
     let model = match &args.uncertainty {
         Some(p) => UncertaintyModel::read(p).map_err(CliError::usage)?,
         None => instrument
             .as_ref()
-            .and_then(|i| i.uncertainty.clone())
+            .and_then(|i| i.instrument.uncertainty.clone())
             .unwrap_or_default(),
     };
     let mut opts = FitOptions {
         checks: CheckScope::None,
-        instrument: instrument.clone(),
         ..FitOptions::default()
     };
     if let Some(f) = &args.floor {
@@ -97,10 +96,13 @@ pub fn run(args: &BudgetArgs) -> CliResult {
     if let Some(r) = &args.residual {
         opts.residual = Residual::parse(r).map_err(CliError::usage)?;
     }
-    let sf = campaign::fit_sweep_file(&args.sweep, &opts).map_err(|e| match e {
-        FileError::Input(e) => CliError::usage(e),
-        FileError::Fit(e) | FileError::Output(e) => CliError::failed(e),
-    })?;
+    let request = Request {
+        fit: opts,
+        instrument: instrument.clone(),
+        ..Request::default()
+    };
+    let sf = super::fit::fit_file(&args.sweep, &request)?;
+    let instrument: Option<Instrument> = instrument.map(|i| i.instrument);
     let fit = sf
         .family
         .selected_fit()
@@ -111,7 +113,7 @@ pub fn run(args: &BudgetArgs) -> CliResult {
         (data_noise.floor, data_noise.prop),
     );
     let sources = Sources::new(&resolved, instrument.is_some());
-    let ctx = Context::new(&sf.data, fit, opts.residual, sources);
+    let ctx = Context::new(&sf.data, fit, sf.residual, sources);
     let bar = indicatif::ProgressBar::new(args.trials as u64).with_style(
         indicatif::ProgressStyle::with_template(
             "{bar:30} {pos}/{len} trials  {per_sec}  eta {eta}",
@@ -126,9 +128,6 @@ pub fn run(args: &BudgetArgs) -> CliResult {
         assumptions.push(
             "solid angle and beam diameter: recorded, not propagated (the solid angle cancels in K, the reference being measured through the same aperture; the detector is assumed to see the whole beam footprint)".into(),
         );
-    }
-    for w in &sf.warnings {
-        eprintln!("warning: {w}");
     }
     let b = budget::compute(&ctx, args.trials, args.seed, assumptions, &|| bar.inc(1))
         .map_err(CliError::failed)?;

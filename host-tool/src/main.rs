@@ -4,8 +4,8 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use gonio::cli::{
-    CliResult, EXIT_USAGE, bench, calibrate, capture, convert, demo, eval, fit, flash, import,
-    info, ports, simulate,
+    CliResult, EXIT_USAGE, appearance, bench, calibrate, capture, convert, demo, eval, fit, flash,
+    import, info, ports, simulate,
 };
 
 /// gonio: measure and model how metal surfaces reflect light.
@@ -37,6 +37,7 @@ enum Command {
     Fit(fit::FitArgs),
     Calibrate(calibrate::CalibrateArgs),
     Convert(convert::ConvertArgs),
+    Appearance(appearance::AppearanceArgs),
     Import(import::ImportArgs),
     Demo(demo::DemoArgs),
     Bench(bench::BenchArgs),
@@ -53,6 +54,7 @@ fn run(cli: Cli) -> CliResult {
         Command::Fit(args) => fit::run(&args),
         Command::Calibrate(args) => calibrate::run(&args),
         Command::Convert(args) => convert::run(&args),
+        Command::Appearance(args) => appearance::run(&args),
         Command::Import(args) => import::run(&args),
         Command::Demo(args) => demo::run(&args),
         Command::Bench(args) => bench::run(&args),

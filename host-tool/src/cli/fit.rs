@@ -229,6 +229,12 @@ pub struct FitArgs {
     /// Default: the sweep's `# offset:` line, else none.
     #[arg(long, value_name = "fit|DEG", value_parser = fit::offset::OffsetSpec::parse)]
     pub offset: Option<fit::offset::OffsetSpec>,
+    /// Add the appearance figures of the selected (or --export-model) member to the
+    /// report: gloss at 20, 60, 85 degrees (ISO 2813 / ASTM D523), the D4039 haze index
+    /// and E430's gloss, haze and DOI (see `gonio appearance`). Needs the fit in 1/sr
+    /// (a sweep in 1/sr, --instrument) or --scale.
+    #[arg(long)]
+    pub appearance: bool,
 }
 
 /// `--aperture`'s value: a half-angle, or 0 (a point detector).
@@ -449,6 +455,11 @@ pub fn run(args: &FitArgs) -> CliResult {
         None => CheckScope::All,
     };
     if campaign {
+        if args.appearance {
+            return Err(CliError::usage(
+                "--appearance takes one sweep file (or run gonio appearance on a saved fit)",
+            ));
+        }
         return run_campaign(args, &opts);
     }
     let sweep = args.sweeps[0].as_path();
@@ -473,12 +484,17 @@ pub fn run(args: &FitArgs) -> CliResult {
     }
     let inst = inst.as_ref().map(|(i, p)| (i, *p));
     // Every output is checked before the fit: nothing is computed for a refused one.
-    if args.scale.is_some() && args.export.is_empty() {
+    if args.scale.is_some() && args.export.is_empty() && !args.appearance {
         return Err(CliError::usage(
             "--scale S converts the exports to 1/sr: give --export FORMAT=PATH too",
         ));
     }
     let to_per_sr = export::per_sr_factor(data.units, args.scale)?;
+    if args.appearance && to_per_sr.is_none() {
+        return Err(CliError::usage(
+            "--appearance: gloss, haze and DOI need the BRDF in 1/sr but the fit is in relative units (the instrument's): give --scale S (1/sr per relative unit, from a calibration) or fit with --instrument FILE",
+        ));
+    }
     for (format, path) in args.export.iter().filter(|(f, _)| f.holds_per_sr()) {
         export::require_per_sr(to_per_sr, path, *format)?;
     }
@@ -532,6 +548,26 @@ pub fn run(args: &FitArgs) -> CliResult {
     // The fit's buffers, freed in the workers' arenas, go back before the report
     // allocates its own.
     crate::memory::release_freed_memory();
+    if args.appearance {
+        let table = export::fitted_table_scaled(&fam, member, args.scale)?;
+        let to = super::appearance::per_sr(&table, None)?;
+        let (a, notes) = super::appearance::figures(&table, to)?;
+        if args.json {
+            let bytes = report_bytes(&fam, true, args.all, residual, inst);
+            let mut v: serde_json::Value = serde_json::from_slice(&bytes)
+                .map_err(|e| CliError::failed(format!("the report's JSON: {e}")))?;
+            v["appearance"] = super::appearance::json_of(&a, &notes);
+            v["appearance"]["model"] = serde_json::json!(member.to_string());
+            let mut out = serde_json::to_string_pretty(&v).expect("JSON values");
+            out.push('\n');
+            return write_stdout(out.as_bytes());
+        }
+        let text = format!("\n{}:\n{}", member, super::appearance::text(&a, &notes));
+        return write_stdout_with(|w| {
+            write_report(&fam, false, args.all, residual, inst, w)?;
+            w.write_all(text.as_bytes())
+        });
+    }
     // Streamed: the JSON of many incidences is tens of MB.
     write_stdout_with(|w| write_report(&fam, args.json, args.all, residual, inst, w))
 }

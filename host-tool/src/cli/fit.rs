@@ -524,6 +524,11 @@ pub fn run(args: &FitArgs) -> CliResult {
         written = plot::write_plots(dir, &data, &fam, args.force)?;
     }
     let member = args.export_model.unwrap_or(fam.selected_member);
+    let measurement = if args.export.is_empty() {
+        crate::sweep_file::Measurement::default()
+    } else {
+        export_measurement(sweep, args.scale)?
+    };
     for (format, path) in &args.export {
         written.extend(export::targets(*format, path));
         let target = Target::new(path, args.force).inputs(&inputs);
@@ -541,7 +546,9 @@ pub fn run(args: &FitArgs) -> CliResult {
                 let note = export::write_merl_export(target, &fam, member, args.scale)?;
                 eprintln!("gonio: note: {}: {note}", path.display());
             }
-            _ => export::write_export(*format, target, &fam, member, args.scale)?,
+            _ => {
+                export::write_export_with(*format, target, &fam, member, args.scale, &measurement)?
+            }
         }
     }
     say_written(&written);
@@ -570,6 +577,33 @@ pub fn run(args: &FitArgs) -> CliResult {
     }
     // Streamed: the JSON of many incidences is tens of MB.
     write_stdout_with(|w| write_report(&fam, args.json, args.all, residual, inst, w))
+}
+
+/// The sweep's measurement metadata for the exports, its `nebsdf` in 1/sr: as written
+/// for a sweep in 1/sr, times `scale` for a relative one, else left out (said on
+/// stderr). A value out of range is bad input.
+fn export_measurement(
+    sweep: &std::path::Path,
+    scale: Option<f64>,
+) -> CliResult<crate::sweep_file::Measurement> {
+    let data = crate::sweep_file::read_sweep(sweep)?;
+    let name = sweep.display();
+    let mut m = data
+        .measurement()
+        .map_err(|e| CliError::usage(format!("{name}: {e}")))?;
+    if let Some(v) = m.nebsdf {
+        m.nebsdf = match (data.brdf_units(), scale) {
+            (crate::sweep_file::BrdfUnits::PerSr, _) => Some(v),
+            (_, Some(s)) => Some(v * s),
+            _ => {
+                eprintln!(
+                    "gonio: note: {name}: its nebsdf is in relative units: left out of the exports (give --scale, or convert the sweep with gonio convert)"
+                );
+                None
+            }
+        };
+    }
+    Ok(m)
 }
 
 /// The report of one fit, the same for `gonio fit SWEEP` and each file of a campaign:

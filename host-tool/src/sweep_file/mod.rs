@@ -27,12 +27,14 @@
 
 mod format;
 mod header_row;
+mod measurement;
 mod read;
 mod units;
 mod whole;
 mod write;
 
 pub use header_row::{DELIMITERS, delimiter_name, sniff_delimiter};
+pub use measurement::{MEASUREMENT_KEYS, Measurement};
 pub use read::{
     ANGLE_UNITS, KNOWN_KEYS, MAX_SWEEP_BYTES, SweepData, angles_look_like_radians,
     looks_like_radians, parse_sweep, radians_warning, read_input, read_sweep,

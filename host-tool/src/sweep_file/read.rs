@@ -26,7 +26,7 @@ const QUOTE_CHARS: usize = 40;
 
 /// The `# key:` lines gonio reads or writes (keys in any case); others are kept in
 /// [`SweepData::meta`] and named by [`SweepData::warnings`]: gonio does not read them.
-pub const KNOWN_KEYS: [&str; 18] = [
+pub const KNOWN_KEYS: [&str; 27] = [
     "status",
     "device",
     "sample",
@@ -45,6 +45,15 @@ pub const KNOWN_KEYS: [&str; 18] = [
     "missing",
     "repeats",
     "theta_r",
+    "polarization",
+    "polarisation",
+    "beam-diameter",
+    "solid-angle",
+    "nebsdf",
+    "signature",
+    "operator",
+    "date",
+    "temperature",
 ];
 
 /// What a sweep file holds.
@@ -81,6 +90,12 @@ pub struct SweepData {
 impl SweepData {
     pub(super) fn columns_are_capture_columns(&self) -> bool {
         self.columns.iter().map(String::as_str).eq(COLUMNS)
+    }
+
+    /// The measurement's metadata (wavelength, polarization, ...; one-line errors for
+    /// values out of range).
+    pub fn measurement(&self) -> Result<super::Measurement, String> {
+        super::Measurement::from_meta(&self.meta)
     }
 
     /// The status word of the `# status:` line, if any.

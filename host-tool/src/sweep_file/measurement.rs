@@ -22,6 +22,15 @@
 use std::collections::BTreeMap;
 
 use super::format::meta_problem;
+use super::read::SweepData;
+
+impl SweepData {
+    /// The measurement's metadata (wavelength, polarization, ...; one-line errors for
+    /// values out of range).
+    pub fn measurement(&self) -> Result<Measurement, String> {
+        Measurement::from_meta(&self.meta)
+    }
+}
 
 /// The keys this module reads and writes (with `started` as the date's fallback).
 pub const MEASUREMENT_KEYS: [&str; 11] = [

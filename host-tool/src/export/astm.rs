@@ -125,6 +125,7 @@ mod tests {
     fn the_measurement_metadata_reads_back_from_the_header() {
         let m = Measurement {
             wavelength_nm: Some(532.0),
+            band: None,
             polarization: Some("p".into()),
             beam_diameter_mm: Some(3.0),
             solid_angle_sr: Some(2.4e-4),

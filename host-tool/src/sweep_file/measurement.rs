@@ -4,7 +4,7 @@
 //!
 //! | key | value |
 //! |---|---|
-//! | `wavelength` | nm (a bare number is nm) |
+//! | `wavelength` | nm (a bare number is nm); or a band in words (`CIE 1931 Y over ...`, as `gonio import rgl` writes) |
 //! | `polarization` (or `polarisation`) | one line: `s`, `p`, `unpolarized`, ... |
 //! | `beam-diameter` | mm (a bare number is mm) |
 //! | `solid-angle` | the detector's solid angle, sr, in (0, 2 pi] |
@@ -52,6 +52,9 @@ pub const MEASUREMENT_KEYS: [&str; 11] = [
 pub struct Measurement {
     /// Wavelength, nm (> 0).
     pub wavelength_nm: Option<f64>,
+    /// A band instead of one wavelength: the `wavelength` line's text when it does not
+    /// start with a number (e.g. `CIE 1931 Y over the file's 9 wavelengths 380..780 nm`).
+    pub band: Option<String>,
     /// Polarization of source (and detector), one line.
     pub polarization: Option<String>,
     /// Beam diameter at the sample, mm (> 0).
@@ -146,10 +149,22 @@ impl Measurement {
                 crate::text::escape_line(d, 40)
             ));
         }
+        // A wavelength line that starts with a word describes a band.
+        let band = get("wavelength")
+            .filter(|v| {
+                let first = v.split_whitespace().next().unwrap_or("");
+                first.parse::<f64>().is_err() && first.starts_with(|c: char| c.is_alphabetic())
+            })
+            .map(str::to_string);
         let m = Measurement {
-            wavelength_nm: num("wavelength", &["nm"])?
-                .map(|v| check("wavelength", v, v > 0.0 && v < 1e7, "above 0 nm"))
-                .transpose()?,
+            wavelength_nm: if band.is_some() {
+                None
+            } else {
+                num("wavelength", &["nm"])?
+            }
+            .map(|v| check("wavelength", v, v > 0.0 && v < 1e7, "above 0 nm"))
+            .transpose()?,
+            band,
             polarization,
             beam_diameter_mm: num("beam-diameter", &["mm"])?
                 .map(|v| check("beam-diameter", v, v > 0.0, "above 0 mm"))
@@ -188,7 +203,12 @@ impl Measurement {
                 out.push((k, v));
             }
         };
-        put("wavelength", self.wavelength_nm.map(|v| format!("{v} nm")));
+        put(
+            "wavelength",
+            self.wavelength_nm
+                .map(|v| format!("{v} nm"))
+                .or_else(|| self.band.clone()),
+        );
         put("polarization", self.polarization.clone());
         put(
             "beam-diameter",
@@ -221,6 +241,7 @@ mod tests {
     fn full() -> Measurement {
         Measurement {
             wavelength_nm: Some(632.8),
+            band: None,
             polarization: Some("s".into()),
             beam_diameter_mm: Some(2.5),
             solid_angle_sr: Some(1.2e-4),
@@ -294,6 +315,11 @@ mod tests {
         assert_eq!(m.nebsdf, Some(1e-5));
         assert_eq!(m.date.as_deref(), Some("2026-11-22T00:15:02Z"));
         assert!(Measurement::from_meta(&meta(&[])).unwrap().is_empty());
+        // gonio import rgl's band reads as one, and is written back as it was.
+        let y = "CIE 1931 Y over the file's 9 wavelengths 380..780 nm (equal-energy illuminant)";
+        let m = Measurement::from_meta(&meta(&[("wavelength", y)])).unwrap();
+        assert_eq!((m.wavelength_nm, m.band.as_deref()), (None, Some(y)));
+        assert_eq!(m.lines(), vec![("wavelength", y.to_string())]);
     }
 
     #[test]
@@ -301,7 +327,7 @@ mod tests {
         for (k, v, says) in [
             ("wavelength", "632.8 um", "unit 'um'"),
             ("wavelength", "-5", "out of range"),
-            ("wavelength", "red", "not a number"),
+            ("wavelength", "12x nm", "not a number"),
             ("beam-diameter", "0", "out of range"),
             ("solid-angle", "7 sr", "out of range"),
             ("temperature", "300 K", "unit 'K'"),

@@ -124,8 +124,8 @@ pub fn write_export(
 
 /// [`write_export`] with the measurement's metadata (ASTM E1392 / E2387: wavelength,
 /// polarization, beam diameter, ...) in the formats that hold it: the ASTM table's
-/// header lines and the JSON's `measurement` object. Its `nebsdf` must already be in
-/// 1/sr (the caller converts or leaves it out).
+/// header lines, the Zemax file's comment lines and the JSON's `measurement` object.
+/// Its `nebsdf` must already be in 1/sr (the caller converts or leaves it out).
 pub fn write_export_with(
     format: ExportFormat,
     target: Target<'_>,
@@ -171,7 +171,7 @@ pub fn write_export_with(
             let grid = zemax::zemax_grid(&table, to_per_sr)
                 .map_err(|m| ExportError::Write(format!("{}: {m}", path.display())))?;
             write_atomic(target, |w| {
-                zemax::write_zemax(w, &grid, &member.to_string())
+                zemax::write_zemax(w, &grid, &member.to_string(), measurement)
             })
         }
         ExportFormat::Residuals => Err(ExportError::Write(format!(

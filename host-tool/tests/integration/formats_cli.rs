@@ -468,6 +468,7 @@ fn measurement_metadata_and_appearance_go_through_the_exports() {
     let sweep = d.join("flat.csv");
     std::fs::write(&sweep, text).unwrap();
     let (astm, json, back) = (d.join("flat.astm"), d.join("fit.json"), d.join("back.csv"));
+    let zmx = d.join("flat.zmx");
     let fit = gonio(&[
         "fit",
         sweep.to_str().unwrap(),
@@ -477,8 +478,12 @@ fn measurement_metadata_and_appearance_go_through_the_exports() {
         &format!("astm={}", astm.display()),
         "--export",
         &format!("json={}", json.display()),
+        "--export",
+        &format!("zemax={}", zmx.display()),
     ]);
     assert!(fit.ok(), "{}", fit.stderr);
+    let zemax = std::fs::read_to_string(&zmx).unwrap();
+    assert!(zemax.contains("\n# wavelength: 632.8 nm\n"), "{zemax}");
     let table = std::fs::read_to_string(&astm).unwrap();
     for line in [
         "WAVELENGTH 632.8 nm",

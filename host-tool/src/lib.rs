@@ -13,6 +13,7 @@
 //! | [`import`] | measurements from elsewhere (MERL BRDF tables, other instruments' tables) as sweep files |
 //! | [`live`] | the live panel of a capture on a terminal: readings, the online fit, warnings |
 //! | [`plot`] | PNG and SVG figures of a fit against its data |
+//! | [`appearance`] | appearance figures from a BRDF model: gloss (ISO 2813 / ASTM D523), haze (ASTM E430, D4039), DOI |
 //! | [`bench`] | evaluation variants, the slower studies, their tables and chart |
 //! | [`outfile`] | the one way an output file is written: checked target, private temporary file, sync, rename |
 //! | [`flash`] | flashing the firmware through a debug probe (probe-rs) |
@@ -24,6 +25,7 @@
 //! [`cli::error`] turns into an exit status and one line on stderr.
 #![deny(missing_docs)]
 
+pub mod appearance;
 pub mod bench;
 pub mod calibrate;
 pub mod campaign;

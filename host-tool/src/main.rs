@@ -4,8 +4,8 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use gonio::cli::{
-    CliResult, EXIT_USAGE, bench, budget, calibrate, capture, convert, demo, eval, fit, flash,
-    import, info, ports, simulate,
+    CliResult, EXIT_USAGE, appearance, bench, budget, calibrate, capture, convert, demo, eval, fit,
+    flash, import, info, ports, simulate,
 };
 
 /// gonio: measure and model how metal surfaces reflect light.
@@ -38,6 +38,7 @@ enum Command {
     Budget(budget::BudgetArgs),
     Calibrate(calibrate::CalibrateArgs),
     Convert(convert::ConvertArgs),
+    Appearance(appearance::AppearanceArgs),
     Import(import::ImportArgs),
     Demo(demo::DemoArgs),
     Bench(bench::BenchArgs),
@@ -55,6 +56,7 @@ fn run(cli: Cli) -> CliResult {
         Command::Budget(args) => budget::run(&args),
         Command::Calibrate(args) => calibrate::run(&args),
         Command::Convert(args) => convert::run(&args),
+        Command::Appearance(args) => appearance::run(&args),
         Command::Import(args) => import::run(&args),
         Command::Demo(args) => demo::run(&args),
         Command::Bench(args) => bench::run(&args),

@@ -165,6 +165,14 @@ class Model:
         a detector at theta."""
         return self._m.albedo(theta, reverse)
 
+    def appearance(self, scale: Optional[float] = None) -> dict:
+        """Gloss at 20, 60 and 85 degrees (ISO 2813 / ASTM D523, gloss units against the
+        black glass of index 1.567), the ASTM D4039 haze index and ASTM E430's gloss, haze
+        and DOI, each with its quadrature error, as ``gonio appearance --json`` gives them
+        (docs/appearance.md). Needs the model in 1/sr (``to_per_sr``) or ``scale`` (1/sr per
+        unit of a relative model)."""
+        return json.loads(self._m._appearance_json(scale))
+
     def __repr__(self) -> str:
         return repr(self._m)
 

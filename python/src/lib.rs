@@ -457,6 +457,38 @@ impl PyModel {
             .map_err(model_err)
     }
 
+    /// Appearance figures (docs/appearance.md) as the JSON of `gonio appearance`'s
+    /// `appearance` object; `scale`: 1/sr per unit of a relative-unit model. Releases
+    /// the GIL.
+    #[pyo3(signature = (scale=None))]
+    fn _appearance_json(&self, py: Python<'_>, scale: Option<f64>) -> PyResult<String> {
+        let to = match (self.def.to_per_sr, scale) {
+            (Some(_), Some(_)) => {
+                return Err(err("scale: the model is already in 1/sr: leave scale out"));
+            }
+            (Some(t), None) => t,
+            (None, Some(s)) if s.is_finite() && s > 0.0 => s,
+            (None, Some(s)) => {
+                return Err(err(format!(
+                    "scale {s}: 1/sr per unit of the model, a finite number above 0"
+                )));
+            }
+            (None, None) => {
+                return Err(err(
+                    "gloss, haze and DOI need the BRDF in 1/sr but this model is in relative units: give scale (1/sr per unit)",
+                ));
+            }
+        };
+        let def = &self.def;
+        let model_at = |t: f64| def.at(t);
+        let a = py
+            .detach(|| {
+                gonio::appearance::appearance(&gonio::appearance::Surface::model(&model_at, to))
+            })
+            .map_err(model_err)?;
+        Ok(a.json().to_string())
+    }
+
     fn __repr__(&self) -> String {
         format!("gonio.Model('{}', {})", self.def.member(), self.def.origin)
     }

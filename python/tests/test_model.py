@@ -188,3 +188,21 @@ def test_a_fresnel_lobe_takes_k0_n_k_and_reports_k0_f_on_the_mirror_direction():
     assert np.all(np.isfinite(f)) and np.all(f > 0)
     with pytest.raises(gonio.GonioError, match=r"a Fresnel k_s is \[k0, n, k\]"):
         gonio.Model("specular:fresnel", ks=2.0, sigma=0.1)
+
+
+def test_appearance_of_a_lambertian_is_the_closed_form():
+    """Gloss 20 of f = 0.2 / sr: 100 f (sin 20.9 - sin 19.1)(h/2 + sin(h)/2) / R(1.567, 20),
+    h = 3.6 degrees, R the black glass's Fresnel reflectance (docs/appearance.md)."""
+    m = gonio.Model("ideal-diffuse", kid=0.2)
+    with pytest.raises(gonio.GonioError, match="1/sr"):
+        m.appearance()
+    a = m.appearance(scale=1.0)
+    t, h, d = np.radians(20.0), np.radians(3.6), np.radians(0.9)
+    frac = 0.2 * (np.sin(t + d) - np.sin(t - d)) * (h / 2 + np.sin(h) / 2)
+    n, c = 1.567, np.cos(t)
+    s = np.sqrt(n * n - 1 + c * c)
+    r = 0.5 * ((c - s) / (c + s)) ** 2 + 0.5 * ((n * n * c - s) / (n * n * c + s)) ** 2
+    g20 = a["gloss"][0]["gu"]["value"]
+    assert g20 == pytest.approx(100 * frac / r, rel=1e-3)
+    assert [g["geometry_deg"] for g in a["gloss"]] == [20.0, 60.0, 85.0]
+    assert a["e430"]["doi"]["value"] == pytest.approx(0.0, abs=0.2)

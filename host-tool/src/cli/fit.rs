@@ -37,6 +37,11 @@ pub(super) fn file_error(e: FileError) -> CliError {
 pub fn run(args: &FitArgs) -> CliResult {
     let mut request = request(args)?;
     if args.sweeps.len() > 1 || args.sweeps[0].is_dir() {
+        if args.appearance {
+            return Err(CliError::usage(
+                "--appearance takes one sweep file (or run gonio appearance on a saved fit)",
+            ));
+        }
         return super::fit_campaign::run(args, request);
     }
     let sweep = args.sweeps[0].as_path();
@@ -65,26 +70,35 @@ pub fn run(args: &FitArgs) -> CliResult {
         all: args.all,
     };
     let residual = request.fit.residual.word();
-    // Streamed: the JSON of many incidences is tens of MB.
-    write_stdout_with(|w| {
-        render::write_report(
+    let inst = request.instrument.as_ref();
+    if args.appearance {
+        let member = args.export_model.unwrap_or(out.family.selected_member);
+        let bytes = super::appearance::fit_report(
             &out.family,
+            member,
+            args.scale,
+            |f| render::report_bytes(&out.family, f, residual, inst),
             format,
-            residual,
-            request.instrument.as_ref(),
-            w,
-        )
-    })
+        )?;
+        return super::output::write_stdout(&bytes);
+    }
+    // Streamed: the JSON of many incidences is tens of MB.
+    write_stdout_with(|w| render::write_report(&out.family, format, residual, inst, w))
 }
 
 /// Every output is checked before the fit: nothing is computed for a refused one.
 fn check_outputs(args: &FitArgs, sweep: &Path, data: &crate::fit::Dataset) -> CliResult {
-    if args.scale.is_some() && args.export.is_empty() {
+    if args.scale.is_some() && args.export.is_empty() && !args.appearance {
         return Err(CliError::usage(
             "--scale S converts the exports to 1/sr: give --export FORMAT=PATH too",
         ));
     }
     let to_per_sr = export::per_sr_factor(data.units, args.scale)?;
+    if args.appearance && to_per_sr.is_none() {
+        return Err(CliError::usage(
+            "--appearance: gloss, haze and DOI need the BRDF in 1/sr but the fit is in relative units (the instrument's): give --scale S (1/sr per relative unit, from a calibration) or fit with --instrument FILE",
+        ));
+    }
     for (format, path) in args.export.iter().filter(|(f, _)| f.holds_per_sr()) {
         export::require_per_sr(to_per_sr, path, *format)?;
     }
@@ -122,6 +136,11 @@ fn write_outputs(
         written = plot::write_plots(dir, data, fam, args.force)?;
     }
     let member = args.export_model.unwrap_or(fam.selected_member);
+    let measurement = if args.export.is_empty() {
+        crate::sweep_file::Measurement::default()
+    } else {
+        super::appearance::export_measurement(sweep, args.scale)?
+    };
     let inputs = [sweep];
     for (format, path) in &args.export {
         written.extend(export::targets(*format, path));
@@ -134,7 +153,7 @@ fn write_outputs(
                 let note = export::write_merl_export(target, fam, member, args.scale)?;
                 eprintln!("gonio: note: {}: {note}", path.display());
             }
-            _ => export::write_export(*format, target, fam, member, args.scale)?,
+            _ => export::write_export_with(*format, target, fam, member, args.scale, &measurement)?,
         }
     }
     Ok(written)

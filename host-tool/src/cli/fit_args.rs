@@ -222,6 +222,12 @@ pub struct FitArgs {
     /// Default: the sweep's `# offset:` line, else none.
     #[arg(long, value_name = "fit|DEG", value_parser = fit::offset::OffsetSpec::parse)]
     pub offset: Option<fit::offset::OffsetSpec>,
+    /// Add the appearance figures of the selected (or --export-model) member to the
+    /// report: gloss at 20, 60, 85 degrees (ISO 2813 / ASTM D523), the D4039 haze index
+    /// and E430's gloss, haze and DOI (see `gonio appearance`). Needs the fit in 1/sr
+    /// (a sweep in 1/sr, --instrument) or --scale.
+    #[arg(long)]
+    pub appearance: bool,
 }
 
 /// `--aperture`'s value: a half-angle, or 0 (a point detector).

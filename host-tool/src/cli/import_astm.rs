@@ -38,6 +38,36 @@ pub struct AstmArgs {
     pub force: bool,
 }
 
+/// The table's measurement header lines ([`crate::export::astm::HEADER_KEYS`]) as sweep
+/// metadata lines, checked as a sweep's are; none (said on stderr) when one is bad.
+fn measurement_lines(name: &str, header: &[(String, String)]) -> Vec<String> {
+    let meta: std::collections::BTreeMap<String, String> = header
+        .iter()
+        .filter_map(|(k, v)| Some((crate::export::astm::sweep_key(k)?.to_string(), v.clone())))
+        .collect();
+    match crate::sweep_file::Measurement::from_meta(&meta) {
+        Ok(m) if m.problem().is_none() => m
+            .lines()
+            .into_iter()
+            .map(|(k, v)| format!("{k}: {v}"))
+            .collect(),
+        Ok(m) => {
+            eprintln!(
+                "gonio: warning: {name}: {}: the measurement lines were left out",
+                m.problem().unwrap_or_default()
+            );
+            Vec::new()
+        }
+        Err(e) => {
+            eprintln!(
+                "gonio: warning: {name}: the header's {}: the measurement lines were left out",
+                crate::text::escape_line(&e, 200)
+            );
+            Vec::new()
+        }
+    }
+}
+
 /// Runs `gonio import astm`.
 pub fn run(args: &AstmArgs) -> CliResult {
     let inputs = [args.file.as_path()];
@@ -66,6 +96,8 @@ pub fn run(args: &AstmArgs) -> CliResult {
             sweep.out_of_plane
         ),
     ];
+    let mut meta = meta;
+    meta.extend(measurement_lines(&name.to_string(), &sweep.header));
     let merged = write_distinct(target, &meta, &sweep.rows)?;
     super::output::say_written(std::slice::from_ref(&args.out));
     if let Some(line) = repeats_said(&name.to_string(), merged) {

@@ -3,6 +3,7 @@
 //! commands share, [`capture_steps`] the capture steps `capture` and `simulate` share.
 //! Exit codes and [`CliError`] exist only here.
 
+pub mod appearance;
 pub mod args;
 pub mod bench;
 pub mod budget;

@@ -12,6 +12,32 @@ use std::io::{self, Write};
 use brdf_core::geometry::Geometry;
 
 use super::mitsuba::MemberTable;
+use crate::sweep_file::Measurement;
+
+/// The header keyword of each measurement line ([`Measurement::lines`]' keys): what
+/// the table's `KEY value` header holds of the measurement (ASTM E1392 / E2387), read
+/// back by `gonio import astm`.
+pub const HEADER_KEYS: [(&str, &str); 10] = [
+    ("wavelength", "WAVELENGTH"),
+    ("polarization", "POLARIZATION"),
+    ("beam-diameter", "BEAM_DIAMETER"),
+    ("solid-angle", "SOLID_ANGLE"),
+    ("nebsdf", "NEBSDF"),
+    ("signature", "SIGNATURE"),
+    ("sample", "SAMPLE"),
+    ("operator", "OPERATOR"),
+    ("date", "DATE"),
+    ("temperature", "TEMPERATURE"),
+];
+
+/// The sweep-file key of an ASTM header keyword (any case), if it is one of
+/// [`HEADER_KEYS`].
+pub fn sweep_key(keyword: &str) -> Option<&'static str> {
+    HEADER_KEYS
+        .iter()
+        .find(|(_, k)| k.eq_ignore_ascii_case(keyword))
+        .map(|(s, _)| *s)
+}
 use super::zemax::scientific;
 
 /// Polar step of the grid (degrees).
@@ -53,12 +79,23 @@ pub fn astm_rows(table: &MemberTable, to_per_sr: f64) -> Result<Vec<[f64; 5]>, S
     Ok(rows)
 }
 
-/// Writes `rows` as an ASTM E1392-style table (`member` named in the header).
-pub fn write_astm(w: &mut dyn Write, rows: &[[f64; 5]], member: &str) -> io::Result<()> {
+/// Writes `rows` as an ASTM E1392-style table (`member` named in the header, then the
+/// measurement's lines as [`HEADER_KEYS`]; its `nebsdf` must be in 1/sr).
+pub fn write_astm(
+    w: &mut dyn Write,
+    rows: &[[f64; 5]],
+    member: &str,
+    measurement: &Measurement,
+) -> io::Result<()> {
     writeln!(
         w,
         "SOURCE gonio fit: model {member} (BRDF in 1/sr, angles in radians)"
     )?;
+    for (key, value) in measurement.lines() {
+        if let Some((_, keyword)) = HEADER_KEYS.iter().find(|(k, _)| *k == key) {
+            writeln!(w, "{keyword} {value}")?;
+        }
+    }
     writeln!(w, "NUM_POINTS {}", rows.len())?;
     writeln!(w, "VARS theta_i,phi_i,theta_s,phi_s,BRDF")?;
     for r in rows {
@@ -80,6 +117,47 @@ mod tests {
     use super::*;
     use brdf_core::lobe::Distribution;
     use brdf_core::member_model::{DirectionalParams, Ks, LobeParams, MemberModel, MemberParams};
+
+    /// The interchange: the measurement's metadata written into the header reads back
+    /// the same through `gonio import astm`'s reader, and readers that skip it (the
+    /// rows) are unaffected.
+    #[test]
+    fn the_measurement_metadata_reads_back_from_the_header() {
+        let m = Measurement {
+            wavelength_nm: Some(532.0),
+            band: None,
+            polarization: Some("p".into()),
+            beam_diameter_mm: Some(3.0),
+            solid_angle_sr: Some(2.4e-4),
+            nebsdf: Some(1.5e-5),
+            signature: Some("sig-001.csv".into()),
+            sample: Some("solar array coupon 7".into()),
+            operator: Some("J. Doe".into()),
+            date: Some("2026-12-05".into()),
+            temperature_c: Some(22.0),
+        };
+        let rows = vec![[0.1, 0.0, 0.1, std::f64::consts::PI, 2.0]];
+        let mut text = Vec::new();
+        write_astm(&mut text, &rows, "m", &m).unwrap();
+        let text = String::from_utf8(text).unwrap();
+        assert!(text.contains("\nWAVELENGTH 532 nm\n"), "{text}");
+        let sweep = crate::import::astm::read_astm(&text, None).unwrap();
+        assert_eq!(sweep.rows.len(), 1);
+        let meta: std::collections::BTreeMap<String, String> = sweep
+            .header
+            .iter()
+            .filter_map(|(k, v)| Some((sweep_key(k)?.to_string(), v.clone())))
+            .collect();
+        assert_eq!(meta.len(), HEADER_KEYS.len());
+        assert_eq!(Measurement::from_meta(&meta).unwrap(), m);
+        // Every measurement key has its keyword.
+        for k in crate::sweep_file::MEASUREMENT_KEYS {
+            assert!(
+                k == "polarisation" || HEADER_KEYS.iter().any(|(s, _)| *s == k),
+                "{k}"
+            );
+        }
+    }
 
     /// The table read back by `gonio import astm`'s reader (written from libbsdf's
     /// AstmReader): its in-plane rows equal the model in the plane; every row equals
@@ -110,7 +188,7 @@ mod tests {
         let rows = astm_rows(&table, 3.0).unwrap();
         assert_eq!(rows.len(), 2 * (1 + 44 * 72));
         let mut text = Vec::new();
-        write_astm(&mut text, &rows, "m").unwrap();
+        write_astm(&mut text, &rows, "m", &Measurement::default()).unwrap();
         let text = String::from_utf8(text).unwrap();
         let m = MemberModel::new(&p).unwrap();
         // Each row against the model at the reader's own direction.

@@ -118,14 +118,38 @@ pub fn write_export(
     member: Member,
     scale: Option<f64>,
 ) -> Result<(), ExportError> {
+    let none = crate::sweep_file::Measurement::default();
+    write_export_with(format, target, fam, member, scale, &none)
+}
+
+/// [`write_export`] with the measurement's metadata (ASTM E1392 / E2387: wavelength,
+/// polarization, beam diameter, ...) in the formats that hold it: the ASTM table's
+/// header lines, the Zemax file's comment lines and the JSON's `measurement` object.
+/// Its `nebsdf` must already be in 1/sr (the caller converts or leaves it out).
+pub fn write_export_with(
+    format: ExportFormat,
+    target: Target<'_>,
+    fam: &FamilyFit,
+    member: Member,
+    scale: Option<f64>,
+    measurement: &crate::sweep_file::Measurement,
+) -> Result<(), ExportError> {
     let table = fitted_table_scaled(fam, member, scale)?;
     let path = target.path;
     match format {
         ExportFormat::Json => {
-            let mut text =
-                serde_json::to_string_pretty(&json::export_json(fam, &table)).map_err(|e| {
-                    ExportError::Write(format!("cannot encode {}: {e}", path.display()))
-                })?;
+            let mut v = json::export_json(fam, &table);
+            if !measurement.is_empty() {
+                let m: serde_json::Map<String, serde_json::Value> = measurement
+                    .lines()
+                    .into_iter()
+                    .map(|(k, s)| (k.to_string(), serde_json::Value::String(s)))
+                    .collect();
+                v["measurement"] = serde_json::Value::Object(m);
+            }
+            let mut text = serde_json::to_string_pretty(&v).map_err(|e| {
+                ExportError::Write(format!("cannot encode {}: {e}", path.display()))
+            })?;
             text.push('\n');
             write_atomic(target, |w| w.write_all(text.as_bytes()))
         }
@@ -137,7 +161,9 @@ pub fn write_export(
             outfile::check(target)?;
             let rows = astm::astm_rows(&table, to_per_sr)
                 .map_err(|m| ExportError::Write(format!("{}: {m}", path.display())))?;
-            write_atomic(target, |w| astm::write_astm(w, &rows, &member.to_string()))
+            write_atomic(target, |w| {
+                astm::write_astm(w, &rows, &member.to_string(), measurement)
+            })
         }
         ExportFormat::Zemax => {
             let to_per_sr = require_per_sr(table.to_per_sr, path, format)?;
@@ -145,7 +171,7 @@ pub fn write_export(
             let grid = zemax::zemax_grid(&table, to_per_sr)
                 .map_err(|m| ExportError::Write(format!("{}: {m}", path.display())))?;
             write_atomic(target, |w| {
-                zemax::write_zemax(w, &grid, &member.to_string())
+                zemax::write_zemax(w, &grid, &member.to_string(), measurement)
             })
         }
         ExportFormat::Residuals => Err(ExportError::Write(format!(

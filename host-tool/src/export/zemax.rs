@@ -220,7 +220,12 @@ pub fn scientific(v: f64) -> String {
 }
 
 /// Writes `grid` as a Zemax tabular BSDF file (`member` named in a comment).
-pub fn write_zemax(w: &mut dyn Write, grid: &ZemaxGrid, member: &str) -> io::Result<()> {
+pub fn write_zemax(
+    w: &mut dyn Write,
+    grid: &ZemaxGrid,
+    member: &str,
+    measurement: &crate::sweep_file::Measurement,
+) -> io::Result<()> {
     let list = |v: &[f64]| {
         v.iter()
             .map(|x| format!("{x}"))
@@ -235,6 +240,10 @@ pub fn write_zemax(w: &mut dyn Write, grid: &ZemaxGrid, member: &str) -> io::Res
         w,
         "# ScatterRadial: true angle from the specular direction; ScatterAzimuth: 0 toward the surface normal"
     )?;
+    // The measurement's metadata: the format has no fields for it, only comments.
+    for (key, value) in measurement.lines() {
+        writeln!(w, "# {key}: {value}")?;
+    }
     writeln!(w, "Source\tMeasured")?;
     writeln!(w, "Symmetry\tPlaneSymmetrical")?;
     writeln!(w, "SpectralContent\tMonochrome")?;

@@ -169,8 +169,15 @@ fn a_zemax_file_reads_back_to_the_model_and_its_tis_integrates_its_grid() {
         let t = table(p, &incidences);
         let grid = zemax_grid(&t, scale).unwrap();
         let mut bytes = Vec::new();
-        write_zemax(&mut bytes, &grid, name).unwrap();
-        let f = read(std::str::from_utf8(&bytes).unwrap());
+        let measurement = crate::sweep_file::Measurement {
+            wavelength_nm: Some(632.8),
+            operator: Some("J. Doe".into()),
+            ..Default::default()
+        };
+        write_zemax(&mut bytes, &grid, name, &measurement).unwrap();
+        let text = std::str::from_utf8(&bytes).unwrap();
+        assert!(text.contains("\n# wavelength: 632.8 nm\n# operator: J. Doe\n"));
+        let f = read(text);
         for (k, v) in [
             ("Source", "Measured"),
             ("Symmetry", "PlaneSymmetrical"),

@@ -39,6 +39,9 @@ pub struct AstmSweep {
     pub channel: String,
     /// Every channel the file names.
     pub channels: Vec<String>,
+    /// The header's `KEY value` lines before `VARS` (`NUM_POINTS` aside): the keyword
+    /// in upper case and the rest of the line.
+    pub header: Vec<(String, String)>,
 }
 
 /// Reads `text` (an ASTM E1392-style table) for `channel` (a name of the `VARS` line,
@@ -51,6 +54,7 @@ pub fn read_astm(text: &str, channel: Option<&str>) -> Result<AstmSweep, (usize,
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut lines = text.lines().enumerate().map(|(k, l)| (k + 1, l.trim()));
     let mut num_points: Option<(usize, usize)> = None;
+    let mut header = Vec::new();
     let vars = loop {
         let Some((line, l)) = lines.next() else {
             return Err((
@@ -73,7 +77,8 @@ pub fn read_astm(text: &str, channel: Option<&str>) -> Result<AstmSweep, (usize,
                 num_points = Some((line, n));
             }
             Some("VARS") => break (line, l["VARS".len()..].trim().to_string()),
-            _ => {}
+            Some(k) => header.push((k.to_ascii_uppercase(), l[k.len()..].trim().to_string())),
+            None => {}
         }
     };
     let names: Vec<String> = vars.1.split(',').map(|s| s.trim().to_string()).collect();
@@ -125,6 +130,7 @@ pub fn read_astm(text: &str, channel: Option<&str>) -> Result<AstmSweep, (usize,
         out_of_plane: 0,
         channel: channels[pick].clone(),
         channels: channels.clone(),
+        header,
     };
     let mut count = 0usize;
     let mut last_line = vars.0;

@@ -23,6 +23,38 @@ impl fmt::Display for SweepFileError {
 
 impl std::error::Error for SweepFileError {}
 
+/// The `# key:` lines gonio reads or writes (keys in any case); others are kept in
+/// [`super::SweepData::meta`] and named by [`super::SweepData::warnings`]: gonio does not read them.
+pub const KNOWN_KEYS: [&str; 27] = [
+    "status",
+    "device",
+    "sample",
+    "units",
+    "brdf",
+    "plan",
+    "settings",
+    "started",
+    "points",
+    "source",
+    "calibration",
+    "aperture",
+    "offset",
+    "out-of-plane",
+    "wavelength",
+    "missing",
+    "repeats",
+    "theta_r",
+    "polarization",
+    "polarisation",
+    "beam-diameter",
+    "solid-angle",
+    "nebsdf",
+    "signature",
+    "operator",
+    "date",
+    "temperature",
+];
+
 /// Columns the capture writes, in order.
 pub const COLUMNS: [&str; 7] = ["theta_i", "theta_r", "brdf", "std", "n", "seq", "t_ms"];
 

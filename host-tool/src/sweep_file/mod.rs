@@ -27,23 +27,25 @@
 
 mod format;
 mod header_row;
+mod measurement;
 mod read;
 mod units;
 mod whole;
 mod write;
 
 pub use header_row::{DELIMITERS, delimiter_name, sniff_delimiter};
+pub use measurement::{MEASUREMENT_KEYS, Measurement};
 pub use read::{
-    ANGLE_UNITS, KNOWN_KEYS, MAX_SWEEP_BYTES, SweepData, angles_look_like_radians,
-    looks_like_radians, parse_sweep, radians_warning, read_input, read_sweep,
+    ANGLE_UNITS, MAX_SWEEP_BYTES, SweepData, angles_look_like_radians, looks_like_radians,
+    parse_sweep, radians_warning, read_input, read_sweep,
 };
 pub use units::{BRDF_KEY, BrdfUnits, refuse_mixed};
 pub use whole::{text_problem, write_text};
 pub use write::SweepWriter;
 
 pub use format::{
-    ANGLE_MAX_DEG, BRDF_MAX, BRDF_MIN, COLUMNS, Counters, Header, Row, SweepFileError, SweepStatus,
-    brdf_in_range, meta_problem, row_problem,
+    ANGLE_MAX_DEG, BRDF_MAX, BRDF_MIN, COLUMNS, Counters, Header, KNOWN_KEYS, Row, SweepFileError,
+    SweepStatus, brdf_in_range, meta_problem, row_problem,
 };
 
 #[cfg(test)]

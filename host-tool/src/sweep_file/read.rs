@@ -6,8 +6,8 @@ use std::io::Read;
 use std::path::Path;
 
 use super::format::{
-    BRDF_MAX, BRDF_MIN, COLUMNS, Counters, Row, STATUS_PREFIX, SweepFileError, brdf_in_range,
-    row_problem,
+    BRDF_MAX, BRDF_MIN, COLUMNS, Counters, KNOWN_KEYS, Row, STATUS_PREFIX, SweepFileError,
+    brdf_in_range, row_problem,
 };
 use super::header_row::{header_columns, sniff_delimiter};
 use super::units::{BRDF_KEY, BrdfUnits};
@@ -23,29 +23,6 @@ pub const MAX_SWEEP_BYTES: u64 = 64 << 20;
 
 /// Characters of a field quoted in a message (escaped, see [`escape_line`]).
 const QUOTE_CHARS: usize = 40;
-
-/// The `# key:` lines gonio reads or writes (keys in any case); others are kept in
-/// [`SweepData::meta`] and named by [`SweepData::warnings`]: gonio does not read them.
-pub const KNOWN_KEYS: [&str; 18] = [
-    "status",
-    "device",
-    "sample",
-    "units",
-    "brdf",
-    "plan",
-    "settings",
-    "started",
-    "points",
-    "source",
-    "calibration",
-    "aperture",
-    "offset",
-    "out-of-plane",
-    "wavelength",
-    "missing",
-    "repeats",
-    "theta_r",
-];
 
 /// What a sweep file holds.
 #[derive(Debug, Clone, Default)]

@@ -14,6 +14,7 @@ use super::format::{
     COLUMNS, Counters, Header, Row, SweepFileError, SweepStatus, meta_problem, row_line,
     row_problem, status_line,
 };
+use super::measurement::Measurement;
 use super::read::SweepData;
 use super::units::BrdfUnits;
 use crate::outfile::{self, OutError, Target};
@@ -83,7 +84,21 @@ impl SweepWriter {
     /// through [`crate::outfile`], so the file appears with its whole header or not at
     /// all. The file stays locked until the writer is dropped.
     pub fn create(path: &Path, header: &Header, force: bool) -> Result<Self, SweepFileError> {
+        Self::create_with(path, header, &Measurement::default(), force)
+    }
+
+    /// [`SweepWriter::create`] with the measurement's metadata lines after the device's
+    /// (its `sample` where the header has none).
+    pub fn create_with(
+        path: &Path,
+        header: &Header,
+        measurement: &Measurement,
+        force: bool,
+    ) -> Result<Self, SweepFileError> {
         Self::check_new(path, force)?;
+        if let Some(m) = measurement.problem() {
+            return Err(SweepFileError::Invalid(m));
+        }
         let fields = [
             ("device", Some(&header.device)),
             ("plan", Some(&header.plan)),
@@ -119,6 +134,11 @@ impl SweepWriter {
         text.push_str(&format!("# device: {}\n", header.device));
         if let Some(sample) = &header.sample {
             text.push_str(&format!("# sample: {sample}\n"));
+        }
+        for (key, value) in measurement.lines() {
+            if key != "sample" || header.sample.is_none() {
+                text.push_str(&format!("# {key}: {value}\n"));
+            }
         }
         text.push_str("# units: degrees\n");
         // A capture records the instrument's readings: relative until `gonio convert`.

@@ -448,3 +448,124 @@ fn a_reversed_theta_r_is_pointed_out_and_flipped_by_one_line() {
     };
     assert_eq!(selected(&marked), selected(&sweep));
 }
+
+/// Issue 51: a sweep's measurement metadata (keys in any case) goes through a fit's
+/// ASTM export and `gonio import astm` back into a sweep file, and into the JSON export;
+/// the appearance figures of the saved fit of a flat (Lambertian) sweep are the closed
+/// form's, from `gonio appearance` and `gonio fit --appearance` alike.
+#[test]
+fn measurement_metadata_and_appearance_go_through_the_exports() {
+    let d = scratch("appearance");
+    let c = 0.2; // BRDF, 1/sr: a Lambertian of albedo 0.2 pi
+    let mut text = String::from(
+        "# brdf: 1/sr\n# Wavelength: 632.8 nm\n# polarization: s\n# beam-diameter: 2.5 mm\n\
+         # solid-angle: 0.0001 sr\n# NEBSDF: 0.00001\n# signature: sig-1.csv\n# sample: coupon 7\n\
+         # operator: J. Doe\n# date: 2026-12-05\n# temperature: 21.5 C\ntheta_i,theta_r,brdf\n",
+    );
+    for ti in [10, 30, 50, 70] {
+        for tr in (-80..=80).step_by(10) {
+            text.push_str(&format!("{ti},{tr},{c}\n"));
+        }
+    }
+    let sweep = d.join("flat.csv");
+    std::fs::write(&sweep, text).unwrap();
+    let (astm, json, back) = (d.join("flat.astm"), d.join("fit.json"), d.join("back.csv"));
+    let zmx = d.join("flat.zmx");
+    let fit = gonio(&[
+        "fit",
+        sweep.to_str().unwrap(),
+        "--models",
+        "ideal",
+        "--export",
+        &format!("astm={}", astm.display()),
+        "--export",
+        &format!("json={}", json.display()),
+        "--export",
+        &format!("zemax={}", zmx.display()),
+    ]);
+    assert!(fit.ok(), "{}", fit.stderr);
+    let zemax = std::fs::read_to_string(&zmx).unwrap();
+    assert!(zemax.contains("\n# wavelength: 632.8 nm\n"), "{zemax}");
+    let table = std::fs::read_to_string(&astm).unwrap();
+    for line in [
+        "WAVELENGTH 632.8 nm",
+        "NEBSDF 0.00001",
+        "OPERATOR J. Doe",
+        "DATE 2026-12-05",
+    ] {
+        assert!(table.contains(&format!("\n{line}\n")), "{line}");
+    }
+    let imported = gonio(&[
+        "import",
+        "astm",
+        astm.to_str().unwrap(),
+        "--out",
+        back.to_str().unwrap(),
+    ]);
+    assert!(imported.ok(), "{}", imported.stderr);
+    let back_text = std::fs::read_to_string(&back).unwrap();
+    for line in [
+        "# wavelength: 632.8 nm",
+        "# polarization: s",
+        "# beam-diameter: 2.5 mm",
+        "# solid-angle: 0.0001 sr",
+        "# nebsdf: 0.00001",
+        "# signature: sig-1.csv",
+        "# sample: coupon 7",
+        "# operator: J. Doe",
+        "# date: 2026-12-05",
+        "# temperature: 21.5 C",
+    ] {
+        assert!(
+            back_text.contains(&format!("{line}\n")),
+            "{line}:\n{back_text}"
+        );
+    }
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(v["measurement"]["temperature"], "21.5 C");
+
+    // Gloss 20 of a Lambertian: 100 c (sin(20.9) - sin(19.1)) (h/2 + sin(h)/2) / R(1.567, 20).
+    let app = gonio(&["appearance", json.to_str().unwrap(), "--json"]);
+    assert!(app.ok(), "{}", app.stderr);
+    let a: serde_json::Value = serde_json::from_str(&app.stdout).unwrap();
+    let g20 = a["appearance"]["gloss"][0]["gu"]["value"].as_f64().unwrap();
+    let (t, h) = (20f64.to_radians(), 3.6f64.to_radians());
+    let frac = c
+        * ((t + 0.9f64.to_radians()).sin() - (t - 0.9f64.to_radians()).sin())
+        * (h / 2.0 + h.sin() / 2.0);
+    let want = 100.0 * frac / brdf_core::fresnel::reflectance(t.cos(), 1.567, 0.0);
+    assert!((g20 - want).abs() < 1e-3 * want, "{g20} vs {want}");
+    let fit_app = gonio(&[
+        "fit",
+        sweep.to_str().unwrap(),
+        "--models",
+        "ideal",
+        "--appearance",
+        "--json",
+    ]);
+    assert!(fit_app.ok(), "{}", fit_app.stderr);
+    let f: serde_json::Value = serde_json::from_str(&fit_app.stdout).unwrap();
+    assert_eq!(
+        f["appearance"]["gloss"][0]["gu"]["value"].as_f64(),
+        Some(g20)
+    );
+    // A relative fit has no gloss without a scale.
+    let rel = d.join("rel.csv");
+    std::fs::write(
+        &rel,
+        std::fs::read_to_string(&sweep)
+            .unwrap()
+            .replace("# brdf: 1/sr", "# brdf: relative"),
+    )
+    .unwrap();
+    let refused = gonio(&[
+        "fit",
+        rel.to_str().unwrap(),
+        "--models",
+        "ideal",
+        "--appearance",
+    ]);
+    assert_eq!(refused.code, 2, "{}", refused.stderr);
+    assert!(refused.stderr.contains("1/sr"), "{}", refused.stderr);
+}

@@ -627,6 +627,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ("text", &[]),
     ("outfile", &[]),
     ("memory", &[]),
+    ("appearance", &[]),
     ("sweep_file", &["outfile", "text"]),
     ("fit", &["sweep_file", "text"]),
     ("calibrate", &["sweep_file", "plot", "outfile", "text"]),
@@ -674,6 +675,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
     (
         "cli",
         &[
+            "appearance",
             "bench",
             "calibrate",
             "campaign",

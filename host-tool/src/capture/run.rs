@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 use brdf_core::protocol::{Command, Event, Reading};
 
 use super::check::{self, Tolerance};
-use super::connect::{check_raw, device_line, prepare};
+use super::connect::{HomingError, check_raw, device_line, prepare, rehome};
 use super::error::{CaptureError, Result};
 use super::liveness;
 use super::plan::{DeviceSweep, HostPlan, PlanError};
@@ -512,6 +512,17 @@ impl<C: Connector> Run<'_, C> {
                     if abort_first {
                         if let Err(e) = self.send(link, &Command::Abort) {
                             return Ok(Outcome::Lost(e));
+                        }
+                        // An Abort mid-move marks the device's position lost (its safe
+                        // state): home again, as the connect does, or the StartSweep
+                        // is refused "position lost".
+                        match rehome(link, self.setup, &mut pending) {
+                            Ok(()) => {}
+                            Err(HomingError::Link(e)) => return self.on_link_error(link, e),
+                            Err(HomingError::Failed(why)) => {
+                                self.writer.set_status(SweepStatus::Failed)?;
+                                return Err(CaptureError::Device(why));
+                            }
                         }
                     }
                     std::thread::sleep(Duration::from_millis(50));

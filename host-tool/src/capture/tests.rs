@@ -309,3 +309,125 @@ fn an_unwritable_output_directory_is_found_before_the_device_is_touched() {
         "the device was not touched"
     );
 }
+
+/// The link of a device that got the first StartSweep twice and whose answer to the
+/// first (its Progress) was lost: the second copy is answered Busy while the first
+/// already moves the source arm, so the host restarts the sweep with an Abort that
+/// stops an arm mid-move.
+struct BusyOnStart {
+    dev: InProcessDevice,
+    to_dev: brdf_core::frame::FrameDecoder<{ brdf_core::frame::MAX_FRAME_LEN }>,
+    doubled: bool,
+    drop_progress: bool,
+    /// The device's frame being split off its stream.
+    partial: Vec<u8>,
+    out: std::collections::VecDeque<u8>,
+    /// Refusals the device sent (what a failed restart is made of).
+    refused: std::sync::Arc<std::sync::Mutex<Vec<String>>>,
+}
+
+impl Transport for BusyOnStart {
+    fn send(&mut self, bytes: &[u8]) -> std::io::Result<()> {
+        let mut start = false;
+        for &b in bytes {
+            if let Some(Ok(Command::StartSweep(_))) = self.to_dev.push::<Command>(b) {
+                start = true;
+            }
+        }
+        self.dev.send(bytes)?;
+        if start && !self.doubled {
+            self.doubled = true;
+            self.drop_progress = true;
+            self.dev.send(bytes)?;
+        }
+        Ok(())
+    }
+    fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> std::io::Result<usize> {
+        if self.out.is_empty() {
+            let mut tmp = [0u8; 4096];
+            let n = self.dev.recv(&mut tmp, timeout)?;
+            for &b in &tmp[..n] {
+                self.partial.push(b);
+                if b != 0 {
+                    continue;
+                }
+                let frame = std::mem::take(&mut self.partial);
+                let mut dec =
+                    brdf_core::frame::FrameDecoder::<{ brdf_core::frame::MAX_FRAME_LEN }>::new();
+                let ev = frame.iter().find_map(|&b| dec.push::<Event>(b));
+                match ev {
+                    Some(Ok(Event::Progress(_))) if self.drop_progress => {
+                        self.drop_progress = false;
+                        continue;
+                    }
+                    Some(Ok(Event::Error(e))) if e.code != brdf_core::protocol::ErrorCode::Busy => {
+                        self.refused.lock().unwrap().push(e.detail.to_string());
+                    }
+                    _ => {}
+                }
+                self.out.extend(frame);
+            }
+        }
+        let n = buf.len().min(self.out.len());
+        for (slot, b) in buf.iter_mut().zip(self.out.drain(..n)) {
+            *slot = b;
+        }
+        Ok(n)
+    }
+}
+
+struct BusyConnector(Option<BusyOnStart>);
+
+impl Connector for BusyConnector {
+    type T = BusyOnStart;
+    fn connect(&mut self) -> Result<FramedLink<BusyOnStart>, LinkError> {
+        Ok(FramedLink::new(
+            self.0.take().ok_or(LinkError::Timeout("gone"))?,
+        ))
+    }
+    fn can_reconnect(&self) -> bool {
+        false
+    }
+}
+
+/// A sweep answered Busy is restarted after an Abort; that Abort stops the source arm
+/// mid-move, so the device marks its position lost (its safe state). The capture homes
+/// again before the restart (as the connect does) instead of failing "device refused
+/// the sweep: position lost: send Home".
+#[test]
+fn a_busy_restart_homes_again_after_its_abort_stopped_an_arm() {
+    let refused = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+    let mut conn = BusyConnector(Some(BusyOnStart {
+        dev: InProcessDevice::new(&SimConfig::new(
+            Preset::by_name("fe-0.115").unwrap(),
+            0.0,
+            3,
+        )),
+        to_dev: Default::default(),
+        doubled: false,
+        drop_progress: false,
+        partial: Vec::new(),
+        out: Default::default(),
+        refused: refused.clone(),
+    }));
+    // The first point moves the source arm (it rests at its low limit after homing).
+    let plan = HostPlan::from_toml_str(
+        "points = [[40, 10], [40, -20]]\nsettle_ms = 0\n",
+        "busy.toml",
+        &Default::default(),
+    )
+    .unwrap();
+    let path = out("busy-restart.csv");
+    let setup = CaptureSetup::new(Some(plan), path.clone());
+    let report = capture(&mut conn, &setup, &mut Quiet, &AtomicBool::new(false))
+        .unwrap_or_else(|e| panic!("{e}; device refusals {:?}", refused.lock().unwrap()));
+    assert_eq!(report.status, SweepStatus::Complete);
+    assert!(
+        refused.lock().unwrap().is_empty(),
+        "{:?}",
+        refused.lock().unwrap()
+    );
+    let data = read_sweep(&path).unwrap();
+    let rows: Vec<(f64, f64)> = data.rows.iter().map(|r| (r.theta_i, r.theta_r)).collect();
+    assert_eq!(rows, vec![(40.0, 10.0), (40.0, -20.0)]);
+}

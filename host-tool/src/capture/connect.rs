@@ -4,7 +4,7 @@
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
-use brdf_core::protocol::{Command, ErrorCode, Event, Info, Specimen};
+use brdf_core::protocol::{Command, DeviceStatus, ErrorCode, Event, Info, ResetCause, Specimen};
 
 use super::error::{CaptureError, Result};
 use super::setup::CaptureSetup;
@@ -27,10 +27,7 @@ pub(super) fn device_line(info: &Info) -> String {
 
 /// Opens the link, handshakes, stops anything the device was still doing and homes it
 /// if needed.
-pub(super) fn prepare<C: Connector>(
-    conn: &mut C,
-    setup: &CaptureSetup,
-) -> Result<(FramedLink<C::T>, Info)> {
+pub(super) fn prepare<C: Connector>(conn: &mut C, setup: &CaptureSetup) -> Result<Prepared<C::T>> {
     let mut link = conn.connect()?;
     if let Some(raw) = &setup.raw {
         use std::os::unix::fs::OpenOptionsExt;
@@ -48,6 +45,8 @@ pub(super) fn prepare<C: Connector>(
         link.set_raw_log(Box::new(f));
     }
     let mut info = link.handshake(setup.handshake_timeout)?;
+    // Read before the Abort below changes `last_safe`.
+    let status = device_status(&mut link)?;
     let send =
         |link: &mut FramedLink<C::T>, cmd: &Command| link.send(cmd).map_err(CaptureError::from);
     // A device that survived a lost link may still be sweeping: stop it. On a noisy
@@ -82,7 +81,68 @@ pub(super) fn prepare<C: Connector>(
     if let Some(specimen) = setup.specimen {
         mount(&mut link, specimen)?;
     }
-    Ok((link, info))
+    Ok(Prepared { link, info, status })
+}
+
+/// What a [`ResetCause`] means, in a few words.
+pub fn reset_cause(c: ResetCause) -> &'static str {
+    match c {
+        ResetCause::Unknown => "unknown (no reset flag; QEMU and simulations have none)",
+        ResetCause::PowerOn => "power-on",
+        ResetCause::Pin => "the reset pin (button or debug probe)",
+        ResetCause::Software => "the firmware (after a panic or fault)",
+        ResetCause::Watchdog => "the watchdog (the firmware stopped making progress)",
+        ResetCause::BrownOut => "a brown-out (the supply fell below 2.7 V)",
+    }
+}
+
+/// A device made ready by [`prepare`].
+pub(super) struct Prepared<T: Transport> {
+    /// The link, handshaken.
+    pub link: FramedLink<T>,
+    /// The handshake's answer (`homed` as it is now).
+    pub info: Info,
+    /// The device's state before the connect touched it (`None`: a device that does
+    /// not answer `GetStatus`).
+    pub status: Option<DeviceStatus>,
+}
+
+/// The device's [`DeviceStatus`], asked up to three times (a noisy link); `None` when
+/// it never answers.
+fn device_status<T: Transport>(link: &mut FramedLink<T>) -> Result<Option<DeviceStatus>> {
+    for _ in 0..3 {
+        link.send(&Command::GetStatus)?;
+        if let Some(Event::DeviceStatus(s)) = recv_until(link, Duration::from_secs(1), |e| {
+            matches!(e, Event::DeviceStatus(_))
+        })? {
+            return Ok(Some(s));
+        }
+    }
+    Ok(None)
+}
+
+/// Why a device that this capture (or the capture that wrote a resumed file) talked to
+/// before has restarted since, from its state before the connect's `Abort`; `None` when
+/// it has not. Every connect sends `Abort`, which sets `last_safe`; only a restart
+/// clears it again (docs/protocol.md, `DeviceStatus`).
+pub(super) fn restarted(status: &DeviceStatus) -> Option<String> {
+    if status.last_safe.is_some() {
+        return None;
+    }
+    let cause = status.reset_cause;
+    let fault = matches!(
+        cause,
+        ResetCause::Watchdog | ResetCause::BrownOut | ResetCause::Software
+    );
+    Some(format!(
+        "the device restarted since the readings before this point were taken (reset cause: {}){}; readings after it may differ if the rig changed",
+        reset_cause(cause),
+        if fault {
+            ": a fault, check the supply and the firmware log"
+        } else {
+            ""
+        }
+    ))
 }
 
 /// Why the arms could not be made ready.

@@ -6,10 +6,10 @@ use std::collections::{BTreeSet, VecDeque};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use brdf_core::protocol::{Command, Event, Reading};
+use brdf_core::protocol::{Command, DeviceStatus, Event, Reading};
 
 use super::check::{self, Tolerance};
-use super::connect::{HomingError, check_raw, device_line, prepare, rehome};
+use super::connect::{HomingError, check_raw, device_line, prepare, rehome, restarted};
 use super::error::{CaptureError, Result};
 use super::liveness;
 use super::plan::{DeviceSweep, HostPlan, PlanError};
@@ -39,6 +39,8 @@ struct Run<'a, C: Connector> {
     watch: Watch,
     /// A sequential plan's readings budget (its rounds measure one batch each).
     sequential: Option<usize>,
+    /// A restart of the device, to be written before the next reading.
+    restart_note: Option<String>,
 }
 
 /// How long the Abort sent to a stalled device may go unanswered.
@@ -101,7 +103,8 @@ pub fn capture<C: Connector>(
     if let Some(raw) = &setup.raw {
         check_raw(raw, &setup.out)?;
     }
-    let (mut link, info) = prepare(conn, setup)?;
+    let prepared = prepare(conn, setup)?;
+    let (mut link, info) = (prepared.link, prepared.info);
     let (writer, plan, present) = if let Some((writer, data)) = resumed {
         let plan = HostPlan::from_recorded(
             data.meta
@@ -160,6 +163,7 @@ pub fn capture<C: Connector>(
         max_points: info.max_points,
         watch,
         sequential,
+        restart_note: None,
     };
     if run.plan.points.len() > usize::from(info.max_points) {
         run.progress.note(&format!(
@@ -168,6 +172,11 @@ pub fn capture<C: Connector>(
             info.max_points,
             usize::from(info.max_points).min(brdf_core::protocol::MAX_PLAN_POINTS)
         ));
+    }
+    if setup.resume {
+        // The capture that wrote the file talked to the device: a device that has not
+        // been to its safe state since it started has restarted since.
+        run.warn_if_restarted(prepared.status.as_ref())?;
     }
     run.progress
         .start(run.plan.points.len() as u64, run.present.len() as u64);
@@ -304,11 +313,12 @@ impl<C: Connector> Run<'_, C> {
                 ));
             }
             match prepare(self.conn, self.setup) {
-                Ok((l, _)) => {
-                    *link = l;
+                Ok(p) => {
+                    *link = p.link;
                     self.reconnects += 1;
                     self.progress
                         .note("capture: device is back; measuring what is missing");
+                    self.warn_if_restarted(p.status.as_ref())?;
                     return Ok(());
                 }
                 Err(e) if Instant::now() >= deadline => {
@@ -321,6 +331,21 @@ impl<C: Connector> Run<'_, C> {
                 Err(_) => std::thread::sleep(Duration::from_millis(250)),
             }
         }
+    }
+
+    /// Warns (on the terminal, and in a `# warning:` line of the file before the next
+    /// reading) when a device
+    /// this capture talked to before has restarted since ([`restarted`]).
+    fn warn_if_restarted(&mut self, status: Option<&DeviceStatus>) -> Result {
+        let Some(why) = status.and_then(restarted) else {
+            return Ok(());
+        };
+        if self.present.len() < self.plan.points.len() {
+            self.progress.note(&format!("capture: warning: {why}"));
+            // Written before the next reading: where the readings after the restart begin.
+            self.restart_note = Some(why);
+        }
+        Ok(())
     }
 
     fn send(&mut self, link: &mut FramedLink<C::T>, cmd: &Command) -> Result<(), String> {
@@ -651,6 +676,9 @@ impl<C: Connector> Run<'_, C> {
         }
         if self.present.contains(&seq) {
             return Ok(()); // a duplicate: already in the file
+        }
+        if let Some(why) = self.restart_note.take() {
+            self.writer.warn(&why)?;
         }
         if let Err(e) = self.writer.append(&row) {
             // The file ends at its last whole row (the writer cut a partial one away):

@@ -103,6 +103,64 @@ fn interrupt_leaves_a_valid_file_and_resume_completes_it() {
         "each point exactly once, in order"
     );
     assert_eq!(data.counters.readings, 153);
+    // The fresh device had restarted since the first readings: said in the file, at
+    // the point where the resumed readings begin.
+    assert_eq!(data.notes.len(), 1, "{:?}", data.notes);
+    let (line, text) = &data.notes[0];
+    assert!(text.starts_with("the device restarted"), "{text}");
+    assert!(text.contains("reset cause: unknown"), "{text}");
+    assert_eq!(
+        *line,
+        data.meta.len() + 3 + got,
+        "after the first {got} rows"
+    );
+    assert!(
+        data.warnings()
+            .iter()
+            .any(|w| w.contains("the capture warned: the device restarted")),
+        "{:?}",
+        data.warnings()
+    );
+}
+
+/// A resumed capture on the device that took the first readings, still running since,
+/// finds it has been to its safe state (the first capture's Abort): no restart warning.
+#[test]
+fn a_resume_on_the_same_running_device_warns_of_no_restart() {
+    let path = out("same-device.csv");
+    let mut conn = crate::device::SharedInProcessConnector::new(InProcessDevice::new(
+        &SimConfig::new(Preset::by_name("fe-0.115").unwrap(), 0.005, 3),
+    ));
+    let flag = AtomicBool::new(false);
+    let setup = CaptureSetup::new(Some(paper()), path.clone());
+    let report = capture(&mut conn, &setup, &mut InterruptAfter(40, &flag), &flag).unwrap();
+    assert_eq!(report.status, SweepStatus::Interrupted);
+    let mut setup = CaptureSetup::new(None, path.clone());
+    setup.resume = true;
+    let mut told = Told::default();
+    let report = capture(&mut conn, &setup, &mut told, &AtomicBool::new(false)).unwrap();
+    assert_eq!(report.status, SweepStatus::Complete);
+    let data = read_sweep(&path).unwrap();
+    assert_eq!(data.rows.len(), 153);
+    assert!(data.notes.is_empty(), "{:?}", data.notes);
+    assert!(
+        !told.0.iter().any(|n| n.contains("restarted")),
+        "{:?}",
+        told.0
+    );
+}
+
+/// The notes a capture printed.
+#[derive(Default)]
+struct Told(Vec<String>);
+
+impl ProgressSink for Told {
+    fn start(&mut self, _: u64, _: u64) {}
+    fn reading(&mut self, _: u64, _: f32, _: f32) {}
+    fn note(&mut self, text: &str) {
+        self.0.push(text.to_string());
+    }
+    fn finish(&mut self) {}
 }
 
 #[test]

@@ -24,6 +24,9 @@
 //! the table's delimiter is `,` `;` or tab, sniffed from the header row. The `status` line has a fixed width and is
 //! rewritten in place when the capture ends; `points` lists the whole plan (after the
 //! exclusion zone) so `--resume` knows what is missing; `seq` indexes it.
+//! The only `#` lines among the rows are a capture's `# warning:` lines (a device that
+//! restarted mid-sweep, written before the first reading after it), read into
+//! [`SweepData::notes`] and said by [`SweepData::warnings`].
 
 mod format;
 mod header_row;

@@ -521,9 +521,14 @@ impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, 
             AxisError::HomingTimeout => {
                 self.error(ErrorCode::HomingFailed, "home switch not found in time")
             }
-            AxisError::SwitchStuck => {
-                self.error(ErrorCode::HomingFailed, "home switch stuck after back-off")
-            }
+            AxisError::SwitchStuck => self.error(
+                ErrorCode::HomingFailed,
+                "home switch stuck or its wire broken",
+            ),
+            AxisError::LimitSwitch => self.error(
+                ErrorCode::LimitSwitch,
+                "limit switch hit: position lost, send Home",
+            ),
             AxisError::Pin => self.error(ErrorCode::HomingFailed, "stepper pin failure"),
         }
     }

@@ -343,6 +343,10 @@ pub enum ErrorCode {
     /// The interlock is open: the laser is off and a sweep ended, or `SetLaser(true)` /
     /// `StartSweep` was refused (protocol 3).
     Interlock,
+    /// A home switch read pressed during a move where its arm cannot be (a hard limit
+    /// hit after lost steps, or a broken switch wire): motion stopped, laser off, the
+    /// position lost (protocol 3).
+    LimitSwitch,
 }
 
 /// An error report.

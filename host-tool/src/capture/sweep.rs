@@ -286,7 +286,10 @@ impl SweepState {
             Event::Error(e)
                 if matches!(
                     e.code,
-                    ErrorCode::DetectorFault | ErrorCode::HomingFailed | ErrorCode::OutOfLimits
+                    ErrorCode::DetectorFault
+                        | ErrorCode::HomingFailed
+                        | ErrorCode::OutOfLimits
+                        | ErrorCode::LimitSwitch
                 ) =>
             {
                 Step::Fail {

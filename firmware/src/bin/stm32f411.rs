@@ -176,7 +176,12 @@ fn step_dir<STEP, DIR, EN, HOME>(
 struct Photodiode {
     adc: Adc<pac::ADC1>,
     pin: PA1<Analog>,
+    /// Conversions at full scale (4095) not yet reported.
+    saturated: u32,
 }
+
+/// A 12-bit conversion at full scale: the input was at or above VDDA (clipped).
+const ADC_FULL_SCALE: u16 = 4095;
 
 impl Detector for Photodiode {
     fn sample(
@@ -185,10 +190,19 @@ impl Detector for Photodiode {
         _theta_r: f32,
         _laser_on: bool,
     ) -> Result<f32, DetectorError> {
-        let sum: u32 = (0..OVERSAMPLE)
-            .map(|_| u32::from(self.adc.convert(&self.pin, ADC_SAMPLE_TIME)))
-            .sum();
+        let mut sum = 0u32;
+        for _ in 0..OVERSAMPLE {
+            let x = self.adc.convert(&self.pin, ADC_SAMPLE_TIME);
+            if x >= ADC_FULL_SCALE {
+                self.saturated += 1;
+            }
+            sum += u32::from(x);
+        }
         Ok(sum as f32 / OVERSAMPLE as f32)
+    }
+
+    fn take_saturated(&mut self) -> u32 {
+        core::mem::take(&mut self.saturated)
     }
 }
 
@@ -317,6 +331,7 @@ impl Board {
         let photodiode = Photodiode {
             adc,
             pin: gpioa.pa1.into_analog(),
+            saturated: 0,
         };
 
         let clock = MicrosClock::start(dp.TIM5, &mut rcc);

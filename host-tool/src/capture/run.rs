@@ -18,7 +18,9 @@ use super::setup::{CaptureReport, CaptureSetup};
 use super::sweep::{Outcome, Step, SweepState};
 use super::watch::Watch;
 use crate::device::{Connector, FramedLink, LinkError};
-use crate::sweep_file::{Header, Row, SweepFileError, SweepStatus, SweepWriter, row_problem};
+use crate::sweep_file::{
+    Header, Row, SATURATED_PREFIX, SweepFileError, SweepStatus, SweepWriter, row_problem,
+};
 
 /// One capture in progress: the plan, the file being written and what it holds.
 struct Run<'a, C: Connector> {
@@ -41,6 +43,9 @@ struct Run<'a, C: Connector> {
     sequential: Option<usize>,
     /// A restart of the device, to be written before the next reading.
     restart_note: Option<String>,
+    /// Readings of the running device sweep flagged saturated (device seq ->
+    /// conversions at full scale), written as a warning before their row.
+    saturated: std::collections::BTreeMap<u32, u32>,
 }
 
 /// How long the Abort sent to a stalled device may go unanswered.
@@ -164,6 +169,7 @@ pub fn capture<C: Connector>(
         watch,
         sequential,
         restart_note: None,
+        saturated: Default::default(),
     };
     if run.plan.points.len() > usize::from(info.max_points) {
         run.progress.note(&format!(
@@ -412,6 +418,7 @@ impl<C: Connector> Run<'_, C> {
     /// floods, or ignores StartSweep is given up on with a message saying which.
     fn one_sweep(&mut self, link: &mut FramedLink<C::T>, sw: &DeviceSweep) -> Result<Outcome> {
         let mut state = SweepState::new(sw);
+        self.saturated.clear();
         if let Err(e) = self.send(link, &Command::StartSweep(state.plan.clone())) {
             return Ok(Outcome::Lost(e));
         }
@@ -525,6 +532,9 @@ impl<C: Connector> Run<'_, C> {
                         let _ = self.send(link, &Command::Abort);
                         return Err(e);
                     }
+                }
+                Step::Saturated { seq, conversions } => {
+                    self.saturated.insert(seq, conversions);
                 }
                 Step::Reject(why) => self.reject(&why),
                 Step::OtherPlan(why) => {
@@ -679,6 +689,12 @@ impl<C: Connector> Run<'_, C> {
         }
         if let Some(why) = self.restart_note.take() {
             self.writer.warn(&why)?;
+        }
+        if let Some(k) = self.saturated.remove(&r.seq) {
+            // The fit leaves it out unless told (docs/protocol.md, Saturated).
+            self.writer.warn(&format!(
+                "{SATURATED_PREFIX}{seq}: {k} detector conversions at full scale (the reading is clipped)"
+            ))?;
         }
         if let Err(e) = self.writer.append(&row) {
             // The file ends at its last whole row (the writer cut a partial one away):

@@ -489,3 +489,33 @@ fn a_busy_restart_homes_again_after_its_abort_stopped_an_arm() {
     let rows: Vec<(f64, f64)> = data.rows.iter().map(|r| (r.theta_i, r.theta_r)).collect();
     assert_eq!(rows, vec![(40.0, 10.0), (40.0, -20.0)]);
 }
+
+/// A detector that clips: every reading the device flags saturated gets a warning line
+/// before its row, and `SweepData::saturated` finds exactly the clipped ones.
+#[test]
+fn saturated_readings_are_recorded_in_the_file() {
+    let path = out("saturated.csv");
+    let mut cfg = SimConfig::new(Preset::by_name("fe-0.115").unwrap(), 0.0, 3);
+    cfg.full_scale = Some(900.0);
+    let mut conn = InProcessConnector::new(InProcessDevice::new(&cfg));
+    let setup = CaptureSetup::new(Some(paper()), path.clone());
+    let report = capture(&mut conn, &setup, &mut Quiet, &AtomicBool::new(false)).unwrap();
+    assert_eq!(report.status, SweepStatus::Complete);
+    let data = read_sweep(&path).unwrap();
+    assert_eq!(data.rows.len(), 153);
+    let clipped: std::collections::BTreeSet<u32> = data
+        .rows
+        .iter()
+        .filter(|r| r.brdf == 900.0)
+        .map(|r| r.seq.unwrap())
+        .collect();
+    assert!(!clipped.is_empty() && clipped.len() < 40, "{clipped:?}");
+    assert_eq!(data.saturated(), clipped);
+    assert!(
+        data.notes[0]
+            .1
+            .ends_with("4 detector conversions at full scale (the reading is clipped)"),
+        "{:?}",
+        data.notes[0]
+    );
+}

@@ -37,8 +37,9 @@ mod write;
 
 pub use header_row::{DELIMITERS, delimiter_name, sniff_delimiter};
 pub use read::{
-    ANGLE_UNITS, KNOWN_KEYS, MAX_SWEEP_BYTES, SweepData, angles_look_like_radians,
-    looks_like_radians, parse_sweep, radians_warning, read_input, read_sweep,
+    ANGLE_UNITS, KNOWN_KEYS, MAX_SWEEP_BYTES, SATURATED_PREFIX, SweepData,
+    angles_look_like_radians, looks_like_radians, parse_sweep, radians_warning, read_input,
+    read_sweep,
 };
 pub use units::{BRDF_KEY, BrdfUnits, refuse_mixed};
 pub use whole::{text_problem, write_text};

@@ -21,6 +21,10 @@ const NOT_TEXT: &str = "not UTF-8 text: not a sweep file (binary data; a MERL .b
 /// in-plane export about 0.5 MB; anything larger is refused before it is read.
 pub const MAX_SWEEP_BYTES: u64 = 64 << 20;
 
+/// How the text of a capture's warning about a saturated reading starts, before the
+/// reading's `seq` ([`SweepData::saturated`]).
+pub const SATURATED_PREFIX: &str = "saturated reading seq ";
+
 /// How a capture's warning line among the rows starts.
 pub(super) const WARNING_PREFIX: &str = "# warning:";
 
@@ -87,6 +91,16 @@ pub struct SweepData {
 impl SweepData {
     pub(super) fn columns_are_capture_columns(&self) -> bool {
         self.columns.iter().map(String::as_str).eq(COLUMNS)
+    }
+
+    /// The `seq` of every reading the capture warned was saturated (its detector
+    /// conversions at full scale: the value is clipped).
+    pub fn saturated(&self) -> std::collections::BTreeSet<u32> {
+        self.notes
+            .iter()
+            .filter_map(|(_, t)| t.strip_prefix(SATURATED_PREFIX))
+            .filter_map(|t| t.split(':').next()?.trim().parse().ok())
+            .collect()
     }
 
     /// The status word of the `# status:` line, if any.

@@ -518,4 +518,20 @@ fn saturated_readings_are_recorded_in_the_file() {
         "{:?}",
         data.notes[0]
     );
+    // The fit leaves them out unless told, and says how many.
+    let (fitted, warnings) =
+        crate::fit::campaign::read_data(&path, &crate::fit::FitOptions::default()).unwrap();
+    assert_eq!(fitted.obs.len(), 153 - clipped.len());
+    let said = format!("left out {} saturated reading(s)", clipped.len());
+    assert!(warnings.iter().any(|w| w.contains(&said)), "{warnings:?}");
+    let keep = crate::fit::FitOptions {
+        keep_saturated: true,
+        ..Default::default()
+    };
+    let (fitted, warnings) = crate::fit::campaign::read_data(&path, &keep).unwrap();
+    assert_eq!(fitted.obs.len(), 153);
+    assert!(
+        !warnings.iter().any(|w| w.contains("left out")),
+        "{warnings:?}"
+    );
 }

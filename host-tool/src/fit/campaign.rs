@@ -65,7 +65,22 @@ pub fn read_data(path: &Path, opts: &FitOptions) -> Result<(Dataset, Vec<String>
         warnings.push(radians_warning(&path.display().to_string(), max));
     }
     let name = path.display().to_string();
-    let mut data = prepare(&sweep.rows, sweep.brdf_units(), opts, &name)
+    let saturated = sweep.saturated();
+    let mut rows = sweep.rows.clone();
+    if !saturated.is_empty() && !opts.keep_saturated {
+        // A clipped value is a floor, not a reading: fitted, it flattens the peak.
+        rows.retain(|r| r.seq.is_none_or(|s| !saturated.contains(&s)));
+        warnings.push(format!(
+            "{name}: left out {} saturated reading(s) (the detector at full scale: clipped values); --keep-saturated fits them",
+            sweep.rows.len() - rows.len()
+        ));
+        if rows.is_empty() {
+            return Err(FileError::Input(format!(
+                "{name}: every reading is saturated (--keep-saturated fits them anyway)"
+            )));
+        }
+    }
+    let mut data = prepare(&rows, sweep.brdf_units(), opts, &name)
         .map_err(|e| FileError::Input(format!("{name}: {e}")))?;
     if let Some(a) = sweep.meta.get("aperture") {
         data.aperture = super::data::parse_aperture(a)

@@ -115,6 +115,10 @@ pub struct FitOptions {
     /// them) 12 of 886 member fits missed a lower optimum that way. Only the width
     /// grid's starts are stopped early.
     pub all_starts: bool,
+    /// Fit the readings the capture flagged saturated (the detector at full scale: the
+    /// value is clipped) too (`gonio fit --keep-saturated`); by default they are left
+    /// out, and counted in a warning.
+    pub keep_saturated: bool,
     /// Convert the readings (relative units) to 1/sr with this instrument before the
     /// fit (`gonio fit --instrument`), by calibrate's conversion, the one `gonio
     /// convert` writes with: the readings and their standard errors alike.
@@ -144,6 +148,7 @@ impl Default for FitOptions {
             checks: CheckScope::All,
             floor: None,
             all_starts: false,
+            keep_saturated: false,
             instrument: None,
             offset: None,
         }

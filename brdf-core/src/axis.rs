@@ -29,7 +29,9 @@ pub struct AxisConfig {
     pub accel_deg_s2: f32,
     /// Swap the meaning of the direction pin.
     pub invert_dir: bool,
-    /// Soft limit, low end.
+    /// Soft limit, low end. Must lie above where the home switch releases: the switch
+    /// read pressed during a move down, or anywhere above `min_deg + backoff_deg`, is a
+    /// hard limit hit or a broken wire ([`AxisError::LimitSwitch`]).
     pub min_deg: f32,
     /// Soft limit, high end.
     pub max_deg: f32,
@@ -123,8 +125,33 @@ pub struct StepDirPins<STEP, DIR, EN, HOME, D> {
     pub pulse_ns: u32,
     /// The enable pin is active low (true for A4988/DRV8825/TMC2209).
     pub enable_active_low: bool,
-    /// The home switch reads low when pressed (a switch to ground with pull-up).
-    pub home_active_low: bool,
+    /// How the home switch is wired (to ground, the input pulled up).
+    pub home_wiring: SwitchWiring,
+}
+
+/// How a switch is wired between its input (pulled up) and ground.
+///
+/// Normally closed is the choice: the circuit is closed until the switch is pressed,
+/// so a cut wire or a connector that fell off reads "pressed", and the axis stops
+/// (homing finds the switch at once and cannot back off it: `SwitchStuck`; a move sees
+/// it where the arm cannot be: `LimitSwitch`). A normally open switch with a cut wire
+/// reads "never pressed", and homing drives the arm into its hard stop.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SwitchWiring {
+    /// Closed at rest, opened when pressed: the input reads high when pressed.
+    NormallyClosed,
+    /// Open at rest, closed to ground when pressed: the input reads low when pressed.
+    NormallyOpen,
+}
+
+impl SwitchWiring {
+    /// Whether the switch is pressed, from its input's level.
+    pub fn pressed(self, input_high: bool) -> bool {
+        match self {
+            SwitchWiring::NormallyClosed => input_high,
+            SwitchWiring::NormallyOpen => !input_high,
+        }
+    }
 }
 
 impl<STEP, DIR, EN, HOME, D> AxisPins for StepDirPins<STEP, DIR, EN, HOME, D>
@@ -153,7 +180,7 @@ where
 
     fn home_pressed(&mut self) -> Result<bool, PinError> {
         let high = self.home.is_high().map_err(|_| PinError)?;
-        Ok(high != self.home_active_low)
+        Ok(self.home_wiring.pressed(high))
     }
 }
 
@@ -179,8 +206,14 @@ pub enum AxisError {
     Busy,
     /// Homing did not find the switch within the time or travel allowed.
     HomingTimeout,
-    /// The switch stayed pressed after backing off `1 + BACKOFF_TRIES` times.
+    /// The switch stayed pressed after backing off `1 + BACKOFF_TRIES` times (stuck, or
+    /// the wire of a normally closed switch is broken).
     SwitchStuck,
+    /// The home switch read pressed during a move where the arm cannot be on it (moving
+    /// down, or above `min_deg + backoff_deg`), [`HOME_CONFIRM`] steps in a row: a hard
+    /// limit hit (steps were lost) or a broken wire. The axis stops and is no longer
+    /// homed.
+    LimitSwitch,
     /// A pin failed.
     Pin,
 }
@@ -237,6 +270,10 @@ pub struct Axis<P> {
     phase: Phase,
     dir_high: Option<bool>,
     homing_started_ms: u32,
+    /// Above this position the home switch can never be pressed.
+    clear_steps: i32,
+    /// Consecutive steps of a move that read the home switch pressed.
+    limit_reads: u8,
 }
 
 impl<P: AxisPins> Axis<P> {
@@ -252,6 +289,8 @@ impl<P: AxisPins> Axis<P> {
             phase: Phase::Idle,
             dir_high: None,
             homing_started_ms: 0,
+            clear_steps: cfg.to_steps(cfg.min_deg + cfg.backoff_deg),
+            limit_reads: 0,
         }
     }
 
@@ -317,6 +356,7 @@ impl<P: AxisPins> Axis<P> {
         }
         let dir: i8 = if to > self.pos { 1 } else { -1 };
         self.set_dir(dir)?;
+        self.limit_reads = 0;
         let spd = self.cfg.steps_per_deg();
         let ramp = Ramp::new(
             steps,
@@ -421,6 +461,7 @@ impl<P: AxisPins> Axis<P> {
                 dir,
                 then,
             } => {
+                self.check_limit(dir)?;
                 self.step(dir)?;
                 match ramp.next_interval() {
                     Some(us) => {
@@ -503,6 +544,27 @@ impl<P: AxisPins> Axis<P> {
                 }
             }
         }
+    }
+
+    /// The hard limit, read before every step of a move: the home switch pressed where
+    /// the arm cannot be on it, [`HOME_CONFIRM`] steps in a row (a glitch is not a
+    /// limit), stops the axis and forgets its position.
+    fn check_limit(&mut self, dir: i8) -> Result<(), AxisError> {
+        if !(dir < 0 || self.pos > self.clear_steps) {
+            // Leaving the switch after homing: it may still be pressed here.
+            self.limit_reads = 0;
+            return Ok(());
+        }
+        if !self.pins.home_pressed()? {
+            self.limit_reads = 0;
+            return Ok(());
+        }
+        self.limit_reads += 1;
+        if self.limit_reads >= HOME_CONFIRM {
+            self.homed = false;
+            return Err(AxisError::LimitSwitch);
+        }
+        Ok(())
     }
 
     /// One step within the soft limits: a step that would leave [min, max] further is

@@ -70,11 +70,13 @@ fn pulses_and_direction_on_real_pins() {
         dir: PinMock::new(&[PinTx::set(PinState::High), PinTx::set(PinState::Low)]),
         // Active-low enable: asserted (low) on each direction change.
         enable: PinMock::new(&[PinTx::set(PinState::Low), PinTx::set(PinState::Low)]),
-        home: PinMock::new(&[]),
+        // The hard limit is read before each of the 5 steps (all above the switch):
+        // high, a normally open switch at rest.
+        home: PinMock::new(&vec![PinTx::get(PinState::High); 5]),
         delay: NoopDelay::new(),
         pulse_ns: 2000,
         enable_active_low: true,
-        home_active_low: true,
+        home_wiring: SwitchWiring::NormallyOpen,
     };
     let mut axis = Axis::new(cfg, pins);
     axis.pos = 0;
@@ -350,4 +352,67 @@ fn a_glitching_home_switch_does_not_set_the_zero() {
         "shaft {shaft}, switch {switch}"
     );
     assert_eq!(axis.position(), switch);
+}
+
+#[test]
+fn switch_wiring_reads_pressed_from_the_level() {
+    // Normally closed: pressed (or a cut wire) opens the circuit, the pull-up reads high.
+    assert!(SwitchWiring::NormallyClosed.pressed(true));
+    assert!(!SwitchWiring::NormallyClosed.pressed(false));
+    assert!(SwitchWiring::NormallyOpen.pressed(false));
+    assert!(!SwitchWiring::NormallyOpen.pressed(true));
+}
+
+/// A homed arm that lost steps (its shaft lower than the axis believes) meets its
+/// switch on a move down: a hard limit, the axis stops there and is no longer homed.
+#[test]
+fn a_switch_hit_during_a_move_down_is_a_hard_limit() {
+    let cfg = AxisConfig {
+        min_deg: -80.0,
+        ..CFG
+    };
+    let mut axis = Axis::new(cfg, SimArm::new(0, cfg.to_steps(-90.0)));
+    let mut t = 0;
+    axis.start_homing(0).unwrap();
+    run(&mut axis, &mut t).unwrap();
+    axis.move_to(0.0).unwrap();
+    run(&mut axis, &mut t).unwrap();
+    // 20 degrees slipped: the shaft is at -20 where the axis counts 0.
+    axis.pins.shaft -= cfg.to_steps(20.0);
+    axis.move_to(-75.0).unwrap();
+    assert_eq!(run(&mut axis, &mut t), Err(AxisError::LimitSwitch));
+    assert!(!axis.is_homed() && !axis.is_busy());
+    let over = axis.pins.switch_at - axis.pins.shaft;
+    assert!(
+        (0..i32::from(HOME_CONFIRM)).contains(&over),
+        "stopped {over} steps past the switch"
+    );
+    assert_eq!(axis.move_to(-70.0), Err(AxisError::NotHomed), "home again");
+}
+
+/// A normally closed switch whose wire broke reads pressed everywhere: the next move
+/// finds it where the arm cannot be, up or down, and stops.
+#[test]
+fn a_broken_switch_wire_stops_the_next_move() {
+    for target in [60.0, -10.0] {
+        let mut axis = Axis::new(CFG, SimArm::new(0, CFG.to_steps(-90.0)));
+        let mut t = 0;
+        axis.start_homing(0).unwrap();
+        run(&mut axis, &mut t).unwrap();
+        axis.move_to(20.0).unwrap();
+        run(&mut axis, &mut t).unwrap();
+        axis.pins.switch_at = i32::MAX; // the wire is cut: "pressed" everywhere
+        let before = axis.pins.pulses;
+        axis.move_to(target).unwrap();
+        assert_eq!(
+            run(&mut axis, &mut t),
+            Err(AxisError::LimitSwitch),
+            "{target}"
+        );
+        assert!(
+            axis.pins.pulses - before < u32::from(HOME_CONFIRM),
+            "stopped within {HOME_CONFIRM} steps"
+        );
+        assert!(!axis.is_homed());
+    }
 }

@@ -25,7 +25,7 @@ use crate::plan::{PlanCursor, PlanError};
 use crate::protocol::{
     Arm, Command, DeviceStatus, ErrorCode, ErrorEvent, Event, HOST_LEASE_MS, Info, MAX_INCIDENCES,
     MAX_PLAN_POINTS, MAX_SWEEP_POINTS, PROTOCOL_VERSION, Point, Progress, Reading, ResetCause,
-    SafeReason, Specimen, Status, SweepDone, SweepPlan, Undecoded,
+    SafeReason, Saturated, Specimen, Status, SweepDone, SweepPlan, Undecoded,
 };
 
 /// The host lease in microseconds of the lease clock.
@@ -49,6 +49,12 @@ pub struct DetectorError;
 pub trait Detector {
     /// One sample in instrument units.
     fn sample(&mut self, theta_i: f32, theta_r: f32, laser_on: bool) -> Result<f32, DetectorError>;
+
+    /// Conversions at full scale since the last call (a detector that clips: a 12-bit
+    /// ADC's 4095); the controller flags the reading they belong to ([`Event::Saturated`]).
+    fn take_saturated(&mut self) -> u32 {
+        0
+    }
 
     /// Puts `specimen` in the beam ([`Command::Mount`]). A detector without a sample
     /// changer has only the sample: mounting it changes nothing, anything else is refused.
@@ -126,6 +132,8 @@ struct Sweep {
     start_us: u64,
     dark: Stats,
     source_at: Option<f32>,
+    /// Conversions at full scale in the current point's samples.
+    saturated: u32,
 }
 
 // The sweep (and its plan) is held inline: no heap in the core.
@@ -521,9 +529,14 @@ impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, 
             AxisError::HomingTimeout => {
                 self.error(ErrorCode::HomingFailed, "home switch not found in time")
             }
-            AxisError::SwitchStuck => {
-                self.error(ErrorCode::HomingFailed, "home switch stuck after back-off")
-            }
+            AxisError::SwitchStuck => self.error(
+                ErrorCode::HomingFailed,
+                "home switch stuck or its wire broken",
+            ),
+            AxisError::LimitSwitch => self.error(
+                ErrorCode::LimitSwitch,
+                "limit switch hit: position lost, send Home",
+            ),
             AxisError::Pin => self.error(ErrorCode::HomingFailed, "stepper pin failure"),
         }
     }
@@ -548,6 +561,8 @@ impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, 
                 return self.error(ErrorCode::BadPlan, &text);
             }
         };
+        // Conversions of an earlier sweep are not this one's.
+        let _ = self.det.take_saturated();
         let mut cursor = PlanCursor::default();
         let skip = plan.skip as u32;
         for _ in 0..skip {
@@ -575,6 +590,7 @@ impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, 
             start_us: self.now_us,
             dark: Stats::default(),
             source_at: None,
+            saturated: 0,
         });
     }
 
@@ -836,6 +852,7 @@ impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, 
                 }
             }
         }
+        sw.saturated = sw.saturated.saturating_add(self.det.take_saturated());
         if stats.n < samples {
             sw.step = Step::Measure { dark_done, stats };
             return Tick::Wait(0);
@@ -869,6 +886,15 @@ impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, 
         sw.seq += 1;
         sw.count += 1;
         sw.step = Step::NextPoint;
+        let saturated = core::mem::take(&mut sw.saturated);
+        if saturated > 0 {
+            // Room was checked: a Progress, this and the reading fit.
+            self.push(Event::Saturated(Saturated {
+                sweep_id: reading.sweep_id,
+                seq: reading.seq,
+                conversions: saturated,
+            }));
+        }
         self.push(Event::Reading(reading));
         Tick::Wait(0)
     }

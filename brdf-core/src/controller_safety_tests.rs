@@ -18,6 +18,10 @@ struct Seen {
     fail_pulses: bool,
     /// The detector fails while set.
     fail_detector: bool,
+    /// The home switches' wires are cut while set: normally closed, they read pressed.
+    cut_wire: bool,
+    /// Step pulses still to be lost (the shaft does not turn: a stalled motor).
+    slip: u32,
 }
 
 type Shared = Rc<RefCell<Seen>>;
@@ -38,6 +42,10 @@ impl AxisPins for WatchedArm {
         if seen.laser {
             seen.lit_steps += 1;
         }
+        if seen.slip > 0 {
+            seen.slip -= 1;
+            return Ok(());
+        }
         self.0.pulse()
     }
 
@@ -46,7 +54,7 @@ impl AxisPins for WatchedArm {
     }
 
     fn home_pressed(&mut self) -> Result<bool, PinError> {
-        self.0.home_pressed()
+        Ok(self.1.borrow().cut_wire || self.0.home_pressed()?)
     }
 }
 
@@ -487,4 +495,155 @@ proptest! {
             }
         }
     }
+}
+
+/// The last error's code and text.
+fn last_error(ev: &[Event]) -> (ErrorCode, String) {
+    ev.iter()
+        .rev()
+        .find_map(|e| match e {
+            Event::Error(e) => Some((e.code, e.detail.to_string())),
+            _ => None,
+        })
+        .unwrap_or_else(|| panic!("no error in {ev:?}"))
+}
+
+/// A homed controller, idle.
+fn homed() -> (Watched, Shared, u64) {
+    let (mut c, seen) = watched();
+    let (mut now, mut ev) = (0, Vec::new());
+    c.receive(&frame(&Command::Home), now);
+    run_to(&mut c, &mut now, 60_000_000, &mut ev);
+    assert!(c.homed(), "{ev:?}");
+    (c, seen, now)
+}
+
+/// The detector arm lost steps (a stalled motor) and meets its switch on the way down
+/// in a sweep: a hard limit. The safe state (laser off, drivers off, the sweep ended),
+/// the position lost and named, and no sweep before homing again.
+#[test]
+fn a_limit_switch_hit_in_a_sweep_ends_in_the_safe_state() {
+    let (mut c, seen, mut now) = homed();
+    let mut ev = Vec::new();
+    c.receive(
+        &frame(&Command::Jog {
+            arm: Arm::Detector,
+            degrees: 0.0,
+        }),
+        now,
+    );
+    run_to(&mut c, &mut now, 60_000_000, &mut ev);
+    // 10 degrees of steps lost on the way up: the shaft is 10 degrees below the count.
+    seen.borrow_mut().slip = DETECTOR.to_steps(10.0) as u32;
+    c.receive(
+        &frame(&Command::Jog {
+            arm: Arm::Detector,
+            degrees: 40.0,
+        }),
+        now,
+    );
+    run_to(&mut c, &mut now, 60_000_000, &mut ev);
+    assert_eq!(seen.borrow().slip, 0, "{ev:?}");
+    let mut points = heapless::Vec::new();
+    points
+        .push(Point {
+            theta_i: 0.0,
+            theta_r: -88.0,
+        })
+        .unwrap();
+    let plan = SweepPlan {
+        sweep_id: 5,
+        grid: crate::protocol::Grid::Points(points),
+        exclude_retro_deg: 0.0,
+        settings: crate::protocol::PointSettings {
+            settle_ms: 0,
+            samples: 1,
+            dark: false,
+        },
+        skip: 0,
+    };
+    c.receive(&frame(&Command::StartSweep(plan.clone())), now);
+    ev.clear();
+    run_to(&mut c, &mut now, 4_000_000, &mut ev);
+    assert_eq!(
+        last_error(&ev),
+        (
+            ErrorCode::LimitSwitch,
+            "limit switch hit: position lost, send Home".into()
+        )
+    );
+    assert!(
+        matches!(
+            ev.last(),
+            Some(Event::SweepDone(SweepDone { aborted: true, .. }))
+        ),
+        "{ev:?}"
+    );
+    assert!(readings(&ev).is_empty());
+    assert!(!seen.borrow().laser && drivers_off(&c) && !c.is_busy());
+    assert!(c.position_lost());
+    assert_eq!(c.last_safe(), Some(SafeReason::MotionFault));
+    // The shaft stopped at its switch, not at the hard stop beyond it.
+    let arm = &c.detector().pins().0;
+    assert!(
+        arm.switch_at - arm.shaft < i32::from(crate::axis::HOME_CONFIRM),
+        "{} steps past the switch",
+        arm.switch_at - arm.shaft
+    );
+    c.receive(&frame(&Command::StartSweep(plan)), now);
+    assert_eq!(
+        last_error(&events(&mut c)),
+        (ErrorCode::NotHomed, "position lost: send Home".into())
+    );
+}
+
+/// A home switch's wire breaks while the arms are homed: the next jog reads it
+/// pressed where the arm cannot be and stops within a few steps, in the safe state.
+#[test]
+fn a_broken_switch_wire_stops_the_next_jog() {
+    let (mut c, seen, mut now) = homed();
+    let mut ev = Vec::new();
+    c.receive(
+        &frame(&Command::Jog {
+            arm: Arm::Source,
+            degrees: 20.0,
+        }),
+        now,
+    );
+    run_to(&mut c, &mut now, 60_000_000, &mut ev);
+    c.receive(&frame(&Command::SetLaser(true)), now);
+    seen.borrow_mut().cut_wire = true;
+    let steps = seen.borrow().steps;
+    c.receive(
+        &frame(&Command::Jog {
+            arm: Arm::Source,
+            degrees: 50.0,
+        }),
+        now,
+    );
+    run_to(&mut c, &mut now, 1_000_000, &mut ev);
+    assert_eq!(last_error(&ev).0, ErrorCode::LimitSwitch);
+    assert!(seen.borrow().steps - steps < u32::from(crate::axis::HOME_CONFIRM));
+    assert!(!seen.borrow().laser && drivers_off(&c) && !c.is_busy());
+    assert!(c.position_lost());
+}
+
+/// A switch wire broken before homing (at boot): the switch reads pressed and stays
+/// pressed however far the arm backs off; homing fails naming it, in the safe state.
+#[test]
+fn a_switch_wire_broken_at_boot_fails_homing_by_name() {
+    let (mut c, seen) = watched();
+    seen.borrow_mut().cut_wire = true;
+    let (mut now, mut ev) = (0, Vec::new());
+    c.receive(&frame(&Command::Home), now);
+    run_to(&mut c, &mut now, 60_000_000, &mut ev);
+    assert_eq!(
+        last_error(&ev),
+        (
+            ErrorCode::HomingFailed,
+            "home switch stuck or its wire broken".into()
+        )
+    );
+    assert!(!c.homed() && !c.is_busy() && drivers_off(&c) && !seen.borrow().laser);
+    assert_eq!(c.last_safe(), Some(SafeReason::MotionFault));
 }

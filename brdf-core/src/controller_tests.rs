@@ -603,3 +603,49 @@ mod safety;
 
 #[path = "protocol_doc_tests.rs"]
 mod protocol_doc;
+
+/// A reading whose samples reached the detector's full scale is flagged saturated,
+/// right before it, with the count of clipped conversions; an unclipped one is not.
+#[test]
+fn a_clipped_reading_is_flagged_saturated() {
+    let mut rig = Rig::new(0.0);
+    // The specular point (20, 20) reads 972, the other about 190.
+    rig.c.detector_device().full_scale = Some(500.0);
+    rig.home();
+    let plan = SweepPlan {
+        grid: Grid::Points(
+            heapless::Vec::from_slice(&[
+                Point {
+                    theta_i: 20.0,
+                    theta_r: -60.0,
+                },
+                Point {
+                    theta_i: 20.0,
+                    theta_r: 20.0,
+                },
+            ])
+            .unwrap(),
+        ),
+        ..SweepPlan::paper(3, SETTINGS)
+    };
+    rig.send(&Command::StartSweep(plan));
+    rig.run();
+    let ev = rig.take();
+    let sat: Vec<(usize, &crate::protocol::Saturated)> = ev
+        .iter()
+        .enumerate()
+        .filter_map(|(k, e)| match e {
+            Event::Saturated(s) => Some((k, s)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(sat.len(), 1, "{ev:?}");
+    let (k, s) = sat[0];
+    assert_eq!((s.sweep_id, s.seq), (3, 1));
+    assert_eq!(s.conversions, u32::from(SETTINGS.samples));
+    let Event::Reading(r) = &ev[k + 1] else {
+        panic!("{ev:?}")
+    };
+    assert_eq!((r.seq, r.value), (1, 500.0), "clipped, and flagged first");
+    assert!(readings(&ev)[0].value < 500.0);
+}

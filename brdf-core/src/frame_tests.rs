@@ -135,6 +135,11 @@ pub fn every_message() -> (StdVec<Command>, StdVec<Event>) {
             ErrorCode::HostSilent,
             "host silent: laser off, motion stopped",
         )),
+        Event::Saturated(crate::protocol::Saturated {
+            sweep_id: 7,
+            seq: 42,
+            conversions: 64,
+        }),
     ];
     (commands, events)
 }

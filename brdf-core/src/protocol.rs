@@ -94,6 +94,20 @@ pub enum Event {
     Status(Status),
     /// The answer to [`Command::GetStatus`] (protocol 3).
     DeviceStatus(DeviceStatus),
+    /// The reading of this `sweep_id` and `seq`, sent right after, had conversions at
+    /// the detector's full scale: its value is clipped (protocol 3).
+    Saturated(Saturated),
+}
+
+/// A reading whose detector conversions reached full scale (protocol 3).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Saturated {
+    /// The plan's sweep id.
+    pub sweep_id: u32,
+    /// The reading's `seq`.
+    pub seq: u32,
+    /// Conversions at full scale among those of the reading (lit and dark samples).
+    pub conversions: u32,
 }
 
 /// Why the device last went to its safe state (laser off, drivers disabled, motion
@@ -343,6 +357,10 @@ pub enum ErrorCode {
     /// The interlock is open: the laser is off and a sweep ended, or `SetLaser(true)` /
     /// `StartSweep` was refused (protocol 3).
     Interlock,
+    /// A home switch read pressed during a move where its arm cannot be (a hard limit
+    /// hit after lost steps, or a broken switch wire): motion stopped, laser off, the
+    /// position lost (protocol 3).
+    LimitSwitch,
 }
 
 /// An error report.

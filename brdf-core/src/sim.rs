@@ -212,6 +212,11 @@ pub struct VirtualSample<S = &'static Preset> {
     /// The standard's own noise source, so that the sample reads the same numbers
     /// whether or not the standard was measured first.
     pub reference_rng: XorShift32,
+    /// A detector that clips: a sample at or above this reads it and counts as a
+    /// conversion at full scale ([`Detector::take_saturated`]); `None`: never clips.
+    pub full_scale: Option<f32>,
+    /// Samples clipped since last taken.
+    pub saturated: u32,
 }
 
 impl<S: SampleSource> VirtualSample<S> {
@@ -226,6 +231,19 @@ impl<S: SampleSource> VirtualSample<S> {
             reference: None,
             mounted: Specimen::Sample,
             reference_rng: XorShift32::new(seed ^ 0x5EED_0F5D),
+            full_scale: None,
+            saturated: 0,
+        }
+    }
+
+    /// A sample clipped at the full scale, if any (counted).
+    pub fn clip(&mut self, x: f32) -> f32 {
+        match self.full_scale {
+            Some(fs) if x >= fs => {
+                self.saturated += 1;
+                fs
+            }
+            _ => x,
         }
     }
 
@@ -250,7 +268,8 @@ impl<S: SampleSource> Detector for VirtualSample<S> {
             } else {
                 self.dark
             };
-            return Ok(clean * (1.0 + self.noise * self.reference_rng.normal()));
+            let x = clean * (1.0 + self.noise * self.reference_rng.normal());
+            return Ok(self.clip(x));
         }
         let clean = if laser_on {
             self.source.reading(theta_i, theta_r)? + self.dark
@@ -258,7 +277,12 @@ impl<S: SampleSource> Detector for VirtualSample<S> {
             self.dark
         };
         let noise = self.source.noise(theta_i, theta_r).unwrap_or(self.noise);
-        Ok(clean * (1.0 + noise * self.rng.normal()))
+        let x = clean * (1.0 + noise * self.rng.normal());
+        Ok(self.clip(x))
+    }
+
+    fn take_saturated(&mut self) -> u32 {
+        core::mem::take(&mut self.saturated)
     }
 
     fn mount(&mut self, specimen: Specimen) -> Result<(), DetectorError> {

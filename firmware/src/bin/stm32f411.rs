@@ -26,11 +26,11 @@
 //! | PB12 | source arm STEP           | push-pull, idle low, ~2 us high pulse                      |
 //! | PB13 | source arm DIR            | push-pull; 1 us settle after every change                  |
 //! | PB14 | source arm ENABLE         | push-pull, active low (driver `EN`); driven high at boot   |
-//! | PB15 | source arm HOME switch    | input, internal pull-up, switch to GND = pressed           |
+//! | PB15 | source arm HOME switch    | input, pull-up; NC switch to GND: low at rest, high pressed or a cut wire |
 //! | PB6  | detector arm STEP         | push-pull, idle low, ~2 us high pulse                      |
 //! | PB7  | detector arm DIR          | push-pull; 1 us settle after every change                  |
 //! | PB8  | detector arm ENABLE       | push-pull, active low (driver `EN`); driven high at boot   |
-//! | PB9  | detector arm HOME switch  | input, internal pull-up, switch to GND = pressed           |
+//! | PB9  | detector arm HOME switch  | input, pull-up; NC switch to GND: low at rest, high pressed or a cut wire |
 //! | PB10 | laser enable              | push-pull, active high; driven low (off) at boot           |
 //! | PA1  | photodiode amplifier out  | analog, ADC1_IN1, 0..3.3 V; keep the amp output <= VDDA    |
 //! | PA0  | interlock input           | pull-up; loop closed to GND = closed, high = open (a cut wire) |
@@ -67,7 +67,7 @@
 #![no_std]
 #![no_main]
 
-use brdf_core::axis::StepDirPins;
+use brdf_core::axis::{StepDirPins, SwitchWiring};
 use brdf_core::controller::{Controller, ControllerConfig, Detector, DetectorError};
 use brdf_core::mechanics;
 use brdf_core::service::Service;
@@ -102,6 +102,11 @@ const SAFE_PINS: SafePins = SafePins {
 };
 /// The independent watchdog's timeout (milliseconds, at the LSI's nominal 32 kHz).
 const WATCHDOG_MS: u16 = 500;
+/// How the home switches are wired ([`SwitchWiring`]): normally closed, so a cut wire
+/// reads "pressed" and stops the arm (homing fails "stuck or its wire broken", a move
+/// stops at `LimitSwitch`) instead of driving it into the hard stop. A rig wired
+/// normally open sets `NormallyOpen` here.
+const HOME_SWITCH_WIRING: SwitchWiring = SwitchWiring::NormallyClosed;
 /// Step pulse width (A4988 >= 1 us, DRV8825 >= 1.9 us, TMC2209 >= 0.1 us).
 const STEP_PULSE_NS: u32 = 2_000;
 /// Direction setup time before the next step edge (DRV8825 >= 650 ns, A4988 >= 200 ns).
@@ -162,7 +167,7 @@ fn step_dir<STEP, DIR, EN, HOME>(
         delay,
         pulse_ns: STEP_PULSE_NS,
         enable_active_low: true,
-        home_active_low: true,
+        home_wiring: HOME_SWITCH_WIRING,
     }
 }
 
@@ -171,7 +176,12 @@ fn step_dir<STEP, DIR, EN, HOME>(
 struct Photodiode {
     adc: Adc<pac::ADC1>,
     pin: PA1<Analog>,
+    /// Conversions at full scale (4095) not yet reported.
+    saturated: u32,
 }
+
+/// A 12-bit conversion at full scale: the input was at or above VDDA (clipped).
+const ADC_FULL_SCALE: u16 = 4095;
 
 impl Detector for Photodiode {
     fn sample(
@@ -180,10 +190,19 @@ impl Detector for Photodiode {
         _theta_r: f32,
         _laser_on: bool,
     ) -> Result<f32, DetectorError> {
-        let sum: u32 = (0..OVERSAMPLE)
-            .map(|_| u32::from(self.adc.convert(&self.pin, ADC_SAMPLE_TIME)))
-            .sum();
+        let mut sum = 0u32;
+        for _ in 0..OVERSAMPLE {
+            let x = self.adc.convert(&self.pin, ADC_SAMPLE_TIME);
+            if x >= ADC_FULL_SCALE {
+                self.saturated += 1;
+            }
+            sum += u32::from(x);
+        }
         Ok(sum as f32 / OVERSAMPLE as f32)
+    }
+
+    fn take_saturated(&mut self) -> u32 {
+        core::mem::take(&mut self.saturated)
     }
 }
 
@@ -312,6 +331,7 @@ impl Board {
         let photodiode = Photodiode {
             adc,
             pin: gpioa.pa1.into_analog(),
+            saturated: 0,
         };
 
         let clock = MicrosClock::start(dp.TIM5, &mut rcc);

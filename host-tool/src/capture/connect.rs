@@ -1,13 +1,14 @@
 //! A device made ready for a sweep: the link opened (with its raw log), the handshake,
 //! anything still running stopped, the arms homed, the specimen mounted.
 
+use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
-use brdf_core::protocol::{Command, ErrorCode, Event, Info, Specimen};
+use brdf_core::protocol::{Command, DeviceStatus, ErrorCode, Event, Info, ResetCause, Specimen};
 
 use super::error::{CaptureError, Result};
 use super::setup::CaptureSetup;
-use crate::device::{Connector, FramedLink, Transport};
+use crate::device::{Connector, FramedLink, LinkError, Transport};
 use crate::outfile;
 use crate::sweep_file::SweepFileError;
 
@@ -26,10 +27,7 @@ pub(super) fn device_line(info: &Info) -> String {
 
 /// Opens the link, handshakes, stops anything the device was still doing and homes it
 /// if needed.
-pub(super) fn prepare<C: Connector>(
-    conn: &mut C,
-    setup: &CaptureSetup,
-) -> Result<(FramedLink<C::T>, Info)> {
+pub(super) fn prepare<C: Connector>(conn: &mut C, setup: &CaptureSetup) -> Result<Prepared<C::T>> {
     let mut link = conn.connect()?;
     if let Some(raw) = &setup.raw {
         use std::os::unix::fs::OpenOptionsExt;
@@ -47,6 +45,8 @@ pub(super) fn prepare<C: Connector>(
         link.set_raw_log(Box::new(f));
     }
     let mut info = link.handshake(setup.handshake_timeout)?;
+    // Read before the Abort below changes `last_safe`.
+    let status = device_status(&mut link)?;
     let send =
         |link: &mut FramedLink<C::T>, cmd: &Command| link.send(cmd).map_err(CaptureError::from);
     // A device that survived a lost link may still be sweeping: stop it. On a noisy
@@ -61,6 +61,7 @@ pub(super) fn prepare<C: Connector>(
             break;
         }
     }
+    let mut dropped = VecDeque::new();
     match stopped {
         None => {
             return Err(CaptureError::Device(
@@ -71,62 +72,176 @@ pub(super) fn prepare<C: Connector>(
         // The Abort stopped a sweep, perhaps an arm mid-move: the device then marks its
         // position lost and wants homing (its safe state). The Info read before the
         // Abort no longer says; ask again.
-        Some(_) => info.homed = homed_now(&mut link)?,
+        Some(_) => info.homed = homed_now(&mut link, &mut dropped)?,
     }
     if !info.homed {
-        send(&mut link, &Command::Home)?;
-        let deadline = Instant::now() + setup.home_timeout;
-        // The Status that ends homing may be lost: every 2 s of silence ask with
-        // GetInfo (served while homing); a Home that never arrived is sent again
-        // (while homing, a second Home is only answered Busy).
-        loop {
-            if Instant::now() >= deadline {
-                return Err(CaptureError::Device(format!(
-                    "homing failed: not homed within {} s",
-                    setup.home_timeout.as_secs()
-                )));
-            }
-            match recv_until(&mut link, Duration::from_secs(2), |e| {
-                matches!(e, Event::Status(_) | Event::Error(_) | Event::Info(_))
-            })? {
-                Some(Event::Status(s)) if s.homed => break,
-                Some(Event::Info(i)) if i.homed => break,
-                Some(Event::Info(_)) => send(&mut link, &Command::Home)?,
-                Some(Event::Error(e))
-                    if matches!(
-                        e.code,
-                        ErrorCode::CorruptFrame | ErrorCode::UnknownCommand | ErrorCode::Busy
-                    ) => {}
-                Some(Event::Error(e)) => {
-                    return Err(CaptureError::Device(format!(
-                        "homing failed: {}",
-                        crate::text::escape_line(&e.detail, DEVICE_TEXT_MAX)
-                    )));
-                }
-                Some(_) => {}
-                None => send(&mut link, &Command::GetInfo)?,
-            }
-        }
+        home(&mut link, setup, &mut dropped)?;
         info.homed = true;
     }
     if let Some(specimen) = setup.specimen {
         mount(&mut link, specimen)?;
     }
-    Ok((link, info))
+    Ok(Prepared { link, info, status })
+}
+
+/// What a [`ResetCause`] means, in a few words.
+pub fn reset_cause(c: ResetCause) -> &'static str {
+    match c {
+        ResetCause::Unknown => "unknown (no reset flag; QEMU and simulations have none)",
+        ResetCause::PowerOn => "power-on",
+        ResetCause::Pin => "the reset pin (button or debug probe)",
+        ResetCause::Software => "the firmware (after a panic or fault)",
+        ResetCause::Watchdog => "the watchdog (the firmware stopped making progress)",
+        ResetCause::BrownOut => "a brown-out (the supply fell below 2.7 V)",
+    }
+}
+
+/// A device made ready by [`prepare`].
+pub(super) struct Prepared<T: Transport> {
+    /// The link, handshaken.
+    pub link: FramedLink<T>,
+    /// The handshake's answer (`homed` as it is now).
+    pub info: Info,
+    /// The device's state before the connect touched it (`None`: a device that does
+    /// not answer `GetStatus`).
+    pub status: Option<DeviceStatus>,
+}
+
+/// The device's [`DeviceStatus`], asked up to three times (a noisy link); `None` when
+/// it never answers.
+fn device_status<T: Transport>(link: &mut FramedLink<T>) -> Result<Option<DeviceStatus>> {
+    for _ in 0..3 {
+        link.send(&Command::GetStatus)?;
+        if let Some(Event::DeviceStatus(s)) = recv_until(link, Duration::from_secs(1), |e| {
+            matches!(e, Event::DeviceStatus(_))
+        })? {
+            return Ok(Some(s));
+        }
+    }
+    Ok(None)
+}
+
+/// Why a device that this capture (or the capture that wrote a resumed file) talked to
+/// before has restarted since, from its state before the connect's `Abort`; `None` when
+/// it has not. Every connect sends `Abort`, which sets `last_safe`; only a restart
+/// clears it again (docs/protocol.md, `DeviceStatus`).
+pub(super) fn restarted(status: &DeviceStatus) -> Option<String> {
+    if status.last_safe.is_some() {
+        return None;
+    }
+    let cause = status.reset_cause;
+    let fault = matches!(
+        cause,
+        ResetCause::Watchdog | ResetCause::BrownOut | ResetCause::Software
+    );
+    Some(format!(
+        "the device restarted since the readings before this point were taken (reset cause: {}){}; readings after it may differ if the rig changed",
+        reset_cause(cause),
+        if fault {
+            ": a fault, check the supply and the firmware log"
+        } else {
+            ""
+        }
+    ))
+}
+
+/// Why the arms could not be made ready.
+#[derive(Debug)]
+pub(super) enum HomingError {
+    /// The link failed (the device lost, or our raw log).
+    Link(LinkError),
+    /// The device is there but did not end homed (one line).
+    Failed(String),
+}
+
+impl From<LinkError> for HomingError {
+    fn from(e: LinkError) -> Self {
+        HomingError::Link(e)
+    }
+}
+
+impl From<HomingError> for CaptureError {
+    fn from(e: HomingError) -> Self {
+        match e {
+            HomingError::Link(e) => e.into(),
+            HomingError::Failed(m) => CaptureError::Device(m),
+        }
+    }
+}
+
+/// After an `Abort` that may have stopped an arm mid-move (the device's safe state
+/// then marks its position lost): asks whether the arms are still homed and homes them
+/// if not, so that the next `StartSweep` is not refused "position lost". Events that
+/// arrive meanwhile and are not the answers go to `keep` (a sweep's late readings).
+pub(super) fn rehome<T: Transport>(
+    link: &mut FramedLink<T>,
+    setup: &CaptureSetup,
+    keep: &mut VecDeque<Event>,
+) -> Result<(), HomingError> {
+    if !homed_now(link, keep)? {
+        home(link, setup, keep)?;
+    }
+    Ok(())
+}
+
+/// Homes the arms: `Home`, then waits for a `Status` (or `Info`) that says homed, within
+/// `setup.home_timeout`. Other events go to `keep`.
+fn home<T: Transport>(
+    link: &mut FramedLink<T>,
+    setup: &CaptureSetup,
+    keep: &mut VecDeque<Event>,
+) -> Result<(), HomingError> {
+    link.send(&Command::Home)?;
+    let deadline = Instant::now() + setup.home_timeout;
+    // The Status that ends homing may be lost: every 2 s of silence ask with GetInfo
+    // (served while homing); a Home that never arrived is sent again (while homing, a
+    // second Home is only answered Busy).
+    loop {
+        if Instant::now() >= deadline {
+            return Err(HomingError::Failed(format!(
+                "homing failed: not homed within {} s",
+                setup.home_timeout.as_secs()
+            )));
+        }
+        match recv_keep(link, Duration::from_secs(2), keep, |e| {
+            matches!(e, Event::Status(_) | Event::Error(_) | Event::Info(_))
+        })? {
+            Some(Event::Status(s)) if s.homed => return Ok(()),
+            Some(Event::Info(i)) if i.homed => return Ok(()),
+            Some(Event::Info(_)) => link.send(&Command::Home)?,
+            Some(Event::Error(e))
+                if matches!(
+                    e.code,
+                    ErrorCode::CorruptFrame | ErrorCode::UnknownCommand | ErrorCode::Busy
+                ) => {}
+            Some(Event::Error(e)) => {
+                return Err(HomingError::Failed(format!(
+                    "homing failed: {}",
+                    crate::text::escape_line(&e.detail, DEVICE_TEXT_MAX)
+                )));
+            }
+            Some(_) => {}
+            None => link.send(&Command::GetInfo)?,
+        }
+    }
 }
 
 /// Whether the device's arms are homed now, from a fresh `Info` (asked up to five
-/// times: on a noisy link the GetInfo or its answer may be lost).
-fn homed_now<T: Transport>(link: &mut FramedLink<T>) -> Result<bool> {
+/// times: on a noisy link the GetInfo or its answer may be lost). Other events go to
+/// `keep`.
+fn homed_now<T: Transport>(
+    link: &mut FramedLink<T>,
+    keep: &mut VecDeque<Event>,
+) -> Result<bool, HomingError> {
     for _ in 0..5 {
         link.send(&Command::GetInfo)?;
-        if let Some(Event::Info(i)) = recv_until(link, Duration::from_secs(1), |e| {
+        if let Some(Event::Info(i)) = recv_keep(link, Duration::from_secs(1), keep, |e| {
             matches!(e, Event::Info(_))
         })? {
             return Ok(i.homed);
         }
     }
-    Err(CaptureError::Device(
+    Err(HomingError::Failed(
         "device did not answer GetInfo within 5 s after Abort".into(),
     ))
 }
@@ -250,12 +365,22 @@ fn recv_until<T: Transport>(
     limit: Duration,
     want: impl Fn(&Event) -> bool,
 ) -> Result<Option<Event>> {
+    Ok(recv_keep(link, limit, &mut VecDeque::new(), want)?)
+}
+
+/// [`recv_until`], keeping the unwanted events in `keep`.
+fn recv_keep<T: Transport>(
+    link: &mut FramedLink<T>,
+    limit: Duration,
+    keep: &mut VecDeque<Event>,
+    want: impl Fn(&Event) -> bool,
+) -> Result<Option<Event>, LinkError> {
     let deadline = Instant::now() + limit;
     while Instant::now() < deadline {
-        match link.recv(Duration::from_millis(100)) {
-            Ok(Some(ev)) if want(&ev) => return Ok(Some(ev)),
-            Ok(_) => {}
-            Err(e) => return Err(e.into()),
+        match link.recv(Duration::from_millis(100))? {
+            Some(ev) if want(&ev) => return Ok(Some(ev)),
+            Some(ev) => keep.push_back(ev),
+            None => {}
         }
     }
     Ok(None)

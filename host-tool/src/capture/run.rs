@@ -6,10 +6,10 @@ use std::collections::{BTreeSet, VecDeque};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use brdf_core::protocol::{Command, Event, Reading};
+use brdf_core::protocol::{Command, DeviceStatus, Event, Reading};
 
 use super::check::{self, Tolerance};
-use super::connect::{check_raw, device_line, prepare};
+use super::connect::{HomingError, check_raw, device_line, prepare, rehome, restarted};
 use super::error::{CaptureError, Result};
 use super::liveness;
 use super::plan::{DeviceSweep, HostPlan, PlanError};
@@ -18,7 +18,9 @@ use super::setup::{CaptureReport, CaptureSetup};
 use super::sweep::{Outcome, Step, SweepState};
 use super::watch::Watch;
 use crate::device::{Connector, FramedLink, LinkError};
-use crate::sweep_file::{Header, Row, SweepFileError, SweepStatus, SweepWriter, row_problem};
+use crate::sweep_file::{
+    Header, Row, SATURATED_PREFIX, SweepFileError, SweepStatus, SweepWriter, row_problem,
+};
 
 /// One capture in progress: the plan, the file being written and what it holds.
 struct Run<'a, C: Connector> {
@@ -39,6 +41,11 @@ struct Run<'a, C: Connector> {
     watch: Watch,
     /// A sequential plan's readings budget (its rounds measure one batch each).
     sequential: Option<usize>,
+    /// A restart of the device, to be written before the next reading.
+    restart_note: Option<String>,
+    /// Readings of the running device sweep flagged saturated (device seq ->
+    /// conversions at full scale), written as a warning before their row.
+    saturated: std::collections::BTreeMap<u32, u32>,
 }
 
 /// How long the Abort sent to a stalled device may go unanswered.
@@ -101,7 +108,8 @@ pub fn capture<C: Connector>(
     if let Some(raw) = &setup.raw {
         check_raw(raw, &setup.out)?;
     }
-    let (mut link, info) = prepare(conn, setup)?;
+    let prepared = prepare(conn, setup)?;
+    let (mut link, info) = (prepared.link, prepared.info);
     let (writer, plan, present) = if let Some((writer, data)) = resumed {
         let plan = HostPlan::from_recorded(
             data.meta
@@ -160,6 +168,8 @@ pub fn capture<C: Connector>(
         max_points: info.max_points,
         watch,
         sequential,
+        restart_note: None,
+        saturated: Default::default(),
     };
     if run.plan.points.len() > usize::from(info.max_points) {
         run.progress.note(&format!(
@@ -168,6 +178,11 @@ pub fn capture<C: Connector>(
             info.max_points,
             usize::from(info.max_points).min(brdf_core::protocol::MAX_PLAN_POINTS)
         ));
+    }
+    if setup.resume {
+        // The capture that wrote the file talked to the device: a device that has not
+        // been to its safe state since it started has restarted since.
+        run.warn_if_restarted(prepared.status.as_ref())?;
     }
     run.progress
         .start(run.plan.points.len() as u64, run.present.len() as u64);
@@ -310,11 +325,12 @@ impl<C: Connector> Run<'_, C> {
                 ));
             }
             match prepare(self.conn, self.setup) {
-                Ok((l, _)) => {
-                    *link = l;
+                Ok(p) => {
+                    *link = p.link;
                     self.reconnects += 1;
                     self.progress
                         .note("capture: device is back; measuring what is missing");
+                    self.warn_if_restarted(p.status.as_ref())?;
                     return Ok(());
                 }
                 Err(e) if Instant::now() >= deadline => {
@@ -327,6 +343,21 @@ impl<C: Connector> Run<'_, C> {
                 Err(_) => std::thread::sleep(Duration::from_millis(250)),
             }
         }
+    }
+
+    /// Warns (on the terminal, and in a `# warning:` line of the file before the next
+    /// reading) when a device
+    /// this capture talked to before has restarted since ([`restarted`]).
+    fn warn_if_restarted(&mut self, status: Option<&DeviceStatus>) -> Result {
+        let Some(why) = status.and_then(restarted) else {
+            return Ok(());
+        };
+        if self.present.len() < self.plan.points.len() {
+            self.progress.note(&format!("capture: warning: {why}"));
+            // Written before the next reading: where the readings after the restart begin.
+            self.restart_note = Some(why);
+        }
+        Ok(())
     }
 
     fn send(&mut self, link: &mut FramedLink<C::T>, cmd: &Command) -> Result<(), String> {
@@ -393,6 +424,7 @@ impl<C: Connector> Run<'_, C> {
     /// floods, or ignores StartSweep is given up on with a message saying which.
     fn one_sweep(&mut self, link: &mut FramedLink<C::T>, sw: &DeviceSweep) -> Result<Outcome> {
         let mut state = SweepState::new(sw);
+        self.saturated.clear();
         if let Err(e) = self.send(link, &Command::StartSweep(state.plan.clone())) {
             return Ok(Outcome::Lost(e));
         }
@@ -507,6 +539,9 @@ impl<C: Connector> Run<'_, C> {
                         return Err(e);
                     }
                 }
+                Step::Saturated { seq, conversions } => {
+                    self.saturated.insert(seq, conversions);
+                }
                 Step::Reject(why) => self.reject(&why),
                 Step::OtherPlan(why) => {
                     let _ = self.send(link, &Command::Abort);
@@ -518,6 +553,17 @@ impl<C: Connector> Run<'_, C> {
                     if abort_first {
                         if let Err(e) = self.send(link, &Command::Abort) {
                             return Ok(Outcome::Lost(e));
+                        }
+                        // An Abort mid-move marks the device's position lost (its safe
+                        // state): home again, as the connect does, or the StartSweep
+                        // is refused "position lost".
+                        match rehome(link, self.setup, &mut pending) {
+                            Ok(()) => {}
+                            Err(HomingError::Link(e)) => return self.on_link_error(link, e),
+                            Err(HomingError::Failed(why)) => {
+                                self.writer.set_status(SweepStatus::Failed)?;
+                                return Err(CaptureError::Device(why));
+                            }
                         }
                     }
                     std::thread::sleep(Duration::from_millis(50));
@@ -646,6 +692,15 @@ impl<C: Connector> Run<'_, C> {
         }
         if self.present.contains(&seq) {
             return Ok(()); // a duplicate: already in the file
+        }
+        if let Some(why) = self.restart_note.take() {
+            self.writer.warn(&why)?;
+        }
+        if let Some(k) = self.saturated.remove(&r.seq) {
+            // The fit leaves it out unless told (docs/protocol.md, Saturated).
+            self.writer.warn(&format!(
+                "{SATURATED_PREFIX}{seq}: {k} detector conversions at full scale (the reading is clipped)"
+            ))?;
         }
         if let Err(e) = self.writer.append(&row) {
             // The file ends at its last whole row (the writer cut a partial one away):

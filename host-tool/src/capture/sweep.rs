@@ -38,6 +38,14 @@ pub(super) enum Step {
     Wait,
     /// Record this reading of ours in the file.
     Record(Reading),
+    /// The reading of ours with this device `seq` (it follows) is clipped: this many
+    /// detector conversions were at full scale.
+    Saturated {
+        /// The device's `seq` of the reading.
+        seq: u32,
+        /// Conversions at full scale.
+        conversions: u32,
+    },
     /// The sweep is over.
     End(Outcome),
     /// A reading of ours that cannot be placed (a seq outside the sweep): counted as
@@ -203,6 +211,10 @@ impl SweepState {
                 count(self.seq.arrived(r.seq));
                 Step::Record(r)
             }
+            Event::Saturated(s) if self.ids.contains(&s.sweep_id) => Step::Saturated {
+                seq: s.seq,
+                conversions: s.conversions,
+            },
             Event::Progress(p) if p.sweep_id == id => {
                 self.started = true;
                 if p.total != self.end_seq {
@@ -286,7 +298,10 @@ impl SweepState {
             Event::Error(e)
                 if matches!(
                     e.code,
-                    ErrorCode::DetectorFault | ErrorCode::HomingFailed | ErrorCode::OutOfLimits
+                    ErrorCode::DetectorFault
+                        | ErrorCode::HomingFailed
+                        | ErrorCode::OutOfLimits
+                        | ErrorCode::LimitSwitch
                 ) =>
             {
                 Step::Fail {

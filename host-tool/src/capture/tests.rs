@@ -103,6 +103,64 @@ fn interrupt_leaves_a_valid_file_and_resume_completes_it() {
         "each point exactly once, in order"
     );
     assert_eq!(data.counters.readings, 153);
+    // The fresh device had restarted since the first readings: said in the file, at
+    // the point where the resumed readings begin.
+    assert_eq!(data.notes.len(), 1, "{:?}", data.notes);
+    let (line, text) = &data.notes[0];
+    assert!(text.starts_with("the device restarted"), "{text}");
+    assert!(text.contains("reset cause: unknown"), "{text}");
+    assert_eq!(
+        *line,
+        data.meta.len() + 3 + got,
+        "after the first {got} rows"
+    );
+    assert!(
+        data.warnings()
+            .iter()
+            .any(|w| w.contains("the capture warned: the device restarted")),
+        "{:?}",
+        data.warnings()
+    );
+}
+
+/// A resumed capture on the device that took the first readings, still running since,
+/// finds it has been to its safe state (the first capture's Abort): no restart warning.
+#[test]
+fn a_resume_on_the_same_running_device_warns_of_no_restart() {
+    let path = out("same-device.csv");
+    let mut conn = crate::device::SharedInProcessConnector::new(InProcessDevice::new(
+        &SimConfig::new(Preset::by_name("fe-0.115").unwrap(), 0.005, 3),
+    ));
+    let flag = AtomicBool::new(false);
+    let setup = CaptureSetup::new(Some(paper()), path.clone());
+    let report = capture(&mut conn, &setup, &mut InterruptAfter(40, &flag), &flag).unwrap();
+    assert_eq!(report.status, SweepStatus::Interrupted);
+    let mut setup = CaptureSetup::new(None, path.clone());
+    setup.resume = true;
+    let mut told = Told::default();
+    let report = capture(&mut conn, &setup, &mut told, &AtomicBool::new(false)).unwrap();
+    assert_eq!(report.status, SweepStatus::Complete);
+    let data = read_sweep(&path).unwrap();
+    assert_eq!(data.rows.len(), 153);
+    assert!(data.notes.is_empty(), "{:?}", data.notes);
+    assert!(
+        !told.0.iter().any(|n| n.contains("restarted")),
+        "{:?}",
+        told.0
+    );
+}
+
+/// The notes a capture printed.
+#[derive(Default)]
+struct Told(Vec<String>);
+
+impl ProgressSink for Told {
+    fn start(&mut self, _: u64, _: u64) {}
+    fn reading(&mut self, _: u64, _: f32, _: f32) {}
+    fn note(&mut self, text: &str) {
+        self.0.push(text.to_string());
+    }
+    fn finish(&mut self) {}
 }
 
 #[test]
@@ -307,5 +365,173 @@ fn an_unwritable_output_directory_is_found_before_the_device_is_touched() {
     assert!(
         seen.lock().unwrap().commands.is_empty(),
         "the device was not touched"
+    );
+}
+
+/// The link of a device that got the first StartSweep twice and whose answer to the
+/// first (its Progress) was lost: the second copy is answered Busy while the first
+/// already moves the source arm, so the host restarts the sweep with an Abort that
+/// stops an arm mid-move.
+struct BusyOnStart {
+    dev: InProcessDevice,
+    to_dev: brdf_core::frame::FrameDecoder<{ brdf_core::frame::MAX_FRAME_LEN }>,
+    doubled: bool,
+    drop_progress: bool,
+    /// The device's frame being split off its stream.
+    partial: Vec<u8>,
+    out: std::collections::VecDeque<u8>,
+    /// Refusals the device sent (what a failed restart is made of).
+    refused: std::sync::Arc<std::sync::Mutex<Vec<String>>>,
+}
+
+impl Transport for BusyOnStart {
+    fn send(&mut self, bytes: &[u8]) -> std::io::Result<()> {
+        let mut start = false;
+        for &b in bytes {
+            if let Some(Ok(Command::StartSweep(_))) = self.to_dev.push::<Command>(b) {
+                start = true;
+            }
+        }
+        self.dev.send(bytes)?;
+        if start && !self.doubled {
+            self.doubled = true;
+            self.drop_progress = true;
+            self.dev.send(bytes)?;
+        }
+        Ok(())
+    }
+    fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> std::io::Result<usize> {
+        if self.out.is_empty() {
+            let mut tmp = [0u8; 4096];
+            let n = self.dev.recv(&mut tmp, timeout)?;
+            for &b in &tmp[..n] {
+                self.partial.push(b);
+                if b != 0 {
+                    continue;
+                }
+                let frame = std::mem::take(&mut self.partial);
+                let mut dec =
+                    brdf_core::frame::FrameDecoder::<{ brdf_core::frame::MAX_FRAME_LEN }>::new();
+                let ev = frame.iter().find_map(|&b| dec.push::<Event>(b));
+                match ev {
+                    Some(Ok(Event::Progress(_))) if self.drop_progress => {
+                        self.drop_progress = false;
+                        continue;
+                    }
+                    Some(Ok(Event::Error(e))) if e.code != brdf_core::protocol::ErrorCode::Busy => {
+                        self.refused.lock().unwrap().push(e.detail.to_string());
+                    }
+                    _ => {}
+                }
+                self.out.extend(frame);
+            }
+        }
+        let n = buf.len().min(self.out.len());
+        for (slot, b) in buf.iter_mut().zip(self.out.drain(..n)) {
+            *slot = b;
+        }
+        Ok(n)
+    }
+}
+
+struct BusyConnector(Option<BusyOnStart>);
+
+impl Connector for BusyConnector {
+    type T = BusyOnStart;
+    fn connect(&mut self) -> Result<FramedLink<BusyOnStart>, LinkError> {
+        Ok(FramedLink::new(
+            self.0.take().ok_or(LinkError::Timeout("gone"))?,
+        ))
+    }
+    fn can_reconnect(&self) -> bool {
+        false
+    }
+}
+
+/// A sweep answered Busy is restarted after an Abort; that Abort stops the source arm
+/// mid-move, so the device marks its position lost (its safe state). The capture homes
+/// again before the restart (as the connect does) instead of failing "device refused
+/// the sweep: position lost: send Home".
+#[test]
+fn a_busy_restart_homes_again_after_its_abort_stopped_an_arm() {
+    let refused = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+    let mut conn = BusyConnector(Some(BusyOnStart {
+        dev: InProcessDevice::new(&SimConfig::new(
+            Preset::by_name("fe-0.115").unwrap(),
+            0.0,
+            3,
+        )),
+        to_dev: Default::default(),
+        doubled: false,
+        drop_progress: false,
+        partial: Vec::new(),
+        out: Default::default(),
+        refused: refused.clone(),
+    }));
+    // The first point moves the source arm (it rests at its low limit after homing).
+    let plan = HostPlan::from_toml_str(
+        "points = [[40, 10], [40, -20]]\nsettle_ms = 0\n",
+        "busy.toml",
+        &Default::default(),
+    )
+    .unwrap();
+    let path = out("busy-restart.csv");
+    let setup = CaptureSetup::new(Some(plan), path.clone());
+    let report = capture(&mut conn, &setup, &mut Quiet, &AtomicBool::new(false))
+        .unwrap_or_else(|e| panic!("{e}; device refusals {:?}", refused.lock().unwrap()));
+    assert_eq!(report.status, SweepStatus::Complete);
+    assert!(
+        refused.lock().unwrap().is_empty(),
+        "{:?}",
+        refused.lock().unwrap()
+    );
+    let data = read_sweep(&path).unwrap();
+    let rows: Vec<(f64, f64)> = data.rows.iter().map(|r| (r.theta_i, r.theta_r)).collect();
+    assert_eq!(rows, vec![(40.0, 10.0), (40.0, -20.0)]);
+}
+
+/// A detector that clips: every reading the device flags saturated gets a warning line
+/// before its row, and `SweepData::saturated` finds exactly the clipped ones.
+#[test]
+fn saturated_readings_are_recorded_in_the_file() {
+    let path = out("saturated.csv");
+    let mut cfg = SimConfig::new(Preset::by_name("fe-0.115").unwrap(), 0.0, 3);
+    cfg.full_scale = Some(900.0);
+    let mut conn = InProcessConnector::new(InProcessDevice::new(&cfg));
+    let setup = CaptureSetup::new(Some(paper()), path.clone());
+    let report = capture(&mut conn, &setup, &mut Quiet, &AtomicBool::new(false)).unwrap();
+    assert_eq!(report.status, SweepStatus::Complete);
+    let data = read_sweep(&path).unwrap();
+    assert_eq!(data.rows.len(), 153);
+    let clipped: std::collections::BTreeSet<u32> = data
+        .rows
+        .iter()
+        .filter(|r| r.brdf == 900.0)
+        .map(|r| r.seq.unwrap())
+        .collect();
+    assert!(!clipped.is_empty() && clipped.len() < 40, "{clipped:?}");
+    assert_eq!(data.saturated(), clipped);
+    assert!(
+        data.notes[0]
+            .1
+            .ends_with("4 detector conversions at full scale (the reading is clipped)"),
+        "{:?}",
+        data.notes[0]
+    );
+    // The fit leaves them out unless told, and says how many.
+    let (fitted, warnings) =
+        crate::fit::campaign::read_data(&path, &crate::fit::FitOptions::default()).unwrap();
+    assert_eq!(fitted.obs.len(), 153 - clipped.len());
+    let said = format!("left out {} saturated reading(s)", clipped.len());
+    assert!(warnings.iter().any(|w| w.contains(&said)), "{warnings:?}");
+    let keep = crate::fit::FitOptions {
+        keep_saturated: true,
+        ..Default::default()
+    };
+    let (fitted, warnings) = crate::fit::campaign::read_data(&path, &keep).unwrap();
+    assert_eq!(fitted.obs.len(), 153);
+    assert!(
+        !warnings.iter().any(|w| w.contains("left out")),
+        "{warnings:?}"
     );
 }

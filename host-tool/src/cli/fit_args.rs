@@ -212,6 +212,11 @@ pub struct FitArgs {
     /// selection changed).
     #[arg(long)]
     pub all_starts: bool,
+    /// Fit the readings the capture flagged saturated (detector conversions at full
+    /// scale: the values are clipped). By default they are left out and counted in a
+    /// warning.
+    #[arg(long)]
+    pub keep_saturated: bool,
     /// The instrument's angles: `fit` fits a detector zero offset in theta_r and an
     /// in-plane sample tilt (which moves the mirror direction by twice the tilt and the
     /// local incidence by the tilt), each with a standard error, reported as
@@ -293,6 +298,7 @@ pub fn request(args: &FitArgs) -> CliResult<Request> {
         fixed,
         floor: args.floor,
         all_starts: args.all_starts,
+        keep_saturated: args.keep_saturated,
         checks,
         ..FitOptions::default()
     };

@@ -3,12 +3,13 @@
 use std::time::{Duration, Instant};
 
 use brdf_core::protocol::{
-    Command, DeviceStatus, Event, MAX_PLAN_POINTS, PROTOCOL_VERSION, ResetCause, SafeReason,
+    Command, DeviceStatus, Event, MAX_PLAN_POINTS, PROTOCOL_VERSION, SafeReason,
 };
 use clap::Args;
 
 use super::error::CliResult;
 use super::output::write_stdout;
+pub use crate::capture::connect::reset_cause;
 use crate::device::{Connector, SerialConnector};
 use crate::text::escape_line;
 
@@ -109,22 +110,10 @@ pub fn safe_reason(r: SafeReason) -> &'static str {
     }
 }
 
-/// What a [`ResetCause`] means, in a few words.
-pub fn reset_cause(c: ResetCause) -> &'static str {
-    match c {
-        ResetCause::Unknown => "unknown (no reset flag; QEMU and simulations have none)",
-        ResetCause::PowerOn => "power-on",
-        ResetCause::Pin => "the reset pin (button or debug probe)",
-        ResetCause::Software => "the firmware (after a panic or fault)",
-        ResetCause::Watchdog => "the watchdog (the firmware stopped making progress)",
-        ResetCause::BrownOut => "a brown-out (the supply fell below 2.7 V)",
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use brdf_core::protocol::HOST_LEASE_MS;
+    use brdf_core::protocol::{HOST_LEASE_MS, ResetCause};
 
     #[test]
     fn status_lines_say_what_the_device_reports() {

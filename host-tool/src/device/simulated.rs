@@ -54,10 +54,15 @@ impl Detector for SimDetector {
                 } else {
                     s.dark
                 };
-                Ok(clean * (1.0 + s.noise * s.reference_rng.normal()))
+                let x = clean * (1.0 + s.noise * s.reference_rng.normal());
+                Ok(s.clip(x))
             }
             _ => s.sample(theta_i, theta_r, laser_on),
         }
+    }
+
+    fn take_saturated(&mut self) -> u32 {
+        self.sample.take_saturated()
     }
 
     fn mount(&mut self, specimen: Specimen) -> Result<(), DetectorError> {
@@ -132,6 +137,9 @@ pub struct SimConfig {
     /// the device reads K times its stated BRDF; wins over `reference`). Host-side only:
     /// the QEMU board carries the Lambertian standard.
     pub reference_table: Option<Arc<crate::calibrate::Standard>>,
+    /// The detector clips at this reading (its conversions at full scale are flagged,
+    /// `Event::Saturated`); `None`: it never clips.
+    pub full_scale: Option<f32>,
 }
 
 impl SimConfig {
@@ -151,6 +159,7 @@ impl SimConfig {
             speed: None,
             reference: None,
             reference_table: None,
+            full_scale: None,
         }
     }
 
@@ -159,6 +168,7 @@ impl SimConfig {
         if let Some(r) = self.reference {
             sample = sample.with_reference(r);
         }
+        sample.full_scale = self.full_scale;
         let detector = SimDetector {
             sample,
             table: self.reference_table.clone(),

@@ -115,6 +115,10 @@ pub struct FitOptions {
     /// them) 12 of 886 member fits missed a lower optimum that way. Only the width
     /// grid's starts are stopped early.
     pub all_starts: bool,
+    /// Fit the readings the capture flagged saturated (the detector at full scale: the
+    /// value is clipped) too (`gonio fit --keep-saturated`); by default they are left
+    /// out, and counted in a warning.
+    pub keep_saturated: bool,
     /// The instrument's angles: a detector zero offset given, or the offset and a
     /// sample tilt fitted (`gonio fit --offset`, or the sweep's `# offset:` line).
     pub offset: Option<super::data::OffsetSpec>,
@@ -140,6 +144,7 @@ impl Default for FitOptions {
             checks: CheckScope::All,
             floor: None,
             all_starts: false,
+            keep_saturated: false,
             offset: None,
         }
     }

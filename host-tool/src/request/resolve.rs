@@ -90,8 +90,23 @@ impl Request {
         if let Some(max) = looks_like_radians(&sweep.rows) {
             warnings.push(radians_warning(&name, max));
         }
+        let saturated = sweep.saturated();
+        let mut rows = sweep.rows.clone();
+        if !saturated.is_empty() && !self.fit.keep_saturated {
+            // A clipped value is a floor, not a reading: fitted, it flattens the peak.
+            rows.retain(|r| r.seq.is_none_or(|s| !saturated.contains(&s)));
+            warnings.push(format!(
+                "{name}: left out {} saturated reading(s) (the detector at full scale: clipped values); --keep-saturated fits them",
+                sweep.rows.len() - rows.len()
+            ));
+            if rows.is_empty() {
+                return Err(FileError::Input(format!(
+                    "{name}: every reading is saturated (--keep-saturated fits them anyway)"
+                )));
+            }
+        }
         let mut data = self
-            .data(&sweep.rows, sweep.brdf_units(), &name)
+            .data(&rows, sweep.brdf_units(), &name)
             .map_err(|e| FileError::Input(format!("{name}: {e}")))?;
         let line = |key: &str| sweep.meta.get(key);
         let file_aperture = match line("aperture") {

@@ -24,6 +24,9 @@
 //! the table's delimiter is `,` `;` or tab, sniffed from the header row. The `status` line has a fixed width and is
 //! rewritten in place when the capture ends; `points` lists the whole plan (after the
 //! exclusion zone) so `--resume` knows what is missing; `seq` indexes it.
+//! The only `#` lines among the rows are a capture's `# warning:` lines (a device that
+//! restarted mid-sweep, written before the first reading after it), read into
+//! [`SweepData::notes`] and said by [`SweepData::warnings`].
 
 mod format;
 mod header_row;
@@ -36,8 +39,8 @@ mod write;
 pub use header_row::{DELIMITERS, delimiter_name, sniff_delimiter};
 pub use measurement::{MEASUREMENT_KEYS, Measurement};
 pub use read::{
-    ANGLE_UNITS, MAX_SWEEP_BYTES, SweepData, angles_look_like_radians, looks_like_radians,
-    parse_sweep, radians_warning, read_input, read_sweep,
+    ANGLE_UNITS, MAX_SWEEP_BYTES, SATURATED_PREFIX, SweepData, angles_look_like_radians,
+    looks_like_radians, parse_sweep, radians_warning, read_input, read_sweep,
 };
 pub use units::{BRDF_KEY, BrdfUnits, refuse_mixed};
 pub use whole::{text_problem, write_text};

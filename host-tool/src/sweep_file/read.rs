@@ -21,6 +21,13 @@ const NOT_TEXT: &str = "not UTF-8 text: not a sweep file (binary data; a MERL .b
 /// in-plane export about 0.5 MB; anything larger is refused before it is read.
 pub const MAX_SWEEP_BYTES: u64 = 64 << 20;
 
+/// How the text of a capture's warning about a saturated reading starts, before the
+/// reading's `seq` ([`SweepData::saturated`]).
+pub const SATURATED_PREFIX: &str = "saturated reading seq ";
+
+/// How a capture's warning line among the rows starts.
+pub(super) const WARNING_PREFIX: &str = "# warning:";
+
 /// Characters of a field quoted in a message (escaped, see [`escape_line`]).
 const QUOTE_CHARS: usize = 40;
 
@@ -53,11 +60,24 @@ pub struct SweepData {
     pub(super) points_line: usize,
     /// Angle pairs read more than once with different values, one of the rows without `seq`.
     pub(super) repeats: Repeats,
+    /// `# warning:` lines a capture wrote among its rows (line, text), such as a device
+    /// that restarted in the middle of the sweep ([`super::SweepWriter::warn`]).
+    pub notes: Vec<(usize, String)>,
 }
 
 impl SweepData {
     pub(super) fn columns_are_capture_columns(&self) -> bool {
         self.columns.iter().map(String::as_str).eq(COLUMNS)
+    }
+
+    /// The `seq` of every reading the capture warned was saturated (its detector
+    /// conversions at full scale: the value is clipped).
+    pub fn saturated(&self) -> std::collections::BTreeSet<u32> {
+        self.notes
+            .iter()
+            .filter_map(|(_, t)| t.strip_prefix(SATURATED_PREFIX))
+            .filter_map(|t| t.split(':').next()?.trim().parse().ok())
+            .collect()
     }
 
     /// The status word of the `# status:` line, if any.
@@ -106,6 +126,9 @@ impl SweepData {
                 }
                 _ => {}
             }
+        }
+        for (line, text) in &self.notes {
+            w.push(format!("line {line}: the capture warned: {text}"));
         }
         if let Some((line, key)) = self.unknown_keys.first() {
             let more = match self.unknown_keys.len() {
@@ -565,6 +588,17 @@ fn read_table(
             fields.push(std::str::from_utf8(f).map_err(|_| (lineno, NOT_TEXT.to_string()))?);
         }
         if fields[0].starts_with('#') {
+            // A capture's warning among its rows is kept and said; any other `#` line
+            // there would be metadata read nowhere.
+            let line = fields.join(",");
+            if let Some(text) = line
+                .get(..WARNING_PREFIX.len())
+                .filter(|p| p.eq_ignore_ascii_case(WARNING_PREFIX))
+                .map(|_| line[WARNING_PREFIX.len()..].trim())
+            {
+                data.notes.push((lineno, escape_line(text, 200)));
+                continue;
+            }
             return Err((lineno, "metadata line after the header row".into()));
         }
         data.no_final_newline = last_unterminated;

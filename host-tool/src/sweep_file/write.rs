@@ -309,6 +309,29 @@ impl SweepWriter {
         Ok(())
     }
 
+    /// Appends a `# warning:` line among the rows (something a reader of the readings
+    /// must know, such as a device that restarted mid-sweep) and makes it durable. The
+    /// text is kept to one line without the delimiter or quotes.
+    pub fn warn(&mut self, text: &str) -> Result<(), SweepFileError> {
+        let text: String = text
+            .chars()
+            .map(|c| match c {
+                ',' | ';' | '\t' | '"' => ' ',
+                c if c.is_control() => ' ',
+                c => c,
+            })
+            .collect();
+        let line = format!("{} {}\n", super::read::WARNING_PREFIX, text.trim());
+        // As for a row: a line cut by a crash is then read as cut, and left out.
+        if !self.says_running {
+            self.set_status(SweepStatus::Running)?;
+        }
+        self.file
+            .write_all(line.as_bytes())
+            .and_then(|()| self.file.sync_data())
+            .map_err(|e| io_err(&self.path, e))
+    }
+
     /// Rewrites the status line in place (same length), its `readings` and `missing`
     /// counted from the rows, and syncs.
     pub fn set_status(&mut self, status: SweepStatus) -> Result<(), SweepFileError> {

@@ -274,7 +274,7 @@ fn a_row_cut_during_a_resumed_run_is_left_out_and_resume_completes() {
     assert_eq!(
         bytes.len() as u64,
         limit,
-        "cut 10 bytes into its first new row"
+        "cut 10 bytes into its first new line (the warning that the fresh simulated device restarted, written as a row is)"
     );
     assert!(!bytes.ends_with(b"\n"));
     let data = read_sweep(&f).unwrap();

@@ -13,7 +13,7 @@ use brdf_core::{Model, Preset};
 use gonio::calibrate::{self, Instrument, Quantity, Standard};
 use gonio::capture::{CaptureSetup, HostPlan, Quiet, SettingsOverride, capture};
 use gonio::device::SerialConnector;
-use gonio::fit::{FitOptions, campaign};
+use gonio::request::Request;
 use gonio::sweep_file::read_sweep;
 use gonio_e2e::{Qemu, qemu_elf};
 
@@ -57,7 +57,7 @@ fn reference_and_sample_on_the_board_recover_the_absolute_brdf() {
     let text = calibrate::sweep::convert_text("fe.csv", &bytes, &data, &inst, "i").unwrap();
     let abs = dir.path().join("fe-abs.csv");
     std::fs::write(&abs, text).unwrap();
-    let fit = campaign::fit_sweep_file(&abs, &FitOptions::default()).unwrap();
+    let fit = Request::default().fit_file(&abs).unwrap();
     let fam = &fit.family;
     let three = fam.member(Member::THREE_COMPONENT).unwrap();
     let fe = Preset::by_name("fe-0.115").unwrap();

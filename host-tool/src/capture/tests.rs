@@ -519,16 +519,22 @@ fn saturated_readings_are_recorded_in_the_file() {
         data.notes[0]
     );
     // The fit leaves them out unless told, and says how many.
-    let (fitted, warnings) =
-        crate::fit::campaign::read_data(&path, &crate::fit::FitOptions::default()).unwrap();
+    let job = crate::request::Request::default()
+        .job_for_file(&path)
+        .unwrap();
+    let (fitted, warnings) = (job.data, job.warnings);
     assert_eq!(fitted.obs.len(), 153 - clipped.len());
     let said = format!("left out {} saturated reading(s)", clipped.len());
     assert!(warnings.iter().any(|w| w.contains(&said)), "{warnings:?}");
-    let keep = crate::fit::FitOptions {
-        keep_saturated: true,
+    let keep = crate::request::Request {
+        fit: crate::fit::FitOptions {
+            keep_saturated: true,
+            ..Default::default()
+        },
         ..Default::default()
     };
-    let (fitted, warnings) = crate::fit::campaign::read_data(&path, &keep).unwrap();
+    let job = keep.job_for_file(&path).unwrap();
+    let (fitted, warnings) = (job.data, job.warnings);
     assert_eq!(fitted.obs.len(), 153);
     assert!(
         !warnings.iter().any(|w| w.contains("left out")),

@@ -64,7 +64,7 @@ pub struct Aperture<T> {
 
 /// The `k`-th of `n` Gauss–Legendre nodes on [-1, 1] and its weight, by Newton's
 /// method on the three-term recurrence (in f64; nodes converge to rounding).
-pub(crate) fn gauss_legendre(n: usize, k: usize) -> (f64, f64) {
+pub fn gauss_legendre(n: usize, k: usize) -> (f64, f64) {
     let nf = n as f64;
     let mut x = libm::cos(core::f64::consts::PI * (k as f64 + 0.75) / (nf + 0.5));
     let mut dp = 1.0;

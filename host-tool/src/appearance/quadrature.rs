@@ -91,30 +91,10 @@ pub struct Flux {
     pub evaluations: usize,
 }
 
-/// Gauss–Legendre nodes and weights on [-1, 1] (Newton on the three-term recurrence).
+/// Gauss–Legendre nodes and weights on [-1, 1] (brdf-core's, as the aperture average uses).
 fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
-    let nf = n as f64;
     (0..n)
-        .map(|k| {
-            let mut x = (std::f64::consts::PI * (k as f64 + 0.75) / (nf + 0.5)).cos();
-            let mut dp = 1.0;
-            for _ in 0..100 {
-                let (mut p0, mut p1) = (1.0, x);
-                for j in 2..=n {
-                    let jf = j as f64;
-                    let p2 = ((2.0 * jf - 1.0) * x * p1 - (jf - 1.0) * p0) / jf;
-                    p0 = p1;
-                    p1 = p2;
-                }
-                dp = nf * (x * p1 - p0) / (x * x - 1.0);
-                let dx = p1 / dp;
-                x -= dx;
-                if dx.abs() < 1e-15 {
-                    break;
-                }
-            }
-            (x, 2.0 / ((1.0 - x * x) * dp * dp))
-        })
+        .map(|k| brdf_core::aperture::gauss_legendre(n, k))
         .collect()
 }
 

@@ -99,9 +99,10 @@ def test_fit_result_object():
     assert best.std_errors["sigma"] > 0
     assert np.isfinite(best.aicc) and np.isfinite(best.bic)
     assert len(best.rmse_by_theta_i) == len(r.incidences)
-    res = r.residuals()
+    # Under log residuals the residual is ln(measured / fitted), the sign of the export
+    # and the plots' panels (the default objective's is g(measured) - g(fitted)).
+    res = gonio.fit(FE_SWEEP, residual="log").residuals()
     assert res["residual"].shape == (153,)
-    # ln(measured / fitted), the sign of the export and the plots' panels.
     np.testing.assert_allclose(res["residual"], np.log(res["measured"]) - np.log(res["fitted"]))
     # About the simulated 0.5 % noise (log residuals ~ relative).
     assert np.std(res["residual"]) < 0.02

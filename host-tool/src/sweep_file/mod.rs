@@ -31,6 +31,7 @@
 mod format;
 mod header_row;
 mod measurement;
+mod radians;
 mod read;
 mod units;
 mod whole;
@@ -38,10 +39,8 @@ mod write;
 
 pub use header_row::{DELIMITERS, delimiter_name, sniff_delimiter};
 pub use measurement::{MEASUREMENT_KEYS, Measurement};
-pub use read::{
-    ANGLE_UNITS, MAX_SWEEP_BYTES, SATURATED_PREFIX, SweepData, angles_look_like_radians,
-    looks_like_radians, parse_sweep, radians_warning, read_input, read_sweep,
-};
+pub use radians::{ANGLE_UNITS, angles_look_like_radians, looks_like_radians, radians_warning};
+pub use read::{MAX_SWEEP_BYTES, SATURATED_PREFIX, SweepData, parse_sweep, read_input, read_sweep};
 pub use units::{BRDF_KEY, BrdfUnits, refuse_mixed};
 pub use whole::{text_problem, write_text};
 pub use write::SweepWriter;

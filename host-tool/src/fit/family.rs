@@ -136,18 +136,15 @@ pub fn haze_variants_of(selected: Member) -> Vec<Member> {
     let Some(h) = selected.haze else {
         return Vec::new();
     };
-    [
-        Distribution::Beckmann,
-        Distribution::Ggx,
-        Distribution::StudentT,
-    ]
-    .into_iter()
-    .filter(|&d| d != h.dist)
-    .map(|dist| Member {
-        haze: Some(LobeSpec { dist, ..h }),
-        ..selected
-    })
-    .collect()
+    Distribution::ALL
+        .into_iter()
+        .chain([Distribution::StudentT])
+        .filter(|&d| d != h.dist)
+        .map(|dist| Member {
+            haze: Some(LobeSpec { dist, ..h }),
+            ..selected
+        })
+        .collect()
 }
 
 /// The member with `m`'s core k_s per incidence instead of smooth (`None` when `m`'s

@@ -28,6 +28,10 @@ use crate::member_model::{MemberEval, MemberGradient, MemberModel, Parts};
 /// Most nodes in either direction of the quadrature.
 pub const MAX_NODES: usize = 48;
 
+/// A core lobe more than this many of its widths outside the cone is "far" for
+/// [`Aperture::for_reading`].
+pub const FAR_WIDTHS: f64 = 8.0;
+
 /// Largest accepted aperture half-angle, degrees.
 pub const MAX_APERTURE_DEG: f64 = 20.0;
 
@@ -152,6 +156,39 @@ impl<T: Real> Aperture<T> {
     pub fn for_model(aperture_deg: T, model: &MemberModel<T>) -> Result<Self, ModelError> {
         match model.narrowest_width() {
             Some(w) => Self::for_width(aperture_deg, w),
+            None => Self::new(aperture_deg, 1, 1),
+        }
+    }
+
+    /// An aperture whose order suits `model` at one reading (incidence `theta_i_deg`,
+    /// nominal signed `theta_r_deg`, degrees): [`Aperture::for_model`]'s order, except
+    /// that a core lobe whose centre (the mirror direction, theta_r = theta_i in the
+    /// plane) lies more than [`FAR_WIDTHS`] of its widths outside the cone counts with
+    /// the cone's distance from it as its width. There a light-tailed core is below
+    /// e^-32 of its peak, and a heavy-tailed core's power-law tail varies over the cone
+    /// on the scale of that distance; the other components keep their widths. Far
+    /// readings thus take a handful of nodes, the core's readings the full order.
+    pub fn for_reading(
+        aperture_deg: T,
+        model: &MemberModel<T>,
+        theta_i_deg: T,
+        theta_r_deg: T,
+    ) -> Result<Self, ModelError> {
+        let a = deg_to_rad(aperture_deg).widen();
+        let d = deg_to_rad(theta_r_deg - theta_i_deg).widen().abs();
+        let core = model.core_width().map(|w| {
+            let w = w.widen();
+            if d - a > FAR_WIDTHS * w { d - a } else { w }
+        });
+        let width = [core, model.narrowest_width_beyond_core().map(|w| w.widen())]
+            .into_iter()
+            .flatten()
+            .reduce(f64::min);
+        match width {
+            Some(w) => {
+                let n = Self::order(a / w);
+                Self::new(aperture_deg, n, n)
+            }
             None => Self::new(aperture_deg, 1, 1),
         }
     }

@@ -510,11 +510,21 @@ impl<T: Real> MemberModel<T> {
     /// theta_r: 2 sigma for a lobe, sigma_m for the directional diffuse, ABg's
     /// [`Abg::half_width`]; `None` when only the ideal diffuse is on. Sets the detector-aperture quadrature's order.
     pub fn narrowest_width(&self) -> Option<T> {
+        match (self.core_width(), self.narrowest_width_beyond_core()) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        }
+    }
+
+    /// The core lobe's angular width (radians of theta_r), if it has one.
+    pub fn core_width(&self) -> Option<T> {
+        self.core.map(|l| l.lobe.angular_width())
+    }
+
+    /// [`MemberModel::narrowest_width`] of the components other than the core lobe.
+    pub fn narrowest_width_beyond_core(&self) -> Option<T> {
         let mut w: Option<T> = None;
         let mut take = |x: T| w = Some(w.map_or(x, |v: T| v.min(x)));
-        if let Some(l) = self.core {
-            take(l.lobe.angular_width());
-        }
         if let Some(l) = self.haze {
             take(l.lobe.angular_width());
         }

@@ -90,11 +90,12 @@ pub fn miss_notes(
         .enumerate()
         .map(|(j, &t)| {
             let t = crate::text::angle(t);
-            (format!("theta_i {t}"), data.rows_of(j))
+            (format!("theta_i {t}"), data.rows_of(j), false)
         })
         .chain(std::iter::once((
             format!("|theta_r| >= {GRAZING} deg"),
             grazing.as_slice(),
+            true,
         )));
     let sel = log_residuals(data, fitted);
     let fits: Vec<(&MemberFit, Vec<Option<f64>>)> = others
@@ -103,7 +104,7 @@ pub fn miss_notes(
         .map(|o| (o, log_residuals(data, &member_fitted(o, data))))
         .collect();
     let mut found: Vec<(f64, String)> = Vec::new();
-    for (name, region) in regions {
+    for (name, region, toward_grazing) in regions {
         let Some((mean, se, n)) = mean_residual(&sel, region) else {
             continue;
         };
@@ -121,9 +122,22 @@ pub fn miss_notes(
                 close.then_some((o.member(), m))
             })
             .min_by(|a, b| a.1.abs().total_cmp(&b.1.abs()));
+        let pct = |x: f64| 100.0 * (x.exp() - 1.0);
+        let side = if mean > 0.0 { "above" } else { "below" };
+        if follows.is_none() && toward_grazing {
+            // The grazing region is named even where no member follows it: the
+            // paper's model leaves its error toward grazing open.
+            found.push((
+                mean.abs(),
+                format!(
+                    "{} misses the readings at {name}: they sit {:.1} % {side} it on average ({n} readings, {:.1} standard errors of that mean), and no fitted member follows them",
+                    selected.member(),
+                    pct(mean).abs(),
+                    mean.abs() / se,
+                ),
+            ));
+        }
         if let Some((other, m)) = follows {
-            let pct = |x: f64| 100.0 * (x.exp() - 1.0);
-            let side = if mean > 0.0 { "above" } else { "below" };
             found.push((
                 mean.abs(),
                 format!(
@@ -145,6 +159,11 @@ pub fn miss_notes(
 /// model's standard errors where that is wider.
 pub const PEAK_FACTOR: f64 = 1.5;
 
+/// A peak reading at least this many times both its neighbours is a core about one
+/// step wide or narrower: a Gaussian core one step wide at half maximum puts its
+/// neighbours at 1/16 of the peak, one two steps wide at 1/2; 4 lies between.
+const SPIKE: f64 = 4.0;
+
 /// ...or within this many of the reading's standard errors under the objective's
 /// noise model.
 pub const PEAK_SIGMAS: f64 = 3.0;
@@ -162,19 +181,128 @@ pub fn peak_readings(data: &Dataset) -> Vec<Option<usize>> {
         .collect()
 }
 
+/// Why a peak reading is missed, as far as the readings tell.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum PeakCause {
+    /// The core (full width at half maximum, degrees) is narrower than the detector's
+    /// step (degrees) there, and the mirror direction sits this far (degrees) from the
+    /// nearest reading: the reading holds an unknown share of the core (the
+    /// detector's aperture and any error of the incidence angle decide it).
+    Unresolved { width: f64, step: f64, off: f64 },
+    /// The readings' core is one reading, this many times both its neighbours: about
+    /// the step's width or narrower, whatever the member's core.
+    Spike { ratio: f64 },
+    /// The highest reading is not the one nearest the mirror direction but this far
+    /// (degrees) from it, while the member's core is centred on the mirror direction.
+    Displaced { off: f64 },
+    /// Toward grazing incidence (at least [`GRAZING`]), where the model's masking and
+    /// Fresnel factors set the core's level.
+    Grazing,
+    /// The member's lobes do not follow this core and the haze at once.
+    Shape,
+}
+
+impl PeakCause {
+    fn of(data: &Dataset, j: usize, peak: usize, core_fwhm_deg: Option<f64>) -> PeakCause {
+        let ti = data.incidences[j];
+        let near = super::peak::step_near_mirror(data, j);
+        let at = data.obs[peak].theta_r;
+        if let Some((near, step)) = near
+            && (at - near).abs() > 1e-9
+            && (at - ti).abs() > step / 2.0
+        {
+            return PeakCause::Displaced {
+                off: (at - ti).abs(),
+            };
+        }
+        if let (Some(w), Some((near, step))) = (core_fwhm_deg, near)
+            && w < step
+        {
+            return PeakCause::Unresolved {
+                width: w,
+                step,
+                off: (near - ti).abs(),
+            };
+        }
+        // The neighbours of the peak reading in theta_r.
+        let rows = data.rows_of(j);
+        let mut sides = [f64::INFINITY; 2];
+        let mut gaps = [f64::INFINITY; 2];
+        for &k in rows {
+            let d = data.obs[k].theta_r - at;
+            let side = usize::from(d > 0.0);
+            if d != 0.0 && d.abs() < gaps[side] {
+                gaps[side] = d.abs();
+                sides[side] = data.obs[k].y;
+            }
+        }
+        let ratio = data.obs[peak].y / sides[0].max(sides[1]).max(f64::MIN_POSITIVE);
+        if sides.iter().all(|s| s.is_finite()) && ratio >= SPIKE {
+            return PeakCause::Spike { ratio };
+        }
+        if ti >= GRAZING {
+            PeakCause::Grazing
+        } else {
+            PeakCause::Shape
+        }
+    }
+
+    fn text(self) -> String {
+        match self {
+            PeakCause::Unresolved { width, step, off } => {
+                let sits = if off > width / 2.0 {
+                    format!(
+                        " and the mirror direction sits {} deg from the nearest reading",
+                        crate::text::sig(off, 2)
+                    )
+                } else {
+                    String::new()
+                };
+                format!(
+                    "the core, about {} deg wide at half maximum, is narrower than the {} deg step{sits}: \
+                     the reading holds a share of the core that the detector's aperture decides",
+                    crate::text::sig(width, 2),
+                    crate::text::sig(step, 2),
+                )
+            }
+            PeakCause::Spike { ratio } => format!(
+                "the peak is one reading, {}x its neighbours: a core about the step's width or narrower, \
+                 of which the reading holds a share that the detector's aperture decides",
+                crate::text::sig(ratio, 2)
+            ),
+            PeakCause::Displaced { off } => format!(
+                "the highest reading is {} deg from the mirror direction, not the reading nearest it: the \
+                 measured core sits off the mirror direction, on which the member's is centred (an error of \
+                 the incidence angle or a tilt of the sample would do that)",
+                crate::text::sig(off, 2)
+            ),
+            PeakCause::Grazing => {
+                "toward grazing, where the model's masking and Fresnel factors set the core's level"
+                    .into()
+            }
+            PeakCause::Shape => "its lobes do not follow this core and the haze at once".into(),
+        }
+    }
+}
+
 /// A note naming the incidences whose highest reading `selected` (fitted values
 /// `fitted`) misses by more than [`PEAK_FACTOR`] (or [`PEAK_SIGMAS`] standard errors of
-/// `noise` where wider), with the factor at each: the report never leaves a missed
-/// peak unsaid. `None` when every peak is followed.
+/// `noise` where wider), with the factor and the cause at each (a core narrower than
+/// the step, of full width at half maximum `core_fwhm_deg` in theta_r; grazing; the
+/// lobes' shape), and what would follow it: the report never leaves a missed peak
+/// unsaid. `None` when every peak is followed.
 pub fn peak_miss_note(
     data: &Dataset,
     selected: Member,
     fitted: &[Option<f64>],
     noise: Option<super::noise::NoiseModel>,
+    core_fwhm_deg: Option<f64>,
 ) -> Option<String> {
     let peaks = peak_readings(data);
     let mut missed = Vec::new();
-    for k in peaks.iter().flatten().copied() {
+    let mut causes = Vec::new();
+    for (j, k) in peaks.iter().enumerate() {
+        let Some(k) = *k else { continue };
         let o = &data.obs[k];
         if o.y <= 0.0 {
             continue;
@@ -186,23 +314,56 @@ pub fn peak_miss_note(
             PEAK_FACTOR.max(1.0 + wide),
         );
         if !(lo..=hi).contains(&ratio) {
+            let cause = PeakCause::of(data, j, k, core_fwhm_deg);
             missed.push(format!(
-                "theta_i {} ({}x at theta_r {})",
+                "theta_i {} ({}x at theta_r {}: {})",
                 crate::text::angle(o.theta_i),
                 crate::text::sig(ratio, 2),
-                crate::text::angle(o.theta_r)
+                crate::text::angle(o.theta_r),
+                cause.text()
             ));
+            causes.push(cause);
         }
     }
     if missed.is_empty() {
         return None;
     }
+    let mut remedies = Vec::new();
+    if causes
+        .iter()
+        .any(|c| matches!(c, PeakCause::Unresolved { .. } | PeakCause::Spike { .. }))
+    {
+        remedies.push(
+            "`--aperture` with the detector's half-angle fits the readings as averages over it",
+        );
+    }
+    if causes
+        .iter()
+        .any(|c| matches!(c, PeakCause::Shape | PeakCause::Grazing))
+    {
+        remedies.push("`--residual abs` follows the peaks (and loses the haze)");
+    }
+    if causes
+        .iter()
+        .any(|c| matches!(c, PeakCause::Displaced { .. }))
+    {
+        remedies.push("`--offset fit` fits a shift common to every incidence");
+    }
     Some(format!(
-        "{selected} misses the peak reading by more than a factor {PEAK_FACTOR} at {} of {} incidences, fitted/measured: {}. Fitted to the whole curve under this objective, its lobes do not follow these cores and the rest at once; `--residual abs` follows the peaks (and loses the haze)",
+        "{selected} misses the peak reading by more than a factor {PEAK_FACTOR} at {} of {} incidences, fitted/measured: {}. {}",
         missed.len(),
         peaks.iter().flatten().count(),
-        missed.join(", ")
+        missed.join("; "),
+        capitalise(&remedies.join("; "))
     ))
+}
+
+/// `s` with its first letter upper-case (a remedy list opens a sentence).
+fn capitalise(s: &str) -> String {
+    let mut c = s.chars();
+    c.next()
+        .map(|f| f.to_uppercase().chain(c).collect())
+        .unwrap_or_default()
 }
 
 /// A note naming the wild readings (see [`WILD`]) among the [`MAX_DOMINANT`] largest
@@ -415,6 +576,32 @@ mod tests {
         }
         // The true member misses nowhere.
         assert!(miss_notes(&data, three, &member_fitted(three, &data), &fam.members).is_empty());
+        // Toward grazing the region is named even when no member follows it: fitted
+        // values twice the readings at |theta_r| >= 70 deg, with no other member.
+        let doubled: Vec<Option<f64>> = data
+            .obs
+            .iter()
+            .zip(member_fitted(three, &data))
+            .map(|(o, f)| {
+                f.map(|f| {
+                    if o.theta_r.abs() >= GRAZING {
+                        2.0 * f
+                    } else {
+                        f
+                    }
+                })
+            })
+            .collect();
+        let notes = miss_notes(&data, three, &doubled, &[]);
+        assert!(
+            notes.len() == 1
+                && notes[0].starts_with(&format!(
+                    "three-component misses the readings at |theta_r| >= {GRAZING} deg: they sit "
+                ))
+                && notes[0].contains("% below it on average")
+                && notes[0].ends_with("and no fitted member follows them"),
+            "{notes:?}"
+        );
     }
     #[test]
     fn a_missed_peak_is_named_with_its_factor_and_a_followed_one_never() {
@@ -425,7 +612,7 @@ mod tests {
         // The truth follows every peak (1 % noise).
         let exact: Vec<Option<f64>> = data.obs.iter().map(|o| Some(o.y)).collect();
         assert_eq!(
-            peak_miss_note(&data, Member::THREE_COMPONENT, &exact, None),
+            peak_miss_note(&data, Member::THREE_COMPONENT, &exact, None, None),
             None
         );
         // The fitted value at one incidence's peak reading 0.4 of it, another's 1.6:
@@ -435,7 +622,7 @@ mod tests {
         for (j, ratio) in [(0, 0.4), (1, 1.6), (2, 0.7), (3, 1.45)] {
             fitted[at(j)] = Some(data.obs[at(j)].y * ratio);
         }
-        let note = peak_miss_note(&data, Member::THREE_COMPONENT, &fitted, None).unwrap();
+        let note = peak_miss_note(&data, Member::THREE_COMPONENT, &fitted, None, None).unwrap();
         let t = |j: usize| crate::text::angle(data.incidences[j]);
         assert!(
             note.starts_with(
@@ -446,11 +633,28 @@ mod tests {
                 && !note.contains(&format!("theta_i {} (", t(3))),
             "{note}"
         );
+        // Without a core width the cause is the lobes' shape, and the remedy the
+        // absolute residual; with a core narrower than the step, the aperture.
+        assert!(
+            note.contains("its lobes do not follow this core")
+                && note.contains("`--residual abs` follows the peaks")
+                && !note.contains("--aperture"),
+            "{note}"
+        );
+        let narrow =
+            peak_miss_note(&data, Member::THREE_COMPONENT, &fitted, None, Some(1e-3)).unwrap();
+        assert!(
+            narrow
+                .contains("the core, about 0.001 deg wide at half maximum, is narrower than the ")
+                && narrow.contains("`--aperture` with the detector's half-angle")
+                && !narrow.contains("--residual abs"),
+            "{narrow}"
+        );
         // A stated noise of 30 % widens the bar to 3 sigma, 0.1x to 1.9x: both are
         // within the noise then.
         let noisy = super::super::noise::NoiseModel::stated(0.0, 0.3).unwrap();
         assert_eq!(
-            peak_miss_note(&data, Member::THREE_COMPONENT, &fitted, Some(noisy)),
+            peak_miss_note(&data, Member::THREE_COMPONENT, &fitted, Some(noisy), None),
             None
         );
     }

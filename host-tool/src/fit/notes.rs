@@ -78,6 +78,12 @@ pub fn family_notes(
                 super::options::Residual::Noise(m) => Some(m),
                 _ => None,
             },
+            selected_member
+                .core
+                .zip(selected_fit.and_then(|f| f.sigma()))
+                .map(|(core, (sigma, _))| {
+                    peak::lobe_fwhm_deg(core.dist, sigma, selected_fit.and_then(|f| f.gamma()))
+                }),
         ));
         summary.extend(super::misses::miss_notes(data, f, &fitted, members));
     }

@@ -116,34 +116,34 @@ pub fn lobe_fwhm_deg(dist: Distribution, sigma: f64, gamma: Option<f64>) -> f64 
     4.0 * t2.sqrt().atan().to_degrees()
 }
 
+/// At incidence `j`, the reading nearest to theta_r = theta_i (its theta_r, degrees)
+/// and the gap from it to its nearest neighbour in theta_r (the detector's step there,
+/// degrees); `None` without two distinct readings.
+pub fn step_near_mirror(data: &Dataset, j: usize) -> Option<(f64, f64)> {
+    let ti = data.incidences[j];
+    let tr: Vec<f64> = data
+        .rows_of(j)
+        .iter()
+        .map(|&k| data.obs[k].theta_r)
+        .collect();
+    let near = tr
+        .iter()
+        .copied()
+        .min_by(|a, b| (a - ti).abs().total_cmp(&(b - ti).abs()))?;
+    let gap = tr
+        .iter()
+        .map(|&t| (t - near).abs())
+        .filter(|&d| d > 1e-9)
+        .fold(f64::INFINITY, f64::min);
+    gap.is_finite().then_some((near, gap))
+}
+
 /// The smallest detector step (degrees) next to the mirror direction over the
-/// incidences: per incidence, the gap from the reading nearest to theta_r = theta_i to
-/// its nearest neighbour in theta_r.
+/// incidences ([`step_near_mirror`]'s gap).
 pub fn step_at_peak(data: &Dataset) -> Option<f64> {
-    let mut best: Option<f64> = None;
-    for (j, &ti) in data.incidences.iter().enumerate() {
-        let tr: Vec<f64> = data
-            .rows_of(j)
-            .iter()
-            .map(|&k| data.obs[k].theta_r)
-            .collect();
-        let Some(near) = tr
-            .iter()
-            .copied()
-            .min_by(|a, b| (a - ti).abs().total_cmp(&(b - ti).abs()))
-        else {
-            continue;
-        };
-        let gap = tr
-            .iter()
-            .map(|&t| (t - near).abs())
-            .filter(|&d| d > 1e-9)
-            .fold(f64::INFINITY, f64::min);
-        if gap.is_finite() {
-            best = Some(best.map_or(gap, |b: f64| b.min(gap)));
-        }
-    }
-    best
+    (0..data.incidences.len())
+        .filter_map(|j| step_near_mirror(data, j).map(|(_, gap)| gap))
+        .reduce(f64::min)
 }
 
 /// A note when the selected core lobe is narrower (FWHM in theta_r) than the readings'

@@ -280,15 +280,23 @@ pub(super) fn finish(
         .zip(&fixed)
         .map(|(&ok, &held)| ok && !held)
         .collect();
-    // The paper's RMSE compares the surface's model (point values) with the readings,
-    // one incidence's model at a time (the list of all was the largest allocation of a
-    // fit of 50,000 incidences, 16 MB); the row pass above built every one of them.
-    // The directional-diffuse term is made once per detector angle.
+    // The paper's RMSE compares the model with the readings as the fit does: point
+    // values, or with a detector aperture the model averaged over it (what the
+    // residuals export and the plots hold; a point value beside an averaged reading of
+    // a core narrower than the aperture is no comparison). One incidence's model at a
+    // time (the list of all was the largest allocation of a fit of 50,000 incidences,
+    // 16 MB). The directional-diffuse term is made once per detector angle.
     let dd = Detectors::of(data, &layout.model(&x, 0)?);
     let (rmse_by_inc, rmse) = paper_rmse_with(data, |j| {
         let (ti, m) = (data.incidences[j], layout.model(&x, j)?);
         let (dd, mut inc) = (&dd, Incidence::default());
-        Some(move |k| point_value(&m, &mut inc, dd, data, k, ti).map(|e| e.f))
+        Some(move |k| {
+            match aperture {
+                None => point_value(&m, &mut inc, dd, data, k, ti),
+                Some(_) => eval_at(&m, &data.obs[k], aperture),
+            }
+            .map(|e| e.f)
+        })
     });
     Some(MemberFit {
         layout,

@@ -156,7 +156,7 @@ pub fn eval_at(
 ) -> Option<MemberEval<f64>> {
     match aperture {
         None => m.eval(o.theta_i, &o.geom).ok(),
-        Some(a) => Aperture::for_model(a, m)
+        Some(a) => Aperture::for_reading(a, m, o.theta_i, o.theta_r)
             .ok()?
             .average(m, o.theta_i, o.theta_r)
             .ok(),
@@ -249,7 +249,7 @@ impl Problem<'_> {
                         let dd = self.directional.at(self.data, k);
                         model.eval_with_gradient_given(&f, dd, &o.geom).ok()
                     }
-                    Some(a) => Aperture::for_model(a, model)
+                    Some(a) => Aperture::for_reading(a, model, o.theta_i, o.theta_r)
                         .ok()
                         .and_then(|ap| ap.average_with_gradient(model, o.theta_i, o.theta_r).ok()),
                 };

@@ -372,6 +372,10 @@ fn test_all() -> Result {
     let fw = root.join("firmware");
     run(&root, "cargo", &["fmt", "--all", "--", "--check"])?;
     run(&fw, "cargo", &["fmt", "--", "--check"])?;
+    // Clippy and `cargo test` below run in the same dev profile with the same features
+    // and environment, so the build scripts and proc macros clippy compiles are reused by
+    // the test build; the libraries clippy only checks (metadata) are compiled again
+    // for the tests, as cargo cannot generate code from a check.
     run(
         &root,
         "cargo",

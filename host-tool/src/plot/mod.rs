@@ -20,6 +20,7 @@ use crate::fit::{Dataset, FamilyFit};
 mod error;
 mod figures;
 mod render;
+mod stroke;
 mod text;
 
 pub(crate) use figures::{ramp_color, wrap as wrap_text};

@@ -9,6 +9,7 @@ use plotters_backend::text_anchor::{HPos, Pos, VPos};
 
 use super::error::PlotError;
 use super::figures::{Figure, Swatch, angle_text, wrap};
+use super::stroke::{Canvas, Pen, PixelMap, insert_svg, placeholder, stroke};
 use super::text::CrispText;
 
 /// The font family every text style names; DejaVu Sans is registered under it.
@@ -168,7 +169,8 @@ pub(super) fn save_both(
     write_with(Target::new(&png, force), ".png", |tmp| {
         drawn = (|| {
             let root = CrispText::new(BitMapBackend::new(tmp.path(), size))?.into_drawing_area();
-            render(&root, fig).and_then(|()| root.present().map_err(|e| e.to_string()))
+            render(&root, fig, &mut Canvas::Bitmap)
+                .and_then(|()| root.present().map_err(|e| e.to_string()))
         })();
         drawn.clone().map_err(std::io::Error::other)
     })
@@ -179,12 +181,14 @@ pub(super) fn save_both(
     written.push(png);
     let svg = dir.join(format!("{stem}.svg"));
     let mut text = String::new();
+    let mut curves = String::new();
     {
         let root = SVGBackend::with_string(&mut text, size).into_drawing_area();
-        render(&root, fig)
+        render(&root, fig, &mut Canvas::Svg(&mut curves))
             .and_then(|()| root.present().map_err(|e| e.to_string()))
             .map_err(|e| fail(&svg, e))?;
     }
+    let text = insert_svg(&text, &curves).map_err(|e| fail(&svg, e))?;
     write(Target::new(&svg, force), |w| w.write_all(text.as_bytes()))
         .map_err(|e| PlotError(one_line(&e.to_string())))?;
     written.push(svg);
@@ -192,7 +196,11 @@ pub(super) fn save_both(
 }
 
 /// Draws a figure: title lines on top, the chart, the legend panel on the right.
-fn render<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, fig: &Figure) -> Result<(), String> {
+fn render<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    fig: &Figure,
+    canvas: &mut Canvas<'_>,
+) -> Result<(), String> {
     let err = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
     let black = RGBColor(0, 0, 0);
     root.fill(&WHITE).map_err(err)?;
@@ -263,20 +271,6 @@ fn render<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, fig: &Figure) -> Re
             ))
             .map_err(err)?;
     }
-    for l in &fig.lobes {
-        // Clipped to the chart: a component far below the data is not drawn along the
-        // axis, where it would read as a value it does not have.
-        for run in clip_runs(&l.curve.points, lo, hi) {
-            chart
-                .draw_series(DashedLineSeries::new(
-                    run,
-                    l.dash.0,
-                    l.dash.1,
-                    l.curve.color.stroke_width(l.curve.width),
-                ))
-                .map_err(err)?;
-        }
-    }
     // Beyond the readings the curves are the model's extrapolation: that stretch is
     // shaded and the curves there dashed.
     let span = measured_span(fig);
@@ -291,23 +285,40 @@ fn render<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, fig: &Figure) -> Re
                 .map_err(err)?;
         }
     }
+    // The curves in fractional pixels (see `stroke`), clipped to the chart: nothing is
+    // drawn along its edge, where it would read as a value it does not have.
+    let map = PixelMap::new(
+        (-90.0, lo),
+        (90.0, hi),
+        chart.backend_coord(&(-90.0, lo)),
+        chart.backend_coord(&(90.0, hi)),
+    );
+    let to_px = |run: &[(f64, f64)]| run.iter().map(|&p| map.at(p)).collect::<Vec<_>>();
+    for l in &fig.lobes {
+        let pen = Pen {
+            color: l.curve.color,
+            width: l.curve.width,
+            dash: Some((l.dash.0, l.dash.1)),
+        };
+        for run in clip_runs(&l.curve.points, lo, hi) {
+            stroke(root, canvas, &to_px(&run), pen)?;
+        }
+    }
     for c in &fig.curves {
-        // Clipped to the chart (nothing drawn along its edge, no fragment above a
-        // clipped peak), solid over the readings and dashed beyond them.
+        // Solid over the readings, dashed beyond them.
         for run in clip_runs(&c.points, lo, hi) {
             for (inside, part) in split_at_span(&run, span) {
-                let style = c.color.stroke_width(c.width);
-                if inside {
-                    chart
-                        .draw_series(LineSeries::new(part, style))
-                        .map_err(err)?;
-                } else {
-                    chart
-                        .draw_series(DashedLineSeries::new(part, 7, 5, style))
-                        .map_err(err)?;
-                }
+                let pen = Pen {
+                    color: c.color,
+                    width: c.width,
+                    dash: (!inside).then_some((7, 5)),
+                };
+                stroke(root, canvas, &to_px(&part), pen)?;
             }
         }
+    }
+    if let Canvas::Svg(_) = canvas {
+        placeholder(root)?;
     }
     for m in &fig.markers {
         chart

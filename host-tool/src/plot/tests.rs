@@ -328,3 +328,78 @@ fn with_instrument_angles_the_figures_are_drawn_at_the_sample() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn svg_curves_keep_fractional_pixels_and_replace_the_placeholder() {
+    let (data, fam) = fixture();
+    let dir = tempdir("fractional");
+    write_plots(&dir, data, fam, false).unwrap();
+    let svg = std::fs::read_to_string(dir.join("theta_i_20.svg")).unwrap();
+    assert!(!svg.contains("#010203"), "placeholder left in the SVG");
+    let curves: Vec<&str> = svg
+        .lines()
+        .filter(|l| l.contains("stroke-linejoin=\"round\""))
+        .collect();
+    assert!(curves.len() >= 3, "{}", curves.len());
+    // Stair steps would be whole pixels only: most points of a smooth curve are not.
+    let points: Vec<&str> = curves
+        .iter()
+        .flat_map(|l| l.split("points=\"").nth(1).unwrap().split(['"', ' ']))
+        .filter(|p| p.contains(','))
+        .collect();
+    let fractional = points.iter().filter(|p| p.contains('.')).count();
+    assert!(
+        fractional * 2 > points.len(),
+        "{fractional} of {}",
+        points.len()
+    );
+    // The curves are drawn before the measured points (which stay on top).
+    let first_curve = svg.find("stroke-linejoin").unwrap();
+    let first_marker = svg.find("<circle").unwrap();
+    assert!(first_curve < first_marker);
+}
+
+#[test]
+fn pixel_map_is_plotters_map_unrounded() {
+    use super::stroke::PixelMap;
+    let m = PixelMap::new((-90.0, 0.01), (90.0, 100.0), (100, 500), (900, 100));
+    assert_eq!(m.at((-90.0, 0.01)), (100.0, 500.0));
+    let (x, y) = m.at((0.0, 1.0));
+    assert!(
+        (x - 500.0).abs() < 1e-9 && (y - 300.0).abs() < 1e-9,
+        "{x} {y}"
+    );
+    let (x, _) = m.at((0.45, 1.0));
+    assert!((x - 502.0).abs() < 1e-9, "{x}");
+}
+
+#[test]
+fn dashes_follow_the_pattern_along_the_curve() {
+    use super::stroke::dashes;
+    // An L of 10 + 10 pixels in 4-on 3-off dashes: 0-4, 7-11 (round the corner), 14-18.
+    let d = dashes(&[(0.0, 0.0), (10.0, 0.0), (10.0, 10.0)], 4.0, 3.0);
+    assert_eq!(d.len(), 3, "{d:?}");
+    assert_eq!(d[0], vec![(0.0, 0.0), (4.0, 0.0)]);
+    assert_eq!(d[1], vec![(7.0, 0.0), (10.0, 0.0), (10.0, 1.0)]);
+    assert_eq!(d[2], vec![(10.0, 4.0), (10.0, 8.0)]);
+}
+
+#[test]
+fn bitmap_segments_keep_a_narrow_peak_whole() {
+    use super::stroke::segments;
+    // Up a column to a sharp peak and back, in sub-pixel steps: every kept segment
+    // joins the last, and the peak is reached.
+    let mut px: Vec<(f64, f64)> = (0..40).map(|k| (100.0, 200.0 - k as f64 * 2.5)).collect();
+    px.extend((0..40).rev().map(|k| (100.4, 200.0 - k as f64 * 2.5)));
+    let segs = segments(&px);
+    for w in segs.windows(2) {
+        assert_eq!(w[0][1], w[1][0], "{segs:?}");
+    }
+    let top = segs
+        .iter()
+        .flat_map(|s| s.iter().map(|p| p.1))
+        .min()
+        .unwrap();
+    assert_eq!(top, (200.0f64 - 39.0 * 2.5).round() as i32);
+    assert!(segs.iter().all(|s| s[0] != s[1]));
+}

@@ -34,6 +34,7 @@
 //! | PB10 | laser enable              | push-pull, active high; driven low (off) at boot           |
 //! | PA1  | photodiode amplifier out  | analog, ADC1_IN1, 0..3.3 V; keep the amp output <= VDDA    |
 //! | PA0  | interlock input           | pull-up; loop closed to GND = closed, high = open (a cut wire) |
+//! | PA9  | USB VBUS sense (optional) | OTG_FS_VBUS, 5 V tolerant; used only with [`VBUS_SENSE`]    |
 //! | PC13 | status LED (on board)     | push-pull, active low; lit once the firmware is running    |
 //! | PA11 | USB D-                    | OTG_FS (on board USB-C)                                    |
 //! | PA12 | USB D+                    | OTG_FS (on board USB-C)                                    |
@@ -41,11 +42,12 @@
 //! | PA14 | SWCLK                     | debug probe, not reassigned                                |
 //!
 //! The interlock on PA0 shares the pin with the on-board KEY button (to GND): pressing
-//! KEY holds the loop "closed", so leave it alone. Left free on purpose: PB2 (BOOT1, has a resistor on
-//! the board), PA15/PB3/PB4 (JTAG; PB3 is SWO), PC14/PC15 (32 kHz crystal), PA9/PA10
-//! (USART1, the ROM bootloader's UART). The F411CE package has no PB11. Both arms are
-//! on one header row (PB12..PB15, PB6..PB9); the laser and the analog input are on the
-//! other, away from the step lines.
+//! KEY holds the loop "closed", so leave it alone. Left free on purpose: PB2 (BOOT1,
+//! has a resistor on the board), PA15/PB3/PB4 (JTAG; PB3 is SWO), PC14/PC15 (32 kHz
+//! crystal), PA10 (USART1 RX, the ROM bootloader's UART; PA9, its TX, is free unless
+//! VBUS is sensed). The F411CE package has no PB11. Both arms are on one header row
+//! (PB12..PB15, PB6..PB9); the laser and the analog input are on the other, away from
+//! the step lines.
 //!
 //! During reset and until `Board::take` runs, all pins float: a driver whose `EN` has
 //! no pull-up of its own (A4988, DRV8825 boards pull it down) holds torque then, and a
@@ -107,6 +109,14 @@ const WATCHDOG_MS: u16 = 500;
 /// stops at `LimitSwitch`) instead of driving it into the hard stop. A rig wired
 /// normally open sets `NormallyOpen` here.
 const HOME_SWITCH_WIRING: SwitchWiring = SwitchWiring::NormallyClosed;
+/// Sense VBUS on PA9 (the OTG core's B-session comparator): set it on a rig whose board
+/// is powered apart from USB, with the USB connector's VBUS wired to PA9, so that
+/// pulling the cable stops everything at once (`usb_link::UsbLink::set_vbus`). Off by
+/// default: the Black Pill does not wire PA9 to VBUS, and with sensing on and PA9
+/// unwired the device never connects. A bus-powered board needs no sensing (unplugged,
+/// it is off); a self-powered one without it still stops when the bus is seen
+/// suspended (3 ms of idle bus).
+const VBUS_SENSE: bool = false;
 /// Step pulse width (A4988 >= 1 us, DRV8825 >= 1.9 us, TMC2209 >= 0.1 us).
 const STEP_PULSE_NS: u32 = 2_000;
 /// Direction setup time before the next step edge (DRV8825 >= 650 ns, A4988 >= 200 ns).
@@ -401,6 +411,41 @@ mod interlock {
     }
 }
 
+/// VBUS sensing of the OTG FS core by its registers (RM0383 section 22.16): the HAL's
+/// bus (synopsys-usb-otg) turns sensing off (GCCFG.NOVBUSSENS) when usb-device enables
+/// it, so [`enable`](vbus::enable) turns it back on afterwards, as embassy's stm32f4
+/// examples do with their `vbus_detection` setting.
+mod vbus {
+    use core::ptr::{read_volatile, write_volatile};
+
+    const OTG_FS: usize = 0x5000_0000;
+    const GOTGCTL: *const u32 = OTG_FS as *const u32;
+    const GCCFG: *mut u32 = (OTG_FS + 0x38) as *mut u32;
+    /// GOTGCTL.BSVLD: B-session valid (VBUS above the B-device threshold, ~4.4 V).
+    const BSVLD: u32 = 1 << 19;
+    /// GCCFG.NOVBUSSENS: sensing off (pull-up always on).
+    const NOVBUSSENS: u32 = 1 << 21;
+    /// GCCFG.VBUSBSEN: sensing of VBUS on PA9 for a B-device (ours).
+    const VBUSBSEN: u32 = 1 << 19;
+
+    /// Turns sensing on: from here the D+ pull-up follows VBUS on PA9, and
+    /// [`present`] reads it. Call once the USB device is built (the core enabled).
+    pub fn enable() {
+        // SAFETY: GCCFG of the OTG FS core, which usb-device has enabled; the bus code
+        // writes it only in its enable(), which has run.
+        unsafe {
+            let v = read_volatile(GCCFG);
+            write_volatile(GCCFG, (v & !NOVBUSSENS) | VBUSBSEN);
+        }
+    }
+
+    /// Whether VBUS is present (with [`enable`]d sensing).
+    pub fn present() -> bool {
+        // SAFETY: a read of the OTG FS core's status register.
+        unsafe { read_volatile(GOTGCTL) & BSVLD != 0 }
+    }
+}
+
 #[entry]
 fn main() -> ! {
     let reset_cause = safety::take_reset_cause();
@@ -423,6 +468,9 @@ fn main() -> ! {
     // Descriptors (VID:PID, strings) and the link's behaviour live in usb-link, which
     // the host tests run against a simulated bus.
     let mut link = UsbLink::new(&usb_bus, serial_number);
+    if VBUS_SENSE {
+        vbus::enable();
+    }
 
     let cfg = ControllerConfig {
         board: BOARD,
@@ -462,6 +510,16 @@ fn main() -> ! {
                 "interlock {}",
                 if cut { "open: safe state" } else { "closed" }
             );
+        }
+        if VBUS_SENSE {
+            let present = vbus::present();
+            if present != link.vbus() {
+                defmt::warn!(
+                    "usb: VBUS {}",
+                    if present { "back" } else { "lost: safe state" }
+                );
+            }
+            link.set_vbus(present);
         }
         service.poll(&mut link, now);
         watchdog.feed();

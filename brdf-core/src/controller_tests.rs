@@ -649,3 +649,82 @@ fn a_clipped_reading_is_flagged_saturated() {
     assert_eq!((r.seq, r.value), (1, 500.0), "clipped, and flagged first");
     assert!(readings(&ev)[0].value < 500.0);
 }
+
+#[test]
+fn settings_are_read_set_stored_and_refused_while_busy_or_out_of_range() {
+    let mut r = Rig::new(0.0);
+    r.send(&Command::GetSettings);
+    let defaults = match r.take().as_slice() {
+        [Event::Settings(s)] => *s,
+        other => panic!("{other:?}"),
+    };
+    // 200 steps * 8 microsteps * 18 / 360 = 80 microsteps per degree, as compiled.
+    assert_eq!(
+        settings::steps_per_deg(&defaults.source),
+        SOURCE.steps_per_deg()
+    );
+    assert_eq!(r.c.take_settings_record(), None, "nothing changed yet");
+
+    // Refused while homing: nothing changes.
+    let mut half = defaults;
+    half.source.microsteps = 4;
+    r.send(&Command::Home);
+    r.send(&Command::SetSettings(half));
+    assert_eq!(errors(&r.take()), [ErrorCode::Busy]);
+    r.run();
+    r.take();
+    assert_eq!(r.c.settings(), &defaults);
+
+    // Out of range: refused, nothing changes, the arms stay homed.
+    let mut bad = defaults;
+    bad.detector.microsteps = 6;
+    r.send(&Command::SetSettings(bad));
+    assert_eq!(errors(&r.take()), [ErrorCode::BadSettings]);
+    assert_eq!(r.c.settings(), &defaults);
+    assert!(r.c.homed());
+
+    // Accepted: answered, used (Info's steps per degree), stored once, and the arms
+    // must home again before moving.
+    r.send(&Command::SetSettings(half));
+    assert!(matches!(r.take().as_slice(), [Event::Settings(s)] if *s == half));
+    r.send(&Command::GetInfo);
+    match r.take().as_slice() {
+        [Event::Info(i)] => {
+            assert_eq!(i.source.steps_per_deg, 40.0);
+            assert_eq!(i.detector.steps_per_deg, 80.0);
+            assert!(!i.homed);
+        }
+        other => panic!("{other:?}"),
+    }
+    let record = r.c.take_settings_record().expect("a record to store");
+    assert_eq!(r.c.take_settings_record(), None, "stored once");
+    r.send(&Command::Jog {
+        arm: Arm::Source,
+        degrees: 10.0,
+    });
+    assert_eq!(errors(&r.take()), [ErrorCode::NotHomed]);
+    // Homed with the new mechanics, a jog of 10 degrees is 400 microsteps.
+    r.home();
+    let before = (r.c.source().pins().shaft, r.c.source().position());
+    r.send(&Command::Jog {
+        arm: Arm::Source,
+        degrees: 10.0,
+    });
+    r.run();
+    assert_eq!(r.c.source().position(), 400);
+    assert_eq!(
+        r.c.source().pins().shaft - before.0,
+        400 - before.1,
+        "the shaft turned as far as the axis counted"
+    );
+
+    // The next boot loads the stored record; a damaged one leaves the defaults.
+    let mut next = controller(0.0);
+    assert_eq!(next.load_settings(&record), Ok(()));
+    assert_eq!(next.settings(), &half);
+    let mut torn = record;
+    torn[10] ^= 0x40;
+    let mut next = controller(0.0);
+    assert_eq!(next.load_settings(&torn), Err(settings::RecordError::Crc));
+    assert_eq!(next.settings(), &defaults);
+}

@@ -255,6 +255,10 @@ impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, 
         if let Err(why) = settings::validate(&s) {
             return self.error(ErrorCode::BadSettings, why);
         }
+        // The board stores the record next, which may stall its main loop for a
+        // flash erase (seconds on the stm32f411): nothing may be lit or held meanwhile.
+        self.set_laser(false);
+        self.disable_drivers();
         self.apply_settings(s);
         self.store_pending = true;
         self.push(Event::Settings(s));

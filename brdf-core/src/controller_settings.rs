@@ -49,6 +49,20 @@ pub enum RecordError {
     Invalid(&'static str),
 }
 
+impl RecordError {
+    /// A short English description (for a board's log, without `Debug` formatting,
+    /// which costs a firmware image kilobytes).
+    pub fn describe(&self) -> &'static str {
+        match self {
+            RecordError::Erased => "none stored",
+            RecordError::NotARecord => "not a settings record",
+            RecordError::Version(_) => "record of another version",
+            RecordError::Crc => "record damaged (CRC)",
+            RecordError::Invalid(why) => why,
+        }
+    }
+}
+
 /// Checks every value's range; the text says which is wrong.
 pub fn validate(s: &Settings) -> Result<(), &'static str> {
     for arm in [&s.source, &s.detector] {

@@ -685,8 +685,13 @@ fn settings_are_read_set_stored_and_refused_while_busy_or_out_of_range() {
 
     // Accepted: answered, used (Info's steps per degree), stored once, and the arms
     // must home again before moving.
+    r.send(&Command::SetLaser(true));
+    r.take();
     r.send(&Command::SetSettings(half));
     assert!(matches!(r.take().as_slice(), [Event::Settings(s)] if *s == half));
+    // The board may stall storing it: laser off, drivers released first.
+    assert!(!r.c.laser_on());
+    assert!(!r.c.source().pins().enabled && !r.c.detector().pins().enabled);
     r.send(&Command::GetInfo);
     match r.take().as_slice() {
         [Event::Info(i)] => {

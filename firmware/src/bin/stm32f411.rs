@@ -13,6 +13,16 @@
 //! brown-out level is set to 2.7 V in the option bytes at the first boot that finds
 //! it otherwise.
 //!
+//! # Run-time settings
+//!
+//! Mechanics, switch wiring and detector integration (`brdf_core::controller::settings`)
+//! are kept in flash sector 4 ([`settings_flash`], 64 KiB at 0x0801_0000, just past the
+//! 64 KiB the image may take), read at boot (defaults when the record is erased,
+//! damaged or of another version) and rewritten after each `SetSettings`. The erase
+//! stalls the main loop for up to about 2.4 s, so the watchdog is stretched to its
+//! longest (4.1 s nominal) meanwhile; the controller has turned the laser off and
+//! released the drivers before the board stores.
+//!
 //! Build and flash: `cargo run --release --bin stm32f411 --features stm32f411`
 //! (from `firmware/`, with a debug probe on SWD).
 //!
@@ -104,10 +114,11 @@ const SAFE_PINS: SafePins = SafePins {
 };
 /// The independent watchdog's timeout (milliseconds, at the LSI's nominal 32 kHz).
 const WATCHDOG_MS: u16 = 500;
-/// How the home switches are wired ([`SwitchWiring`]): normally closed, so a cut wire
-/// reads "pressed" and stops the arm (homing fails "stuck or its wire broken", a move
-/// stops at `LimitSwitch`) instead of driving it into the hard stop. A rig wired
-/// normally open sets `NormallyOpen` here.
+/// How the home switches are wired until the run-time settings say otherwise
+/// ([`SwitchWiring`]): normally closed, so a cut wire reads "pressed" and stops the arm
+/// (homing fails "stuck or its wire broken", a move stops at `LimitSwitch`) instead of
+/// driving it into the hard stop. A rig wired normally open says so with
+/// `gonio config set` (the settings' `home_switch`).
 const HOME_SWITCH_WIRING: SwitchWiring = SwitchWiring::NormallyClosed;
 /// Sense VBUS on PA9 (the OTG core's B-session comparator): set it on a rig whose board
 /// is powered apart from USB, with the USB connector's VBUS wired to PA9, so that
@@ -279,6 +290,7 @@ struct Board {
     led: PC13<Output>,
     clock: MicrosClock,
     usb_bus: UsbBusAllocator<UsbBusType>,
+    flash: pac::FLASH,
 }
 
 impl Board {
@@ -364,6 +376,7 @@ impl Board {
             led,
             clock,
             usb_bus,
+            flash: dp.FLASH,
         }
     }
 }
@@ -408,6 +421,49 @@ mod interlock {
         unsafe { write_volatile(EXTI_PR, 1) };
         firmware::safety::force_safe_pins(super::SAFE_PINS);
         TRIPPED.store(true, Ordering::Release);
+    }
+}
+
+/// The run-time settings' record in flash sector 4 (see the file's docs).
+mod settings_flash {
+    use brdf_core::controller::settings::RECORD_LEN;
+    use stm32f4xx_hal::flash::{Error, FlashExt};
+    use stm32f4xx_hal::pac::FLASH;
+
+    /// Sector 4: 64 KiB at 0x0801_0000 (RM0383 table 4).
+    const SECTOR: u8 = 4;
+    /// Its offset from the start of flash.
+    const OFFSET: usize = 0x1_0000;
+    const ADDRESS: usize = 0x0800_0000 + OFFSET;
+
+    /// The stored record (erased flash reads 0xFF).
+    pub fn read() -> [u8; RECORD_LEN] {
+        // SAFETY: RECORD_LEN bytes of on-chip flash, always mapped and readable.
+        unsafe { core::ptr::read_volatile(ADDRESS as *const [u8; RECORD_LEN]) }
+    }
+
+    /// Whether the image (code, read-only data and the initial values of .data) lies
+    /// wholly below the sector: never erase our own code, whatever the size budget.
+    pub fn image_clear() -> bool {
+        unsafe extern "C" {
+            static __sidata: u32;
+            static __sdata: u32;
+            static __edata: u32;
+        }
+        // Addresses of cortex-m-rt's linker symbols; nothing is read through them.
+        let (lma, start, end) = (
+            &raw const __sidata as usize,
+            &raw const __sdata as usize,
+            &raw const __edata as usize,
+        );
+        lma + (end - start) <= ADDRESS
+    }
+
+    /// Erases the sector and writes `record`.
+    pub fn write(flash: &mut FLASH, record: &[u8; RECORD_LEN]) -> Result<(), Error> {
+        let mut unlocked = flash.unlocked();
+        unlocked.erase(SECTOR)?;
+        unlocked.program(OFFSET, record.iter())
     }
 }
 
@@ -459,6 +515,7 @@ fn main() -> ! {
         mut led,
         mut clock,
         usb_bus,
+        mut flash,
     } = Board::take();
 
     let serial_hex = unique_id_hex();
@@ -480,6 +537,10 @@ fn main() -> ! {
     };
     let mut service = Service::new(Controller::new(cfg, source, detector, laser, photodiode));
     service.ctrl.set_reset_cause(reset_cause);
+    match service.ctrl.load_settings(&settings_flash::read()) {
+        Ok(()) => defmt::info!("settings: the stored record"),
+        Err(e) => defmt::warn!("settings: defaults ({=str})", e.describe()),
+    }
 
     led.set_low();
     defmt::info!(
@@ -523,6 +584,22 @@ fn main() -> ! {
         }
         service.poll(&mut link, now);
         watchdog.feed();
+        if let Some(record) = service.ctrl.take_settings_record() {
+            if settings_flash::image_clear() {
+                // The erase stalls the loop: the longest timeout meanwhile (the IWDG
+                // takes new values while running), then the usual one again.
+                Watchdog::start(4095);
+                let stored = settings_flash::write(&mut flash, &record);
+                Watchdog::start(WATCHDOG_MS);
+                match stored {
+                    Ok(()) => defmt::info!("settings stored"),
+                    // The record stays as it was, or erased: the next boot says which.
+                    Err(_) => defmt::error!("settings not stored: flash error"),
+                }
+            } else {
+                defmt::error!("settings not stored: the image reaches their flash sector");
+            }
+        }
         if link.host_open() != open {
             open = link.host_open();
             if open {

@@ -31,9 +31,10 @@ use crate::controller::settings::{RECORD_LEN, RecordError};
 use crate::frame::{self, FrameDecoder, FrameError, FrameStats, MAX_FRAME_LEN};
 use crate::plan::{PlanCursor, PlanError};
 use crate::protocol::{
-    Arm, Command, DeviceStatus, ErrorCode, ErrorEvent, Event, HOST_LEASE_MS, Info, MAX_INCIDENCES,
-    MAX_PLAN_POINTS, MAX_SWEEP_POINTS, PROTOCOL_VERSION, Point, Progress, Reading, ResetCause,
-    SafeReason, Saturated, Settings, Specimen, Status, SweepDone, SweepPlan, Undecoded,
+    Arm, Command, DeviceStatus, ErrorCode, ErrorEvent, Event, HOST_LEASE_MS, Info,
+    IntegrationSettings, MAX_INCIDENCES, MAX_PLAN_POINTS, MAX_SWEEP_POINTS, PROTOCOL_VERSION,
+    Point, Progress, Reading, ResetCause, SafeReason, Saturated, Settings, Specimen, Status,
+    SweepDone, SweepPlan, Undecoded,
 };
 
 #[path = "controller_settings.rs"]
@@ -47,9 +48,12 @@ const LEASE_US: u64 = HOST_LEASE_MS as u64 * 1000;
 pub const OUTBOX_LEN: usize = 8;
 
 /// Detector samples taken per tick at most: a reading of many samples is spread over
-/// ticks, so the link, `Abort` and the board's watchdog are served meanwhile (16
-/// samples of the stm32f411's photodiode block about 1.7 ms).
+/// ticks, so the link, `Abort` and the board's watchdog are served meanwhile.
 pub const SAMPLES_PER_TICK: u16 = 16;
+/// Detector time one tick may spend sampling (microseconds) when the detector states
+/// how long a sample takes ([`Detector::sample_us`]): at least one sample per tick, so
+/// a sample integrated over mains periods (20 ms at 50 Hz) is one tick.
+pub const SAMPLE_BUDGET_US: u32 = 2_000;
 
 /// A detector failed to deliver a sample.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -64,6 +68,17 @@ pub trait Detector {
     /// Conversions at full scale since the last call (a detector that clips: a 12-bit
     /// ADC's 4095); the controller flags the reading they belong to ([`Event::Saturated`]).
     fn take_saturated(&mut self) -> u32 {
+        0
+    }
+
+    /// Uses the run-time integration settings: a detector that integrates each sample
+    /// over whole mains periods applies them; the default ignores them (a simulated
+    /// sample has no mains pick-up).
+    fn set_integration(&mut self, _integration: &IntegrationSettings) {}
+
+    /// How long one sample blocks (microseconds; 0: negligible). The controller takes
+    /// as many samples per tick as fit in [`SAMPLE_BUDGET_US`], at least one.
+    fn sample_us(&self) -> u32 {
         0
     }
 
@@ -216,6 +231,7 @@ impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, 
             .reconfigure(cfg.source, c.settings.source.home_switch);
         c.detector
             .reconfigure(cfg.detector, c.settings.detector.home_switch);
+        c.det.set_integration(&c.settings.integration);
         c.set_laser(false);
         c.disable_drivers();
         c
@@ -248,6 +264,7 @@ impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, 
             .reconfigure(self.cfg.source, s.source.home_switch);
         self.detector
             .reconfigure(self.cfg.detector, s.detector.home_switch);
+        self.det.set_integration(&s.integration);
         self.settings = s;
     }
 
@@ -908,7 +925,11 @@ impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, 
             return Tick::Idle;
         };
         let samples = sw.plan.settings.samples;
-        let now = (samples - stats.n).min(SAMPLES_PER_TICK);
+        let per_tick = match self.det.sample_us() {
+            0 => SAMPLES_PER_TICK,
+            us => (SAMPLE_BUDGET_US / us).clamp(1, SAMPLES_PER_TICK as u32) as u16,
+        };
+        let now = (samples - stats.n).min(per_tick);
         for _ in 0..now {
             match self.det.sample(ti, tr, self.laser_on) {
                 Ok(x) => stats.push(x),

@@ -733,3 +733,83 @@ fn settings_are_read_set_stored_and_refused_while_busy_or_out_of_range() {
     assert_eq!(next.load_settings(&torn), Err(settings::RecordError::Crc));
     assert_eq!(next.settings(), &defaults);
 }
+
+/// A detector that integrates over mains periods: it is told the settings, states how
+/// long a sample takes, and counts the samples of each tick.
+struct Integrating {
+    integration: Option<IntegrationSettings>,
+    taken: u32,
+    most_per_tick: u32,
+}
+
+impl Detector for Integrating {
+    fn sample(&mut self, _: f32, _: f32, _: bool) -> Result<f32, DetectorError> {
+        self.taken += 1;
+        self.most_per_tick = self.most_per_tick.max(self.taken);
+        Ok(100.0)
+    }
+
+    fn set_integration(&mut self, i: &IntegrationSettings) {
+        self.integration = Some(*i);
+    }
+
+    fn sample_us(&self) -> u32 {
+        self.integration
+            .map_or(0, |i| (settings::sample_ms(&i) * 1000.0) as u32)
+    }
+}
+
+#[test]
+fn a_detector_integrating_over_mains_periods_is_told_the_settings_and_samples_once_a_tick() {
+    let mut c = Controller::new(
+        CFG,
+        SimArm::new(SOURCE.to_steps(33.0), SOURCE.to_steps(SOURCE.home_deg)),
+        SimArm::new(
+            DETECTOR.to_steps(-12.0),
+            DETECTOR.to_steps(DETECTOR.home_deg),
+        ),
+        SimPin::default(),
+        Integrating {
+            integration: None,
+            taken: 0,
+            most_per_tick: 0,
+        },
+    );
+    c.set_lease_clock(0);
+    // The defaults at construction: 50 Hz, one period (20 ms a sample).
+    assert_eq!(c.detector_device().sample_us(), 20_000);
+    let mut now = 0u64;
+    let mut buf = [0u8; MAX_FRAME_LEN];
+    let mut run = |c: &mut Controller<SimArm, SimArm, SimPin, Integrating>, cmd: &Command| {
+        let n = encode(cmd, &mut buf).unwrap();
+        c.receive(&buf[..n], now);
+        let mut out = [0u8; MAX_FRAME_LEN];
+        loop {
+            c.detector_device().taken = 0;
+            let t = c.tick(now);
+            while c.next_frame(&mut out).is_some() {}
+            match t {
+                Tick::Wait(us) => now += us.max(1) as u64,
+                Tick::Idle => break,
+            }
+        }
+    };
+    run(&mut c, &Command::Home);
+    assert!(c.homed());
+    let settings = PointSettings {
+        settle_ms: 1,
+        samples: 8,
+        dark: true,
+    };
+    run(&mut c, &Command::StartSweep(SweepPlan::paper(1, settings)));
+    assert_eq!(c.detector_device().most_per_tick, 1);
+    // 60 Hz, 3 periods: told, and 50 ms a sample.
+    let mut s = *c.settings();
+    s.integration = IntegrationSettings {
+        mains_hz: 60,
+        periods: 3,
+    };
+    run(&mut c, &Command::SetSettings(s));
+    assert_eq!(c.detector_device().integration, Some(s.integration));
+    assert_eq!(c.detector_device().sample_us(), 50_000);
+}

@@ -66,7 +66,10 @@
 //! # Detector units
 //!
 //! [`Photodiode::sample`] returns raw ADC counts (12 bit, 0..=4095 for 0..VDDA), the
-//! mean of [`OVERSAMPLE`] conversions as `f32`, so it carries fractional counts. Counts
+//! mean of the conversions of a whole number of mains periods (20 ms by default) as
+//! `f32`, so it carries fractional counts. A sample blocks the main loop for its span
+//! (the controller takes one per loop iteration; the run-time settings cap it at
+//! 100 ms), which conversions by timer and DMA would not. Counts
 //! are not converted to volts: readings are relative anyway (dark-subtracted, then
 //! normalised on the host), and counts do not depend on an estimate of VDDA.
 //!
@@ -80,8 +83,9 @@
 #![no_main]
 
 use brdf_core::axis::{StepDirPins, SwitchWiring};
-use brdf_core::controller::{Controller, ControllerConfig, Detector, DetectorError};
+use brdf_core::controller::{Controller, ControllerConfig, Detector, DetectorError, settings};
 use brdf_core::mechanics;
+use brdf_core::protocol::IntegrationSettings;
 use brdf_core::service::Service;
 use cortex_m_rt::entry;
 use defmt_rtt as _;
@@ -132,8 +136,6 @@ const VBUS_SENSE: bool = false;
 const STEP_PULSE_NS: u32 = 2_000;
 /// Direction setup time before the next step edge (DRV8825 >= 650 ns, A4988 >= 200 ns).
 const DIR_SETUP_NS: u32 = 1_000;
-/// ADC conversions averaged per detector sample.
-const OVERSAMPLE: u32 = 16;
 /// ADC sample time: 144 ADC clocks (6 us at 24 MHz) is ample for an op-amp output.
 const ADC_SAMPLE_TIME: SampleTime = SampleTime::Cycles_144;
 /// Words of RAM for the USB OTG endpoint buffers (OUT packets of EP0 and the CDC data
@@ -192,17 +194,29 @@ fn step_dir<STEP, DIR, EN, HOME>(
     }
 }
 
-/// The photodiode amplifier on ADC1: each sample is the mean of [`OVERSAMPLE`]
-/// conversions, in raw ADC counts (0..=4095).
+/// The photodiode amplifier on ADC1: each sample is the mean of back-to-back
+/// conversions over a whole number of mains periods (the run-time settings' `mains_hz`
+/// and `periods`; 20 ms by default), timed by TIM5, so mains pick-up averages out. In
+/// raw ADC counts (0..=4095).
 struct Photodiode {
     adc: Adc<pac::ADC1>,
     pin: PA1<Analog>,
+    /// How long one sample integrates (microseconds).
+    span_us: u32,
     /// Conversions at full scale (4095) not yet reported.
     saturated: u32,
 }
 
 /// A 12-bit conversion at full scale: the input was at or above VDDA (clipped).
 const ADC_FULL_SCALE: u16 = 4095;
+/// TIM5's counter ([`MicrosClock`], microseconds), read by the detector to time its
+/// samples.
+const TIM5_CNT: *const u32 = 0x4000_0C24 as *const u32;
+
+fn tim5_us() -> u32 {
+    // SAFETY: a read of TIM5's counter, which MicrosClock keeps running.
+    unsafe { core::ptr::read_volatile(TIM5_CNT) }
+}
 
 impl Detector for Photodiode {
     fn sample(
@@ -211,15 +225,30 @@ impl Detector for Photodiode {
         _theta_r: f32,
         _laser_on: bool,
     ) -> Result<f32, DetectorError> {
-        let mut sum = 0u32;
-        for _ in 0..OVERSAMPLE {
+        // About 3,000 conversions of ~7 us in 20 ms: the span is whole to one of them.
+        let (mut sum, mut n) = (0u32, 0u32);
+        let start = tim5_us();
+        loop {
             let x = self.adc.convert(&self.pin, ADC_SAMPLE_TIME);
             if x >= ADC_FULL_SCALE {
                 self.saturated += 1;
             }
             sum += u32::from(x);
+            n += 1;
+            if tim5_us().wrapping_sub(start) >= self.span_us {
+                break;
+            }
         }
-        Ok(sum as f32 / OVERSAMPLE as f32)
+        // The mean in integer parts: the sum exceeds f32's exact integers.
+        Ok((sum / n) as f32 + (sum % n) as f32 / n as f32)
+    }
+
+    fn set_integration(&mut self, integration: &IntegrationSettings) {
+        self.span_us = (settings::sample_ms(integration) * 1000.0) as u32;
+    }
+
+    fn sample_us(&self) -> u32 {
+        self.span_us
     }
 
     fn take_saturated(&mut self) -> u32 {
@@ -353,6 +382,8 @@ impl Board {
         let photodiode = Photodiode {
             adc,
             pin: gpioa.pa1.into_analog(),
+            // Until the controller passes the settings on (at once, in `new`).
+            span_us: 20_000,
             saturated: 0,
         };
 

@@ -53,6 +53,14 @@ fn home(link: &mut Link) {
     );
 }
 
+/// Serialises the tests whose timing matters: the silent-host test needs the firmware
+/// to block on a full pty within the lease, which a second busy QEMU beside it on a
+/// loaded machine was seen to upset.
+fn one_at_a_time() -> std::sync::MutexGuard<'static, ()> {
+    static ONE: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    ONE.lock().unwrap_or_else(|e| e.into_inner())
+}
+
 fn start() -> (Qemu, Link) {
     let qemu = Qemu::start(&qemu_elf(), Duration::from_secs(300));
     let mut link = FramedLink::new(SerialTransport::open(&qemu.pty).expect("open pty"));
@@ -62,6 +70,7 @@ fn start() -> (Qemu, Link) {
 
 #[test]
 fn abort_and_jogs_leave_the_laser_off_and_a_silent_host_ends_the_sweep() {
+    let _one = one_at_a_time();
     let (qemu, mut link) = start();
     let s = status(&mut link);
     assert_eq!(
@@ -241,6 +250,7 @@ fn a_hardfault_forces_the_safe_pins_first_and_ends_qemu() {
 /// must home again, and a jog then reaches the angle asked for.
 #[test]
 fn settings_are_served_refused_while_busy_and_used() {
+    let _one = one_at_a_time();
     let (_qemu, mut link) = start();
     let settings = |link: &mut Link, cmd: Command| -> Vec<Event> {
         link.send(&cmd).unwrap();

@@ -1,7 +1,7 @@
 //! The safe state on the `qemu` board, end to end: `Abort` and jogs with the laser
 //! off, a host that stops reading for longer than the lease, and the firmware's own
 //! panic and HardFault (test-only byte sequences of the qemu image), which force the
-//! safe pins before anything else and end QEMU.
+//! safe pins before anything else and end QEMU; and the run-time settings.
 
 use std::time::{Duration, Instant};
 
@@ -53,6 +53,14 @@ fn home(link: &mut Link) {
     );
 }
 
+/// Serialises the tests whose timing matters: the silent-host test needs the firmware
+/// to block on a full pty within the lease, which a second busy QEMU beside it on a
+/// loaded machine was seen to upset.
+fn one_at_a_time() -> std::sync::MutexGuard<'static, ()> {
+    static ONE: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    ONE.lock().unwrap_or_else(|e| e.into_inner())
+}
+
 fn start() -> (Qemu, Link) {
     let qemu = Qemu::start(&qemu_elf(), Duration::from_secs(300));
     let mut link = FramedLink::new(SerialTransport::open(&qemu.pty).expect("open pty"));
@@ -62,6 +70,7 @@ fn start() -> (Qemu, Link) {
 
 #[test]
 fn abort_and_jogs_leave_the_laser_off_and_a_silent_host_ends_the_sweep() {
+    let _one = one_at_a_time();
     let (qemu, mut link) = start();
     let s = status(&mut link);
     assert_eq!(
@@ -234,4 +243,60 @@ fn a_hardfault_forces_the_safe_pins_first_and_ends_qemu() {
         matches!((safe, fault), (Some(a), Some(b)) if a < b),
         "{out:?}"
     );
+}
+
+/// Run-time settings on the qemu board (kept in RAM there): read, refused while homing
+/// and out of range, then used: the handshake reports the new resolution, the arms
+/// must home again, and a jog then reaches the angle asked for.
+#[test]
+fn settings_are_served_refused_while_busy_and_used() {
+    let _one = one_at_a_time();
+    let (_qemu, mut link) = start();
+    let settings = |link: &mut Link, cmd: Command| -> Vec<Event> {
+        link.send(&cmd).unwrap();
+        until(link, Duration::from_secs(30), |e| {
+            matches!(e, Event::Settings(_) | Event::Error(_))
+        })
+    };
+    let defaults = match settings(&mut link, Command::GetSettings).pop() {
+        Some(Event::Settings(s)) => s,
+        other => panic!("{other:?}"),
+    };
+    assert_eq!(defaults.detector.microsteps, 16);
+    let mut want = defaults;
+    want.detector.microsteps = 8;
+    link.send(&Command::Home).unwrap();
+    match settings(&mut link, Command::SetSettings(want)).pop() {
+        Some(Event::Error(e)) => assert_eq!(e.code, ErrorCode::Busy, "{e:?}"),
+        other => panic!("{other:?}"),
+    }
+    until(&mut link, Duration::from_secs(120), |e| {
+        matches!(e, Event::Status(_))
+    });
+    let mut bad = want;
+    bad.source.microsteps = 3;
+    match settings(&mut link, Command::SetSettings(bad)).pop() {
+        Some(Event::Error(e)) => assert_eq!(e.code, ErrorCode::BadSettings, "{e:?}"),
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(
+        settings(&mut link, Command::SetSettings(want)).pop(),
+        Some(Event::Settings(want))
+    );
+    let info = link.handshake(Duration::from_secs(20)).expect("handshake");
+    assert_eq!(info.detector.steps_per_deg, 40.0);
+    assert!(!info.homed, "new mechanics need homing");
+    home(&mut link);
+    link.send(&Command::Jog {
+        arm: Arm::Detector,
+        degrees: 12.5,
+    })
+    .unwrap();
+    let ev = until(&mut link, Duration::from_secs(60), |e| {
+        matches!(e, Event::Status(_))
+    });
+    match ev.last() {
+        Some(Event::Status(s)) => assert_eq!(s.detector_deg, 12.5, "{ev:?}"),
+        other => panic!("{other:?}"),
+    }
 }

@@ -107,6 +107,10 @@ pub trait AxisPins {
     fn set_enabled(&mut self, on: bool) -> Result<(), PinError>;
     /// True while the home switch is pressed.
     fn home_pressed(&mut self) -> Result<bool, PinError>;
+    /// How the home switch is wired (run-time settings). Pins that report a switch's
+    /// pressed state directly, with no wire to read (simulations), keep the default,
+    /// which ignores it.
+    fn set_home_wiring(&mut self, _wiring: SwitchWiring) {}
 }
 
 /// A step/dir driver (A4988, DRV8825, TMC2209 in step/dir mode) on embedded-hal pins.
@@ -136,7 +140,7 @@ pub struct StepDirPins<STEP, DIR, EN, HOME, D> {
 /// (homing finds the switch at once and cannot back off it: `SwitchStuck`; a move sees
 /// it where the arm cannot be: `LimitSwitch`). A normally open switch with a cut wire
 /// reads "never pressed", and homing drives the arm into its hard stop.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum SwitchWiring {
     /// Closed at rest, opened when pressed: the input reads high when pressed.
     NormallyClosed,
@@ -181,6 +185,10 @@ where
     fn home_pressed(&mut self) -> Result<bool, PinError> {
         let high = self.home.is_high().map_err(|_| PinError)?;
         Ok(self.home_wiring.pressed(high))
+    }
+
+    fn set_home_wiring(&mut self, wiring: SwitchWiring) {
+        self.home_wiring = wiring;
     }
 }
 
@@ -437,6 +445,21 @@ impl<P: AxisPins> Axis<P> {
     pub fn disable(&mut self) -> Result<(), PinError> {
         self.dir_high = None;
         self.pins.set_enabled(false)
+    }
+
+    /// Replaces the mechanics and the home switch's wiring (run-time settings), while
+    /// idle: the position in steps no longer means what it did, so the axis must home
+    /// again. `cfg` must pass `validate`.
+    pub fn reconfigure(&mut self, cfg: AxisConfig, wiring: SwitchWiring) {
+        self.cfg = cfg;
+        self.min_steps = cfg.to_steps(cfg.min_deg);
+        self.max_steps = cfg.to_steps(cfg.max_deg);
+        self.clear_steps = cfg.to_steps(cfg.min_deg + cfg.backoff_deg);
+        self.phase = Phase::Idle;
+        self.dir_high = None;
+        self.limit_reads = 0;
+        self.homed = false;
+        self.pins.set_home_wiring(wiring);
     }
 
     /// Forgets the position (steps may have been lost): the axis must home again.

@@ -15,18 +15,30 @@
 //! the laser is on, and a sweep runs, only while a command frame from the host arrived
 //! within [`HOST_LEASE_MS`]; [`Controller::tick`] asks to be called no later than the
 //! lease's end. The laser is off while an arm moves (homing, jogs, sweep moves).
+//!
+//! # Run-time settings
+//!
+//! Mechanics, switch wiring and detector integration ([`Settings`], [`settings`]) start
+//! as the board's defaults; the board loads its stored record with
+//! [`Controller::load_settings`] and writes the record that
+//! [`Controller::take_settings_record`] hands it after a `SetSettings`.
 
 use embedded_hal::digital::OutputPin;
 use heapless::Deque;
 
 use crate::axis::{Axis, AxisConfig, AxisError, AxisPins, Tick};
+use crate::controller::settings::{RECORD_LEN, RecordError};
 use crate::frame::{self, FrameDecoder, FrameError, FrameStats, MAX_FRAME_LEN};
 use crate::plan::{PlanCursor, PlanError};
 use crate::protocol::{
-    Arm, Command, DeviceStatus, ErrorCode, ErrorEvent, Event, HOST_LEASE_MS, Info, MAX_INCIDENCES,
-    MAX_PLAN_POINTS, MAX_SWEEP_POINTS, PROTOCOL_VERSION, Point, Progress, Reading, ResetCause,
-    SafeReason, Saturated, Specimen, Status, SweepDone, SweepPlan, Undecoded,
+    Arm, Command, DeviceStatus, ErrorCode, ErrorEvent, Event, HOST_LEASE_MS, Info,
+    IntegrationSettings, MAX_INCIDENCES, MAX_PLAN_POINTS, MAX_SWEEP_POINTS, PROTOCOL_VERSION,
+    Point, Progress, Reading, ResetCause, SafeReason, Saturated, Settings, Specimen, Status,
+    SweepDone, SweepPlan, Undecoded,
 };
+
+#[path = "controller_settings.rs"]
+pub mod settings;
 
 /// The host lease in microseconds of the lease clock.
 const LEASE_US: u64 = HOST_LEASE_MS as u64 * 1000;
@@ -36,9 +48,12 @@ const LEASE_US: u64 = HOST_LEASE_MS as u64 * 1000;
 pub const OUTBOX_LEN: usize = 8;
 
 /// Detector samples taken per tick at most: a reading of many samples is spread over
-/// ticks, so the link, `Abort` and the board's watchdog are served meanwhile (16
-/// samples of the stm32f411's photodiode block about 1.7 ms).
+/// ticks, so the link, `Abort` and the board's watchdog are served meanwhile.
 pub const SAMPLES_PER_TICK: u16 = 16;
+/// Detector time one tick may spend sampling (microseconds) when the detector states
+/// how long a sample takes ([`Detector::sample_us`]): at least one sample per tick, so
+/// a sample integrated over mains periods (20 ms at 50 Hz) is one tick.
+pub const SAMPLE_BUDGET_US: u32 = 2_000;
 
 /// A detector failed to deliver a sample.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -53,6 +68,17 @@ pub trait Detector {
     /// Conversions at full scale since the last call (a detector that clips: a 12-bit
     /// ADC's 4095); the controller flags the reading they belong to ([`Event::Saturated`]).
     fn take_saturated(&mut self) -> u32 {
+        0
+    }
+
+    /// Uses the run-time integration settings: a detector that integrates each sample
+    /// over whole mains periods applies them; the default ignores them (a simulated
+    /// sample has no mains pick-up).
+    fn set_integration(&mut self, _integration: &IntegrationSettings) {}
+
+    /// How long one sample blocks (microseconds; 0: negligible). The controller takes
+    /// as many samples per tick as fit in [`SAMPLE_BUDGET_US`], at least one.
+    fn sample_us(&self) -> u32 {
         0
     }
 
@@ -170,6 +196,9 @@ pub struct Controller<S, D, L, DET> {
     interlock_open: bool,
     last_safe: Option<SafeReason>,
     reset_cause: ResetCause,
+    settings: Settings,
+    /// Settings changed by the host and not yet taken by the board to store.
+    store_pending: bool,
 }
 
 impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, DET> {
@@ -193,10 +222,63 @@ impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, 
             interlock_open: false,
             last_safe: None,
             reset_cause: ResetCause::Unknown,
+            settings: settings::defaults(&cfg.source, &cfg.detector),
+            store_pending: false,
         };
+        // The compiled mechanics stand as they are (no round trip through the
+        // settings' motor steps and gear); only the switches' wiring is applied.
+        c.source
+            .reconfigure(cfg.source, c.settings.source.home_switch);
+        c.detector
+            .reconfigure(cfg.detector, c.settings.detector.home_switch);
+        c.det.set_integration(&c.settings.integration);
         c.set_laser(false);
         c.disable_drivers();
         c
+    }
+
+    /// The run-time settings in use.
+    pub fn settings(&self) -> &Settings {
+        &self.settings
+    }
+
+    /// Applies the settings of a stored record (at boot). A record that is erased,
+    /// damaged, of another version or out of range changes nothing: the defaults stay,
+    /// and the error says why.
+    pub fn load_settings(&mut self, record: &[u8]) -> Result<(), RecordError> {
+        let s = settings::decode_record(record)?;
+        self.apply_settings(s);
+        Ok(())
+    }
+
+    /// The record to store after the host changed the settings, once.
+    pub fn take_settings_record(&mut self) -> Option<[u8; RECORD_LEN]> {
+        core::mem::take(&mut self.store_pending).then(|| settings::encode_record(&self.settings))
+    }
+
+    /// Uses `s` (valid) for both arms: the arms must home again.
+    fn apply_settings(&mut self, s: Settings) {
+        self.cfg.source = settings::arm_config(&self.cfg.source, &s.source);
+        self.cfg.detector = settings::arm_config(&self.cfg.detector, &s.detector);
+        self.source
+            .reconfigure(self.cfg.source, s.source.home_switch);
+        self.detector
+            .reconfigure(self.cfg.detector, s.detector.home_switch);
+        self.det.set_integration(&s.integration);
+        self.settings = s;
+    }
+
+    fn set_settings(&mut self, s: Settings) {
+        if let Err(why) = settings::validate(&s) {
+            return self.error(ErrorCode::BadSettings, why);
+        }
+        // The board stores the record next, which may stall its main loop for a
+        // flash erase (seconds on the stm32f411): nothing may be lit or held meanwhile.
+        self.set_laser(false);
+        self.disable_drivers();
+        self.apply_settings(s);
+        self.store_pending = true;
+        self.push(Event::Settings(s));
     }
 
     /// Tells the controller what reset the board (reported by `GetStatus`).
@@ -472,8 +554,10 @@ impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, 
             Command::GetInfo => self.push(self.info()),
             Command::Ping(token) => self.push(Event::Pong(token)),
             Command::GetStatus => self.push(self.device_status()),
+            Command::GetSettings => self.push(Event::Settings(self.settings)),
             Command::Abort => self.abort(),
             _ if self.is_busy() => self.error(ErrorCode::Busy, "busy: send Abort first"),
+            Command::SetSettings(s) => self.set_settings(s),
             Command::Home => {
                 // The beam is off while arms move.
                 self.set_laser(false);
@@ -841,7 +925,11 @@ impl<S: AxisPins, D: AxisPins, L: OutputPin, DET: Detector> Controller<S, D, L, 
             return Tick::Idle;
         };
         let samples = sw.plan.settings.samples;
-        let now = (samples - stats.n).min(SAMPLES_PER_TICK);
+        let per_tick = match self.det.sample_us() {
+            0 => SAMPLES_PER_TICK,
+            us => (SAMPLE_BUDGET_US / us).clamp(1, SAMPLES_PER_TICK as u32) as u16,
+        };
+        let now = (samples - stats.n).min(per_tick);
         for _ in 0..now {
             match self.det.sample(ti, tr, self.laser_on) {
                 Ok(x) => stats.push(x),

@@ -412,6 +412,16 @@ fn act() -> impl Strategy<Value = Act> {
         6 => command().prop_map(Act::Send),
         1 => Just(Act::Send(Command::Ping(7))),
         1 => Just(Act::Send(Command::GetStatus)),
+        1 => Just(Act::Send(Command::GetSettings)),
+        // Valid microsteps and one out of range (3), NC or NO switches.
+        1 => (prop::sample::select(vec![1u16, 2, 4, 8, 3]), any::<bool>()).prop_map(|(m, nc)| {
+            let mut s = settings::defaults(&CFG.source, &CFG.detector);
+            s.detector.microsteps = m;
+            if !nc {
+                s.source.home_switch = crate::axis::SwitchWiring::NormallyOpen;
+            }
+            Act::Send(Command::SetSettings(s))
+        }),
         1 => Just(Act::Send(Command::StartSweep(SweepPlan::paper(3, SETTINGS)))),
         6 => (0u64..8_000_000).prop_map(Act::Wait),
         1 => Just(Act::LinkLost),
@@ -439,6 +449,7 @@ proptest! {
             let mut ev = Vec::new();
             let mut fault = false;
             let aborted = matches!(a, Act::Send(Command::Abort));
+            let set = matches!(a, Act::Send(Command::SetSettings(_)));
             match a {
                 Act::Send(cmd) => {
                     c.receive(&frame(&cmd), now);
@@ -492,6 +503,11 @@ proptest! {
             }
             if aborted {
                 prop_assert!(!s.laser && drivers_off(&c) && !c.is_busy(), "Abort left the safe state");
+            }
+            if set && ev.iter().any(|e| matches!(e, Event::Settings(_))) {
+                // New mechanics: the board may stall storing them, with nothing lit or
+                // held, and the arms must home again.
+                prop_assert!(!s.laser && drivers_off(&c) && !c.homed(), "SetSettings left the laser or drivers on");
             }
         }
     }

@@ -649,3 +649,167 @@ fn a_clipped_reading_is_flagged_saturated() {
     assert_eq!((r.seq, r.value), (1, 500.0), "clipped, and flagged first");
     assert!(readings(&ev)[0].value < 500.0);
 }
+
+#[test]
+fn settings_are_read_set_stored_and_refused_while_busy_or_out_of_range() {
+    let mut r = Rig::new(0.0);
+    r.send(&Command::GetSettings);
+    let defaults = match r.take().as_slice() {
+        [Event::Settings(s)] => *s,
+        other => panic!("{other:?}"),
+    };
+    // 200 steps * 8 microsteps * 18 / 360 = 80 microsteps per degree, as compiled.
+    assert_eq!(
+        settings::steps_per_deg(&defaults.source),
+        SOURCE.steps_per_deg()
+    );
+    assert_eq!(r.c.take_settings_record(), None, "nothing changed yet");
+
+    // Refused while homing: nothing changes.
+    let mut half = defaults;
+    half.source.microsteps = 4;
+    r.send(&Command::Home);
+    r.send(&Command::SetSettings(half));
+    assert_eq!(errors(&r.take()), [ErrorCode::Busy]);
+    r.run();
+    r.take();
+    assert_eq!(r.c.settings(), &defaults);
+
+    // Out of range: refused, nothing changes, the arms stay homed.
+    let mut bad = defaults;
+    bad.detector.microsteps = 6;
+    r.send(&Command::SetSettings(bad));
+    assert_eq!(errors(&r.take()), [ErrorCode::BadSettings]);
+    assert_eq!(r.c.settings(), &defaults);
+    assert!(r.c.homed());
+
+    // Accepted: answered, used (Info's steps per degree), stored once, and the arms
+    // must home again before moving.
+    r.send(&Command::SetLaser(true));
+    r.take();
+    r.send(&Command::SetSettings(half));
+    assert!(matches!(r.take().as_slice(), [Event::Settings(s)] if *s == half));
+    // The board may stall storing it: laser off, drivers released first.
+    assert!(!r.c.laser_on());
+    assert!(!r.c.source().pins().enabled && !r.c.detector().pins().enabled);
+    r.send(&Command::GetInfo);
+    match r.take().as_slice() {
+        [Event::Info(i)] => {
+            assert_eq!(i.source.steps_per_deg, 40.0);
+            assert_eq!(i.detector.steps_per_deg, 80.0);
+            assert!(!i.homed);
+        }
+        other => panic!("{other:?}"),
+    }
+    let record = r.c.take_settings_record().expect("a record to store");
+    assert_eq!(r.c.take_settings_record(), None, "stored once");
+    r.send(&Command::Jog {
+        arm: Arm::Source,
+        degrees: 10.0,
+    });
+    assert_eq!(errors(&r.take()), [ErrorCode::NotHomed]);
+    // Homed with the new mechanics, a jog of 10 degrees is 400 microsteps.
+    r.home();
+    let before = (r.c.source().pins().shaft, r.c.source().position());
+    r.send(&Command::Jog {
+        arm: Arm::Source,
+        degrees: 10.0,
+    });
+    r.run();
+    assert_eq!(r.c.source().position(), 400);
+    assert_eq!(
+        r.c.source().pins().shaft - before.0,
+        400 - before.1,
+        "the shaft turned as far as the axis counted"
+    );
+
+    // The next boot loads the stored record; a damaged one leaves the defaults.
+    let mut next = controller(0.0);
+    assert_eq!(next.load_settings(&record), Ok(()));
+    assert_eq!(next.settings(), &half);
+    let mut torn = record;
+    torn[10] ^= 0x40;
+    let mut next = controller(0.0);
+    assert_eq!(next.load_settings(&torn), Err(settings::RecordError::Crc));
+    assert_eq!(next.settings(), &defaults);
+}
+
+/// A detector that integrates over mains periods: it is told the settings, states how
+/// long a sample takes, and counts the samples of each tick.
+struct Integrating {
+    integration: Option<IntegrationSettings>,
+    taken: u32,
+    most_per_tick: u32,
+}
+
+impl Detector for Integrating {
+    fn sample(&mut self, _: f32, _: f32, _: bool) -> Result<f32, DetectorError> {
+        self.taken += 1;
+        self.most_per_tick = self.most_per_tick.max(self.taken);
+        Ok(100.0)
+    }
+
+    fn set_integration(&mut self, i: &IntegrationSettings) {
+        self.integration = Some(*i);
+    }
+
+    fn sample_us(&self) -> u32 {
+        self.integration
+            .map_or(0, |i| (settings::sample_ms(&i) * 1000.0) as u32)
+    }
+}
+
+#[test]
+fn a_detector_integrating_over_mains_periods_is_told_the_settings_and_samples_once_a_tick() {
+    let mut c = Controller::new(
+        CFG,
+        SimArm::new(SOURCE.to_steps(33.0), SOURCE.to_steps(SOURCE.home_deg)),
+        SimArm::new(
+            DETECTOR.to_steps(-12.0),
+            DETECTOR.to_steps(DETECTOR.home_deg),
+        ),
+        SimPin::default(),
+        Integrating {
+            integration: None,
+            taken: 0,
+            most_per_tick: 0,
+        },
+    );
+    c.set_lease_clock(0);
+    // The defaults at construction: 50 Hz, one period (20 ms a sample).
+    assert_eq!(c.detector_device().sample_us(), 20_000);
+    let mut now = 0u64;
+    let mut buf = [0u8; MAX_FRAME_LEN];
+    let mut run = |c: &mut Controller<SimArm, SimArm, SimPin, Integrating>, cmd: &Command| {
+        let n = encode(cmd, &mut buf).unwrap();
+        c.receive(&buf[..n], now);
+        let mut out = [0u8; MAX_FRAME_LEN];
+        loop {
+            c.detector_device().taken = 0;
+            let t = c.tick(now);
+            while c.next_frame(&mut out).is_some() {}
+            match t {
+                Tick::Wait(us) => now += us.max(1) as u64,
+                Tick::Idle => break,
+            }
+        }
+    };
+    run(&mut c, &Command::Home);
+    assert!(c.homed());
+    let settings = PointSettings {
+        settle_ms: 1,
+        samples: 8,
+        dark: true,
+    };
+    run(&mut c, &Command::StartSweep(SweepPlan::paper(1, settings)));
+    assert_eq!(c.detector_device().most_per_tick, 1);
+    // 60 Hz, 3 periods: told, and 50 ms a sample.
+    let mut s = *c.settings();
+    s.integration = IntegrationSettings {
+        mains_hz: 60,
+        periods: 3,
+    };
+    run(&mut c, &Command::SetSettings(s));
+    assert_eq!(c.detector_device().integration, Some(s.integration));
+    assert_eq!(c.detector_device().sample_us(), 50_000);
+}

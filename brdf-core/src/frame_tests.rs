@@ -59,6 +59,12 @@ pub fn every_message() -> (StdVec<Command>, StdVec<Event>) {
         max_deg: 90.0,
         steps_per_deg: 80.0,
     };
+    // The reference mechanics' defaults, the detector's driver at 1/8 microsteps.
+    let mut settings = crate::controller::settings::defaults(
+        &crate::mechanics::SOURCE,
+        &crate::mechanics::DETECTOR,
+    );
+    settings.detector.microsteps = 8;
     let commands = vec![
         Command::GetInfo,
         Command::Ping(0xDEADBEEF),
@@ -74,6 +80,8 @@ pub fn every_message() -> (StdVec<Command>, StdVec<Event>) {
         Command::SetLaser(true),
         Command::Mount(Specimen::Reference),
         Command::GetStatus,
+        Command::GetSettings,
+        Command::SetSettings(settings),
     ];
     let events = vec![
         Event::Info(Info {
@@ -140,6 +148,11 @@ pub fn every_message() -> (StdVec<Command>, StdVec<Event>) {
             seq: 42,
             conversions: 64,
         }),
+        Event::Settings(settings),
+        Event::Error(ErrorEvent::new(
+            ErrorCode::BadSettings,
+            "microsteps must be 1, 2, 4, .., 256",
+        )),
     ];
     (commands, events)
 }

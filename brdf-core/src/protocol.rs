@@ -9,6 +9,8 @@
 use heapless::{String, Vec};
 use serde::{Deserialize, Serialize};
 
+pub use crate::axis::SwitchWiring;
+
 /// Version of this protocol. Bump it on any change of a message's encoding or of what
 /// an existing field means (docs/protocol.md, "Version history").
 pub const PROTOCOL_VERSION: u16 = 3;
@@ -63,6 +65,15 @@ pub enum Command {
     /// Asks what state the device is in; changes nothing, served while busy. Answered
     /// with [`Event::DeviceStatus`] (protocol 3).
     GetStatus,
+    /// Asks for the run-time settings (mechanics, switches, detector integration);
+    /// changes nothing, served while busy. Answered with [`Event::Settings`]
+    /// (protocol 3, appended).
+    GetSettings,
+    /// Replaces the run-time settings and stores them on the board. Refused (`Busy`)
+    /// while a sweep, homing or jog runs, and (`BadSettings`) when a value is out of
+    /// range; otherwise answered with [`Event::Settings`]. Both arms must be homed
+    /// again afterwards (steps per degree may have changed). Protocol 3, appended.
+    SetSettings(Settings),
 }
 
 /// What is on the stage.
@@ -97,6 +108,54 @@ pub enum Event {
     /// The reading of this `sweep_id` and `seq`, sent right after, had conversions at
     /// the detector's full scale: its value is clipped (protocol 3).
     Saturated(Saturated),
+    /// The run-time settings, answering [`Command::GetSettings`] and
+    /// [`Command::SetSettings`] (protocol 3, appended).
+    Settings(Settings),
+}
+
+/// Run-time mechanics of one arm, kept on the board (protocol 3).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ArmSettings {
+    /// Motor full steps per motor revolution (200 for a 1.8 degree motor, 400 for 0.9).
+    pub motor_steps: u16,
+    /// Microsteps per full step, as set on the driver (its MS jumpers or pins): a
+    /// power of two, 1..=256. A4988 and DRV8825 boards run full-step (1) with the
+    /// jumpers open.
+    pub microsteps: u16,
+    /// Motor revolutions per arm revolution (gear or belt reduction; 9 for 1:9).
+    pub gear: f32,
+    /// Top speed (degrees per second of the arm).
+    pub max_speed_deg_s: f32,
+    /// Acceleration and deceleration (degrees per second squared).
+    pub accel_deg_s2: f32,
+    /// Speed of the first homing approach (degrees per second; the second is 4x slower).
+    pub home_speed_deg_s: f32,
+    /// Swap the meaning of the direction pin.
+    pub invert_dir: bool,
+    /// How the home switch is wired.
+    pub home_switch: SwitchWiring,
+}
+
+/// How the detector integrates one sample (protocol 3).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct IntegrationSettings {
+    /// Mains frequency (50 or 60 Hz): a sample spans a whole number of its periods, so
+    /// mains pick-up averages out.
+    pub mains_hz: u8,
+    /// Mains periods one sample spans (1..=50; 1 = 20 ms at 50 Hz).
+    pub periods: u8,
+}
+
+/// The board's run-time settings (protocol 3): read with [`Command::GetSettings`],
+/// replaced with [`Command::SetSettings`], kept in flash across restarts.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Settings {
+    /// Source arm.
+    pub source: ArmSettings,
+    /// Detector arm.
+    pub detector: ArmSettings,
+    /// Detector integration.
+    pub integration: IntegrationSettings,
 }
 
 /// A reading whose detector conversions reached full scale (protocol 3).
@@ -361,6 +420,9 @@ pub enum ErrorCode {
     /// hit after lost steps, or a broken switch wire): motion stopped, laser off, the
     /// position lost (protocol 3).
     LimitSwitch,
+    /// `SetSettings` carried a value out of range; nothing changed (protocol 3,
+    /// appended).
+    BadSettings,
 }
 
 /// An error report.

@@ -4,8 +4,8 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use gonio::cli::{
-    CliResult, EXIT_USAGE, appearance, bench, budget, calibrate, capture, convert, demo, eval, fit,
-    flash, import, info, ports, simulate,
+    CliResult, EXIT_USAGE, appearance, bench, budget, calibrate, capture, config, convert, demo,
+    eval, fit, flash, import, info, ports, simulate,
 };
 
 /// gonio: measure and model how metal surfaces reflect light.
@@ -32,6 +32,7 @@ enum Command {
     Eval(eval::EvalArgs),
     Ports(ports::PortsArgs),
     Info(info::InfoArgs),
+    Config(config::ConfigArgs),
     Capture(capture::CaptureArgs),
     Simulate(simulate::SimulateArgs),
     Fit(fit::FitArgs),
@@ -50,6 +51,7 @@ fn run(cli: Cli) -> CliResult {
         Command::Eval(args) => eval::run(&args),
         Command::Ports(args) => ports::run(&args),
         Command::Info(args) => info::run(&args),
+        Command::Config(args) => config::run(&args),
         Command::Capture(args) => capture::run(&args),
         Command::Simulate(args) => simulate::run(&args),
         Command::Fit(args) => fit::run(&args),

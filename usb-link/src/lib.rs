@@ -20,6 +20,12 @@
 //!   the port, or the cable was pulled on a board whose VBUS is not sensed: the bus
 //!   falls idle) and a bus reset of a configured device (re-plugged, or the host
 //!   restarted it) hand the controller an `Abort` as well: the safe state.
+//! - **VBUS loss stops the device at once.** A board that senses VBUS (self-powered,
+//!   VBUS wired to the sense pin) reports it with [`UsbLink::set_vbus`] every loop;
+//!   when VBUS falls the link does what a dropped DTR does (an `Abort` for the
+//!   controller, the port's buffers emptied, output discarded) without waiting the
+//!   3 ms the bus takes to be seen suspended. When VBUS returns the next host starts
+//!   on a clean stream, DTR raised or not.
 //! - **Descriptors from one source**: VID, PID, manufacturer and product strings are
 //!   brdf-core's [`identity`](brdf_core::identity), which `gonio ports` matches.
 #![no_std]
@@ -53,8 +59,12 @@ pub struct UsbLink<'a, B: UsbBus> {
     dtr: bool,
     /// The device state as last seen (suspend and bus resets are noticed by change).
     state: UsbDeviceState,
-    /// DTR fell after having been raised: the host closed the port; output is discarded.
+    /// DTR fell after having been raised (the host closed the port) or VBUS fell:
+    /// output is discarded.
     closed: bool,
+    /// VBUS as last reported by the board ([`UsbLink::set_vbus`]); true on boards that
+    /// do not sense it.
+    vbus: bool,
     /// Bytes of the pending `Abort` not yet handed to the controller.
     abort: [u8; ABORT_LEN],
     abort_len: usize,
@@ -84,6 +94,7 @@ impl<'a, B: UsbBus> UsbLink<'a, B> {
             dtr: false,
             state: UsbDeviceState::Default,
             closed: false,
+            vbus: true,
             abort: [0; ABORT_LEN],
             abort_len: 0,
             abort_off: 0,
@@ -99,6 +110,28 @@ impl<'a, B: UsbBus> UsbLink<'a, B> {
     /// USB errors other than "would block" seen so far (a board may log them).
     pub fn errors(&self) -> u32 {
         self.errors
+    }
+
+    /// Reports whether VBUS is present, on a board that senses it: call it every loop,
+    /// before [`Link::poll`]. A fall is the host gone (see the crate docs); boards that
+    /// do not sense VBUS never call it.
+    pub fn set_vbus(&mut self, present: bool) {
+        if self.vbus && !present {
+            self.closed = true;
+            // Clears DTR and both buffers: nothing of this session reaches the next.
+            self.serial.reset();
+            self.dtr = false;
+            self.queue_abort();
+        } else if !self.vbus && present {
+            // A new session: served as usual, as a host that never raises DTR is.
+            self.closed = false;
+        }
+        self.vbus = present;
+    }
+
+    /// Whether VBUS is present as last reported (true on boards that do not sense it).
+    pub fn vbus(&self) -> bool {
+        self.vbus
     }
 
     /// Reacts to a change of DTR (see the crate docs).

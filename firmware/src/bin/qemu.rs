@@ -234,6 +234,9 @@ fn main() -> ! {
         service.ctrl.set_lease_clock(wall.now_us());
         let next = service.poll(&mut link, now_us);
         watchdog.feed();
+        // QEMU keeps the run-time settings in RAM (in the controller) until it exits:
+        // there is no flash to store their record in.
+        let _ = service.ctrl.take_settings_record();
         match next {
             // Simulated time: jump to the next deadline.
             Some(at) => now_us = now_us.max(at),

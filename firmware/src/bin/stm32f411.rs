@@ -13,6 +13,16 @@
 //! brown-out level is set to 2.7 V in the option bytes at the first boot that finds
 //! it otherwise.
 //!
+//! # Run-time settings
+//!
+//! Mechanics, switch wiring and detector integration (`brdf_core::controller::settings`)
+//! are kept in flash sector 4 ([`settings_flash`], 64 KiB at 0x0801_0000, just past the
+//! 64 KiB the image may take), read at boot (defaults when the record is erased,
+//! damaged or of another version) and rewritten after each `SetSettings`. The erase
+//! stalls the main loop for up to about 2.4 s, so the watchdog is stretched to its
+//! longest (4.1 s nominal) meanwhile; the controller has turned the laser off and
+//! released the drivers before the board stores.
+//!
 //! Build and flash: `cargo run --release --bin stm32f411 --features stm32f411`
 //! (from `firmware/`, with a debug probe on SWD).
 //!
@@ -34,6 +44,7 @@
 //! | PB10 | laser enable              | push-pull, active high; driven low (off) at boot           |
 //! | PA1  | photodiode amplifier out  | analog, ADC1_IN1, 0..3.3 V; keep the amp output <= VDDA    |
 //! | PA0  | interlock input           | pull-up; loop closed to GND = closed, high = open (a cut wire) |
+//! | PA9  | USB VBUS sense (optional) | OTG_FS_VBUS, 5 V tolerant; used only with [`VBUS_SENSE`]    |
 //! | PC13 | status LED (on board)     | push-pull, active low; lit once the firmware is running    |
 //! | PA11 | USB D-                    | OTG_FS (on board USB-C)                                    |
 //! | PA12 | USB D+                    | OTG_FS (on board USB-C)                                    |
@@ -41,11 +52,12 @@
 //! | PA14 | SWCLK                     | debug probe, not reassigned                                |
 //!
 //! The interlock on PA0 shares the pin with the on-board KEY button (to GND): pressing
-//! KEY holds the loop "closed", so leave it alone. Left free on purpose: PB2 (BOOT1, has a resistor on
-//! the board), PA15/PB3/PB4 (JTAG; PB3 is SWO), PC14/PC15 (32 kHz crystal), PA9/PA10
-//! (USART1, the ROM bootloader's UART). The F411CE package has no PB11. Both arms are
-//! on one header row (PB12..PB15, PB6..PB9); the laser and the analog input are on the
-//! other, away from the step lines.
+//! KEY holds the loop "closed", so leave it alone. Left free on purpose: PB2 (BOOT1,
+//! has a resistor on the board), PA15/PB3/PB4 (JTAG; PB3 is SWO), PC14/PC15 (32 kHz
+//! crystal), PA10 (USART1 RX, the ROM bootloader's UART; PA9, its TX, is free unless
+//! VBUS is sensed). The F411CE package has no PB11. Both arms are on one header row
+//! (PB12..PB15, PB6..PB9); the laser and the analog input are on the other, away from
+//! the step lines.
 //!
 //! During reset and until `Board::take` runs, all pins float: a driver whose `EN` has
 //! no pull-up of its own (A4988, DRV8825 boards pull it down) holds torque then, and a
@@ -54,7 +66,10 @@
 //! # Detector units
 //!
 //! [`Photodiode::sample`] returns raw ADC counts (12 bit, 0..=4095 for 0..VDDA), the
-//! mean of [`OVERSAMPLE`] conversions as `f32`, so it carries fractional counts. Counts
+//! mean of the conversions of a whole number of mains periods (20 ms by default) as
+//! `f32`, so it carries fractional counts. A sample blocks the main loop for its span
+//! (the controller takes one per loop iteration; the run-time settings cap it at
+//! 100 ms), which conversions by timer and DMA would not. Counts
 //! are not converted to volts: readings are relative anyway (dark-subtracted, then
 //! normalised on the host), and counts do not depend on an estimate of VDDA.
 //!
@@ -68,8 +83,9 @@
 #![no_main]
 
 use brdf_core::axis::{StepDirPins, SwitchWiring};
-use brdf_core::controller::{Controller, ControllerConfig, Detector, DetectorError};
+use brdf_core::controller::{Controller, ControllerConfig, Detector, DetectorError, settings};
 use brdf_core::mechanics;
+use brdf_core::protocol::IntegrationSettings;
 use brdf_core::service::Service;
 use cortex_m_rt::entry;
 use defmt_rtt as _;
@@ -102,17 +118,24 @@ const SAFE_PINS: SafePins = SafePins {
 };
 /// The independent watchdog's timeout (milliseconds, at the LSI's nominal 32 kHz).
 const WATCHDOG_MS: u16 = 500;
-/// How the home switches are wired ([`SwitchWiring`]): normally closed, so a cut wire
-/// reads "pressed" and stops the arm (homing fails "stuck or its wire broken", a move
-/// stops at `LimitSwitch`) instead of driving it into the hard stop. A rig wired
-/// normally open sets `NormallyOpen` here.
+/// How the home switches are wired until the run-time settings say otherwise
+/// ([`SwitchWiring`]): normally closed, so a cut wire reads "pressed" and stops the arm
+/// (homing fails "stuck or its wire broken", a move stops at `LimitSwitch`) instead of
+/// driving it into the hard stop. A rig wired normally open says so with
+/// `gonio config set` (the settings' `home_switch`).
 const HOME_SWITCH_WIRING: SwitchWiring = SwitchWiring::NormallyClosed;
+/// Sense VBUS on PA9 (the OTG core's B-session comparator): set it on a rig whose board
+/// is powered apart from USB, with the USB connector's VBUS wired to PA9, so that
+/// pulling the cable stops everything at once (`usb_link::UsbLink::set_vbus`). Off by
+/// default: the Black Pill does not wire PA9 to VBUS, and with sensing on and PA9
+/// unwired the device never connects. A bus-powered board needs no sensing (unplugged,
+/// it is off); a self-powered one without it still stops when the bus is seen
+/// suspended (3 ms of idle bus).
+const VBUS_SENSE: bool = false;
 /// Step pulse width (A4988 >= 1 us, DRV8825 >= 1.9 us, TMC2209 >= 0.1 us).
 const STEP_PULSE_NS: u32 = 2_000;
 /// Direction setup time before the next step edge (DRV8825 >= 650 ns, A4988 >= 200 ns).
 const DIR_SETUP_NS: u32 = 1_000;
-/// ADC conversions averaged per detector sample.
-const OVERSAMPLE: u32 = 16;
 /// ADC sample time: 144 ADC clocks (6 us at 24 MHz) is ample for an op-amp output.
 const ADC_SAMPLE_TIME: SampleTime = SampleTime::Cycles_144;
 /// Words of RAM for the USB OTG endpoint buffers (OUT packets of EP0 and the CDC data
@@ -171,17 +194,29 @@ fn step_dir<STEP, DIR, EN, HOME>(
     }
 }
 
-/// The photodiode amplifier on ADC1: each sample is the mean of [`OVERSAMPLE`]
-/// conversions, in raw ADC counts (0..=4095).
+/// The photodiode amplifier on ADC1: each sample is the mean of back-to-back
+/// conversions over a whole number of mains periods (the run-time settings' `mains_hz`
+/// and `periods`; 20 ms by default), timed by TIM5, so mains pick-up averages out. In
+/// raw ADC counts (0..=4095).
 struct Photodiode {
     adc: Adc<pac::ADC1>,
     pin: PA1<Analog>,
+    /// How long one sample integrates (microseconds).
+    span_us: u32,
     /// Conversions at full scale (4095) not yet reported.
     saturated: u32,
 }
 
 /// A 12-bit conversion at full scale: the input was at or above VDDA (clipped).
 const ADC_FULL_SCALE: u16 = 4095;
+/// TIM5's counter ([`MicrosClock`], microseconds), read by the detector to time its
+/// samples.
+const TIM5_CNT: *const u32 = 0x4000_0C24 as *const u32;
+
+fn tim5_us() -> u32 {
+    // SAFETY: a read of TIM5's counter, which MicrosClock keeps running.
+    unsafe { core::ptr::read_volatile(TIM5_CNT) }
+}
 
 impl Detector for Photodiode {
     fn sample(
@@ -190,15 +225,30 @@ impl Detector for Photodiode {
         _theta_r: f32,
         _laser_on: bool,
     ) -> Result<f32, DetectorError> {
-        let mut sum = 0u32;
-        for _ in 0..OVERSAMPLE {
+        // About 3,000 conversions of ~7 us in 20 ms: the span is whole to one of them.
+        let (mut sum, mut n) = (0u32, 0u32);
+        let start = tim5_us();
+        loop {
             let x = self.adc.convert(&self.pin, ADC_SAMPLE_TIME);
             if x >= ADC_FULL_SCALE {
                 self.saturated += 1;
             }
             sum += u32::from(x);
+            n += 1;
+            if tim5_us().wrapping_sub(start) >= self.span_us {
+                break;
+            }
         }
-        Ok(sum as f32 / OVERSAMPLE as f32)
+        // The mean in integer parts: the sum exceeds f32's exact integers.
+        Ok((sum / n) as f32 + (sum % n) as f32 / n as f32)
+    }
+
+    fn set_integration(&mut self, integration: &IntegrationSettings) {
+        self.span_us = (settings::sample_ms(integration) * 1000.0) as u32;
+    }
+
+    fn sample_us(&self) -> u32 {
+        self.span_us
     }
 
     fn take_saturated(&mut self) -> u32 {
@@ -269,6 +319,7 @@ struct Board {
     led: PC13<Output>,
     clock: MicrosClock,
     usb_bus: UsbBusAllocator<UsbBusType>,
+    flash: pac::FLASH,
 }
 
 impl Board {
@@ -331,6 +382,8 @@ impl Board {
         let photodiode = Photodiode {
             adc,
             pin: gpioa.pa1.into_analog(),
+            // Until the controller passes the settings on (at once, in `new`).
+            span_us: 20_000,
             saturated: 0,
         };
 
@@ -354,6 +407,7 @@ impl Board {
             led,
             clock,
             usb_bus,
+            flash: dp.FLASH,
         }
     }
 }
@@ -401,6 +455,84 @@ mod interlock {
     }
 }
 
+/// The run-time settings' record in flash sector 4 (see the file's docs).
+mod settings_flash {
+    use brdf_core::controller::settings::RECORD_LEN;
+    use stm32f4xx_hal::flash::{Error, FlashExt};
+    use stm32f4xx_hal::pac::FLASH;
+
+    /// Sector 4: 64 KiB at 0x0801_0000 (RM0383 table 4).
+    const SECTOR: u8 = 4;
+    /// Its offset from the start of flash.
+    const OFFSET: usize = 0x1_0000;
+    const ADDRESS: usize = 0x0800_0000 + OFFSET;
+
+    /// The stored record (erased flash reads 0xFF).
+    pub fn read() -> [u8; RECORD_LEN] {
+        // SAFETY: RECORD_LEN bytes of on-chip flash, always mapped and readable.
+        unsafe { core::ptr::read_volatile(ADDRESS as *const [u8; RECORD_LEN]) }
+    }
+
+    /// Whether the image (code, read-only data and the initial values of .data) lies
+    /// wholly below the sector: never erase our own code, whatever the size budget.
+    pub fn image_clear() -> bool {
+        unsafe extern "C" {
+            static __sidata: u32;
+            static __sdata: u32;
+            static __edata: u32;
+        }
+        // Addresses of cortex-m-rt's linker symbols; nothing is read through them.
+        let (lma, start, end) = (
+            &raw const __sidata as usize,
+            &raw const __sdata as usize,
+            &raw const __edata as usize,
+        );
+        lma + (end - start) <= ADDRESS
+    }
+
+    /// Erases the sector and writes `record`.
+    pub fn write(flash: &mut FLASH, record: &[u8; RECORD_LEN]) -> Result<(), Error> {
+        let mut unlocked = flash.unlocked();
+        unlocked.erase(SECTOR)?;
+        unlocked.program(OFFSET, record.iter())
+    }
+}
+
+/// VBUS sensing of the OTG FS core by its registers (RM0383 section 22.16): the HAL's
+/// bus (synopsys-usb-otg) turns sensing off (GCCFG.NOVBUSSENS) when usb-device enables
+/// it, so [`enable`](vbus::enable) turns it back on afterwards, as embassy's stm32f4
+/// examples do with their `vbus_detection` setting.
+mod vbus {
+    use core::ptr::{read_volatile, write_volatile};
+
+    const OTG_FS: usize = 0x5000_0000;
+    const GOTGCTL: *const u32 = OTG_FS as *const u32;
+    const GCCFG: *mut u32 = (OTG_FS + 0x38) as *mut u32;
+    /// GOTGCTL.BSVLD: B-session valid (VBUS above the B-device threshold, ~4.4 V).
+    const BSVLD: u32 = 1 << 19;
+    /// GCCFG.NOVBUSSENS: sensing off (pull-up always on).
+    const NOVBUSSENS: u32 = 1 << 21;
+    /// GCCFG.VBUSBSEN: sensing of VBUS on PA9 for a B-device (ours).
+    const VBUSBSEN: u32 = 1 << 19;
+
+    /// Turns sensing on: from here the D+ pull-up follows VBUS on PA9, and
+    /// [`present`] reads it. Call once the USB device is built (the core enabled).
+    pub fn enable() {
+        // SAFETY: GCCFG of the OTG FS core, which usb-device has enabled; the bus code
+        // writes it only in its enable(), which has run.
+        unsafe {
+            let v = read_volatile(GCCFG);
+            write_volatile(GCCFG, (v & !NOVBUSSENS) | VBUSBSEN);
+        }
+    }
+
+    /// Whether VBUS is present (with [`enable`]d sensing).
+    pub fn present() -> bool {
+        // SAFETY: a read of the OTG FS core's status register.
+        unsafe { read_volatile(GOTGCTL) & BSVLD != 0 }
+    }
+}
+
 #[entry]
 fn main() -> ! {
     let reset_cause = safety::take_reset_cause();
@@ -414,6 +546,7 @@ fn main() -> ! {
         mut led,
         mut clock,
         usb_bus,
+        mut flash,
     } = Board::take();
 
     let serial_hex = unique_id_hex();
@@ -423,6 +556,9 @@ fn main() -> ! {
     // Descriptors (VID:PID, strings) and the link's behaviour live in usb-link, which
     // the host tests run against a simulated bus.
     let mut link = UsbLink::new(&usb_bus, serial_number);
+    if VBUS_SENSE {
+        vbus::enable();
+    }
 
     let cfg = ControllerConfig {
         board: BOARD,
@@ -432,6 +568,10 @@ fn main() -> ! {
     };
     let mut service = Service::new(Controller::new(cfg, source, detector, laser, photodiode));
     service.ctrl.set_reset_cause(reset_cause);
+    match service.ctrl.load_settings(&settings_flash::read()) {
+        Ok(()) => defmt::info!("settings: the stored record"),
+        Err(e) => defmt::warn!("settings: defaults ({=str})", e.describe()),
+    }
 
     led.set_low();
     defmt::info!(
@@ -463,8 +603,34 @@ fn main() -> ! {
                 if cut { "open: safe state" } else { "closed" }
             );
         }
+        if VBUS_SENSE {
+            let present = vbus::present();
+            if present != link.vbus() {
+                defmt::warn!(
+                    "usb: VBUS {}",
+                    if present { "back" } else { "lost: safe state" }
+                );
+            }
+            link.set_vbus(present);
+        }
         service.poll(&mut link, now);
         watchdog.feed();
+        if let Some(record) = service.ctrl.take_settings_record() {
+            if settings_flash::image_clear() {
+                // The erase stalls the loop: the longest timeout meanwhile (the IWDG
+                // takes new values while running), then the usual one again.
+                Watchdog::start(4095);
+                let stored = settings_flash::write(&mut flash, &record);
+                Watchdog::start(WATCHDOG_MS);
+                match stored {
+                    Ok(()) => defmt::info!("settings stored"),
+                    // The record stays as it was, or erased: the next boot says which.
+                    Err(_) => defmt::error!("settings not stored: flash error"),
+                }
+            } else {
+                defmt::error!("settings not stored: the image reaches their flash sector");
+            }
+        }
         if link.host_open() != open {
             open = link.host_open();
             if open {

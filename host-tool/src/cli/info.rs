@@ -19,7 +19,7 @@ use crate::text::escape_line;
     about = "Handshake with a goniometer and print what it is",
     long_about = "Handshake with a goniometer \
 and print its firmware and protocol versions, board, arm travel, the most points one plan may have and whether \
-it is homed; then its state (GetStatus): laser, position lost, interlock, why it last went to its safe state and what reset it. Device text is printed with control characters escaped. A protocol version that differs from this \
+it is homed; then its state (GetStatus): laser, position lost, interlock, why it last went to its safe state and what reset it; then its run-time settings (as `gonio config get` prints them). Device text is printed with control characters escaped. A protocol version that differs from this \
 gonio's is an error that says which side to update; an Info that does not decode or does not hold together \
 (travel not finite or outside the protocol's ranges, no resolution, plans of 0 points) is an error quoting it. \
 Waits at most --timeout seconds."
@@ -73,6 +73,11 @@ pub fn run(args: &InfoArgs) -> CliResult {
     let text = match status {
         Some(s) => text + &status_lines(&s),
         None => text + "status:    no answer to GetStatus\n",
+    };
+    let left = deadline.saturating_duration_since(Instant::now());
+    let text = match super::config::exchange(&mut link, &Command::GetSettings, left) {
+        Ok(s) => text + "settings (gonio config):\n" + &super::config::settings_lines(&s),
+        Err(e) => text + &format!("settings:  {e}\n"),
     };
     write_stdout(text.as_bytes())
 }

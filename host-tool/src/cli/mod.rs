@@ -10,6 +10,7 @@ pub mod budget;
 pub mod calibrate;
 pub mod capture;
 pub mod capture_steps;
+pub mod config;
 pub mod convert;
 pub mod demo;
 pub mod demo_units;

@@ -82,6 +82,63 @@ fn seqs(path: &Path) -> Vec<u32> {
         .collect()
 }
 
+/// `gonio config set` and `get` over a pty against the simulated device (brdf-core's
+/// controller), and `gonio info` printing what it now uses.
+#[test]
+fn config_set_get_and_info_over_a_pty() {
+    let _one = one_at_a_time();
+    let dev = device(None);
+    let port = dev.path().to_str().unwrap();
+    let run = |args: &[&str]| -> Run { gonio_command().args(args).output().unwrap().into() };
+    let set = run(&[
+        "config",
+        "set",
+        "--port",
+        port,
+        "detector.microsteps=8",
+        "source.home_switch=no",
+    ]);
+    assert!(set.ok(), "{}", set.stderr);
+    for said in [
+        "detector.microsteps = 8\n",
+        "# detector: 40 microsteps/degree\n",
+        "source.home_switch = no\n",
+        "# source: 80 microsteps/degree\n",
+    ] {
+        assert!(set.stdout.contains(said), "{said}: {}", set.stdout);
+    }
+    let get = run(&["config", "get", "--port", port]);
+    assert!(get.ok(), "{}", get.stderr);
+    assert_eq!(get.stdout, set.stdout);
+    let info = run(&["info", "--port", port]);
+    assert!(info.ok(), "{}", info.stderr);
+    assert!(
+        info.stdout
+            .contains("detector:  -90 .. 90 degrees, 40 microsteps/degree")
+            && info.stdout.contains("settings (gonio config):\n")
+            && info.stdout.contains("detector.microsteps = 8\n"),
+        "{}",
+        info.stdout
+    );
+    // Refused by the device (out of range): exit 1, one line, nothing changed.
+    let bad = run(&["config", "set", "--port", port, "source.microsteps=3"]);
+    assert_eq!(bad.code, 1, "{}", bad.stderr);
+    assert!(
+        bad.stderr.contains("refused the settings: microsteps"),
+        "{}",
+        bad.stderr
+    );
+    // A typo is bad usage, caught before anything is sent.
+    let typo = run(&["config", "set", "--port", port, "source.microstep=3"]);
+    assert_eq!(typo.code, 2, "{}", typo.stderr);
+    assert!(
+        typo.stderr.contains("unknown key 'source.microstep'"),
+        "{}",
+        typo.stderr
+    );
+    assert_eq!(run(&["config", "get", "--port", port]).stdout, set.stdout);
+}
+
 #[test]
 fn info_and_a_full_capture_over_a_pty() {
     let _one = one_at_a_time();
@@ -511,11 +568,15 @@ fn info_prints_device_text_escaped() {
     assert!(!text.contains('\u{1b}'), "{text:?}");
     let device = text.lines().next().unwrap();
     assert!(device.starts_with("device:    x\\n0,0,1"), "{device:?}");
-    // Seven lines of Info, then the status line: this fake device answers only Info.
-    assert_eq!(text.lines().count(), 8, "{text}");
+    // Seven lines of Info, then the status and settings lines: this fake device
+    // answers only Info.
+    assert_eq!(text.lines().count(), 9, "{text}");
     assert_eq!(
-        text.lines().last(),
-        Some("status:    no answer to GetStatus"),
+        text.lines().skip(7).collect::<Vec<_>>(),
+        [
+            "status:    no answer to GetStatus",
+            "settings:  the device did not answer with its settings in time"
+        ],
         "{text}"
     );
     drop(h);

@@ -77,6 +77,9 @@ pub struct Rig {
     pub paused: Option<Pause>,
     /// The host sends IN tokens to the data endpoint (an application reads the port).
     pub reading: bool,
+    /// VBUS at the board's sense pin, reported to the link every loop as a self-powered
+    /// stm32f411 board does (true: plugged in).
+    pub vbus: bool,
 }
 
 impl Rig {
@@ -105,6 +108,7 @@ impl Rig {
             transfers: Vec::new(),
             paused: None,
             reading: false,
+            vbus: true,
         }
     }
 
@@ -116,6 +120,7 @@ impl Rig {
         self.service
             .ctrl
             .set_lease_clock(self.started.elapsed().as_micros() as u64);
+        self.link.set_vbus(self.vbus);
         let next = self.service.poll(&mut self.link, self.now_us);
         self.steps += 1;
         // The clock jumps to the controller's next tick, as on the QEMU board; with

@@ -1,5 +1,6 @@
-//! The bus goes away mid-sweep (USB suspend, or a bus reset of the configured device
-//! after a re-plug): the device goes to its safe state, as when DTR falls.
+//! The bus goes away mid-sweep (USB suspend, a bus reset of the configured device
+//! after a re-plug, or VBUS lost on a self-powered board that senses it): the device
+//! goes to its safe state, as when DTR falls.
 
 use std::time::Duration;
 
@@ -62,4 +63,44 @@ fn a_bus_reset_of_the_configured_device_ends_in_the_safe_state() {
     rig.wire.bus_reset();
     rig.run_device_for(200_000);
     assert_safe(&rig, "bus reset");
+}
+
+#[test]
+fn vbus_lost_ends_in_the_safe_state_at_once_and_a_replugged_host_starts_clean() {
+    let mut rig = sweeping();
+    let arms = |rig: &Rig| {
+        let c = &rig.service.ctrl;
+        (c.source().position(), c.detector().position())
+    };
+    // The cable is pulled: the bus has not yet been seen suspended (that takes 3 ms
+    // of idle bus), but the board's sense pin reads VBUS gone on its next loop.
+    rig.vbus = false;
+    rig.step();
+    assert_safe(&rig, "VBUS lost, one loop later");
+    assert!(!rig.link.host_open(), "DTR still seen raised");
+    let stopped_at = arms(&rig);
+    rig.run_device_for(1_000_000);
+    assert_eq!(arms(&rig), stopped_at, "an arm moved after VBUS was lost");
+    assert_safe(&rig, "VBUS lost, a second later");
+
+    // Plugged in again: the host enumerates the device afresh and opens the port; it
+    // hears nothing of the old session, and the device answers as after power-up.
+    rig.vbus = true;
+    rig.cdc = None;
+    rig.transfer.clear();
+    rig.received.clear();
+    let mut link = FramedLink::new(UsbPort::open(&mut rig));
+    link.handshake(ANSWER).expect("handshake after the re-plug");
+    link.send(&Command::GetStatus).unwrap();
+    loop {
+        match link.recv(ANSWER).unwrap() {
+            Some(Event::DeviceStatus(s)) => {
+                assert!(!s.laser, "laser on after the re-plug");
+                assert!(!s.busy, "a sweep ran on");
+                break;
+            }
+            Some(Event::Reading(r)) => panic!("a reading of the old session: {r:?}"),
+            _ => {}
+        }
+    }
 }

@@ -2,11 +2,13 @@
 //! [`variants`] (speed against error), the slower [`study`] runs (readings against fit
 //! error, fit time against error) and the [`replay_study`] on a real sweep, the three-component fit timed for the comparison
 //! with scipy ([`versus`]), the multi-start's speed against its accuracy ([`starts`]),
-//! a campaign's wall time against its CPU time and memory ([`campaign`]), their text
+//! a campaign's wall time against its CPU time and memory ([`campaign`]), the budget's
+//! Monte Carlo cost ([`monte_carlo`]), their text
 //! [`table`]s and the speed-against-error [`chart`].
 
 pub mod campaign;
 pub mod chart;
+pub mod monte_carlo;
 pub mod replay_study;
 pub mod starts;
 pub mod study;
@@ -16,6 +18,7 @@ pub mod versus;
 
 pub use campaign::{CampaignRow, CampaignStudy, campaign_study, default_threads};
 pub use chart::speed_vs_error;
+pub use monte_carlo::{MonteCarloCost, monte_carlo_cost, monte_carlo_line};
 pub use replay_study::{ReplayStudy, replay_study};
 pub use starts::{StartsRow, starts_study};
 pub use study::{

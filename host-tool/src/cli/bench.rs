@@ -72,6 +72,12 @@ pub struct BenchArgs {
     #[arg(long, value_name = "LIST", value_delimiter = ',', requires = "campaign",
           value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub threads: Vec<u32>,
+    /// Instead of the variants: the cost of N Monte Carlo trials of the uncertainty
+    /// budget (`gonio budget`) of a simulated paper-grid fit, on one thread (issue 51
+    /// bounds 10^4 trials at 2 s).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=1_000_000),
+          conflicts_with_all = ["study", "plot", "fit_vs", "campaign"])]
+    pub monte_carlo: Option<u32>,
     /// With --fit-vs: timed runs of each fit (1 to 10000).
     #[arg(long, value_name = "N", default_value_t = 15, requires = "fit_vs")]
     pub repeat: usize,
@@ -84,6 +90,15 @@ pub fn run(args: &BenchArgs) -> CliResult {
     }
     if let Some(n) = args.campaign {
         return campaign(args, n as usize);
+    }
+    if let Some(n) = args.monte_carlo {
+        let c = bench::monte_carlo_cost(n as usize).map_err(CliError::failed)?;
+        let text = if args.json {
+            serde_json::to_string_pretty(&c).expect("JSON of numbers") + "\n"
+        } else {
+            bench::monte_carlo_line(&c) + "\n"
+        };
+        return write_stdout(text.as_bytes());
     }
     if !(args.seconds.is_finite() && args.seconds > 0.0 && args.seconds <= 60.0) {
         return Err(CliError::usage("--seconds must be in (0, 60]"));

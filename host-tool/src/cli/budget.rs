@@ -56,6 +56,11 @@ pub struct BudgetArgs {
     /// below it are left out before the fit, as `gonio fit --floor`.
     #[arg(long, value_name = "VALUE|auto")]
     pub floor: Option<String>,
+    /// Add the appearance figures (specular gloss at 20, 60 and 85 deg, the D4039 haze
+    /// index, E430 haze and DOI; see `gonio appearance`) to the outputs: they need the
+    /// BRDF in 1/sr (a sweep in 1/sr, or --instrument).
+    #[arg(long)]
+    pub appearance: bool,
     /// Print every reading's expanded uncertainty (the JSON always holds them).
     #[arg(long)]
     pub per_reading: bool,
@@ -113,7 +118,15 @@ pub fn run(args: &BudgetArgs) -> CliResult {
         (data_noise.floor, data_noise.prop),
     );
     let sources = Sources::new(&resolved, instrument.is_some());
-    let ctx = Context::new(&sf.data, fit, sf.residual, sources);
+    let mut ctx = Context::new(&sf.data, fit, sf.residual, sources);
+    if args.appearance {
+        if sf.data.units != crate::sweep_file::BrdfUnits::PerSr {
+            return Err(CliError::usage(
+                "--appearance: gloss, haze and DOI need the BRDF in 1/sr but the sweep is in relative units: give --instrument FILE (or convert the sweep with gonio convert)",
+            ));
+        }
+        ctx = ctx.with_appearance(1.0).map_err(CliError::failed)?;
+    }
     let bar = indicatif::ProgressBar::new(args.trials as u64).with_style(
         indicatif::ProgressStyle::with_template(
             "{bar:30} {pos}/{len} trials  {per_sec}  eta {eta}",

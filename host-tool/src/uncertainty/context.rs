@@ -3,6 +3,7 @@
 
 use brdf_core::Geometry;
 use brdf_core::albedo::{Rule, albedo, member_brdf};
+use brdf_core::member_model::MemberModel;
 
 use super::inputs::{self, Point, Sources};
 use crate::fit::Residual;
@@ -33,7 +34,21 @@ pub struct Context<'a> {
     pub y_lin: f64,
     /// Per incidence: the albedo's quadrature rule (from the fitted widths).
     pub rules: Vec<Rule>,
+    /// The appearance figures are outputs: the factor from the data's units to 1/sr,
+    /// and whether the DOI is one (it is undefined where no flux reaches the specular
+    /// receptor).
+    pub appearance: Option<(f64, bool)>,
 }
+
+/// The appearance figures' output names and units, the DOI last.
+const APPEARANCE: [(&str, &str); 6] = [
+    ("gloss 20", "GU"),
+    ("gloss 60", "GU"),
+    ("gloss 85", "GU"),
+    ("haze index (D4039)", "GU"),
+    ("haze (E430)", "HU"),
+    ("DOI (E430)", ""),
+];
 
 impl<'a> Context<'a> {
     /// The context of `fit` to `data` under `residual` with `sources`.
@@ -74,11 +89,57 @@ impl<'a> Context<'a> {
             points,
             y_lin: inputs::median_level(&y),
             rules,
+            appearance: None,
         }
     }
 
-    /// The outputs' names and units: the free parameters (report names), then the
-    /// albedo at each incidence.
+    /// The same context with the appearance figures (gloss, haze, DOI) among the
+    /// outputs, the model times `to_per_sr` in 1/sr; `Err` when the fitted model's
+    /// figures cannot be computed.
+    pub fn with_appearance(mut self, to_per_sr: f64) -> Result<Self, String> {
+        self.appearance = Some((to_per_sr, true));
+        let a = self
+            .appearance_of(&self.fit.x)
+            .map_err(|e| format!("appearance figures: {e}"))?;
+        self.appearance = Some((to_per_sr, a.e430.doi.is_some()));
+        Ok(self)
+    }
+
+    /// The appearance figures of the fitted member at parameters `x`.
+    pub fn appearance_of(&self, x: &[f64]) -> Result<crate::appearance::Appearance, String> {
+        let (to, _) = self.appearance.ok_or("no appearance figures asked for")?;
+        let mut f = self.fit.clone();
+        f.x.copy_from_slice(x);
+        let table = crate::export::mitsuba::MemberTable::of_member_fit(&f);
+        crate::appearance::of_params(&|t| table.params_at(t), to).map_err(|e| e.to_string())
+    }
+
+    /// The appearance outputs at `x` ([`Context::output_names`]' order); empty when
+    /// none were asked for, `None` when they cannot be computed.
+    pub fn appearance_outputs(&self, x: &[f64]) -> Option<Vec<f64>> {
+        let Some((_, doi)) = self.appearance else {
+            return Some(Vec::new());
+        };
+        let a = self.appearance_of(x).ok()?;
+        let mut v: Vec<f64> = a.gloss.iter().map(|g| g.gu.value).collect();
+        v.push(a.haze_index.value);
+        v.push(a.e430.haze.value);
+        if doi {
+            v.push(a.e430.doi?.value);
+        }
+        Some(v)
+    }
+
+    /// How many appearance outputs there are.
+    pub fn n_appearance(&self) -> usize {
+        match self.appearance {
+            None => 0,
+            Some((_, doi)) => APPEARANCE.len() - usize::from(!doi),
+        }
+    }
+
+    /// The outputs' names and units: the free parameters (report names), the albedo
+    /// at each incidence, then the appearance figures when asked for.
     pub fn output_names(&self) -> Vec<(String, &'static str)> {
         let units = self.data.units;
         let mut out: Vec<_> = member_params(self.fit)
@@ -88,6 +149,9 @@ impl<'a> Context<'a> {
             .collect();
         for &t in &self.fit.incidences {
             out.push((format!("albedo({})", crate::text::angle(t)), "")); // BRDF units x sr
+        }
+        for &(name, unit) in &APPEARANCE[..self.n_appearance()] {
+            out.push((name.to_string(), unit));
         }
         out
     }
@@ -100,27 +164,59 @@ impl<'a> Context<'a> {
             .filter(|p| !p.held)
             .map(|p| p.value)
             .collect();
-        for (j, &t) in fit.incidences.iter().enumerate() {
-            let m = fit.layout.model(&fit.x, j)?;
-            let a = albedo(t.clamp(0.0, 90.0), 0.0, &self.rules[j], member_brdf(&m)).ok()?;
-            out.push(a.rho);
+        for j in 0..fit.incidences.len() {
+            out.push(self.albedo_of(fit, &fit.x, j)?);
         }
+        out.extend(self.appearance_outputs(&fit.x)?);
         out.iter().all(|v| v.is_finite()).then_some(out)
+    }
+
+    /// The albedo at incidence `j` of the fitted member at parameters `x` (the
+    /// budget's fixed rule).
+    pub fn albedo(&self, x: &[f64], j: usize) -> Option<f64> {
+        self.albedo_of(self.fit, x, j)
+    }
+
+    /// [`Context::albedo`] with `nodes` Gauss–Legendre nodes per panel instead of
+    /// [`ALBEDO_NODES`] (the same panels).
+    pub fn albedo_with(&self, x: &[f64], j: usize, nodes: usize) -> Option<f64> {
+        let rule = Rule {
+            nodes,
+            ..self.rules[j]
+        };
+        self.albedo_rule(self.fit, x, j, &rule)
+    }
+
+    fn albedo_of(&self, fit: &MemberFit, x: &[f64], j: usize) -> Option<f64> {
+        self.albedo_rule(fit, x, j, &self.rules[j])
+    }
+
+    fn albedo_rule(&self, fit: &MemberFit, x: &[f64], j: usize, rule: &Rule) -> Option<f64> {
+        let t = fit.incidences[j];
+        let m = fit.layout.model(x, j)?;
+        let a = albedo(t.clamp(0.0, 90.0), 0.0, rule, member_brdf(&m)).ok()?;
+        Some(a.rho)
     }
 
     /// The fitted model's value at incidence `inc`'s parameters, at any angles
     /// (degrees), averaged over the detector as the fit does.
     pub fn model_value(&self, x: &[f64], inc: usize, theta_i: f64, theta_r: f64) -> Option<f64> {
         let m = self.fit.layout.model(x, inc)?;
+        self.value_of(&m, theta_i, theta_r)
+    }
+
+    /// A model's value at any angles (degrees), averaged over the detector as the fit
+    /// does.
+    pub fn value_of(&self, m: &MemberModel<f64>, theta_i: f64, theta_r: f64) -> Option<f64> {
         let o = Observation {
             theta_i,
             theta_r,
             y: 1.0,
-            inc,
+            inc: 0, // the model is given: its incidence index is not read
             geom: Geometry::in_plane(theta_i, theta_r).ok()?,
             sigma_y: None,
         };
-        eval_at(&m, &o, self.fit.aperture).map(|e| e.f)
+        eval_at(m, &o, self.fit.aperture).map(|e| e.f)
     }
 
     /// The readings as fitted.

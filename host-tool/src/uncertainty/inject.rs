@@ -15,6 +15,39 @@ use brdf_core::controller::DetectorError;
 use brdf_core::sim::SampleSource;
 
 use super::inputs::{Kind, Rng, Sources, perturb};
+use crate::calibrate::uncertainty_model::{Arm, Entry, NoiseEntry, Source, UncertaintyModel};
+
+/// Every source at a stated magnitude (the tests' injection and `gonio bench
+/// --monte-carlo`'s model): arms 0.1 deg step and backlash, 0.05 deg home; K 1 %,
+/// reference 0.5 %, linearity 0.3 % per decade; noise 0.5 + 2 % y.
+pub fn example_model() -> UncertaintyModel {
+    let e = |value: f64, u: Option<f64>| {
+        Some(Entry {
+            value,
+            u,
+            source: Source::Stated,
+        })
+    };
+    let arm = Arm {
+        step_deg: e(0.1, None),
+        backlash_deg: e(0.1, None),
+        home_deg: e(0.0, Some(0.05)),
+    };
+    UncertaintyModel {
+        source_arm: Some(arm),
+        detector_arm: Some(arm),
+        solid_angle_sr: e(1e-3, Some(1e-5)),
+        beam_diameter_mm: e(2.0, Some(0.1)),
+        reference: e(0.99, Some(0.005)),
+        scale: e(1.0, Some(0.01)),
+        noise: Some(NoiseEntry {
+            floor: 0.5,
+            prop: 0.02,
+            source: Source::Stated,
+        }),
+        linearity: e(0.0, Some(0.003)),
+    }
+}
 
 /// A sample seen through injected instrument errors.
 pub struct Injected {

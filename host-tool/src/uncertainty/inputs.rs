@@ -257,6 +257,23 @@ impl Draw {
         y_lin: f64,
         model: &dyn Fn(usize, f64, f64) -> Option<f64>,
     ) -> Vec<f64> {
+        self.apply_known(s, points, y, y_lin, model, &|k| {
+            let p = points[k];
+            model(p.inc, p.theta_i, p.theta_r)
+        })
+    }
+
+    /// [`Draw::apply`] with the model at the recorded angles known: `recorded(k)` for
+    /// reading `k` (a Monte Carlo trial computes them once, not per trial).
+    pub fn apply_known(
+        &self,
+        s: &Sources,
+        points: &[Point],
+        y: &[f64],
+        y_lin: f64,
+        model: &dyn Fn(usize, f64, f64) -> Option<f64>,
+        recorded: &dyn Fn(usize) -> Option<f64>,
+    ) -> Vec<f64> {
         let gain = (1.0 + self.scale) * (1.0 + self.reference);
         points
             .iter()
@@ -265,7 +282,7 @@ impl Draw {
             .map(|(k, (p, &y))| {
                 let ti = (p.theta_i + self.d_i[p.inc]).clamp(0.0, 90.0);
                 let tr = (p.theta_r + self.d_r[k]).clamp(-90.0, 90.0);
-                let ratio = match (model(p.inc, ti, tr), model(p.inc, p.theta_i, p.theta_r)) {
+                let ratio = match (model(p.inc, ti, tr), recorded(k)) {
                     (Some(a), Some(b)) if b > 0.0 && a.is_finite() => a / b,
                     _ => 1.0,
                 };

@@ -3,82 +3,17 @@
 //! -(J^T J)^-1 J^T dr/dy), each source's sensitivity through the readings, and the
 //! contributions summed in quadrature (the sources independent).
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DVector;
 
 use super::context::Context;
 use super::inputs::{Kind, lin_decades};
-use crate::fit::options::residual_of;
+use super::trial::Linearised;
 
-/// Per output, d(output)/d(reading k) for every reading; `None` when the fit's
-/// Jacobian cannot be formed or is singular.
+/// Per output, d(output)/d(reading k) for every reading (Gauss–Newton: dx/dy =
+/// -(J^T J)^+ J^T dr/dy, see [`Linearised`]); `None` when the fit's Jacobian cannot be
+/// formed.
 pub fn reading_sensitivities(ctx: &Context<'_>) -> Option<Vec<Vec<f64>>> {
-    let fit = ctx.fit;
-    let data = ctx.data;
-    let x0 = &fit.x;
-    let free: Vec<usize> = (0..x0.len()).filter(|&i| !fit.is_fixed(i)).collect();
-    let n = data.obs.len();
-    let values = |x: &[f64]| -> Option<Vec<f64>> {
-        let models = fit.layout.models(x)?;
-        data.obs
-            .iter()
-            .map(|o| crate::fit::member_fit::eval_at(&models[o.inc], o, fit.aperture).map(|e| e.f))
-            .collect()
-    };
-    let f0 = values(x0)?;
-    // dr/df and dr/dy per reading (central differences of the objective's residual).
-    let kind = ctx.residual;
-    let mut drdf = vec![0.0; n];
-    let mut drdy = vec![0.0; n];
-    for (k, o) in data.obs.iter().enumerate() {
-        let hf = 1e-6 * f0[k].abs().max(1e-300);
-        drdf[k] =
-            (residual_of(kind, f0[k] + hf, o.y) - residual_of(kind, f0[k] - hf, o.y)) / (2.0 * hf);
-        let hy = 1e-6 * o.y.abs().max(1e-300);
-        drdy[k] =
-            (residual_of(kind, f0[k], o.y + hy) - residual_of(kind, f0[k], o.y - hy)) / (2.0 * hy);
-    }
-    // J = dr/dx (free parameters), and d(output)/dx, by central differences in x.
-    let p = free.len();
-    let mut jac = DMatrix::<f64>::zeros(n, p);
-    let q0 = ctx.outputs(fit)?;
-    let mut dqdx = DMatrix::<f64>::zeros(q0.len(), p);
-    let mut trial = fit.clone();
-    for (c, &i) in free.iter().enumerate() {
-        let h = 1e-5;
-        let mut xp = x0.clone();
-        xp[i] += h;
-        let mut xm = x0.clone();
-        xm[i] -= h;
-        let (fp, fm) = (values(&xp)?, values(&xm)?);
-        for k in 0..n {
-            jac[(k, c)] = drdf[k] * (fp[k] - fm[k]) / (2.0 * h);
-        }
-        trial.x.clone_from(&xp);
-        let qp = ctx.outputs(&trial)?;
-        trial.x.clone_from(&xm);
-        let qm = ctx.outputs(&trial)?;
-        for (r, (a, b)) in qp.iter().zip(&qm).enumerate() {
-            dqdx[(r, c)] = (a - b) / (2.0 * h);
-        }
-    }
-    // dx/dy = -(J^T J)^-1 J^T diag(dr/dy), by the pseudo-inverse (a parameter the data
-    // do not determine gets no sensitivity rather than an infinite one).
-    let jtj = jac.transpose() * &jac;
-    let eps = 1e-12 * jtj.norm().max(1e-300);
-    let inv = jtj.pseudo_inverse(eps).ok()?;
-    let mut rhs = jac.transpose();
-    for k in 0..n {
-        for c in 0..p {
-            rhs[(c, k)] *= drdy[k];
-        }
-    }
-    let dxdy = -(inv * rhs);
-    let g = dqdx * dxdy;
-    Some(
-        (0..g.nrows())
-            .map(|r| g.row(r).iter().copied().collect())
-            .collect(),
-    )
+    Linearised::new(ctx).map(|l| l.reading_sensitivities())
 }
 
 /// Per reading: dy/d(theta_i) and dy/d(theta_r) (per degree), from the fitted model

@@ -8,7 +8,9 @@
 //!   simulated device's injection), the generator;
 //! - [`inject`]: the sources injected into a simulated device's sample;
 //! - [`linear`]: the sensitivities and the law of propagation;
-//! - [`monte_carlo`]: trials in parallel, each an LM refit from the fit's optimum;
+//! - [`monte_carlo`]: trials in parallel, each a refit from the fit's optimum;
+//! - [`trial`]: the cheap trial (chord refit, the albedo's expansion), checked against
+//!   full refits;
 //! - [`context`]: the fit and data propagated, the outputs of a refit;
 //! - [`budget`]: the budget (per source: value, sensitivity, contribution; combined
 //!   and expanded, k = 2), which method each figure uses, text and JSON.
@@ -23,6 +25,7 @@ pub mod inject;
 pub mod inputs;
 pub mod linear;
 pub mod monte_carlo;
+pub mod trial;
 
 pub use budget::{Budget, Method};
 pub use context::{ALBEDO_NODES, Context};

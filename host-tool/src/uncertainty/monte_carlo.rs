@@ -6,8 +6,11 @@
 
 use rayon::prelude::*;
 
+use brdf_core::member_model::MemberModel;
+
 use super::context::Context;
 use super::inputs::{Draw, Rng};
+use super::trial::{CHECKED, Linearised, Outcome, Prepared};
 use crate::fit::member_fit::fit_member_from;
 
 /// The trials' outputs.
@@ -21,7 +24,31 @@ pub struct Trials {
     /// normal truncated at zero, under an objective that takes logarithms (over all
     /// trials).
     pub raised: usize,
+    /// How the trials refitted.
+    pub how: How,
 }
+
+/// How the trials refitted: cheaply ([`trial`]) once the check passed, or each in full.
+#[derive(Debug, Clone, PartialEq)]
+pub enum How {
+    /// The cheap trials: on the first [`trial::CHECKED`] trials (refitted in full, and
+    /// those are the samples kept) the cheap trial's outputs differed from the full
+    /// ones by at most `worst` of the output's law-of-propagation standard
+    /// uncertainty; `full` later trials whose chord iterations did not converge
+    /// refitted in full.
+    Cheap {
+        /// The check's largest difference, relative to u (law).
+        worst: f64,
+        /// Later trials refitted in full.
+        full: usize,
+    },
+    /// Every trial a full refit and quadrature, and why.
+    Full(String),
+}
+
+/// The cheap trials are used when the check's largest difference is at most this
+/// fraction of an output's standard uncertainty (law).
+pub const CHECK_TOLERANCE: f64 = 0.05;
 
 /// Why Monte Carlo cannot run.
 pub fn refused(ctx: &Context<'_>) -> Option<String> {
@@ -31,52 +58,176 @@ pub fn refused(ctx: &Context<'_>) -> Option<String> {
     None
 }
 
-/// Runs `trials` trials from `seed`; `tick` is called after each (a progress bar).
-pub fn run(ctx: &Context<'_>, trials: usize, seed: u64, tick: &(dyn Fn() + Sync)) -> Trials {
-    let y = ctx.readings();
-    let n_inc = ctx.fit.incidences.len();
+/// One trial's perturbed readings (and the readings raised from zero).
+fn perturbed(
+    ctx: &Context<'_>,
+    y: &[f64],
+    f0: &[f64],
+    models: &[MemberModel<f64>],
+    seed: u64,
+    t: usize,
+) -> (Vec<f64>, usize) {
     let positive = ctx.residual.needs_positive();
     let least = y
         .iter()
         .copied()
         .filter(|v| *v > 0.0)
         .fold(f64::INFINITY, f64::min);
-    let x = &ctx.fit.x;
-    let model = |inc: usize, ti: f64, tr: f64| ctx.model_value(x, inc, ti, tr);
-    let results: Vec<(Option<Vec<f64>>, usize)> = (0..trials)
-        .into_par_iter()
-        .map(|t| {
-            let mut rng = Rng::new(seed, t as u64);
-            let draw = Draw::new(&ctx.sources, &ctx.points, n_inc, &mut rng);
-            let yp = draw.apply(&ctx.sources, &ctx.points, &y, ctx.y_lin, &model);
-            let mut data = ctx.data.clone();
-            let mut raised = 0;
-            for (k, (o, v)) in data.obs.iter_mut().zip(yp).enumerate() {
-                o.y = if positive && v <= 0.0 {
-                    raised += 1;
-                    truncated(v, ctx.sources.sigma(y[k]), draw.z[k], least, &mut rng)
-                } else {
-                    v
-                };
+    let mut rng = Rng::new(seed, t as u64);
+    let draw = Draw::new(&ctx.sources, &ctx.points, models.len(), &mut rng);
+    let model = |inc: usize, ti: f64, tr: f64| ctx.value_of(&models[inc], ti, tr);
+    let recorded = |k: usize| Some(f0[k]).filter(|v| v.is_finite());
+    let yp = draw.apply_known(&ctx.sources, &ctx.points, y, ctx.y_lin, &model, &recorded);
+    let mut raised = 0;
+    let out = yp
+        .into_iter()
+        .enumerate()
+        .map(|(k, v)| {
+            if positive && v <= 0.0 {
+                raised += 1;
+                truncated(v, ctx.sources.sigma(y[k]), draw.z[k], least, &mut rng)
+            } else {
+                v
             }
-            let out = fit_member_from(
-                &data,
-                ctx.fit.member(),
-                ctx.residual,
-                ctx.fit.aperture,
-                &ctx.fit.x,
-            )
-            .and_then(|f| ctx.outputs(&f.fit));
-            tick();
-            (out, raised)
         })
         .collect();
-    let raised = results.iter().map(|r| r.1).sum();
-    let failed = results.iter().filter(|r| r.0.is_none()).count();
+    (out, raised)
+}
+
+/// A full trial: the member refitted by LM from the optimum, the albedo by quadrature.
+fn full(ctx: &Context<'_>, yp: &[f64]) -> Option<Vec<f64>> {
+    let mut data = ctx.data.clone();
+    for (o, &v) in data.obs.iter_mut().zip(yp) {
+        o.y = v;
+    }
+    fit_member_from(
+        &data,
+        ctx.fit.member(),
+        ctx.residual,
+        ctx.fit.aperture,
+        &ctx.fit.x,
+    )
+    .and_then(|f| ctx.outputs(&f.fit))
+}
+
+/// Runs `trials` trials from `seed`; `lin`: the fit linearised (the cheap trials'
+/// base), `u_law`: each output's standard uncertainty by the law of propagation (the
+/// cheap trials' check is relative to it); `tick` is called after each trial (a
+/// progress bar).
+pub fn run(
+    ctx: &Context<'_>,
+    trials: usize,
+    seed: u64,
+    lin: &Linearised,
+    u_law: &[f64],
+    tick: &(dyn Fn() + Sync),
+) -> Trials {
+    let y = ctx.readings();
+    let x = &ctx.fit.x;
+    let Some(models) = ctx.fit.layout.models(x) else {
+        return Trials {
+            samples: Vec::new(),
+            failed: trials,
+            raised: 0,
+            how: How::Full("the fitted model cannot be built".into()),
+        };
+    };
+    let f0: Vec<f64> = ctx
+        .points
+        .iter()
+        .map(|p| {
+            ctx.value_of(&models[p.inc], p.theta_i, p.theta_r)
+                .unwrap_or(f64::NAN)
+        })
+        .collect();
+    let prepared = Prepared::new(ctx, lin);
+    // The check: the first trials both ways (in full kept as the samples).
+    let checked = trials.min(CHECKED);
+    let first: Vec<(Option<Vec<f64>>, Outcome, usize)> = (0..checked)
+        .into_par_iter()
+        .map(|t| {
+            let (yp, raised) = perturbed(ctx, &y, &f0, &models, seed, t);
+            let cheap = prepared.as_ref().and_then(|p| {
+                let mut scratch = ctx.fit.clone();
+                p.refit(ctx, &yp)
+                    .and_then(|x| p.outputs(ctx, &x, &mut scratch))
+            });
+            let out = full(ctx, &yp);
+            tick();
+            (out, cheap, raised)
+        })
+        .collect();
+    let mut worst: f64 = 0.0;
+    let mut compared = 0;
+    let mut why = None;
+    for (full, cheap, _) in &first {
+        match (full, cheap) {
+            (Some(a), Some(b)) => {
+                compared += 1;
+                for ((a, b), u) in a.iter().zip(b).zip(u_law) {
+                    worst = worst.max((a - b).abs() / u.max(f64::MIN_POSITIVE));
+                }
+            }
+            (Some(_), None) => why = Some("a checked trial's chord iterations did not converge"),
+            _ => {}
+        }
+    }
+    let how = match (&prepared, why) {
+        (None, _) => How::Full(
+            "the Jacobian or the albedo's expansion cannot be formed at the optimum".into(),
+        ),
+        (_, Some(w)) => How::Full(w.into()),
+        _ if compared == 0 && trials > checked => How::Full("no checked trial refitted".into()),
+        _ if worst > CHECK_TOLERANCE => How::Full(format!(
+            "the cheap trials differed from full refits by {:.1} % of an output's u on the checked trials (above {:.0} %)",
+            100.0 * worst,
+            100.0 * CHECK_TOLERANCE
+        )),
+        _ => How::Cheap { worst, full: 0 },
+    };
+    let cheap = matches!(how, How::Cheap { .. })
+        .then_some(prepared.as_ref())
+        .flatten();
+    let rest: Vec<(Option<Vec<f64>>, usize, bool)> = (checked..trials)
+        .into_par_iter()
+        .map_init(
+            || ctx.fit.clone(),
+            |scratch, t| {
+                let (yp, raised) = perturbed(ctx, &y, &f0, &models, seed, t);
+                let quick = cheap.and_then(|p| p.refit(ctx, &yp).map(|x| (p, x)));
+                let (out, fell_back) = match quick {
+                    Some((p, x)) => (p.outputs(ctx, &x, scratch), false),
+                    None => (full(ctx, &yp), cheap.is_some()),
+                };
+                tick();
+                (out, raised, fell_back)
+            },
+        )
+        .collect();
+    let how = match how {
+        How::Cheap { worst, .. } => How::Cheap {
+            worst,
+            full: rest.iter().filter(|r| r.2).count(),
+        },
+        h => h,
+    };
+    let raised = first.iter().map(|r| r.2).sum::<usize>() + rest.iter().map(|r| r.1).sum::<usize>();
+    let outs = first
+        .into_iter()
+        .map(|r| r.0)
+        .chain(rest.into_iter().map(|r| r.0));
+    let (mut samples, mut failed) = (Vec::with_capacity(trials), 0);
+    for o in outs {
+        match o {
+            Some(v) => samples.push(v),
+            None => failed += 1,
+        }
+    }
     Trials {
-        samples: results.into_iter().filter_map(|r| r.0).collect(),
+        samples,
         failed,
         raised,
+        how,
     }
 }
 

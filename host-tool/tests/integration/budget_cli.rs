@@ -70,6 +70,7 @@ fn an_injected_simulation_gets_a_budget_with_every_source() {
         &s(&inst),
         "--trials",
         "40",
+        "--appearance",
         "--json",
     ]);
     assert!(out.ok(), "{}", out.stderr);
@@ -108,17 +109,20 @@ fn an_injected_simulation_gets_a_budget_with_every_source() {
         assert_eq!(o["budget"].as_array().unwrap().len(), 10, "{name}");
         let rel = o["expanded"].as_f64().unwrap() / o["value"].as_f64().unwrap().abs();
         assert!(rel.is_finite() && rel > 0.0, "{name}");
-        if name.starts_with("k_") || name.starts_with("albedo") {
+        if name.starts_with("k_") || name.starts_with("albedo") || name.starts_with("gloss") {
             // K's own share at k = 2, at least.
             assert!(rel >= 2.0 * u_k_rel * 0.999, "{name}: {rel} < 2 u(K)/K");
         }
         assert!(["law", "monte-carlo"].contains(&o["method"].as_str().unwrap()));
     }
-    assert!(
-        outputs
-            .iter()
-            .any(|o| o["name"].as_str().unwrap().starts_with("albedo("))
-    );
+    for figure in ["albedo(", "gloss 20", "gloss 60", "gloss 85", "haze (E430)"] {
+        assert!(
+            outputs
+                .iter()
+                .any(|o| o["name"].as_str().unwrap().starts_with(figure)),
+            "{figure}"
+        );
+    }
     let readings = j["readings"].as_array().unwrap();
     assert!(readings.len() > 100);
     assert!(

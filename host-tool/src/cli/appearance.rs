@@ -181,18 +181,23 @@ pub fn fit_report(
 
 /// The sweep's measurement metadata for the exports, its `nebsdf` in 1/sr: as written
 /// for a sweep in 1/sr, times `scale` for a relative one, else left out (said on
-/// stderr). A value out of range is bad input.
+/// stderr). A value out of range is bad input. `sweep` is the metadata read with the
+/// readings ([`crate::fit::job::Job::measurement`]; none for arrays), `name` the
+/// sweep's in messages.
 pub fn export_measurement(
-    sweep: &std::path::Path,
+    sweep: Option<&crate::fit::job::SweepMeasurement>,
+    name: &str,
     scale: Option<f64>,
 ) -> CliResult<crate::sweep_file::Measurement> {
-    let data = crate::sweep_file::read_sweep(sweep)?;
-    let name = sweep.display();
-    let mut m = data
-        .measurement()
+    let Some(sweep) = sweep else {
+        return Ok(crate::sweep_file::Measurement::default());
+    };
+    let mut m = sweep
+        .meta
+        .clone()
         .map_err(|e| CliError::usage(format!("{name}: {e}")))?;
     if let Some(v) = m.nebsdf {
-        m.nebsdf = match (data.brdf_units(), scale) {
+        m.nebsdf = match (sweep.units, scale) {
             (crate::sweep_file::BrdfUnits::PerSr, _) => Some(v),
             (_, Some(s)) => Some(v * s),
             _ => {

@@ -139,7 +139,11 @@ fn write_outputs(
     let measurement = if args.export.is_empty() {
         crate::sweep_file::Measurement::default()
     } else {
-        super::appearance::export_measurement(sweep, args.scale)?
+        super::appearance::export_measurement(
+            out.measurement.as_ref(),
+            &sweep.display().to_string(),
+            args.scale,
+        )?
     };
     let inputs = [sweep];
     for (format, path) in &args.export {

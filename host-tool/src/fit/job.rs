@@ -11,7 +11,7 @@ use super::data::{ConvertRows, Dataset};
 use super::family_fit::FamilyFit;
 use super::options::{FitOptions, Residual};
 use super::stages::fit_family;
-use crate::sweep_file::{BrdfUnits, Row};
+use crate::sweep_file::{BrdfUnits, Measurement, Row};
 
 /// Why one sweep could not be fitted.
 #[derive(Debug, Clone, PartialEq)]
@@ -45,6 +45,20 @@ pub struct Job {
     pub options: FitOptions,
     /// Things worth telling that did not stop the fit, each starting with the name.
     pub warnings: Vec<String>,
+    /// The sweep file's measurement metadata, read with it (`None` for arrays).
+    pub measurement: Option<SweepMeasurement>,
+}
+
+/// A sweep file's measurement metadata (`# wavelength:`, `# nebsdf:`, ...) as read
+/// with its readings, for the exports: so that `gonio fit --export` does not read the
+/// sweep a second time.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SweepMeasurement {
+    /// The metadata, or why a line of it is refused (refused only where an export
+    /// needs it: a fit does not).
+    pub meta: Result<Measurement, String>,
+    /// The units of the file's brdf column, in which its `nebsdf` is given.
+    pub units: BrdfUnits,
 }
 
 impl Job {
@@ -58,6 +72,7 @@ impl Job {
             data,
             options,
             warnings,
+            measurement: None,
         }
     }
 }
@@ -75,6 +90,8 @@ pub struct Outcome {
     pub residual: Residual,
     /// Things worth telling that did not stop the fit.
     pub warnings: Vec<String>,
+    /// The job's [`Job::measurement`].
+    pub measurement: Option<SweepMeasurement>,
 }
 
 /// Fits the family to the job's data, then assesses it: the physical checks its
@@ -92,6 +109,7 @@ pub fn run(job: Job) -> Result<Outcome, FileError> {
         family,
         residual,
         warnings: job.warnings,
+        measurement: job.measurement,
     })
 }
 

@@ -28,33 +28,47 @@ fn vertex(x: [f64; 3], y: [f64; 3]) -> Option<f64> {
     (x[0]..=x[2]).contains(&v).then_some(v)
 }
 
+/// The vertex of the parabola in ln(value) through the highest of `v` and its two
+/// neighbours (`x` ascending), `None` without three such positive values, with the
+/// highest at an end, or not bending down.
+fn peak_vertex(x: &[f64], v: &[Option<f64>]) -> Option<f64> {
+    let top = (0..v.len())
+        .filter(|&i| v[i].is_some_and(|y| y > 0.0))
+        .max_by(|&a, &b| v[a].unwrap_or(0.0).total_cmp(&v[b].unwrap_or(0.0)))?;
+    if top == 0 || top + 1 >= v.len() {
+        return None;
+    }
+    let ln = |i: usize| v[i].filter(|y| *y > 0.0).map(f64::ln);
+    vertex(
+        [x[top - 1], x[top], x[top + 1]],
+        [ln(top - 1)?, ln(top)?, ln(top + 1)?],
+    )
+}
+
 /// Per incidence (degrees): the measured peak's position minus the fitted one's, each
-/// the vertex of a parabola in ln(value) through the highest reading and its two
-/// neighbours in theta_r, for incidences with a peak (at least [`PEAK_RATIO`] above
-/// their lowest reading, not at the sweep's end, bending down in both). `fitted` is the
-/// model's value at every reading of `data` (file order).
+/// the vertex of a parabola in ln(value) through its own highest reading and that
+/// reading's two neighbours in theta_r (the model's through its highest fitted value,
+/// so that a peak several steps off the model's is seen: both through the measured
+/// top's readings, a peak 5 degrees past the mirror direction left the model's values
+/// there falling, with no vertex, and the incidence out), for incidences with a peak
+/// (at least [`PEAK_RATIO`] above their lowest reading, not at the sweep's end,
+/// bending down in both). `fitted` is the model's value at every reading of `data`
+/// (file order).
 pub fn offsets(data: &Dataset, fitted: &[Option<f64>]) -> Vec<(f64, f64)> {
     let mut out = Vec::new();
     for (j, &ti) in data.incidences.iter().enumerate() {
         let mut rows: Vec<usize> = data.rows_of(j).to_vec();
         rows.sort_by(|&a, &b| data.obs[a].theta_r.total_cmp(&data.obs[b].theta_r));
         let y = |k: usize| data.obs[k].y;
-        let Some(top) = (0..rows.len()).max_by(|&a, &b| y(rows[a]).total_cmp(&y(rows[b]))) else {
-            continue;
-        };
         let low = rows.iter().map(|&k| y(k)).fold(f64::INFINITY, f64::min);
-        if top == 0 || top + 1 >= rows.len() || !(low > 0.0 && y(rows[top]) >= PEAK_RATIO * low) {
+        let high = rows.iter().map(|&k| y(k)).fold(f64::NEG_INFINITY, f64::max);
+        if !(low > 0.0 && high >= PEAK_RATIO * low) {
             continue;
         }
-        let three = [rows[top - 1], rows[top], rows[top + 1]];
-        let x = three.map(|k| data.obs[k].theta_r);
-        let measured = vertex(x, three.map(|k| y(k).ln()));
-        let model: Option<[f64; 3]> = three
-            .iter()
-            .map(|&k| fitted[k].filter(|f| *f > 0.0).map(f64::ln))
-            .collect::<Option<Vec<f64>>>()
-            .map(|v| [v[0], v[1], v[2]]);
-        if let (Some(m), Some(f)) = (measured, model.and_then(|f| vertex(x, f))) {
+        let x: Vec<f64> = rows.iter().map(|&k| data.obs[k].theta_r).collect();
+        let measured: Vec<Option<f64>> = rows.iter().map(|&k| Some(y(k))).collect();
+        let model: Vec<Option<f64>> = rows.iter().map(|&k| fitted[k]).collect();
+        if let (Some(m), Some(f)) = (peak_vertex(&x, &measured), peak_vertex(&x, &model)) {
             out.push((ti, m - f));
         }
     }

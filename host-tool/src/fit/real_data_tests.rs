@@ -591,3 +591,74 @@ fn an_offset_peak_at_one_degree_steps_is_said_too() {
         f.notes
     );
 }
+
+/// Issue 53: a sweep whose peaks sit 5 degrees past the mirror direction at every
+/// incidence gave no note: the model's values through the three readings around the
+/// measured peak were still falling, so they had no vertex and every incidence was
+/// left out. Now each peak's vertex is taken through its own highest value.
+#[test]
+fn a_peak_five_degrees_past_the_mirror_at_every_incidence_is_said() {
+    let rows = rows_step(
+        &[10.0, 30.0, 50.0],
+        1.0,
+        |ti, tr| model_value(&two_lobes(ti), ti, (tr - 5.0).clamp(-89.5, 89.5)),
+        0.01,
+        29,
+    );
+    let f = family(&rows);
+    let note = f
+        .notes
+        .iter()
+        .find(|n| n.starts_with("the measured specular peak sits"))
+        .unwrap_or_else(|| panic!("no offset note: {:?}", f.notes));
+    let mean: f64 = note["the measured specular peak sits ".len()..]
+        .split(' ')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(mean > 0.5, "{note}");
+}
+
+/// Issue 53: incidences off the detector grid (30.75, 44.1 with readings at whole
+/// degrees) must not show a peak offset that is the grid's rounding (one gave a false
+/// -0.26 deg): cores of each shape, narrower and wider than the step, none offset.
+#[test]
+fn incidences_off_the_reading_grid_show_no_false_peak_offset() {
+    for core in [
+        lobe(0.01, 0.4),
+        lobe(0.003, 0.4),
+        lobe(0.008, 0.4).map(|l| LobeParams {
+            dist: Distribution::StudentT,
+            gamma: Some(1.5),
+            ..l
+        }),
+        lobe(0.008, 0.4).map(|l| LobeParams {
+            dist: Distribution::Ggx,
+            ..l
+        }),
+    ] {
+        let p = |ti: f64| MemberParams {
+            core,
+            ..two_lobes(ti)
+        };
+        let rows = rows_step(
+            &[30.75, 44.1],
+            1.0,
+            |ti, tr| model_value(&p(ti), ti, tr),
+            0.01,
+            29,
+        );
+        let data = Dataset::from_rows(&rows, true).unwrap();
+        let f = family(&rows);
+        let fitted = f.fitted(&data, f.selected_member).unwrap();
+        for (ti, o) in super::peak::offsets(&data, &fitted) {
+            assert!(o.abs() < 0.05, "{core:?} at {ti}: {o}");
+        }
+        assert!(
+            !has_note(&f, "the measured specular peak sits"),
+            "{core:?}: {:?}",
+            f.notes
+        );
+    }
+}

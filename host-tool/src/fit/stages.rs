@@ -182,7 +182,7 @@ pub fn fit_family(data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, String
                 .fitted(data, m)
                 .and_then(|v| peak::mean_offset(data, &v))
                 .map_or(0.0, |(mean, _)| mean);
-            offset::fit_angles(data, m, &member_ssr(&plain, m), s0)
+            offset::fit_angles(data, m, &member_ssr(&plain, m), plain.residual, s0)
         }
     };
     let (local, _) = angles.apply(data)?;

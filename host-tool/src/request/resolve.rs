@@ -132,7 +132,12 @@ impl Request {
                 "{name}: readings are detector signals: divided by K cos(theta_r)"
             ));
         }
-        Ok(Job::new(name, data, self.fit.clone(), warnings))
+        let mut job = Job::new(name, data, self.fit.clone(), warnings);
+        job.measurement = Some(fit::job::SweepMeasurement {
+            meta: sweep.measurement(),
+            units: sweep.brdf_units(),
+        });
+        Ok(job)
     }
 
     /// The job of fitting `rows` in `units` (arrays, not a file: named `name` in the

@@ -1,6 +1,7 @@
 use super::*;
 use crate::fit::data::synthetic_paper_sweep;
 use crate::fit::offset::OffsetSpec;
+use crate::sweep_file::{BrdfUnits, Row};
 use std::path::PathBuf;
 
 /// A paper sweep of fe-0.115 with these `#` lines, written into a test directory.
@@ -80,4 +81,39 @@ fn words_are_read_as_the_command_line_reads_them() {
         ..Words::default()
     };
     assert!(bad.request().unwrap_err().starts_with("--aperture"));
+}
+
+/// Issue 50: the job carries the sweep's measurement metadata, read with its readings,
+/// so `gonio fit --export` does not read the sweep a second time (it did, in
+/// `cli/appearance.rs::export_measurement`): the exports' metadata come from the job
+/// even once the file is gone; a malformed line is kept as its refusal, for an export
+/// to report, and does not stop the fit.
+#[test]
+fn the_job_carries_the_sweeps_measurement_metadata() {
+    let path = sweep_with(
+        "# wavelength: 633 nm\n# nebsdf: 0.002 1/sr\n# brdf: 1/sr\n",
+        "measurement.csv",
+    );
+    let job = Request::default().job_for_file(&path).unwrap();
+    std::fs::remove_file(&path).unwrap();
+    let m = job.measurement.clone().expect("read with the sweep");
+    assert_eq!(m.units, BrdfUnits::PerSr);
+    let meta = m.meta.unwrap();
+    assert_eq!(
+        (meta.wavelength_nm, meta.nebsdf),
+        (Some(633.0), Some(0.002))
+    );
+    let exported =
+        crate::cli::appearance::export_measurement(job.measurement.as_ref(), "x", None).unwrap();
+    assert_eq!(exported, meta);
+    let bad = sweep_with("# wavelength: -5 nm\n", "bad-measurement.csv");
+    let job = Request::default().job_for_file(&bad).unwrap();
+    assert!(job.measurement.unwrap().meta.is_err());
+    // Arrays have none.
+    let fe = brdf_core::Preset::by_name("fe-0.115").unwrap();
+    let rows: Vec<Row> = synthetic_paper_sweep(|ti| fe.model(ti).unwrap(), 0.0, 3);
+    let job = Request::default()
+        .job_for_rows(&rows, BrdfUnits::PerSr, "the arrays")
+        .unwrap();
+    assert!(job.measurement.is_none());
 }

@@ -724,3 +724,27 @@ fn readings_share_a_detector_angle_by_its_magnitude() {
     }
     assert_eq!(d[data.detector_of(0)], 12.5f64.to_radians());
 }
+
+#[test]
+fn a_specular_far_below_the_noise_is_not_supported() {
+    // A nearly flat material: ideal diffuse 1/sr and a specular lobe whose peak is
+    // some 3e-5 of it, under 1 % noise (a std column): no note may call it supported.
+    let rows = sweep(
+        |_| Model::torrance_sparrow(1e-6, 0.1, 1.0).unwrap(),
+        0.01,
+        1,
+    );
+    let data = Dataset::from_rows(&rows, true).unwrap();
+    let f = fit_family(&data, &FitOptions::default()).unwrap();
+    assert!(
+        !f.notes.iter().any(|n| n.starts_with("specular: supported")),
+        "{:#?}",
+        f.notes
+    );
+    let s = select::Selection::new(&f.candidates, select::Criterion::Aicc);
+    let ts = Kind::TorranceSparrow.member();
+    let t = s.test(ts, brdf_core::member::Component::Specular).unwrap();
+    println!("torrance-sparrow's specular: {t:?}");
+    assert!(t.effect.is_some_and(f64::is_finite), "{t:?}");
+    assert!(!t.supports(), "{t:?}");
+}

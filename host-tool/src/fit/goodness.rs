@@ -4,15 +4,31 @@
 use super::data::Dataset;
 use super::factors::{Detectors, Incidence, point_value};
 use super::member_fit::{MemberFit, eval_at};
-use super::options::Residual;
+use super::options::{Residual, residual_of};
+use brdf_core::member::Component;
+use brdf_core::member_model::{MemberEval, MemberModel};
 
 /// The fitted value at every reading of `data`, in file order, as the fit compared it
 /// with the reading: the reading's own incidence's parameters, averaged over the
 /// detector aperture the fit used. `None` where the model cannot be evaluated.
 pub fn member_fitted(fit: &MemberFit, data: &Dataset) -> Vec<Option<f64>> {
     let mut out = vec![None; data.obs.len()];
+    if !for_each_value(fit, data, |k, _, e| out[k] = e.map(|e| e.f)) {
+        return vec![None; data.obs.len()];
+    }
+    out
+}
+
+/// Visits every reading of `data` (index `k`) with its incidence's model and the
+/// model's evaluation there as the fit compared it ([`member_fitted`]); false when a
+/// model cannot be built.
+fn for_each_value(
+    fit: &MemberFit,
+    data: &Dataset,
+    mut visit: impl FnMut(usize, &MemberModel<f64>, Option<MemberEval<f64>>),
+) -> bool {
     let Some(first) = fit.layout.model(&fit.x, 0) else {
-        return out;
+        return false;
     };
     // Point values share the directional-diffuse term per detector angle.
     let dd = Detectors::of(data, &first);
@@ -20,16 +36,78 @@ pub fn member_fitted(fit: &MemberFit, data: &Dataset) -> Vec<Option<f64>> {
     // 50,000 incidences, held beside the fit's bases).
     for j in 0..data.incidences.len() {
         let Some(model) = fit.layout.model(&fit.x, j) else {
-            return vec![None; data.obs.len()];
+            return false;
         };
         let mut inc = Incidence::default();
         for &k in data.rows_of(j) {
             let o = &data.obs[k];
-            out[k] = match fit.aperture {
+            let e = match fit.aperture {
                 None => point_value(&model, &mut inc, &dd, data, k, o.theta_i),
                 Some(_) => eval_at(&model, o, fit.aperture),
+            };
+            visit(k, &model, e);
+        }
+    }
+    true
+}
+
+/// A component changes the prediction by more than the noise when, at some incidence,
+/// taking it out of the fitted member (the others as fitted) changes the residuals by
+/// more than this many standard errors: sqrt(sum over that incidence's readings of
+/// (change / standard error)^2), the signal-to-noise ratio of the component's term
+/// there (one reading alone counts when it moves by that much; a term under the noise
+/// at every reading but over many, like a diffuse floor at grazing incidence, counts).
+pub const EFFECT_BOUND: f64 = 2.0;
+
+/// Per component (in [`Component::ALL`] order; `None` where it is off or the model
+/// cannot be evaluated): the largest, over the incidences, change that taking the
+/// component out of the fitted member makes to the residuals, in standard errors:
+/// sqrt(sum of ((r(f) - r(f - its term)) / s)^2) over the incidence's readings. Under
+/// the noise objective s is the noise model's (the residual is in its standard errors
+/// already, s = 1); under log, relative and absolute residuals, which state no noise,
+/// s is the fit's own residual scale sqrt(SSR / (n - k)). Compared with
+/// [`EFFECT_BOUND`].
+pub fn component_effects(
+    fit: &MemberFit,
+    data: &Dataset,
+    residual: Residual,
+) -> [Option<f64>; Component::ALL.len()] {
+    let scale = match residual {
+        Residual::Noise(_) => 1.0,
+        _ => (fit.ssr / fit.n.saturating_sub(fit.k()).max(1) as f64).sqrt(),
+    };
+    let m = fit.member();
+    let mut sums = vec![[0.0f64; Component::ALL.len()]; data.incidences.len()];
+    let ok = for_each_value(fit, data, |k, model, e| {
+        let Some(e) = e else { return };
+        let (a, b) = (model.amplitudes(), e.basis);
+        let o = &data.obs[k];
+        let r = residual_of(residual, e.f, o.y);
+        let terms = [
+            a.core * b.core,
+            a.haze * b.haze,
+            a.directional * b.directional,
+            a.ideal * b.ideal,
+            a.abg * b.abg,
+        ];
+        for (slot, t) in terms.into_iter().enumerate() {
+            let d = (r - residual_of(residual, e.f - t, o.y)) / scale;
+            // A residual not formed (NaN) is no evidence.
+            if !d.is_nan() {
+                sums[o.inc][slot] += d * d;
             }
-            .map(|e| e.f);
+        }
+    });
+    let mut best = [0.0f64; Component::ALL.len()];
+    for inc in &sums {
+        for slot in 0..best.len() {
+            best[slot] = best[slot].max(inc[slot].sqrt());
+        }
+    }
+    let mut out = [None; Component::ALL.len()];
+    for (slot, c) in Component::ALL.into_iter().enumerate() {
+        if ok && m.has(c) {
+            out[slot] = Some(best[slot]);
         }
     }
     out

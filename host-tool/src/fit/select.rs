@@ -2,9 +2,13 @@
 //! by the one comparison that adds that component alone, and the member chosen.
 //!
 //! A component c of member M is *supported* when M without c was fitted too, M's
-//! criterion (AICc, or BIC) is lower by more than [`MARGIN`], AND c's amplitude in M is
+//! criterion (AICc, or BIC) is lower by more than [`MARGIN`], c's amplitude in M is
 //! determined (its standard error under a third of its value, and not at its lower
-//! bound). A member is *admissible* when every component it has is supported, or
+//! bound), AND c changes M's prediction by more than the noise somewhere on the sweep
+//! (taking it out of M changes some incidence's residuals by more than
+//! [`EFFECT_BOUND`] standard errors: [`super::goodness::component_effects`]). A criterion lower by
+//! more than [`DECISIVE_MARGIN`] supports a component whose amplitude is off its bound
+//! but poorly determined; the note says so, with its relative standard error. A member is *admissible* when every component it has is supported, or
 //! untested because the member without it was not fitted. Variants of a component set
 //! (GGX instead of Beckmann, a smooth k_s(theta_i)) inherit the verdicts of the
 //! reference member of that set (Beckmann lobes, one k_s per incidence) when their own
@@ -14,12 +18,24 @@
 use brdf_core::member::{Component, LobeSpec, Member};
 
 use super::criteria::{aicc, bic};
-use super::goodness::Goodness;
+use super::goodness::{EFFECT_BOUND, Goodness};
 use super::member_fit::MemberFit;
 use super::paper::Kind;
 
 /// A difference in the criterion below this is not evidence for the larger model.
 pub const MARGIN: f64 = 2.0;
+
+/// A difference in the criterion above this is decisive by itself (Burnham & Anderson
+/// 2002: a model more than 10 above the best has essentially no support): a component
+/// that lowers the criterion by more is supported though its amplitude is poorly
+/// determined (relative standard error over 1/3; off its bound, with a standard
+/// error), and the note says how poorly. Its amplitude trades off against another
+/// parameter's; the comparison of the two fits, a likelihood ratio, does not
+/// depend on that the way a standard error does (the solar array's directional
+/// diffuse: AICc 40 lower, k_dd 9.8e-3 +- 5.5e-3).
+/// Only for a component with one amplitude of its own (the directional or the ideal
+/// diffuse), not a lobe's k_s over the incidences.
+pub const DECISIVE_MARGIN: f64 = 10.0;
 
 /// A component's amplitude: its value, standard error (`None`: not determined) and
 /// whether it sits at its lower bound. For one k_s per incidence, the least
@@ -87,6 +103,10 @@ pub struct Candidate {
     pub amplitude: [Option<Amplitude>; Component::ALL.len()],
     /// Residuals against the readings' noise, when the sweep has std and n.
     pub goodness: Option<Goodness>,
+    /// Per component (in [`Component::ALL`] order): the largest change taking it out
+    /// makes to one incidence's residuals, in standard errors
+    /// ([`super::goodness::component_effects`]), if on.
+    pub effect: [Option<f64>; Component::ALL.len()],
 }
 
 fn slot(c: Component) -> usize {
@@ -94,8 +114,13 @@ fn slot(c: Component) -> usize {
 }
 
 impl Candidate {
-    /// From a member fit.
-    pub fn of_member(fit: &MemberFit, goodness: Option<Goodness>) -> Self {
+    /// From a member fit, its goodness and its components' effects
+    /// ([`super::goodness::component_effects`]).
+    pub fn of_member(
+        fit: &MemberFit,
+        goodness: Option<Goodness>,
+        effect: [Option<f64>; Component::ALL.len()],
+    ) -> Self {
         let l = &fit.layout;
         let nat = |i: usize| {
             let (value, se) = fit.natural(i);
@@ -156,12 +181,18 @@ impl Candidate {
             rmse: fit.rmse,
             amplitude,
             goodness,
+            effect,
         }
     }
 
     /// The amplitude of component `c`, if on.
     pub fn amplitude(&self, c: Component) -> Option<Amplitude> {
         self.amplitude[slot(c)]
+    }
+
+    /// The effect of component `c` on the prediction, if on (see [`Candidate::effect`]).
+    pub fn effect(&self, c: Component) -> Option<f64> {
+        self.effect[slot(c)]
     }
 }
 
@@ -242,12 +273,38 @@ pub struct Test {
     pub gain: f64,
     /// The component's amplitude in `member`.
     pub amplitude: Option<Amplitude>,
+    /// The component's largest change to one incidence's residuals in `member`, in
+    /// standard errors (`None`: not evaluated).
+    pub effect: Option<f64>,
 }
 
 impl Test {
-    /// The component is supported.
+    /// The component is supported: the criterion's gain, its amplitude determined, and
+    /// a change to the prediction above the noise ([`Test::visible`]).
     pub fn supports(&self) -> bool {
-        self.gain > MARGIN && self.amplitude.is_some_and(|a| a.determined())
+        let amplitude = |a: Amplitude| {
+            a.determined()
+                || (self.one_amplitude()
+                    && self.gain > DECISIVE_MARGIN
+                    && !a.at_bound
+                    && a.se.is_some())
+        };
+        self.gain > MARGIN && self.amplitude.is_some_and(amplitude) && self.visible()
+    }
+
+    /// The component has one amplitude of its own (the directional or the ideal
+    /// diffuse), not a lobe's k_s over the incidences: a lobe whose k_s is poorly
+    /// determined follows the model's misfit more often than a surface's lobe (the
+    /// iron sweep read 2 deg off selected such a lobe and misplaced the offset).
+    fn one_amplitude(&self) -> bool {
+        self.member.directional != self.without.directional
+            || self.member.ideal != self.without.ideal
+    }
+
+    /// The component changes the prediction by more than [`EFFECT_BOUND`] standard
+    /// errors at some incidence (one held fixed by the user is asserted, not tested).
+    pub fn visible(&self) -> bool {
+        self.amplitude.is_some_and(|a| a.held) || self.effect.is_some_and(|e| e > EFFECT_BOUND)
     }
 }
 
@@ -281,6 +338,7 @@ impl<'a> Selection<'a> {
                 without,
                 gain: self.crit.of(b) - self.crit.of(a),
                 amplitude: a.amplitude(c),
+                effect: a.effect(c),
             })
         };
         if !m.has(c) {
@@ -341,6 +399,20 @@ fn amp_text(c: Component, a: Option<Amplitude>) -> String {
     }
 }
 
+/// What the component changes: ", changes the prediction by up to E standard errors
+/// at an incidence" (", under the bound B" when not above it); empty when not evaluated.
+fn effect_text(t: &Test) -> String {
+    match t.effect {
+        None => String::new(),
+        Some(e) if e > EFFECT_BOUND => {
+            format!(", changes the prediction by up to {e:.1} standard errors at an incidence")
+        }
+        Some(e) => format!(
+            ", changes the prediction by at most {e:.2} standard errors at any incidence, under the bound {EFFECT_BOUND}"
+        ),
+    }
+}
+
 /// One line per component of the vocabulary, saying whether the data support it,
 /// relative to the selected member `sel` (a component on in `sel`: its own test; one
 /// that is off: the test of adding it to `sel`).
@@ -361,23 +433,28 @@ pub fn component_notes(s: &Selection<'_>, sel: Member) -> Vec<String> {
         let line = if sel.has(c) {
             match s.test(sel, c) {
                 Some(t) if t.supports() => format!(
-                    "{}: supported ({crit} {:.1} lower than {}, {}{})",
+                    "{}: supported ({crit} {:.1} lower than {}, {}{}{})",
                     c.name(),
                     t.gain,
                     t.without,
                     amp_text(c, t.amplitude),
-                    if t.amplitude.is_some_and(|a| a.held) {
-                        ""
-                    } else {
-                        " determined"
-                    }
+                    match t.amplitude {
+                        Some(a) if a.held => String::new(),
+                        Some(a) if !a.determined() => format!(
+                            ", poorly determined (relative standard error {:.2}, over 1/3; supported by the {crit} difference alone, over {DECISIVE_MARGIN})",
+                            a.se.unwrap_or(f64::NAN) / a.value
+                        ),
+                        _ => " determined".to_string(),
+                    },
+                    effect_text(&t)
                 ),
                 Some(t) => format!(
-                    "{}: kept but NOT supported ({crit} {:+.1} against {}, {}): no admissible member is without it",
+                    "{}: kept but NOT supported ({crit} {:+.1} against {}, {}{}): no admissible member is without it",
                     c.name(),
                     t.gain,
                     t.without,
-                    amp_text(c, t.amplitude)
+                    amp_text(c, t.amplitude),
+                    effect_text(&t)
                 ),
                 None => format!(
                     "{}: on in the selected member, not tested (the member without it was not fitted)",
@@ -413,15 +490,125 @@ pub fn component_notes(s: &Selection<'_>, sel: Member) -> Vec<String> {
                 format!("{}: absent ({} fits no better: {by})", c.name(), t.member)
             } else {
                 format!(
-                    "{}: absent ({} has {crit} {:.1} lower, but {}: NOT supported)",
+                    "{}: absent ({} has {crit} {:.1} lower, but {}{}: NOT supported)",
                     c.name(),
                     t.member,
                     t.gain,
-                    amp_text(c, t.amplitude)
+                    amp_text(c, t.amplitude),
+                    effect_text(&t)
                 )
             }
         };
         out.push(line);
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fit::paper::Kind;
+
+    fn amp(value: f64, se: f64) -> Amplitude {
+        Amplitude {
+            value,
+            se: Some(se),
+            at_bound: false,
+            held: false,
+        }
+    }
+
+    fn test(gain: f64, a: Amplitude, effect: f64) -> Test {
+        test_of(Component::Specular, gain, a, effect)
+    }
+
+    fn test_of(c: Component, gain: f64, a: Amplitude, effect: f64) -> Test {
+        let m = Kind::ThreeComponent.member();
+        Test {
+            member: m,
+            without: m.without(c),
+            gain,
+            amplitude: Some(a),
+            effect: Some(effect),
+        }
+    }
+
+    #[test]
+    fn a_component_that_changes_no_reading_beyond_the_noise_is_not_supported() {
+        // The claim once made: a k_s of 2.3e-8, determined, the criterion lower, called
+        // supported though it moved no reading by a noticeable fraction of its noise.
+        let tiny = amp(2.3e-8, 1e-9);
+        assert!(!test(40.0, tiny, 0.01).supports());
+        assert!(!test(40.0, tiny, EFFECT_BOUND).supports());
+        assert!(test(40.0, tiny, 2.5).supports());
+        let unknown = Test {
+            effect: None,
+            ..test(40.0, tiny, 5.0)
+        };
+        assert!(!unknown.supports());
+        // Held fixed by the user: asserted, its gain decides.
+        let held = Amplitude {
+            held: true,
+            se: None,
+            ..tiny
+        };
+        assert!(test(40.0, held, 0.0).supports());
+    }
+
+    #[test]
+    fn a_decisive_gain_supports_a_poorly_determined_amplitude_and_says_so() {
+        // The solar array's directional diffuse: AICc 40 lower, k_dd 9.8e-3 +- 5.5e-3,
+        // once refused only for its standard error.
+        let dd = |gain, a| test_of(Component::DirectionalDiffuse, gain, a, 30.0);
+        let kdd = amp(9.8e-3, 5.5e-3);
+        assert!(!kdd.determined());
+        assert!(dd(40.0, kdd).supports());
+        assert!(!dd(DECISIVE_MARGIN, kdd).supports());
+        assert!(dd(DECISIVE_MARGIN, amp(9.8e-3, 1e-3)).supports());
+        let at_bound = Amplitude {
+            at_bound: true,
+            ..kdd
+        };
+        assert!(!dd(40.0, at_bound).supports());
+        let no_se = Amplitude { se: None, ..kdd };
+        assert!(!dd(40.0, no_se).supports());
+        // A lobe's k_s is not supported on the criterion alone.
+        assert!(!test(40.0, kdd, 30.0).supports());
+
+        // The note names the relative standard error.
+        let with = Kind::ThreeComponent.member();
+        let without = with.without(Component::DirectionalDiffuse);
+        let cand = |member: Member, aicc: f64| {
+            let mut amplitude = [None; Component::ALL.len()];
+            let mut effect = [None; Component::ALL.len()];
+            for c in member.components() {
+                amplitude[slot(c)] = Some(amp(1.0, 0.01));
+                effect[slot(c)] = Some(30.0);
+            }
+            if member.directional {
+                amplitude[slot(Component::DirectionalDiffuse)] = Some(kdd);
+            }
+            Candidate {
+                member,
+                aicc,
+                bic: aicc,
+                k: 0,
+                rmse: None,
+                amplitude,
+                goodness: None,
+                effect,
+            }
+        };
+        let cands = [cand(with, 100.0), cand(without, 140.0)];
+        let notes = component_notes(&Selection::new(&cands, Criterion::Aicc), with);
+        let dd = notes
+            .iter()
+            .find(|n| n.starts_with("directional-diffuse:"))
+            .unwrap();
+        assert!(
+            dd.starts_with("directional-diffuse: supported (AICc 40.0 lower")
+                && dd.contains("poorly determined (relative standard error 0.56"),
+            "{dd}"
+        );
+    }
 }

@@ -350,7 +350,8 @@ pub(super) fn candidates_of_members(
             // The fit's own sum of squares: its residuals are those of its fitted
             // values (`goodness::member_fitted`), summed by incidence.
             let g: Option<Goodness> = goodness::goodness_of_ssr(data, f.ssr, residual, f.k());
-            Candidate::of_member(f, g)
+            let effect = goodness::component_effects(f, data, residual);
+            Candidate::of_member(f, g, effect)
         })
         .collect()
 }

@@ -301,7 +301,7 @@ def fit(source, theta_r=None, brdf=None, *, residual: str = "noise", loss: str =
         models: Union[None, str, Sequence[str]] = None, aperture: Optional[float] = None,
         instrument: Union[None, str, os.PathLike] = None,
         floor: Union[None, str, float] = None, all_starts: bool = False,
-        offset: Union[None, str, float] = None) -> FitResult:
+        offset: Union[None, str, float] = None, keep_saturated: bool = False) -> FitResult:
     """Fits the model family like ``gonio fit`` fits one sweep.
 
     ``source`` is a sweep file path, or the theta_i array with ``theta_r`` and ``brdf``
@@ -318,7 +318,10 @@ def fit(source, theta_r=None, brdf=None, *, residual: str = "noise", loss: str =
     (``--all-starts``: slower, but no start is stopped near an optimum already found);
     ``offset`` ``"fit"`` fits a detector zero offset in theta_r and an in-plane sample
     tilt (``--offset fit``), a number is a known detector zero offset in degrees (``None``:
-    the sweep's ``# offset:`` line, else none). At most ``MAX_FIT_READINGS`` readings
+    the sweep's ``# offset:`` line, else none); ``keep_saturated`` fits the readings
+    a sweep file's capture flagged saturated (detector conversions at full scale: clipped
+    values) too (``--keep-saturated``; by default they are left out with a warning;
+    arrays carry no such flags). At most ``MAX_FIT_READINGS`` readings
     (2,097,152, what the largest sweep file ``gonio fit`` reads holds), like the CLI:
     more raise a ``GonioError`` before anything is fitted.
     """
@@ -332,6 +335,7 @@ def fit(source, theta_r=None, brdf=None, *, residual: str = "noise", loss: str =
              "instrument": None if instrument is None else os.fspath(instrument),
              "floor": None if floor is None else (floor if isinstance(floor, str) else repr(float(floor))),
              "all_starts": all_starts,
+             "keep_saturated": bool(keep_saturated),
              "offset": None if offset is None else (offset if isinstance(offset, str) else repr(float(offset)))}
     if theta_r is None and brdf is None:
         raw = _gonio._fit(os.fspath(source), [], [], [], residual, loss, fix, models, **extra)

@@ -691,9 +691,10 @@ impl PyFit {
 /// (theta_i, theta_r, brdf arrays) when path is None; aperture in degrees (None: the
 /// file's line), instrument an instrument file (None: relative units), floor `auto` or
 /// a value (None: every reading fitted), all_starts `--all-starts`, offset `--offset`:
-/// `fit` or a detector zero offset in degrees (None: the file's `# offset:` line).
+/// `fit` or a detector zero offset in degrees (None: the file's `# offset:` line),
+/// keep_saturated `--keep-saturated`.
 #[pyfunction]
-#[pyo3(signature = (path, theta_i, theta_r, brdf, residual, loss, fix, models, aperture=None, instrument=None, floor=None, all_starts=false, offset=None))]
+#[pyo3(signature = (path, theta_i, theta_r, brdf, residual, loss, fix, models, aperture=None, instrument=None, floor=None, all_starts=false, offset=None, keep_saturated=false))]
 #[allow(clippy::too_many_arguments)]
 fn _fit(
     py: Python<'_>,
@@ -710,6 +711,7 @@ fn _fit(
     floor: Option<String>,
     all_starts: bool,
     offset: Option<String>,
+    keep_saturated: bool,
 ) -> PyResult<PyFit> {
     if theta_i.len() != theta_r.len() || theta_i.len() != brdf.len() {
         return Err(err("theta_i, theta_r and brdf must have the same length"));
@@ -727,6 +729,7 @@ fn _fit(
         floor: floor.as_deref(),
         all_starts,
         offset: offset.as_deref(),
+        keep_saturated,
     };
     let outcome = py
         .detach(|| bind::fit(path.as_deref(), &rows, &req))

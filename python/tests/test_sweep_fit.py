@@ -295,3 +295,23 @@ def test_readings_of_other_shapes_are_refused_never_broadcast(tmp_path):
         with pytest.raises(gonio.GonioError, match="nothing is broadcast"):
             gonio.write_sweep(tmp_path / "w.csv", *args)
     assert not (tmp_path / "w.csv").exists()
+
+
+def test_keep_saturated_as_on_the_command_line(gonio_bin, tmp_path):
+    # A capture's warning flags the reading seq 12 saturated: left out unless told.
+    text = FE_SWEEP.read_text()
+    lines = text.splitlines(keepends=True)
+    k = next(i for i, line in enumerate(lines) if line.startswith("theta_i,"))
+    lines.insert(k + 2, "# warning: saturated reading seq 12: 4 detector conversions at full scale\n")
+    path = tmp_path / "clipped.csv"
+    path.write_text("".join(lines))
+    fits = {}
+    for keep, argv in ((False, []), (True, ["--keep-saturated"])):
+        ours = json.loads(gonio.fit(path, models="three", keep_saturated=keep).to_json())
+        cli = json.loads(subprocess.run([gonio_bin, "fit", str(path), "--json", "--models", "three", *argv],
+                                        check=True, capture_output=True, text=True).stdout)
+        for d in (cli, ours):
+            d.pop("fit_seconds")
+        assert_same_json(ours, cli)
+        fits[keep] = ours
+    assert fits[False] != fits[True]

@@ -160,8 +160,8 @@ pub fn run(args: &SimulateArgs) -> CliResult {
     if let (Some(r), Some(plan)) = (&replay, &mut setup.plan)
         && let Some(budget) = crate::capture::sequential::budget_of(plan)
     {
-        // Rehearsed on a replay, a sequential plan's candidates are at the file's
-        // incidences, within their measured spans.
+        // Rehearsed on a replay, a sequential plan's candidates are the file's own
+        // measured directions (see `plan_on_replay`).
         let o = crate::capture::SettingsOverride {
             samples: Some(plan.settings.samples),
             settle_ms: Some(plan.settings.settle_ms),

@@ -100,6 +100,15 @@ impl Replay {
         self.incidences.iter().map(|i| i.theta_i).collect()
     }
 
+    /// The file's measured directions (theta_i, theta_r) in degrees, one per angle
+    /// (repeats merged), by incidence then theta_r.
+    pub fn angles(&self) -> Vec<(f64, f64)> {
+        self.incidences
+            .iter()
+            .flat_map(|i| i.points.iter().map(move |p| (i.theta_i, p.0)))
+            .collect()
+    }
+
     /// Whether the noise comes from the file's std column.
     pub fn uses_std(&self) -> bool {
         self.use_std

@@ -67,9 +67,17 @@ fn words_are_read_as_the_command_line_reads_them() {
         aperture: Some(0.0),
         floor: Some("auto"),
         offset: Some("fit"),
+        keep_saturated: true,
         ..Words::default()
     };
     let r = w.request().unwrap();
+    assert!(r.fit.keep_saturated);
+    let plain = Words {
+        residual: "noise",
+        loss: "l2",
+        ..Words::default()
+    };
+    assert!(!plain.request().unwrap().fit.keep_saturated);
     assert_eq!(r.fit.residual.word(), "noise");
     assert_eq!(r.fit.members.as_ref().map(Vec::len), Some(2));
     assert_eq!(r.aperture, Aperture::Off);

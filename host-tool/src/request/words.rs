@@ -35,6 +35,9 @@ pub struct Words<'a> {
     /// `--offset`: `fit` or a known detector zero offset in degrees (`None`: the
     /// sweep's `# offset:` line).
     pub offset: Option<&'a str>,
+    /// `--keep-saturated`: fit the readings a sweep file's capture flagged saturated
+    /// too (rows given as arrays carry no such flags).
+    pub keep_saturated: bool,
 }
 
 impl Words<'_> {
@@ -44,6 +47,7 @@ impl Words<'_> {
             residual: Residual::parse(self.residual)?,
             loss: Loss::parse(self.loss)?,
             all_starts: self.all_starts,
+            keep_saturated: self.keep_saturated,
             ..FitOptions::default()
         };
         for f in &self.fix {

@@ -83,17 +83,7 @@ fn a_peak_off_the_mirror_direction_is_said_and_the_fit_is_not_called_good() {
         5,
     );
     let f = family(&shifted);
-    let note = f
-        .notes
-        .iter()
-        .find(|n| n.starts_with("the measured specular peak sits"))
-        .unwrap_or_else(|| panic!("no offset note: {:?}", f.notes));
-    let mean: f64 = note["the measured specular peak sits ".len()..]
-        .split(' ')
-        .next()
-        .unwrap()
-        .parse()
-        .unwrap();
+    let (note, mean) = offset_note(&f);
     assert!((mean - 0.3).abs() < 0.1, "{note}");
     assert!(
         has_note(&f, "NO member fits these data within their noise"),
@@ -606,17 +596,7 @@ fn a_peak_five_degrees_past_the_mirror_at_every_incidence_is_said() {
         29,
     );
     let f = family(&rows);
-    let note = f
-        .notes
-        .iter()
-        .find(|n| n.starts_with("the measured specular peak sits"))
-        .unwrap_or_else(|| panic!("no offset note: {:?}", f.notes));
-    let mean: f64 = note["the measured specular peak sits ".len()..]
-        .split(' ')
-        .next()
-        .unwrap()
-        .parse()
-        .unwrap();
+    let (note, mean) = offset_note(&f);
     assert!(mean > 0.5, "{note}");
 }
 
@@ -693,4 +673,21 @@ fn a_decisive_aicc_gain_supports_a_poorly_determined_directional_diffuse() {
         "{:#?}",
         f.notes
     );
+}
+
+/// The family's peak-offset note and the mean shift (degrees) it opens with.
+fn offset_note(f: &FamilyFit) -> (&str, f64) {
+    const HEAD: &str = "the measured specular peak sits ";
+    let note = f
+        .notes
+        .iter()
+        .find(|n| n.starts_with(HEAD))
+        .unwrap_or_else(|| panic!("no offset note: {:?}", f.notes));
+    let mean = note[HEAD.len()..]
+        .split(' ')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    (note, mean)
 }

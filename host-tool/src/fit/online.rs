@@ -83,6 +83,13 @@ impl OnlineFit {
         }
     }
 
+    /// Starts from `rows`, fitting only `members` (as `gonio fit --models`).
+    pub fn with_rows_of_members(rows: Vec<Row>, members: Vec<brdf_core::member::Member>) -> Self {
+        let mut f = Self::with_rows(rows);
+        f.opts.members = Some(members);
+        f
+    }
+
     /// One more reading (angles in degrees, brdf in the instrument's relative units).
     pub fn push(&mut self, row: Row) {
         self.rows.push(row);

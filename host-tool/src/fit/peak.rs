@@ -134,19 +134,12 @@ pub fn lobe_fwhm_deg(dist: Distribution, sigma: f64, gamma: Option<f64>) -> f64 
 /// and the gap from it to its nearest neighbour in theta_r (the detector's step there,
 /// degrees); `None` without two distinct readings.
 pub fn step_near_mirror(data: &Dataset, j: usize) -> Option<(f64, f64)> {
-    let ti = data.incidences[j];
-    let tr: Vec<f64> = data
+    // The dataset's own nearest reading (the paper RMSE's reference), not a second search.
+    let near = data.obs[data.specular_reference(j)?.0].theta_r;
+    let gap = data
         .rows_of(j)
         .iter()
-        .map(|&k| data.obs[k].theta_r)
-        .collect();
-    let near = tr
-        .iter()
-        .copied()
-        .min_by(|a, b| (a - ti).abs().total_cmp(&(b - ti).abs()))?;
-    let gap = tr
-        .iter()
-        .map(|&t| (t - near).abs())
+        .map(|&k| (data.obs[k].theta_r - near).abs())
         .filter(|&d| d > 1e-9)
         .fold(f64::INFINITY, f64::min);
     gap.is_finite().then_some((near, gap))

@@ -23,13 +23,12 @@ impl fmt::Display for SweepFileError {
 
 impl std::error::Error for SweepFileError {}
 
-/// The `# key:` lines the sweep file's own reader and writer use (keys in any case);
-/// with the measurement's ([`super::MEASUREMENT_KEYS`]) every key gonio knows
-/// ([`is_known_key`]). Others are kept in [`super::SweepData::meta`] and named by
-/// [`super::SweepData::warnings`]: gonio does not read them.
-pub const KNOWN_KEYS: [&str; 16] = [
+/// The `# key:` lines gonio reads or writes (keys in any case); others are kept in
+/// [`super::SweepData::meta`] and named by [`super::SweepData::warnings`]: gonio does not read them.
+pub const KNOWN_KEYS: [&str; 27] = [
     "status",
     "device",
+    "sample",
     "units",
     "brdf",
     "plan",
@@ -41,16 +40,20 @@ pub const KNOWN_KEYS: [&str; 16] = [
     "aperture",
     "offset",
     "out-of-plane",
+    "wavelength",
     "missing",
     "repeats",
     "theta_r",
+    "polarization",
+    "polarisation",
+    "beam-diameter",
+    "solid-angle",
+    "nebsdf",
+    "signature",
+    "operator",
+    "date",
+    "temperature",
 ];
-
-/// Whether gonio reads `# key:` lines of this key (lower case): the reader's own
-/// ([`KNOWN_KEYS`]) or the measurement's ([`super::MEASUREMENT_KEYS`]).
-pub fn is_known_key(key: &str) -> bool {
-    KNOWN_KEYS.contains(&key) || super::MEASUREMENT_KEYS.contains(&key)
-}
 
 /// Columns the capture writes, in order.
 pub const COLUMNS: [&str; 7] = ["theta_i", "theta_r", "brdf", "std", "n", "seq", "t_ms"];

@@ -47,7 +47,7 @@ pub use write::SweepWriter;
 
 pub use format::{
     ANGLE_MAX_DEG, BRDF_MAX, BRDF_MIN, COLUMNS, Counters, Header, KNOWN_KEYS, Row, SweepFileError,
-    SweepStatus, brdf_in_range, is_known_key, meta_problem, row_problem,
+    SweepStatus, brdf_in_range, meta_problem, row_problem,
 };
 
 #[cfg(test)]

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use super::format::{
     BRDF_MAX, BRDF_MIN, COLUMNS, Counters, KNOWN_KEYS, Row, STATUS_PREFIX, SweepFileError,
-    brdf_in_range, is_known_key, row_problem,
+    brdf_in_range, row_problem,
 };
 use super::header_row::{header_columns, sniff_delimiter};
 use super::radians::declares_degrees;
@@ -38,7 +38,7 @@ pub struct SweepData {
     /// `# key: value` metadata, keys in lower case (a key given twice with different
     /// values is refused).
     pub meta: BTreeMap<String, String>,
-    /// `# key:` lines gonio does not read ([`is_known_key`]) (line, key in lower case), first of each.
+    /// `# key:` lines not among [`KNOWN_KEYS`] (line, key in lower case), first of each.
     pub unknown_keys: Vec<(usize, String)>,
     /// Column names of the header row.
     pub columns: Vec<String>,
@@ -139,12 +139,7 @@ impl SweepData {
             w.push(format!(
                 "'# {}:' (line {line}){more} is not a line gonio reads: ignored (gonio reads {})",
                 escape_line(key, QUOTE_CHARS),
-                KNOWN_KEYS
-                    .iter()
-                    .chain(&super::MEASUREMENT_KEYS)
-                    .copied()
-                    .collect::<Vec<_>>()
-                    .join(", ")
+                KNOWN_KEYS.join(", ")
             ));
         }
         if let Some(s) = self.reversed_sign_warning() {
@@ -414,7 +409,7 @@ fn read_metadata(bytes: &[u8], data: &mut SweepData) -> Result<(usize, usize), (
         if key == "points" {
             data.points_line = lineno;
         }
-        if !is_known_key(key) && !data.unknown_keys.iter().any(|(_, k)| k == key) {
+        if !KNOWN_KEYS.contains(&key) && !data.unknown_keys.iter().any(|(_, k)| k == key) {
             // Not read by gonio, and said so: a misspelt `# aperure:` would
             // otherwise pass unseen.
             data.unknown_keys.push((lineno, key.to_string()));

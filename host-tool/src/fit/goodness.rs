@@ -77,6 +77,9 @@ pub fn component_effects(
         _ => (fit.ssr / fit.n.saturating_sub(fit.k()).max(1) as f64).sqrt(),
     };
     let m = fit.member();
+    // Only the member's own components are taken out (the others' terms are zero):
+    // one residual per component and reading, the family's largest cost after its fits.
+    let on = Component::ALL.map(|c| m.has(c));
     let mut sums = vec![[0.0f64; Component::ALL.len()]; data.incidences.len()];
     let ok = for_each_value(fit, data, |k, model, e| {
         let Some(e) = e else { return };
@@ -91,6 +94,9 @@ pub fn component_effects(
             a.abg * b.abg,
         ];
         for (slot, t) in terms.into_iter().enumerate() {
+            if !on[slot] {
+                continue;
+            }
             let d = (r - residual_of(residual, e.f - t, o.y)) / scale;
             // A residual not formed (NaN) is no evidence.
             if !d.is_nan() {

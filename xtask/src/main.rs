@@ -4,6 +4,7 @@
 //! target, flip-link, llvm-tools; QEMU through apt-get), so none needs `setup` first.
 
 mod accuracy;
+mod before_after;
 mod perf;
 mod tools;
 
@@ -66,7 +67,12 @@ enum Cmd {
     /// Regenerate docs/PERFORMANCE.md, docs/speed_vs_error.png and docs/accuracy.md
     /// (gonio bench, the firmware bench, gonio fit against scipy, the accuracy report;
     /// installs numpy and scipy with pip if missing).
-    PerfReport,
+    PerfReport {
+        /// Also time this gonio binary (built from the commit before a change) beside
+        /// the release one, the two taking turns: the "before and after" table.
+        #[arg(long, value_name = "PATH")]
+        before: Option<PathBuf>,
+    },
     /// Regenerate docs/accuracy.md alone: gonio's default fit against a two-lobe
     /// Beckmann fit in scipy (bench/two_lobe_fit.py) on every real sweep in the
     /// repository (a few minutes; release build, numpy and scipy as perf-report).
@@ -79,7 +85,11 @@ enum Cmd {
     /// The fresh-process speed comparison of perf-report alone, printed as Markdown:
     /// `gonio fit --models three` and the whole family, each a new process, against
     /// scipy's five-start least_squares (bench/fit_scipy.py). Writes nothing.
-    FitSpeed,
+    FitSpeed {
+        /// Also print perf-report's before-and-after table against this gonio binary.
+        #[arg(long, value_name = "PATH")]
+        before: Option<PathBuf>,
+    },
     /// The budget's coverage check of issue 51 (ignored in `cargo test`): on 200
     /// simulated sweeps with every error source injected, the k = 2 intervals of the
     /// fitted parameters and albedo cover the truth 95 % +- 3 % (about a minute).
@@ -146,9 +156,9 @@ fn main() -> ExitCode {
         Cmd::Size => size(),
         Cmd::QemuE2e => qemu_e2e(),
         Cmd::FirmwareBench => perf::firmware_bench().map(|t| print!("{t}")),
-        Cmd::PerfReport => perf::perf_report(),
+        Cmd::PerfReport { before } => perf::perf_report(before.as_deref()),
         Cmd::Accuracy { gonio } => perf::accuracy(gonio.as_deref()),
-        Cmd::FitSpeed => perf::fit_speed(),
+        Cmd::FitSpeed { before } => perf::fit_speed(before.as_deref()),
         Cmd::Coverage => run(
             &root(),
             "cargo",
@@ -454,7 +464,10 @@ mod tests {
             }
         ));
         assert!(matches!(parse(&["qemu-e2e"]).unwrap(), Cmd::QemuE2e));
-        assert!(matches!(parse(&["perf-report"]).unwrap(), Cmd::PerfReport));
+        assert!(matches!(
+            parse(&["perf-report"]).unwrap(),
+            Cmd::PerfReport { before: None }
+        ));
         assert!(matches!(
             parse(&["accuracy"]).unwrap(),
             Cmd::Accuracy { gonio: None }
@@ -463,7 +476,14 @@ mod tests {
             parse(&["accuracy", "--gonio", "target/debug/gonio"]).unwrap(),
             Cmd::Accuracy { gonio: Some(_) }
         ));
-        assert!(matches!(parse(&["fit-speed"]).unwrap(), Cmd::FitSpeed));
+        assert!(matches!(
+            parse(&["fit-speed"]).unwrap(),
+            Cmd::FitSpeed { before: None }
+        ));
+        assert!(matches!(
+            parse(&["perf-report", "--before", "/tmp/gonio-old"]).unwrap(),
+            Cmd::PerfReport { before: Some(_) }
+        ));
         assert!(matches!(parse(&["coverage"]).unwrap(), Cmd::Coverage));
     }
 

@@ -310,7 +310,7 @@ fn fresh_table(root: &Path, gonio: &str, sweeps: &[SpeedSweep]) -> Result<(Strin
 }
 
 /// The paper-grid presets of the speed comparisons.
-const PRESETS: [&str; 3] = ["fe-0.115", "cu-0.070", "al-0.782"];
+pub(crate) const PRESETS: [&str; 3] = ["fe-0.115", "cu-0.070", "al-0.782"];
 
 /// Simulates the paper-grid presets into `tmp` (0.5 % noise, seed 1) and adds the
 /// Scatterworks sweep: (label, path) for [`fresh_table`].
@@ -344,7 +344,7 @@ fn fresh_sweeps(root: &Path, gonio: &str, tmp: &Path) -> Result<Vec<SpeedSweep>>
 }
 
 /// `cargo xtask fit-speed`: the fresh-process comparison alone, printed as Markdown.
-pub fn fit_speed() -> Result {
+pub fn fit_speed(before: Option<&Path>) -> Result {
     let root = root();
     let gonio = release_gonio_and_scipy()?;
     let scratch = tempfile::Builder::new()
@@ -359,7 +359,24 @@ pub fn fit_speed() -> Result {
          whole family at most {:.2} ms (target <= 2 ms on the paper grid)",
         family / 1e3
     );
+    if let Some(b) = before {
+        println!("\n{}", before_after(&root, b, &gonio, scratch.path())?);
+    }
     Ok(())
+}
+
+/// perf-report's before-and-after section: both binaries' versions and
+/// [`crate::before_after::table`].
+fn before_after(root: &Path, before: &Path, after: &str, tmp: &Path) -> Result<String> {
+    let before = before.to_str().ok_or("path")?;
+    let version =
+        |g: &str| -> Result<String> { Ok(output(root, g, &["--version"])?.trim().to_string()) };
+    Ok(format!(
+        "Before: `{}` ({before}); after: `{}`.\n\n{}",
+        version(before)?,
+        version(after)?,
+        crate::before_after::table(root, before, after, tmp)?.trim_end()
+    ))
 }
 
 /// `cargo xtask accuracy`: docs/accuracy.md alone, with the release gonio or `gonio`.
@@ -375,7 +392,7 @@ pub fn accuracy(gonio: Option<&Path>) -> Result {
 }
 
 /// Regenerates docs/PERFORMANCE.md, docs/speed_vs_error.png and docs/accuracy.md.
-pub fn perf_report() -> Result {
+pub fn perf_report(before: Option<&Path>) -> Result {
     let root = root();
     let gonio = release_gonio_and_scipy()?;
     let gonio = gonio.as_str();
@@ -523,6 +540,12 @@ pub fn perf_report() -> Result {
     // The member as a user runs it, each fit a fresh process (issue #53).
     let (fresh, fresh_ratio, fresh_family) =
         fresh_table(&root, gonio, &fresh_sweeps(&root, gonio, tmp)?)?;
+    let versus_before = match before {
+        Some(b) => before_after(&root, b, gonio, tmp)?,
+        None => "Not measured in this run: `cargo xtask perf-report --before PATH` adds \
+                 it, PATH a gonio binary built from the commit before a change."
+            .to_string(),
+    };
     drop(scratch);
     // Campaigns: wall against CPU per thread count, then the memory of 10^5 sweeps on
     // every core (each `gonio fit DIR --out OUT` run as a user runs it).
@@ -554,6 +577,7 @@ pub fn perf_report() -> Result {
         .replace("{{SCIPY}}", scipy.trim_end())
         .replace("{{SCIPY_FIVE}}", five.trim_end())
         .replace("{{FRESH}}", fresh.trim_end())
+        .replace("{{BEFORE_AFTER}}", &versus_before)
         .replace("{{FRESH_MIN_RATIO}}", &format!("{fresh_ratio:.0}"))
         .replace("{{FRESH_FAMILY_MS}}", &format!("{:.2}", fresh_family / 1e3))
         .replace(

@@ -372,6 +372,7 @@ fn stage_one_selects_what_fitting_every_reference_member_would() {
             &bases,
             &family::reference_members(),
             Residual::Log,
+            true,
             &mut notes,
         );
         assert_eq!(tried.contains(&deferred), fits_deferred, "{name}");

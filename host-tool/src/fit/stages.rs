@@ -3,7 +3,7 @@
 
 use std::time::Instant;
 
-use brdf_core::member::Member;
+use brdf_core::member::{Component, Member};
 use rayon::prelude::*;
 
 use super::data::Dataset;
@@ -32,6 +32,7 @@ pub(super) fn fit_members(
     bases: &GridBases<'_>,
     members: &[Member],
     residual: Residual,
+    effects: bool,
     notes: &mut Vec<String>,
 ) -> Vec<(MemberFit, Candidate)> {
     let data = bases.data();
@@ -50,7 +51,7 @@ pub(super) fn fit_members(
         .par_iter()
         .map(|&i| {
             let fit = member_fit::fit_member_with(bases, members[i], residual).map(|f| {
-                let c = candidate_of_member(data, &f, residual);
+                let c = candidate_of_member(data, &f, residual, effects);
                 (f, c)
             });
             (i, fit)
@@ -92,7 +93,21 @@ impl Fitted {
         residual: Residual,
         notes: &mut Vec<String>,
     ) {
-        for (f, c) in fit_members(bases, members, residual, notes) {
+        self.add_with(bases, members, residual, true, notes);
+    }
+
+    /// [`Fitted::add`], with the components' effects computed only when `effects`:
+    /// they are read only when a member without the component is fitted beside
+    /// ([`Selection::test`]).
+    pub(super) fn add_with(
+        &mut self,
+        bases: &GridBases<'_>,
+        members: &[Member],
+        residual: Residual,
+        effects: bool,
+        notes: &mut Vec<String>,
+    ) {
+        for (f, c) in fit_members(bases, members, residual, effects, notes) {
             self.members.push(f);
             self.cands.push(c);
         }
@@ -256,7 +271,8 @@ fn fit_nominal(data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, String> {
     bases.set_loss(opts.loss);
     let mut fitted = if let Some(listed) = &requested {
         let mut fitted = Fitted::default();
-        fitted.add(&bases, listed, opts.residual, &mut notes);
+        // One member alone is tested against no other: its effects would go unread.
+        fitted.add_with(&bases, listed, opts.residual, listed.len() > 1, &mut notes);
         fitted
     } else {
         let (mut fitted, tried) = stage_one(&bases, opts.residual, &mut notes);
@@ -364,10 +380,19 @@ fn untested_components(
 }
 
 /// One fit's [`Candidate`]: its goodness and its components' effects.
-fn candidate_of_member(data: &Dataset, f: &MemberFit, residual: Residual) -> Candidate {
+fn candidate_of_member(
+    data: &Dataset,
+    f: &MemberFit,
+    residual: Residual,
+    effects: bool,
+) -> Candidate {
     // The fit's own sum of squares: its residuals are those of its fitted values
     // (`goodness::member_fitted`), summed by incidence.
     let g: Option<Goodness> = goodness::goodness_of_ssr(data, f.ssr, residual, f.k());
-    let effect = goodness::component_effects(f, data, residual);
+    let effect = if effects {
+        goodness::component_effects(f, data, residual)
+    } else {
+        [None; Component::ALL.len()]
+    };
     Candidate::of_member(f, g, effect)
 }

@@ -385,7 +385,10 @@ fn test_all() -> Result {
     // Clippy and `cargo test` below run in the same dev profile with the same features
     // and environment, so the build scripts and proc macros clippy compiles are reused by
     // the test build; the libraries clippy only checks (metadata) are compiled again
-    // for the tests, as cargo cannot generate code from a check.
+    // for the tests, as cargo cannot generate code from a check. Both build host-tool
+    // with its `flash` feature (off by default), which gonio-e2e turns on for the flash
+    // dry run: the probe-rs code is linted and tested here though a user's first build
+    // leaves it out.
     run(
         &root,
         "cargo",

@@ -2,8 +2,9 @@
 //! ELF, choosing the probe, then erase, program, verify and reset.
 //!
 //! The selector parsing and ELF checks are always built; the probe-rs part
-//! ([`probe`](self)) is behind the `flash` feature (default on). Without it, `gonio flash`
-//! exists but only says how to get a build that flashes.
+//! ([`probe`](self)) is behind the `flash` feature (off by default: probe-rs is about a
+//! third of the first build). Without it, `gonio flash` exists but only says how to get a
+//! build that flashes ([`NO_FEATURE`]).
 
 use std::path::{Path, PathBuf};
 

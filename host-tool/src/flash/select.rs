@@ -13,9 +13,12 @@ pub const DEFAULT_ELF: &str = "firmware/target/thumbv7em-none-eabihf/release/stm
 /// The command that builds [`DEFAULT_ELF`].
 pub const BUILD_HINT: &str = "cargo xtask firmware --board stm32f411";
 
-/// What `gonio flash` says when built without the `flash` feature.
-pub const NO_FEATURE: &str =
-    "this gonio was built without the 'flash' feature; rebuild with default features";
+/// What `gonio flash` says when built without the `flash` feature (off by default):
+/// the commands, run from the repository root, that give a gonio that flashes.
+pub const NO_FEATURE: &str = "this gonio was built without the 'flash' feature (the \
+probe-rs library, off by default), so it cannot flash; from the repository root, install \
+one that can with `cargo install --path host-tool --features flash`, or run `cargo run \
+--release -p host-tool --features flash -- flash`";
 
 /// What `gonio flash` says when no debug probe is attached.
 pub const NO_PROBE: &str = "no debug probe found (looked for CMSIS-DAP, ST-Link, J-Link, \

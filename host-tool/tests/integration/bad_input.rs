@@ -29,6 +29,17 @@ const fn case(args: &'static [&'static str], code: i32, says: &'static str) -> C
     }
 }
 
+/// A `gonio flash` case: bad input either way; without the `flash` feature (off by
+/// default) the message is the one that says how to get a build that flashes.
+const fn flash(args: &'static [&'static str], says: &'static str) -> Case {
+    let says = if cfg!(feature = "flash") {
+        says
+    } else {
+        "--features flash"
+    };
+    case(args, 2, says)
+}
+
 const fn out(
     args: &'static [&'static str],
     code: i32,
@@ -1976,15 +1987,11 @@ const CASES: &[Case] = &[
     ),
     // ports
     case(&["ports", "--bogus"], 2, "bogus"),
-    // flash
-    case(&["flash", "{d}/missing.elf"], 2, "missing.elf"),
-    case(&["flash", "{d}/garbage.elf"], 2, "garbage.elf"),
-    case(&["flash", "{d}/empty.elf"], 2, "empty.elf"),
-    case(
-        &["flash", "--probe", "zz:yy", "{d}/garbage.elf"],
-        2,
-        "probe",
-    ),
+    // flash (a build without the feature refuses all of them the same way)
+    flash(&["flash", "{d}/missing.elf"], "missing.elf"),
+    flash(&["flash", "{d}/garbage.elf"], "garbage.elf"),
+    flash(&["flash", "{d}/empty.elf"], "empty.elf"),
+    flash(&["flash", "--probe", "zz:yy", "{d}/garbage.elf"], "probe"),
     // demo
     case(
         &["demo", "--material", "unobtainium", "--dir", "{d}/demo1"],

@@ -98,17 +98,73 @@ fn flash_without_a_probe_fails_with_one_line() {
     assert!(line.contains("--probe"), "{line}");
 }
 
+/// The default build leaves probe-rs out: `gonio flash` refuses before looking at its
+/// arguments (exit 2, nothing on stdout) and names the commands that give a gonio that
+/// flashes, with a feature that host-tool/Cargo.toml declares; both helps say so too.
 #[cfg(not(feature = "flash"))]
 #[test]
-fn flash_without_the_feature_says_so() {
-    let Run {
-        code, stderr: err, ..
-    } = gonio(&["flash"]);
-    assert_eq!(code, 2);
-    assert_eq!(
-        one_line(&err),
-        "gonio: this gonio was built without the 'flash' feature; rebuild with default features"
+fn flash_without_the_feature_says_how_to_get_it() {
+    for args in [&["flash"][..], &["flash", "--probe", "0483:374b", "fw.elf"]] {
+        let Run {
+            code,
+            stdout: out,
+            stderr: err,
+        } = gonio(args);
+        assert_eq!(code, 2, "{args:?}: {err}");
+        assert_eq!(out, "", "{args:?}");
+        let line = one_line(&err);
+        assert_eq!(line, format!("gonio: {}", gonio::flash::NO_FEATURE));
+        for command in [
+            "`cargo install --path host-tool --features flash`",
+            "`cargo run --release -p host-tool --features flash -- flash`",
+        ] {
+            assert!(line.contains(command), "{line}");
+        }
+    }
+    let manifest = std::fs::read_to_string(repo_root().join("host-tool/Cargo.toml")).unwrap();
+    assert!(
+        manifest.contains("\nflash = [\"dep:probe-rs\"]"),
+        "no flash feature"
     );
+    assert!(
+        manifest.contains("\ndefault = []"),
+        "flash should be off by default"
+    );
+
+    let Run {
+        code, stdout: out, ..
+    } = gonio(&["--help"]);
+    assert_eq!(code, 0);
+    let listed = out
+        .lines()
+        .find(|l| l.trim_start().starts_with("flash "))
+        .unwrap_or_else(|| panic!("gonio --help does not list flash: {out}"));
+    assert!(listed.contains("needs the 'flash' feature"), "{listed}");
+    let Run {
+        code, stdout: out, ..
+    } = gonio(&["flash", "--help"]);
+    assert_eq!(code, 0);
+    // The help is wrapped to the terminal's width: compare its words.
+    let words = out.split_whitespace().collect::<Vec<_>>().join(" ");
+    assert!(
+        words.contains("`cargo install --path host-tool --features flash`"),
+        "{out}"
+    );
+}
+
+/// A build with the feature says so in its help, and lists flash without the caveat.
+#[cfg(feature = "flash")]
+#[test]
+fn flash_help_says_this_build_has_the_feature() {
+    let Run { stdout: out, .. } = gonio(&["--help"]);
+    let listed = out
+        .lines()
+        .find(|l| l.trim_start().starts_with("flash "))
+        .unwrap_or_else(|| panic!("gonio --help does not list flash: {out}"));
+    assert!(!listed.contains("feature"), "{listed}");
+    let Run { stdout: out, .. } = gonio(&["flash", "--help"]);
+    let words = out.split_whitespace().collect::<Vec<_>>().join(" ");
+    assert!(words.contains("built with the 'flash' feature"), "{out}");
 }
 
 #[test]

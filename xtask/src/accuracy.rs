@@ -253,12 +253,12 @@ const SWEEPS: &[RealSweep] = &[
         flags: &[],
     },
     RealSweep {
-        // The remedy gonio's note names for the 41.4 deg core that falls between
-        // readings, with an assumed detector (the provenance states none): the
-        // readings as averages over a cone of half the step's half-angle.
-        name: "Scatterworks solar array, 532 nm, with `--aperture 0.5` (an assumed detector half-angle: half the 1 deg step)",
+        // The default assumes a detector half-angle of half the step for this core,
+        // narrower than the step (the provenance states no aperture): here without
+        // that assumption, point readings stated, for comparison.
+        name: "Scatterworks solar array, 532 nm, with `--aperture 0` (point readings stated: no aperture assumed)",
         source: Source::File("scatterworks-solar-array-532nm.sweep.csv"),
-        flags: &["--aperture", "0.5"],
+        flags: &["--aperture", "0"],
     },
     RealSweep {
         name: "MERL aluminium, in-plane",

@@ -74,6 +74,11 @@ pub fn refit_if_unresolved(
         return (data, point);
     };
     let half = step / 2.0;
+    // A step so coarse that half of it is beyond any detector's cone is no specular
+    // measurement: nothing assumed.
+    if !matches!(super::data::check_aperture(half), Ok(Some(_))) {
+        return (data, point);
+    }
     let mut wide = data.clone();
     wide.aperture = Some(half);
     let aicc = |f: &FamilyFit| f.candidate(f.selected_member).map(|c| c.aicc);

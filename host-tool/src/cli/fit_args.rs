@@ -79,7 +79,10 @@ measured specular peak sits off the selected member's peak at every incidence (0
 the report says so: an angle offset or tilted sample no member has a parameter for; and when the selected core \
 lobe is narrower at half maximum than the readings' step at the peak, that its width is not resolved.\n\n\
 --aperture (or a `# aperture: DEG` line in the sweep) averages each model over the detector's acceptance cone \
-before comparing, so widths are the surface's. The RMSE table is the paper's Table 3: per incidence, curves \
+before comparing, so widths are the surface's. With neither, where the readings do not resolve the core (the \
+selected core narrower than the step, or a peak one reading 4x both neighbours) the family is refitted over an \
+assumed half-angle of half the step and kept if its AICc is lower by more than 2; the report says so. \
+--aperture 0 states point readings (nothing assumed). The RMSE table is the paper's Table 3: per incidence, curves \
 normalised to their value at theta_r = theta_i, or at the nearest reading when there is none there (marked *). \
 Angles in degrees, sigma_m in radians, BRDF in the file's units (its `# brdf:` line: relative, or 1/sr; \
 --instrument fits in 1/sr). The report ends with physical checks of every model (none in a campaign unless \
@@ -177,8 +180,8 @@ pub struct FitArgs {
     pub fresnel: Option<String>,
     /// The detector's acceptance half-angle in degrees (0 to 10): every model is
     /// averaged over the detector's cone before it is compared with the readings, so
-    /// the widths are the surface's. Overrides the sweep's `# aperture:` line; 0 turns
-    /// it off.
+    /// the widths are the surface's. Overrides the sweep's `# aperture:` line; 0 states
+    /// point readings (no aperture assumed for a core narrower than the step).
     #[arg(long, value_name = "DEG", value_parser = parse_aperture_arg)]
     pub aperture: Option<Aperture>,
     /// Fit in 1/sr: divide the (relative) readings by K from this instrument file

@@ -38,6 +38,9 @@ pub struct FamilyFit {
     pub rmse_nearest: Vec<Option<f64>>,
     /// The detector half-angle the models were averaged over (degrees).
     pub aperture: Option<f64>,
+    /// [`FamilyFit::aperture`] was assumed (half the step: no aperture was stated and the
+    /// readings do not resolve the core, [`super::assumed_aperture`]), not stated.
+    pub aperture_assumed: bool,
     /// The sweep carries std and n: goodness of fit against the noise is known.
     pub has_noise: bool,
     /// The units of the data's brdf values, and so of every fitted amplitude.

@@ -47,6 +47,9 @@ pub struct Job {
     pub warnings: Vec<String>,
     /// The sweep file's measurement metadata, read with it (`None` for arrays).
     pub measurement: Option<SweepMeasurement>,
+    /// An aperture was stated (`--aperture`, `0` included, or the sweep's
+    /// `# aperture:` line): none is assumed ([`super::assumed_aperture`]).
+    pub aperture_stated: bool,
 }
 
 /// A sweep file's measurement metadata (`# wavelength:`, `# nebsdf:`, ...) as read
@@ -63,12 +66,15 @@ pub struct SweepMeasurement {
 
 impl Job {
     /// A job over `data` whose aperture and offset are final: the options' own
-    /// overrides are cleared, so that one value, the data's, is fitted.
+    /// overrides are cleared, so that one value, the data's, is fitted. An aperture
+    /// counts as stated when the data has one (the request layer also marks
+    /// `--aperture 0`).
     pub fn new(name: String, data: Dataset, mut options: FitOptions, warnings: Vec<String>) -> Job {
         options.aperture = None;
         options.offset = None;
         Job {
             name,
+            aperture_stated: data.aperture.is_some(),
             data,
             options,
             warnings,
@@ -97,15 +103,24 @@ pub struct Outcome {
 /// Fits the family to the job's data, then assesses it: the physical checks its
 /// options name, made once into the result. A failure names the sweep.
 pub fn run(job: Job) -> Result<Outcome, FileError> {
-    let mut family = fit_family(&job.data, &job.options)
+    let point = fit_family(&job.data, &job.options)
         .map_err(|e| FileError::Fit(format!("{}: {e}", job.name)))?;
+    // No aperture stated and a core the step does not resolve: the family refitted
+    // over an assumed one by the same path as `--aperture`, kept where AICc says so.
+    let (data, mut family) = super::assumed_aperture::refit_if_unresolved(
+        job.data,
+        &job.options,
+        point,
+        job.aperture_stated,
+        fit_family,
+    );
     // Assessed once, here: every report formats these.
     family.physical =
         super::physical::check_family(&family.members, family.selected_member, family.checks);
-    let residual = job.options.residual.resolved(&job.data);
+    let residual = job.options.residual.resolved(&data);
     Ok(Outcome {
         name: job.name,
-        data: job.data,
+        data,
         family,
         residual,
         warnings: job.warnings,

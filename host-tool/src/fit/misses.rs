@@ -181,6 +181,25 @@ pub fn peak_readings(data: &Dataset) -> Vec<Option<usize>> {
         .collect()
 }
 
+/// At incidence `j`, how many times both its neighbours in theta_r the reading `peak`
+/// is, when at least [`SPIKE`]: a core about one step wide or narrower, whatever a
+/// member's core. `None` for a reading at the end of its incidence's readings.
+pub fn spike(data: &Dataset, j: usize, peak: usize) -> Option<f64> {
+    let at = data.obs[peak].theta_r;
+    let mut sides = [f64::INFINITY; 2];
+    let mut gaps = [f64::INFINITY; 2];
+    for &k in data.rows_of(j) {
+        let d = data.obs[k].theta_r - at;
+        let side = usize::from(d > 0.0);
+        if d != 0.0 && d.abs() < gaps[side] {
+            gaps[side] = d.abs();
+            sides[side] = data.obs[k].y;
+        }
+    }
+    let ratio = data.obs[peak].y / sides[0].max(sides[1]).max(f64::MIN_POSITIVE);
+    (sides.iter().all(|s| s.is_finite()) && ratio >= SPIKE).then_some(ratio)
+}
+
 /// Why a peak reading is missed, as far as the readings tell.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum PeakCause {
@@ -224,20 +243,7 @@ impl PeakCause {
                 off: (near - ti).abs(),
             };
         }
-        // The neighbours of the peak reading in theta_r.
-        let rows = data.rows_of(j);
-        let mut sides = [f64::INFINITY; 2];
-        let mut gaps = [f64::INFINITY; 2];
-        for &k in rows {
-            let d = data.obs[k].theta_r - at;
-            let side = usize::from(d > 0.0);
-            if d != 0.0 && d.abs() < gaps[side] {
-                gaps[side] = d.abs();
-                sides[side] = data.obs[k].y;
-            }
-        }
-        let ratio = data.obs[peak].y / sides[0].max(sides[1]).max(f64::MIN_POSITIVE);
-        if sides.iter().all(|s| s.is_finite()) && ratio >= SPIKE {
+        if let Some(ratio) = spike(data, j, peak) {
             return PeakCause::Spike { ratio };
         }
         if ti >= GRAZING {

@@ -15,7 +15,9 @@
 //!   selection in [`select`] (AICc and BIC in [`criteria`]), the result [`FamilyFit`];
 //! - assessing a fit: [`goodness`] (against the readings' noise), [`paper_rmse`]
 //!   (Table 3), [`peak`], [`misses`] (regions the selected member misses),
-//!   [`physical`] (albedo, reciprocity); instrument angles in [`offset`];
+//!   [`physical`] (albedo, reciprocity); instrument angles in [`offset`]; the detector
+//!   aperture assumed where none is stated and the core is unresolved in
+//!   [`assumed_aperture`];
 //! - reading and preparing data: [`data`], [`campaign`] (floor, instrument units);
 //!   what a fit is asked: [`options`]; the paper's model names: [`paper`];
 //! - writing results: [`report`] (text and JSON).
@@ -28,6 +30,7 @@
 
 pub mod abg_text;
 pub mod arrow;
+pub mod assumed_aperture;
 pub mod criteria;
 pub mod data;
 pub mod factors;

@@ -153,6 +153,21 @@ pub fn step_at_peak(data: &Dataset) -> Option<f64> {
         .reduce(f64::min)
 }
 
+/// The core lobe's full width at half maximum in theta_r and the readings' step at the
+/// peak ([`step_at_peak`]), both in degrees, when the lobe is the narrower: the readings
+/// then see its integral over a step, not its shape. `dist`, `sigma` and `gamma` are
+/// the core lobe's.
+pub fn unresolved_core(
+    data: &Dataset,
+    dist: Distribution,
+    sigma: f64,
+    gamma: Option<f64>,
+) -> Option<(f64, f64)> {
+    let step = step_at_peak(data)?;
+    let w = lobe_fwhm_deg(dist, sigma, gamma);
+    (w < step).then_some((w, step))
+}
+
 /// A note when the selected core lobe is narrower (FWHM in theta_r) than the readings'
 /// step at the peak: the readings then see the lobe's integral over a step, not its
 /// shape, so its width is not measured. `dist`, `sigma` and `gamma` are the core lobe's.
@@ -162,9 +177,7 @@ pub fn unresolved_core_note(
     sigma: f64,
     gamma: Option<f64>,
 ) -> Option<String> {
-    let step = step_at_peak(data)?;
-    let w = lobe_fwhm_deg(dist, sigma, gamma);
-    (w < step).then(|| {
+    unresolved_core(data, dist, sigma, gamma).map(|(w, step)| {
         format!(
             "the core lobe (sigma {sigma:.2e}, about {w:.2} deg wide at half maximum in theta_r) is narrower than the \
              readings' step at the peak ({step} deg): these readings do not resolve its width (a finer step, or \

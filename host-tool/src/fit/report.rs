@@ -415,7 +415,7 @@ impl serde::Serialize for FamilyJson<'_> {
         use serde::ser::SerializeMap;
         let f = self.0;
         let mut m = s.serialize_map(Some(
-            11 + usize::from(self.1.is_some()) + usize::from(f.angles.is_some()),
+            12 + usize::from(self.1.is_some()) + usize::from(f.angles.is_some()),
         ))?;
         m.serialize_entry("models", &ModelsJson(f))?;
         m.serialize_entry("selected", f.selected_member.name().as_str())?;
@@ -423,6 +423,7 @@ impl serde::Serialize for FamilyJson<'_> {
         m.serialize_entry("selected_paper", f.selected.name())?;
         m.serialize_entry("selected_components", &member_components(f.selected_member))?;
         m.serialize_entry("aperture_deg", &opt(f.aperture))?;
+        m.serialize_entry("aperture_assumed", &f.aperture_assumed)?;
         // Per incidence [theta_i, theta_r]: the reading every curve of the paper's RMSE
         // is normalised at (theta_r = theta_i, or the nearest reading when none is).
         let at: Vec<[f64; 2]> = f

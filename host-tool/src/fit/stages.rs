@@ -340,6 +340,7 @@ fn fit_nominal(data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, String> {
             })
             .collect(),
         aperture,
+        aperture_assumed: false,
         has_noise: data.has_noise(),
         units: data.units,
         checks: opts.checks,

@@ -133,6 +133,7 @@ impl Request {
             ));
         }
         let mut job = Job::new(name, data, self.fit.clone(), warnings);
+        job.aperture_stated = self.aperture != Aperture::FromSweep || file_aperture.is_some();
         job.measurement = Some(fit::job::SweepMeasurement {
             meta: sweep.measurement(),
             units: sweep.brdf_units(),
@@ -151,7 +152,9 @@ impl Request {
         let mut data = self.data(rows, units, name).map_err(FileError::Input)?;
         data.aperture = self.aperture.over(None);
         data.offset = self.offset;
-        Ok(Job::new(name.into(), data, self.fit.clone(), Vec::new()))
+        let mut job = Job::new(name.into(), data, self.fit.clone(), Vec::new());
+        job.aperture_stated = self.aperture != Aperture::FromSweep;
+        Ok(job)
     }
 
     /// The data to fit: [`prepare`], with the instrument's conversion to 1/sr

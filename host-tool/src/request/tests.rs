@@ -33,11 +33,30 @@ fn the_requests_aperture_is_final_over_the_sweeps_line() {
             job.options.aperture, None,
             "the data's aperture is the one fitted"
         );
+        assert!(job.aperture_stated, "a line, a value or 0: none assumed");
         job.data.aperture
     };
     assert_eq!(job(Aperture::FromSweep), Some(1.5));
     assert_eq!(job(Aperture::Off), None);
     assert_eq!(job(Aperture::Deg(0.5)), Some(0.5));
+}
+
+/// Issue 53: only a sweep with no `# aperture:` line fitted with no `--aperture` may
+/// have one assumed; `--aperture 0` states point readings.
+#[test]
+fn an_aperture_is_stated_by_the_flag_or_the_line_and_0_states_point_readings() {
+    let path = sweep_with("", "no-aperture.csv");
+    let stated = |aperture| {
+        let r = Request {
+            aperture,
+            ..Request::default()
+        };
+        let job = r.job_for_file(&path).unwrap();
+        (job.aperture_stated, job.data.aperture)
+    };
+    assert_eq!(stated(Aperture::FromSweep), (false, None));
+    assert_eq!(stated(Aperture::Off), (true, None));
+    assert_eq!(stated(Aperture::Deg(0.5)), (true, Some(0.5)));
 }
 
 #[test]

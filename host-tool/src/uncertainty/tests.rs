@@ -6,6 +6,8 @@ use brdf_core::presets::Preset;
 
 use super::inject::example_model as injected_model;
 use super::inputs::{Draw, Rng, Sources};
+use super::monte_carlo::CHECK_TOLERANCE;
+use super::trial::{Linearised, Prepared};
 use super::{Context, budget, linear};
 use crate::calibrate::uncertainty_model::UncertaintyModel;
 use crate::fit::Residual;
@@ -174,4 +176,46 @@ fn the_scale_moves_amplitudes_and_not_widths() {
         }
     }
     assert!(b.notes.iter().any(|n| n.contains("Monte Carlo not run")));
+}
+
+#[test]
+fn a_cheap_trial_holds_the_albedo_and_appearance_figures_where_k_id_halves() {
+    // The albedo and the figures are linear in k_id but not in its logarithm, the fit's
+    // coordinate; on this sweep k_id is poorly determined (u about 60 % of it) and a
+    // draw may halve it. An expansion in the logarithm about the optimum left a third
+    // of u there (the figures to first order, the albedo to second).
+    let (data, tfit) = truth();
+    let model = injected_model().resolve(None, (0.0, 0.0));
+    let ctx = Context::new(&data, &tfit, Residual::Log, Sources::new(&model, false))
+        .with_appearance(1.0)
+        .unwrap();
+    let lin = Linearised::new(&ctx).unwrap();
+    let slopes = linear::angle_slopes(&ctx);
+    let u: Vec<f64> = lin
+        .reading_sensitivities()
+        .iter()
+        .map(|g| linear::combined(&linear::output_lines(&ctx, g, &slopes)))
+        .collect();
+    let prepared = Prepared::new(&ctx, &lin).unwrap();
+    let names = ctx.output_names();
+    let first = names
+        .iter()
+        .position(|n| n.0.starts_with("albedo"))
+        .unwrap();
+    assert_eq!(names.len() - first, 3 + 6);
+    let mut x = tfit.x.clone();
+    x[tfit.layout.kid.unwrap()] += 0.5f64.ln();
+    x[tfit.layout.sigma.unwrap()] += 0.01;
+    let mut scratch = tfit.clone();
+    let cheap = prepared.outputs(&ctx, &x, &mut scratch).unwrap();
+    scratch.x.copy_from_slice(&x);
+    let exact = ctx.outputs(&scratch).unwrap();
+    for i in first..names.len() {
+        let r = (cheap[i] - exact[i]).abs() / u[i];
+        eprintln!("{}: {:.2e} of u", names[i].0, r);
+        assert!(r < CHECK_TOLERANCE, "{}: {r} of u", names[i].0);
+        // The move is several u: the check above is not trivially met.
+        let moved = (exact[i] - ctx.outputs(&tfit).unwrap()[i]).abs() / u[i];
+        assert!(moved > 0.05, "{}: moved {moved} u", names[i].0);
+    }
 }

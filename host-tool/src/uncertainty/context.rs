@@ -178,6 +178,13 @@ impl<'a> Context<'a> {
     /// The outputs of `fit` (the nominal one or a refit): its free parameters and the
     /// albedo per incidence; `None` where one cannot be computed.
     pub fn outputs(&self, fit: &MemberFit) -> Option<Vec<f64>> {
+        let mut out = self.outputs_but_appearance(fit)?;
+        out.extend(self.appearance_outputs(&fit.x)?);
+        out.iter().all(|v| v.is_finite()).then_some(out)
+    }
+
+    /// [`Context::outputs`] without the appearance figures.
+    pub fn outputs_but_appearance(&self, fit: &MemberFit) -> Option<Vec<f64>> {
         let mut out: Vec<f64> = member_params(fit)
             .into_iter()
             .filter(|p| !p.held)
@@ -186,7 +193,6 @@ impl<'a> Context<'a> {
         for j in 0..fit.incidences.len() {
             out.push(self.albedo_of(fit, &fit.x, j)?);
         }
-        out.extend(self.appearance_outputs(&fit.x)?);
         out.iter().all(|v| v.is_finite()).then_some(out)
     }
 

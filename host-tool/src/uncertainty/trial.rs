@@ -309,18 +309,27 @@ impl<'a> Prepared<'a> {
             .map(|p| p.value)
             .collect();
         out.extend(self.albedo.iter().map(|q| q.at(&d)));
-        let (fine0, coarse0) = &self.appearance;
-        if !fine0.is_empty() {
-            let coarse = ctx.appearance_outputs_by(x, APPEARANCE_RULES)?;
-            out.extend(
-                fine0
-                    .iter()
-                    .zip(coarse0)
-                    .zip(coarse)
-                    .map(|((f0, c0), c)| f0 + (c - c0)),
-            );
-        }
+        out.extend(self.figures(ctx, x)?);
         out.iter().all(|v| v.is_finite()).then_some(out)
+    }
+
+    /// The appearance figures at parameters `x` (empty when they are not outputs): the
+    /// fine rule's value at the optimum plus the change of [`APPEARANCE_RULES`]' value
+    /// from the optimum to `x`.
+    pub fn figures(&self, ctx: &Context<'_>, x: &[f64]) -> Option<Vec<f64>> {
+        let (fine0, coarse0) = &self.appearance;
+        if fine0.is_empty() {
+            return Some(Vec::new());
+        }
+        let coarse = ctx.appearance_outputs_by(x, APPEARANCE_RULES)?;
+        Some(
+            fine0
+                .iter()
+                .zip(coarse0)
+                .zip(coarse)
+                .map(|((f0, c0), c)| f0 + (c - c0))
+                .collect(),
+        )
     }
 }
 

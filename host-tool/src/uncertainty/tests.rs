@@ -108,13 +108,14 @@ fn k2_intervals_cover_the_truth_on_simulated_sweeps() {
     // 60 sweeps: a binomial 95 % has a standard deviation of 2.8 %; the bounds are 3
     // of them (the 200-sweep check below holds the 95 +- 3 %).
     // Without the appearance figures (their quadratures are most of the 200-sweep
-    // check's time; 60 sweeps with them: gloss 20 0.917, 60 0.900, 85 0.950).
+    // check's time; on 200 sweeps, gloss 20 0.935, 60 0.960, 85 0.975: docs/uncertainty.md).
     check_coverage(60, 0.86, 1.0, false);
 }
 
 /// The check: 200 sweeps, 95 % +- 3 % for every parameter, albedo and
-/// appearance figure (60 deg gloss among them) (run by `cargo xtask coverage`; several
-/// minutes in a debug build, the appearance figures' quadratures most of it).
+/// appearance figure (60 deg gloss among them) (run by `cargo xtask coverage`; 24
+/// minutes of wall clock in a debug build on a shared two-core machine, the appearance
+/// figures' quadratures most of it; its figures are in docs/uncertainty.md).
 #[test]
 #[ignore]
 fn k2_intervals_cover_the_truth_on_200_simulated_sweeps() {

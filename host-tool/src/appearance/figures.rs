@@ -10,7 +10,7 @@ use brdf_core::member_model::{MemberModel, MemberParams};
 use serde_json::{Value, json};
 
 use super::geometry::{BLACK_GLASS_N, E430, GLOSS_GEOMETRIES, GlossGeometry, Rect};
-use super::quadrature::{Flux, Surface, flux};
+use super::quadrature::{Flux, Rules, Surface, flux_by};
 
 /// A figure and the bound on its quadrature error (same unit). No measurement
 /// uncertainty: that comes from propagating the parameters' (see `docs/appearance.md`).
@@ -85,6 +85,12 @@ fn mean(a: Flux, b: Flux) -> Flux {
 
 /// The figures of `surface` (module docs; definitions in `docs/appearance.md`).
 pub fn appearance(surface: &Surface) -> Result<Appearance, ModelError> {
+    appearance_by(surface, Rules::Estimated)
+}
+
+/// [`appearance`] by `rules` (the errors NaN unless [`Rules::Estimated`]).
+pub fn appearance_by(surface: &Surface, rules: Rules) -> Result<Appearance, ModelError> {
+    let flux = |s: &Surface, t: f64, src: Rect, rec: Rect| flux_by(s, t, src, rec, rules);
     let glass = Surface::mirror(BLACK_GLASS_N, 0.0);
     let mut evaluations = 0;
     let mut gloss = Vec::new();
@@ -137,8 +143,17 @@ pub fn of_params(
     params_at: &(dyn Fn(f64) -> MemberParams<f64> + Sync),
     to_per_sr: f64,
 ) -> Result<Appearance, ModelError> {
+    of_params_by(params_at, to_per_sr, Rules::Estimated)
+}
+
+/// [`of_params`] by `rules`.
+pub fn of_params_by(
+    params_at: &(dyn Fn(f64) -> MemberParams<f64> + Sync),
+    to_per_sr: f64,
+    rules: Rules,
+) -> Result<Appearance, ModelError> {
     let model_at = |t: f64| MemberModel::new(&params_at(t));
-    appearance(&Surface::model(&model_at, to_per_sr))
+    appearance_by(&Surface::model(&model_at, to_per_sr), rules)
 }
 
 impl Appearance {

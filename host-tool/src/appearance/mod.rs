@@ -15,8 +15,8 @@ pub mod figures;
 pub mod geometry;
 pub mod quadrature;
 
-pub use figures::{Appearance, Figure, appearance, of_params};
-pub use quadrature::Surface;
+pub use figures::{Appearance, Figure, appearance, appearance_by, of_params, of_params_by};
+pub use quadrature::{Rules, Surface};
 
 #[cfg(test)]
 mod tests;

@@ -241,6 +241,29 @@ fn one_rule(
     Ok((v, evals))
 }
 
+/// Which rules a flux is computed with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Rules {
+    /// The fine rule and its error estimate (module docs).
+    Estimated,
+    /// One rule, `source` and `receptor` Gauss–Legendre nodes per direction on the fine
+    /// rule's panels, and no error estimate (`error` is NaN): a value whose error is not
+    /// wanted (the fine rule alone), or, on a coarser rule, its change between nearby
+    /// parameters (the rule's error, smooth in them, cancels in the difference).
+    Single {
+        /// Nodes across the source per direction.
+        source: usize,
+        /// Nodes per receptor panel and direction.
+        receptor: usize,
+    },
+}
+
+/// The fine rule alone ([`Rules::Single`] of [`SOURCE_NODES`] and [`NODES`]).
+pub const FINE: Rules = Rules::Single {
+    source: SOURCE_NODES,
+    receptor: NODES,
+};
+
 /// The fraction of the incident flux (incidence `incidence_deg`, through `source`) that
 /// `receptor` (offset from the specular direction) collects from `surface`, with its
 /// error estimate (module docs).
@@ -249,6 +272,17 @@ pub fn flux(
     incidence_deg: f64,
     source: Rect,
     receptor: Rect,
+) -> Result<Flux, ModelError> {
+    flux_by(surface, incidence_deg, source, receptor, Rules::Estimated)
+}
+
+/// [`flux`] by `rules`.
+pub fn flux_by(
+    surface: &Surface,
+    incidence_deg: f64,
+    source: Rect,
+    receptor: Rect,
+    rules: Rules,
 ) -> Result<Flux, ModelError> {
     for x in [source.width, source.height, receptor.width, receptor.height] {
         if !(x.is_finite() && x > 0.0 && x < 30.0) {
@@ -286,6 +320,18 @@ pub fn flux(
         receptor: gauss_legendre(n),
         panels,
     };
+    if let Rules::Single {
+        source: s,
+        receptor: r,
+    } = rules
+    {
+        let (value, evaluations) = one_rule(surface, theta, source, receptor, &rule(s, r))?;
+        return Ok(Flux {
+            value,
+            error: f64::NAN,
+            evaluations,
+        });
+    }
     let (fine, e0) = one_rule(surface, theta, source, receptor, &rule(SOURCE_NODES, NODES))?;
     let mut spread: f64 = 0.0;
     let mut evaluations = e0;

@@ -259,6 +259,40 @@ fn the_error_estimate_bounds_the_error_of_a_sharp_lobe() {
 }
 
 #[test]
+fn a_single_rule_is_the_fine_value_and_a_coarse_one_moves_with_it() {
+    // The uncertainty budget takes the figures on the fine rule alone (no error
+    // estimate) and a trial's change on a coarser rule: the first must be the fine value
+    // to the bit, the second's change must follow the fine rule's.
+    use super::quadrature::{FINE, Rules, flux_by};
+    let g = GLOSS_GEOMETRIES[0];
+    let at = |sigma: f64, rules: Rules| {
+        let p = params(
+            Some(lobe(Distribution::Ggx, sigma, Ks::PerIncidence(1.0))),
+            None,
+            None,
+        );
+        let model_at = move |_| MemberModel::new(&p);
+        let s = Surface::model(&model_at, 1.0);
+        flux_by(&s, g.incidence, g.source, g.receptor, rules).unwrap()
+    };
+    let est = at(0.004, Rules::Estimated);
+    let fine = at(0.004, FINE);
+    assert_eq!(fine.value, est.value);
+    assert!(fine.error.is_nan());
+    let coarse = Rules::Single {
+        source: 6,
+        receptor: 6,
+    };
+    let d_fine = at(0.0041, FINE).value - fine.value;
+    let d_coarse = at(0.0041, coarse).value - at(0.004, coarse).value;
+    assert!(d_fine.abs() > 1e-4, "{d_fine}");
+    assert!(
+        (d_coarse - d_fine).abs() < 0.02 * d_fine.abs(),
+        "{d_coarse} vs {d_fine}"
+    );
+}
+
+#[test]
 fn bad_apertures_and_incidences_are_refused() {
     let s = Surface::mirror(1.5, 0.0);
     let r = Rect::centred(1.0, 1.0);

@@ -172,6 +172,13 @@ pub fn compute(
                 format!("Monte Carlo trials each a full LM refit and quadrature: {why}")
             }
         });
+        if let Some(w) = t.coarse_figures {
+            notes.push(format!(
+                "the full trials after the first {} took the appearance figures on a coarser rule (the fine rule's value at the optimum plus the coarse rule's change): on the checked trials' full refits at most {:.2} % of a figure's u from the fine rule",
+                trials.min(super::trial::CHECKED),
+                100.0 * w
+            ));
+        }
         if t.failed > 0 {
             notes.push(format!(
                 "{} of {trials} Monte Carlo refits failed and are left out",

@@ -6,6 +6,8 @@ use brdf_core::albedo::{Rule, albedo, member_brdf};
 use brdf_core::member_model::MemberModel;
 
 use super::inputs::{self, Point, Sources};
+use crate::appearance::Rules;
+use crate::appearance::quadrature::FINE;
 use crate::fit::Residual;
 use crate::fit::data::{Dataset, Observation};
 use crate::fit::member_fit::{MemberFit, eval_at};
@@ -105,22 +107,39 @@ impl<'a> Context<'a> {
         Ok(self)
     }
 
-    /// The appearance figures of the fitted member at parameters `x`.
+    /// The appearance figures of the fitted member at parameters `x` (with their
+    /// quadrature errors).
     pub fn appearance_of(&self, x: &[f64]) -> Result<crate::appearance::Appearance, String> {
+        self.appearance_by(x, Rules::Estimated)
+    }
+
+    fn appearance_by(
+        &self,
+        x: &[f64],
+        rules: Rules,
+    ) -> Result<crate::appearance::Appearance, String> {
         let (to, _) = self.appearance.ok_or("no appearance figures asked for")?;
         let mut f = self.fit.clone();
         f.x.copy_from_slice(x);
         let table = crate::export::mitsuba::MemberTable::of_member_fit(&f);
-        crate::appearance::of_params(&|t| table.params_at(t), to).map_err(|e| e.to_string())
+        crate::appearance::of_params_by(&|t| table.params_at(t), to, rules)
+            .map_err(|e| e.to_string())
     }
 
-    /// The appearance outputs at `x` ([`Context::output_names`]' order); empty when
-    /// none were asked for, `None` when they cannot be computed.
+    /// The appearance outputs at `x` ([`Context::output_names`]' order), on the fine
+    /// rule (their quadrature errors are not outputs); empty when none were asked for,
+    /// `None` when they cannot be computed.
     pub fn appearance_outputs(&self, x: &[f64]) -> Option<Vec<f64>> {
+        self.appearance_outputs_by(x, FINE)
+    }
+
+    /// [`Context::appearance_outputs`] by `rules` (a coarser rule: their changes
+    /// between nearby parameters, as the cheap trials take them).
+    pub fn appearance_outputs_by(&self, x: &[f64], rules: Rules) -> Option<Vec<f64>> {
         let Some((_, doi)) = self.appearance else {
             return Some(Vec::new());
         };
-        let a = self.appearance_of(x).ok()?;
+        let a = self.appearance_by(x, rules).ok()?;
         let mut v: Vec<f64> = a.gloss.iter().map(|g| g.gu.value).collect();
         v.push(a.haze_index.value);
         v.push(a.e430.haze.value);
@@ -159,6 +178,13 @@ impl<'a> Context<'a> {
     /// The outputs of `fit` (the nominal one or a refit): its free parameters and the
     /// albedo per incidence; `None` where one cannot be computed.
     pub fn outputs(&self, fit: &MemberFit) -> Option<Vec<f64>> {
+        let mut out = self.outputs_but_appearance(fit)?;
+        out.extend(self.appearance_outputs(&fit.x)?);
+        out.iter().all(|v| v.is_finite()).then_some(out)
+    }
+
+    /// [`Context::outputs`] without the appearance figures.
+    pub fn outputs_but_appearance(&self, fit: &MemberFit) -> Option<Vec<f64>> {
         let mut out: Vec<f64> = member_params(fit)
             .into_iter()
             .filter(|p| !p.held)
@@ -167,7 +193,6 @@ impl<'a> Context<'a> {
         for j in 0..fit.incidences.len() {
             out.push(self.albedo_of(fit, &fit.x, j)?);
         }
-        out.extend(self.appearance_outputs(&fit.x)?);
         out.iter().all(|v| v.is_finite()).then_some(out)
     }
 

@@ -9,8 +9,8 @@
 //! - [`inject`]: the sources injected into a simulated device's sample;
 //! - [`linear`]: the sensitivities and the law of propagation;
 //! - [`monte_carlo`]: trials in parallel, each a refit from the fit's optimum;
-//! - [`trial`]: the cheap trial (chord refit, the albedo's expansion), checked against
-//!   full refits;
+//! - [`trial`]: the cheap trial (chord refit, the albedo's expansion, the appearance
+//!   figures on a coarser rule), checked against full refits;
 //! - [`context`]: the fit and data propagated, the outputs of a refit;
 //! - [`budget`]: the budget (per source: value, sensitivity, contribution; combined
 //!   and expanded, k = 2), which method each figure uses, text and JSON.

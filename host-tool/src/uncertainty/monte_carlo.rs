@@ -26,6 +26,12 @@ pub struct Trials {
     pub raised: usize,
     /// How the trials refitted.
     pub how: How,
+    /// The appearance figures of the full trials after the checked ones were taken on
+    /// the cheap trials' coarser rule ([`Prepared::figures`]): on the checked trials'
+    /// full refits the figures so taken differed from the fine rule's by at most this
+    /// fraction of their u (law). `None`: the figures are not outputs, the trials are
+    /// cheap, or the check failed (every full trial on the fine rule).
+    pub coarse_figures: Option<f64>,
 }
 
 /// How the trials refitted: cheaply ([`trial`]) once the check passed, or each in full.
@@ -94,8 +100,22 @@ fn perturbed(
     (out, raised)
 }
 
-/// A full trial: the member refitted by LM from the optimum, the albedo by quadrature.
-fn full(ctx: &Context<'_>, yp: &[f64]) -> Option<Vec<f64>> {
+/// A full trial: the member refitted by LM from the optimum, the albedo by quadrature,
+/// the appearance figures on the fine rule or, given `figures`, by it.
+fn full(ctx: &Context<'_>, yp: &[f64], figures: Option<&Prepared<'_>>) -> Option<Vec<f64>> {
+    let fit = refit(ctx, yp)?;
+    match figures {
+        None => ctx.outputs(&fit),
+        Some(p) => {
+            let mut out = ctx.outputs_but_appearance(&fit)?;
+            out.extend(p.figures(ctx, &fit.x)?);
+            out.iter().all(|v| v.is_finite()).then_some(out)
+        }
+    }
+}
+
+/// The member refitted to readings `yp` by LM from the optimum.
+fn refit(ctx: &Context<'_>, yp: &[f64]) -> Option<crate::fit::member_fit::MemberFit> {
     let mut data = ctx.data.clone();
     for (o, &v) in data.obs.iter_mut().zip(yp) {
         o.y = v;
@@ -107,7 +127,7 @@ fn full(ctx: &Context<'_>, yp: &[f64]) -> Option<Vec<f64>> {
         ctx.fit.aperture,
         &ctx.fit.x,
     )
-    .and_then(|f| ctx.outputs(&f.fit))
+    .map(|f| f.fit)
 }
 
 /// Runs `trials` trials from `seed`; `lin`: the fit linearised (the cheap trials'
@@ -130,6 +150,7 @@ pub fn run(
             failed: trials,
             raised: 0,
             how: How::Full("the fitted model cannot be built".into()),
+            coarse_figures: None,
         };
     };
     let f0: Vec<f64> = ctx
@@ -143,7 +164,8 @@ pub fn run(
     let prepared = Prepared::new(ctx, lin);
     // The check: the first trials both ways (in full kept as the samples).
     let checked = trials.min(CHECKED);
-    let first: Vec<(Option<Vec<f64>>, Outcome, usize)> = (0..checked)
+    let n_app = ctx.n_appearance();
+    let first: Vec<(Option<Vec<f64>>, Outcome, usize, Outcome)> = (0..checked)
         .into_par_iter()
         .map(|t| {
             let (yp, raised) = perturbed(ctx, &y, &f0, &models, seed, t);
@@ -152,15 +174,38 @@ pub fn run(
                 p.refit(ctx, &yp)
                     .and_then(|x| p.outputs(ctx, &x, &mut scratch))
             });
-            let out = full(ctx, &yp);
+            let fit = refit(ctx, &yp);
+            let out = fit.as_ref().and_then(|f| ctx.outputs(f));
+            // The figures at the full refit's parameters on the coarser rule.
+            let figures = match (&prepared, &fit) {
+                (Some(p), Some(f)) if n_app > 0 => p.figures(ctx, &f.x),
+                _ => None,
+            };
             tick();
-            (out, cheap, raised)
+            (out, cheap, raised, figures)
         })
         .collect();
+    // The figures on the coarser rule against the fine rule, at the same (full)
+    // parameters: whether the full trials may take them so.
+    let mut coarse_worst: Option<f64> = (n_app > 0 && prepared.is_some()).then_some(0.0);
+    for (full, _, _, figures) in &first {
+        if let (Some(w), Some(a)) = (coarse_worst.as_mut(), full) {
+            match figures {
+                Some(b) => {
+                    let k = a.len() - n_app;
+                    for ((a, b), u) in a[k..].iter().zip(b).zip(&u_law[k..]) {
+                        *w = w.max((a - b).abs() / u.max(f64::MIN_POSITIVE));
+                    }
+                }
+                None => coarse_worst = None,
+            }
+        }
+    }
+    let coarse_figures = coarse_worst.filter(|w| *w <= CHECK_TOLERANCE);
     let mut worst: f64 = 0.0;
     let mut compared = 0;
     let mut why = None;
-    for (full, cheap, _) in &first {
+    for (full, cheap, _, _) in &first {
         match (full, cheap) {
             (Some(a), Some(b)) => {
                 compared += 1;
@@ -188,6 +233,7 @@ pub fn run(
     let cheap = matches!(how, How::Cheap { .. })
         .then_some(prepared.as_ref())
         .flatten();
+    let figures = coarse_figures.and(prepared.as_ref());
     let rest: Vec<(Option<Vec<f64>>, usize, bool)> = (checked..trials)
         .into_par_iter()
         .map_init(
@@ -197,7 +243,7 @@ pub fn run(
                 let quick = cheap.and_then(|p| p.refit(ctx, &yp).map(|x| (p, x)));
                 let (out, fell_back) = match quick {
                     Some((p, x)) => (p.outputs(ctx, &x, scratch), false),
-                    None => (full(ctx, &yp), cheap.is_some()),
+                    None => (full(ctx, &yp, figures), cheap.is_some()),
                 };
                 tick();
                 (out, raised, fell_back)
@@ -227,6 +273,7 @@ pub fn run(
         samples,
         failed,
         raised,
+        coarse_figures: coarse_figures.filter(|_| !matches!(how, How::Cheap { .. })),
         how,
     }
 }

@@ -1,7 +1,9 @@
 //! A Monte Carlo trial made cheap: the refit by the chord method (Gauss–Newton with the
 //! Jacobian held at the fit's optimum) and the albedo by its second-order Taylor
-//! expansion about the optimum, both prepared once per budget and checked against the
-//! full refit and quadrature on the first trials ([`CHECKED`]).
+//! expansion about the optimum (in the amplitudes, not their logarithms), both prepared once per budget, and the appearance
+//! figures evaluated at the trial's parameters on a coarser rule
+//! ([`APPEARANCE_RULES`]); checked against the full refit and quadrature on the first
+//! trials ([`CHECKED`]).
 //!
 //! Why: a full refit (LM with a fresh Jacobian each step) and the albedo's quadrature
 //! (thousands of evaluations per incidence) cost some 20 ms a trial; the issue bounds
@@ -13,11 +15,26 @@
 use nalgebra::DMatrix;
 
 use super::context::Context;
+use crate::appearance::Rules;
 use crate::export::mitsuba::MemberTable;
 use crate::fit::member_fit::MemberFit;
 use crate::fit::member_fit::eval_at;
 use crate::fit::options::residual_of;
 use crate::fit::report::member_params;
+
+/// The rule of a cheap trial's appearance figures: half the fine rule's nodes in each
+/// of the four directions (1/16 of its evaluations) on the same panels. A trial's
+/// figure is the fine value at the optimum plus the change of this rule's value from
+/// the optimum to the trial's parameters: the figure evaluated at them, not expanded
+/// (a first-order expansion in the log-parameters left 28 % of u on a trial whose
+/// poorly determined k_id had moved by half its value, where the figures are linear
+/// in k_id but not in its logarithm), and the coarse rule's error, smooth in the
+/// parameters, cancels in the change (the check on the first trials measures what it
+/// leaves).
+pub const APPEARANCE_RULES: Rules = Rules::Single {
+    source: crate::appearance::quadrature::SOURCE_NODES / 2,
+    receptor: crate::appearance::quadrature::NODES / 2,
+};
 
 /// Trials checked against the full refit and quadrature.
 pub const CHECKED: usize = 8;
@@ -39,12 +56,21 @@ const ALBEDO_STEP: f64 = 1e-3;
 /// the trial's step; the check on the first trials measures what it leaves.
 pub const HESSIAN_NODES: usize = 6;
 
-/// The albedo at one incidence as a quadratic in the free parameters it depends on.
+/// The albedo at one incidence as a quadratic in the free parameters it depends on,
+/// an amplitude's (k_dd, k_id, a per-incidence k_s: [`Layout::is_amplitude`]) taken
+/// as its relative change exp(d) - 1 rather than the change d of its logarithm, the
+/// fit's coordinate: the albedo is linear in each amplitude, so a large move of a
+/// poorly determined one (a draw that halves k_id) is exact where the expansion in its
+/// logarithm left 30 % of u.
+///
+/// [`Layout::is_amplitude`]: crate::fit::member_fit::layout::Layout::is_amplitude
 #[derive(Debug, Clone)]
 struct Quadratic {
     rho0: f64,
     /// Positions (in the free parameters) it depends on.
     idx: Vec<usize>,
+    /// Per position: an amplitude.
+    amplitude: Vec<bool>,
     grad: Vec<f64>,
     /// Row-major, `idx.len()` squared.
     hess: Vec<f64>,
@@ -53,15 +79,20 @@ struct Quadratic {
 impl Quadratic {
     fn at(&self, d: &[f64]) -> f64 {
         let m = self.idx.len();
-        let mut v = self.rho0;
+        let v: Vec<f64> = (0..m)
+            .map(|a| {
+                let da = d[self.idx[a]];
+                if self.amplitude[a] { da.exp_m1() } else { da }
+            })
+            .collect();
+        let mut q = self.rho0;
         for a in 0..m {
-            let da = d[self.idx[a]];
-            v += self.grad[a] * da;
+            q += self.grad[a] * v[a];
             for b in 0..m {
-                v += 0.5 * self.hess[a * m + b] * da * d[self.idx[b]];
+                q += 0.5 * self.hess[a * m + b] * v[a] * v[b];
             }
         }
-        v
+        q
     }
 }
 
@@ -185,11 +216,15 @@ impl Linearised {
     }
 }
 
-/// What every cheap trial shares: the linearisation and the albedo's expansions.
+/// What every cheap trial shares: the linearisation, the albedo's expansions and the
+/// appearance figures at the optimum.
 #[derive(Debug, Clone)]
 pub struct Prepared<'a> {
     lin: &'a Linearised,
     albedo: Vec<Quadratic>,
+    /// The appearance figures at the optimum on the fine rule and on
+    /// [`APPEARANCE_RULES`] (empty when they are not outputs).
+    appearance: (Vec<f64>, Vec<f64>),
 }
 
 /// A cheap trial's outputs (`None`: they cannot be computed).
@@ -197,28 +232,22 @@ pub type Outcome = Option<Vec<f64>>;
 
 impl<'a> Prepared<'a> {
     /// Prepares the cheap trials of `ctx` from its linearisation; `None` when the
-    /// albedo's expansion cannot be formed.
+    /// albedo's expansion or the appearance figures cannot be formed.
     pub fn new(ctx: &Context<'_>, lin: &'a Linearised) -> Option<Self> {
         let n_inc = ctx.fit.incidences.len();
-        let mut albedo = (0..n_inc)
+        let albedo = (0..n_inc)
             .map(|j| quadratic(ctx, lin, j))
             .collect::<Option<Vec<_>>>()?;
-        // The appearance figures to first order (each costs an adaptive quadrature of
-        // several apertures; the check bounds what the second order would add).
-        let q0 = ctx.appearance_outputs(&ctx.fit.x)?;
-        for (r, v) in q0.into_iter().enumerate() {
-            let row = lin.n_par + n_inc + r;
-            let idx: Vec<usize> = (0..lin.free.len())
-                .filter(|&c| lin.dqdx[(row, c)] != 0.0)
-                .collect();
-            albedo.push(Quadratic {
-                rho0: v,
-                grad: idx.iter().map(|&c| lin.dqdx[(row, c)]).collect(),
-                hess: vec![0.0; idx.len() * idx.len()],
-                idx,
-            });
-        }
-        Some(Prepared { lin, albedo })
+        let x0 = &ctx.fit.x;
+        let appearance = (
+            ctx.appearance_outputs(x0)?,
+            ctx.appearance_outputs_by(x0, APPEARANCE_RULES)?,
+        );
+        Some(Prepared {
+            lin,
+            albedo,
+            appearance,
+        })
     }
 
     /// The refit of readings `y` by the chord method from the optimum: the free
@@ -264,7 +293,8 @@ impl<'a> Prepared<'a> {
     }
 
     /// The outputs at parameters `x` ([`Context::outputs`]'s, the albedo by its
-    /// expansion); `trial`: a scratch copy of the fit.
+    /// expansion, the appearance figures by their change on [`APPEARANCE_RULES`]);
+    /// `trial`: a scratch copy of the fit.
     pub fn outputs(
         &self,
         ctx: &Context<'_>,
@@ -279,7 +309,27 @@ impl<'a> Prepared<'a> {
             .map(|p| p.value)
             .collect();
         out.extend(self.albedo.iter().map(|q| q.at(&d)));
+        out.extend(self.figures(ctx, x)?);
         out.iter().all(|v| v.is_finite()).then_some(out)
+    }
+
+    /// The appearance figures at parameters `x` (empty when they are not outputs): the
+    /// fine rule's value at the optimum plus the change of [`APPEARANCE_RULES`]' value
+    /// from the optimum to `x`.
+    pub fn figures(&self, ctx: &Context<'_>, x: &[f64]) -> Option<Vec<f64>> {
+        let (fine0, coarse0) = &self.appearance;
+        if fine0.is_empty() {
+            return Some(Vec::new());
+        }
+        let coarse = ctx.appearance_outputs_by(x, APPEARANCE_RULES)?;
+        Some(
+            fine0
+                .iter()
+                .zip(coarse0)
+                .zip(coarse)
+                .map(|((f0, c0), c)| f0 + (c - c0))
+                .collect(),
+        )
     }
 }
 
@@ -330,9 +380,22 @@ fn quadratic(ctx: &Context<'_>, lin: &Linearised, j: usize) -> Option<Quadratic>
             hess[b * m + a] = v;
         }
     }
+    // In w = exp(d) - 1 for an amplitude: d = ln(1 + w), so at w = 0 the gradient is
+    // the same and the second derivative d^2/dw^2 = d^2/dd^2 - d/dd (the cross terms
+    // are the same).
+    let amplitude: Vec<bool> = idx
+        .iter()
+        .map(|&c| ctx.fit.layout.is_amplitude(lin.free[c]))
+        .collect();
+    for a in 0..m {
+        if amplitude[a] {
+            hess[a * m + a] -= grad[a];
+        }
+    }
     Some(Quadratic {
         rho0,
         idx,
+        amplitude,
         grad,
         hess,
     })

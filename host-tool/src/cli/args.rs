@@ -345,7 +345,7 @@ impl MetaArgs {
         let m = crate::sweep_file::Measurement::from_meta(&map)
             .map_err(|e| CliError::usage(format!("--meta {}", e.trim_start_matches("# "))))?;
         if let Some(e) = m.problem() {
-            return Err(CliError::usage(format!("--meta {e}")));
+            return Err(CliError::usage(e));
         }
         Ok(m)
     }
@@ -581,6 +581,51 @@ fn range(what: &str, start: f64, stop: f64, step: f64, out: &mut Vec<f64>) -> Cl
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn meta_keys_are_lowered_aliased_checked_and_suggested() {
+        assert_eq!(
+            parse_meta(" Beam_Diameter = 2.5 mm").unwrap(),
+            ("beam-diameter".into(), "2.5 mm".into())
+        );
+        assert_eq!(parse_meta("polarisation=s").unwrap().0, "polarization");
+        for (spec, says) in [
+            ("wavelenght=532", "did you mean wavelength?"),
+            ("oper=x", "did you mean operator?"),
+            ("colour=red", "unknown key 'colour': one of wavelength,"),
+            ("of=fe.csv", "give it with --of"),
+            ("wavelength", "expected KEY=VALUE"),
+            ("operator= ", "no value"),
+            ("solid-angle=7", "solid-angle: 7 is out of range"),
+        ] {
+            let e = parse_meta(spec).unwrap_err();
+            assert!(e.contains(says), "{spec}: {e}");
+        }
+        let args = |meta: &[&str], role: Option<&str>, of: Option<&str>| MetaArgs {
+            meta: meta.iter().map(|m| parse_meta(m).unwrap()).collect(),
+            role: role.map(str::to_string),
+            of: of.map(str::to_string),
+        };
+        let m = args(&["wavelength=532"], Some("Signature"), Some("fe.csv"))
+            .measurement()
+            .unwrap();
+        let lines = m.lines();
+        assert_eq!(lines[0], ("wavelength", "532 nm".to_string()));
+        assert!(lines.contains(&("role", "signature".to_string())));
+        let e = args(&["polarization=s", "polarisation=p"], None, None)
+            .measurement()
+            .unwrap_err();
+        assert!(
+            e.message.contains("polarization: given twice"),
+            "{}",
+            e.message
+        );
+        let e = args(&[], Some("dark"), Some("a\nb"))
+            .measurement()
+            .unwrap_err();
+        assert!(e.message.contains("the of 'a"), "{}", e.message);
+        assert!(e.message.contains("holds a line break"), "{}", e.message);
+    }
 
     #[test]
     fn a_budget_not_spent_says_why() {

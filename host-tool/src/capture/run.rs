@@ -135,7 +135,7 @@ pub fn capture<C: Connector>(
             points: plan.points.iter().map(|p| (p.theta_i, p.theta_r)).collect(),
         };
         (
-            SweepWriter::create(&setup.out, &header, setup.force)?,
+            SweepWriter::create_with(&setup.out, &header, &setup.measurement, setup.force)?,
             plan,
             (BTreeSet::new(), Vec::new()),
         )

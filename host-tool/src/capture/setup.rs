@@ -40,6 +40,8 @@ pub struct CaptureSetup {
     /// End the capture once the selected member's relative standard errors meet these
     /// targets (`--until`; refitted after each completed incidence).
     pub until: Option<Until>,
+    /// The measurement's metadata written into a new file's header (`--meta`, `--role`).
+    pub measurement: crate::sweep_file::Measurement,
 }
 
 impl CaptureSetup {
@@ -59,6 +61,7 @@ impl CaptureSetup {
             sample: None,
             specimen: None,
             until: None,
+            measurement: crate::sweep_file::Measurement::default(),
         }
     }
 }

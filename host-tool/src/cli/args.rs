@@ -232,6 +232,172 @@ pub struct OutArgs {
     pub no_live: bool,
 }
 
+/// The measurement's metadata (`--meta KEY=VALUE`) and what the capture is (`--role
+/// dark|signature --of SWEEP`), written into the sweep's header; shared by `capture`
+/// and `simulate`.
+#[derive(Debug, Clone, Default, Args)]
+pub struct MetaArgs {
+    /// Record the measurement's metadata in the sweep's header (repeatable): KEY is
+    /// wavelength (nm), polarization, beam-diameter (mm), solid-angle (sr), nebsdf,
+    /// signature (the instrument-signature sweep), sample, operator, date (ISO 8601) or
+    /// temperature (C), in any case; each value checked as the reader checks it, before
+    /// anything is measured. With --resume the file's are kept: one given must equal it.
+    #[arg(long = "meta", value_name = "KEY=VALUE", value_parser = parse_meta)]
+    pub meta: Vec<(String, String)>,
+    /// This capture is the noise-equivalent one (`dark`: the beam blocked) or the
+    /// instrument-signature one (`signature`: no sample) of the sweep --of names, not a
+    /// sample's sweep: written as `# role:` and `# of:`.
+    #[arg(long, value_name = "dark|signature", value_parser = ["dark", "signature"], ignore_case = true,
+          requires = "of", conflicts_with = "reference")]
+    pub role: Option<String>,
+    /// The sweep (its file, or an id) the --role capture belongs to.
+    #[arg(long, value_name = "SWEEP", requires = "role")]
+    pub of: Option<String>,
+}
+
+/// The `--meta` keys: the measurement's ([`crate::sweep_file::MEASUREMENT_KEYS`]) but
+/// `role` and `of`, which `--role` and `--of` give.
+fn meta_keys() -> impl Iterator<Item = &'static str> {
+    crate::sweep_file::MEASUREMENT_KEYS
+        .into_iter()
+        .filter(|k| !matches!(*k, "role" | "of" | "polarisation"))
+}
+
+/// Edit distance of two short ASCII words (for "did you mean").
+fn distance(a: &str, b: &str) -> usize {
+    let b: Vec<u8> = b.bytes().collect();
+    let mut row: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.bytes().enumerate() {
+        let mut diag = row[0];
+        row[0] = i + 1;
+        for (j, &cb) in b.iter().enumerate() {
+            let next = (row[j + 1] + 1)
+                .min(row[j] + 1)
+                .min(diag + usize::from(ca != cb));
+            diag = row[j + 1];
+            row[j + 1] = next;
+        }
+    }
+    row[b.len()]
+}
+
+/// Parses `--meta KEY=VALUE` (a clap value parser): the key lowered (`polarisation` is
+/// `polarization`), one of [`meta_keys`], and the value checked alone as the sweep
+/// reader checks it ([`crate::sweep_file::Measurement::from_meta`]).
+pub fn parse_meta(spec: &str) -> Result<(String, String), String> {
+    let keys: Vec<&str> = meta_keys().collect();
+    let (key, value) = spec
+        .split_once('=')
+        .ok_or_else(|| format!("expected KEY=VALUE, KEY one of {}", keys.join(", ")))?;
+    let key = match key.trim().to_ascii_lowercase().replace('_', "-").as_str() {
+        "polarisation" => "polarization".to_string(),
+        k => k.to_string(),
+    };
+    if matches!(key.as_str(), "role" | "of") {
+        return Err(format!("{key}: give it with --{key}"));
+    }
+    if !keys.contains(&key.as_str()) {
+        let near: Vec<&str> = keys
+            .iter()
+            .copied()
+            .filter(|k| distance(k, &key) <= 2 || k.starts_with(key.as_str()) && !key.is_empty())
+            .collect();
+        let hint = match near.as_slice() {
+            [] => String::new(),
+            n => format!(" (did you mean {}?)", n.join(" or ")),
+        };
+        return Err(format!(
+            "unknown key '{}'{hint}: one of {}",
+            crate::text::escape_line(&key, 40),
+            keys.join(", ")
+        ));
+    }
+    let value = value.trim();
+    if value.is_empty() {
+        return Err(format!("{key}: no value after '='"));
+    }
+    let one = std::collections::BTreeMap::from([(key.clone(), value.to_string())]);
+    crate::sweep_file::Measurement::from_meta(&one)
+        .map_err(|e| e.trim_start_matches("# ").to_string())?;
+    Ok((key, value.to_string()))
+}
+
+impl MetaArgs {
+    /// Whether no option was given.
+    pub fn is_empty(&self) -> bool {
+        self.meta.is_empty() && self.role.is_none() && self.of.is_none()
+    }
+
+    /// The measurement these options describe; a key given twice is refused.
+    pub fn measurement(&self) -> CliResult<crate::sweep_file::Measurement> {
+        let mut map = std::collections::BTreeMap::new();
+        for (k, v) in &self.meta {
+            if map.insert(k.clone(), v.clone()).is_some() {
+                return Err(CliError::usage(format!("--meta {k}: given twice")));
+            }
+        }
+        let role = [("role", &self.role), ("of", &self.of)];
+        for (k, v) in role {
+            if let Some(v) = v {
+                map.insert(k.to_string(), v.clone());
+            }
+        }
+        let m = crate::sweep_file::Measurement::from_meta(&map)
+            .map_err(|e| CliError::usage(format!("--meta {}", e.trim_start_matches("# "))))?;
+        if let Some(e) = m.problem() {
+            return Err(CliError::usage(e));
+        }
+        Ok(m)
+    }
+
+    /// With `--resume`: the file `data` (at `path`) keeps the metadata it was started
+    /// with (its header is not rewritten), so each value given must equal the file's;
+    /// `own_sample`: the command writes and checks the `sample` line itself.
+    pub fn check_resume(
+        &self,
+        path: &std::path::Path,
+        data: &crate::sweep_file::SweepData,
+        own_sample: bool,
+    ) -> CliResult {
+        let given = self.measurement()?;
+        if given.is_empty() {
+            return Ok(());
+        }
+        let recorded = data
+            .measurement()
+            .map_err(|e| CliError::usage(format!("--resume: {}: {e}", path.display())))?;
+        let recorded: std::collections::BTreeMap<&str, String> =
+            recorded.lines().into_iter().collect();
+        for (k, v) in given.lines() {
+            if k == "sample" && own_sample {
+                continue;
+            }
+            let option = match k {
+                "role" | "of" => format!("--{k}"),
+                _ => format!("--meta {k}"),
+            };
+            match recorded.get(k) {
+                Some(r) if *r == v => {}
+                Some(r) => {
+                    return Err(CliError::usage(format!(
+                        "--resume: {} records {k} '{}', not '{}': drop {option} (the file's metadata is kept) or capture into a new file",
+                        path.display(),
+                        crate::text::escape_line(r, 80),
+                        crate::text::escape_line(&v, 80)
+                    )));
+                }
+                None => {
+                    return Err(CliError::usage(format!(
+                        "--resume: {} records no {k} (a resumed file keeps the header it was started with): drop {option} or capture into a new file",
+                        path.display()
+                    )));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
 /// The simulated device's configuration from `--material/--noise/--seed`.
 pub fn sim_config(material: &str, noise: f32, seed: u32) -> CliResult<SimConfig> {
     let preset = Preset::by_name(material)
@@ -415,6 +581,51 @@ fn range(what: &str, start: f64, stop: f64, step: f64, out: &mut Vec<f64>) -> Cl
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn meta_keys_are_lowered_aliased_checked_and_suggested() {
+        assert_eq!(
+            parse_meta(" Beam_Diameter = 2.5 mm").unwrap(),
+            ("beam-diameter".into(), "2.5 mm".into())
+        );
+        assert_eq!(parse_meta("polarisation=s").unwrap().0, "polarization");
+        for (spec, says) in [
+            ("wavelenght=532", "did you mean wavelength?"),
+            ("oper=x", "did you mean operator?"),
+            ("colour=red", "unknown key 'colour': one of wavelength,"),
+            ("of=fe.csv", "give it with --of"),
+            ("wavelength", "expected KEY=VALUE"),
+            ("operator= ", "no value"),
+            ("solid-angle=7", "solid-angle: 7 is out of range"),
+        ] {
+            let e = parse_meta(spec).unwrap_err();
+            assert!(e.contains(says), "{spec}: {e}");
+        }
+        let args = |meta: &[&str], role: Option<&str>, of: Option<&str>| MetaArgs {
+            meta: meta.iter().map(|m| parse_meta(m).unwrap()).collect(),
+            role: role.map(str::to_string),
+            of: of.map(str::to_string),
+        };
+        let m = args(&["wavelength=532"], Some("Signature"), Some("fe.csv"))
+            .measurement()
+            .unwrap();
+        let lines = m.lines();
+        assert_eq!(lines[0], ("wavelength", "532 nm".to_string()));
+        assert!(lines.contains(&("role", "signature".to_string())));
+        let e = args(&["polarization=s", "polarisation=p"], None, None)
+            .measurement()
+            .unwrap_err();
+        assert!(
+            e.message.contains("polarization: given twice"),
+            "{}",
+            e.message
+        );
+        let e = args(&[], Some("dark"), Some("a\nb"))
+            .measurement()
+            .unwrap_err();
+        assert!(e.message.contains("the of 'a"), "{}", e.message);
+        assert!(e.message.contains("holds a line break"), "{}", e.message);
+    }
 
     #[test]
     fn a_budget_not_spent_says_why() {

@@ -5,7 +5,7 @@ use std::time::Duration;
 
 use clap::Args;
 
-use super::args::{OutArgs, PlanArgs};
+use super::args::{MetaArgs, OutArgs, PlanArgs};
 use super::capture_steps::{run_session, run_with, setup_from};
 use super::error::CliResult;
 use crate::capture::reference::resumed_specimen;
@@ -29,6 +29,8 @@ SIGTERM and SIGHUP act like Ctrl-C.",
 gonio capture --port /dev/ttyACM0 --plan adaptive --prior fe-0.115 --out fe-adaptive.csv\n  \
 gonio capture --port /dev/ttyACM0 --plan plan.toml --exclude-retro 3 --samples 16 --out fe.csv\n  \
 gonio capture --port /dev/ttyACM0 --resume --out fe.csv\n  \
+gonio capture --port /dev/ttyACM0 --meta wavelength=632.8 --meta sample=coupon-7 --meta signature=sig.csv --out fe.csv\n  \
+gonio capture --port /dev/ttyACM0 --role signature --of fe.csv --out sig.csv   (no sample on the stage)\n  \
 gonio capture --port /dev/pts/3 --reference lambertian:0.99 --out fe.csv   (also writes fe.reference.csv)"
 )]
 pub struct CaptureArgs {
@@ -41,6 +43,9 @@ pub struct CaptureArgs {
     /// Where the readings go.
     #[command(flatten)]
     pub out: OutArgs,
+    /// The measurement's metadata, and what the capture is.
+    #[command(flatten)]
+    pub meta: MetaArgs,
     /// Seconds of silence after which the device is pinged (and, if it does not
     /// answer, considered lost); 1 to 3600. A device that answers is waited for as
     /// long as the plan's next point may take (settle, samples, dark, the move; see
@@ -65,7 +70,13 @@ pub struct CaptureArgs {
 
 /// Runs `gonio capture`.
 pub fn run(args: &CaptureArgs) -> CliResult {
-    let mut setup = setup_from(&args.plan, &args.out, args.reference.is_some())?;
+    let mut setup = setup_from(
+        &args.plan,
+        &args.out,
+        &args.meta,
+        args.reference.is_some(),
+        false,
+    )?;
     setup.event_timeout = Duration::from_secs(args.event_timeout.max(1));
     setup.reconnect_for = Duration::from_secs(args.reconnect);
     if let Some(spec) = &args.reference {

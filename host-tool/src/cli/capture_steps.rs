@@ -5,7 +5,7 @@
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use super::args::{OutArgs, PlanArgs};
+use super::args::{MetaArgs, OutArgs, PlanArgs};
 use super::error::{CliError, CliResult};
 use crate::capture::reference::{reference_path, session_setups};
 use crate::capture::{CaptureReport, CaptureSetup, ProgressSink, capture};
@@ -27,15 +27,23 @@ pub(super) fn interrupt_flag() -> Arc<AtomicBool> {
     flag
 }
 
-/// The capture setup of `--plan ...` and `--out ...`. With `session` (`--reference`)
-/// and `--resume` the sample's file need not exist yet (the session may have stopped
-/// in its reference sweep): the plan options are checked against whichever of the
-/// session's two files exist.
-pub(super) fn setup_from(plan: &PlanArgs, out: &OutArgs, session: bool) -> CliResult<CaptureSetup> {
+/// The capture setup of `--plan ...`, `--out ...` and `--meta ...`. With `session`
+/// (`--reference`) and `--resume` the sample's file need not exist yet (the session
+/// may have stopped in its reference sweep): the plan and metadata options are checked
+/// against whichever of the session's two files exist. `own_sample`: the command writes
+/// the sample's `# sample:` line and checks it on `--resume` itself (`simulate`).
+pub(super) fn setup_from(
+    plan: &PlanArgs,
+    out: &OutArgs,
+    meta: &MetaArgs,
+    session: bool,
+    own_sample: bool,
+) -> CliResult<CaptureSetup> {
     let path = out
         .out
         .clone()
         .ok_or_else(|| CliError::usage("--out SWEEP.csv is required"))?;
+    let measurement = meta.measurement()?;
     let plan_args = plan;
     let plan = if out.resume { None } else { Some(plan.plan()?) };
     if let (Some(note), false) = (
@@ -56,7 +64,10 @@ pub(super) fn setup_from(plan: &PlanArgs, out: &OutArgs, session: bool) -> CliRe
             files.push(reference_path(&path));
         }
         for f in files.iter().filter(|f| f.exists()) {
-            plan_args.check_resume(f, &crate::sweep_file::read_sweep(f)?)?;
+            let data = crate::sweep_file::read_sweep(f)?;
+            plan_args.check_resume(f, &data)?;
+            // The reference file's sample is its standard.
+            meta.check_resume(f, &data, own_sample || *f != path)?;
         }
     }
     let mut setup = CaptureSetup::new(plan, path);
@@ -64,6 +75,7 @@ pub(super) fn setup_from(plan: &PlanArgs, out: &OutArgs, session: bool) -> CliRe
     setup.force = out.force;
     setup.raw = out.raw.clone();
     setup.until = plan_args.until.clone();
+    setup.measurement = measurement;
     Ok(setup)
 }
 

@@ -7,7 +7,7 @@ use std::time::Duration;
 
 use clap::Args;
 
-use super::args::{OutArgs, PlanArgs, noise_level, sim_config};
+use super::args::{MetaArgs, OutArgs, PlanArgs, noise_level, sim_config};
 use super::capture_steps::{interrupt_flag, run_session, run_with, setup_from};
 use super::error::{CliError, CliResult};
 use super::output::write_stdout;
@@ -41,7 +41,8 @@ Noise: --noise, else the file's std column (std/BRDF of one sample), else 0.005.
 gonio simulate --material cu-0.070 --noise 0.01 --seed 7 --plan adaptive --prior cu-0.070 --out cu.csv\n  \
 gonio simulate --material al-0.782 --pty\n  \
 gonio simulate --replay solar.sweep.csv --plan plan.toml --out rehearsal.csv\n  \
-gonio simulate --material fe-0.115 --reference lambertian:0.99 --out fe.csv   (also writes fe.reference.csv)"
+gonio simulate --material fe-0.115 --reference lambertian:0.99 --out fe.csv   (also writes fe.reference.csv)\n  \
+gonio simulate --material fe-0.115 --meta wavelength=632.8 --meta sample=coupon-7 --out fe.csv"
 )]
 pub struct SimulateArgs {
     /// The virtual sample: al-0.087, al-0.142, al-0.782, cu-0.070 or fe-0.115.
@@ -88,6 +89,9 @@ pub struct SimulateArgs {
     /// Where the readings go.
     #[command(flatten)]
     pub out: OutArgs,
+    /// The measurement's metadata, and what the capture is.
+    #[command(flatten)]
+    pub meta: MetaArgs,
 }
 
 /// Runs `gonio simulate`.
@@ -142,6 +146,11 @@ pub fn run(args: &SimulateArgs) -> CliResult {
         simulated_standard(spec, &mut cfg)?;
     }
     if args.pty {
+        if !args.meta.is_empty() {
+            return Err(CliError::usage(
+                "--meta, --role and --of describe a sweep file: give them to the capture (--out), not to --pty",
+            ));
+        }
         let dev = PtyDevice::start(&cfg)
             .map_err(|e| CliError::failed(format!("cannot open a pseudo-terminal: {e}")))?;
         write_stdout(format!("{}\n", dev.path().display()).as_bytes())?;
@@ -156,7 +165,13 @@ pub fn run(args: &SimulateArgs) -> CliResult {
         }
         return Ok(());
     }
-    let mut setup = setup_from(&args.plan, &args.out, args.reference.is_some())?;
+    let mut setup = setup_from(
+        &args.plan,
+        &args.out,
+        &args.meta,
+        args.reference.is_some(),
+        true,
+    )?;
     if let (Some(r), Some(plan)) = (&replay, &mut setup.plan)
         && let Some(budget) = crate::capture::sequential::budget_of(plan)
     {
@@ -175,11 +190,16 @@ pub fn run(args: &SimulateArgs) -> CliResult {
         r.check_points(&points)
             .map_err(|e| CliError::usage(format!("--replay: {e}")))?;
     }
+    // A `--meta sample=ID` names the simulated sample too: `ID (simulated ...)`.
+    let id = setup.measurement.sample.clone();
     let mut sample = format!("simulated {what} noise={sample_noise}");
+    if let Some(id) = &id {
+        sample = format!("{id} ({sample})");
+    }
     if let Some(spec) = &args.reference {
         check_table_covers(&cfg, &setup, spec)?;
         if setup.resume && setup.out.exists() {
-            check_sample(&setup.out, &sample)?;
+            check_sample(&setup.out, &sample, id.is_none())?;
         }
         setup.sample = Some(sample);
         let conn = &mut SharedInProcessConnector::new(InProcessDevice::new(&cfg));
@@ -197,7 +217,7 @@ pub fn run(args: &SimulateArgs) -> CliResult {
         simulated_standard(spec, &mut cfg)?;
         sample = data.meta["sample"].clone();
     } else if setup.resume {
-        check_sample(&setup.out, &sample)?;
+        check_sample(&setup.out, &sample, id.is_none())?;
     }
     setup.sample = Some(sample);
     let resume = format!(
@@ -228,11 +248,13 @@ fn check_table_covers(
 }
 
 /// With `--resume`: the file's `# sample:` line (if it has one) must be this sample,
-/// or another material's readings would be mixed in.
-fn check_sample(path: &std::path::Path, sample: &str) -> CliResult {
+/// or another material's readings would be mixed in; `any_id` (no `--meta sample`
+/// given): the file's `ID (sample)` is this sample too (its metadata is kept).
+fn check_sample(path: &std::path::Path, sample: &str, any_id: bool) -> CliResult {
     let data = crate::sweep_file::read_sweep(path)?;
+    let named = |r: &str| any_id && r.ends_with(&format!(" ({sample})"));
     match data.meta.get("sample") {
-        Some(recorded) if recorded != sample => Err(CliError::usage(format!(
+        Some(recorded) if recorded != sample && !named(recorded) => Err(CliError::usage(format!(
             "--resume: {} holds readings of '{}', not '{sample}': give the same --material (or --replay) and --noise, or capture into a new file",
             path.display(),
             crate::text::escape_line(recorded, 80)

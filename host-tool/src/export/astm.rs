@@ -17,7 +17,7 @@ use crate::sweep_file::Measurement;
 /// The header keyword of each measurement line ([`Measurement::lines`]' keys): what
 /// the table's `KEY value` header holds of the measurement (ASTM E1392 / E2387), read
 /// back by `gonio import astm`.
-pub const HEADER_KEYS: [(&str, &str); 10] = [
+pub const HEADER_KEYS: [(&str, &str); 12] = [
     ("wavelength", "WAVELENGTH"),
     ("polarization", "POLARIZATION"),
     ("beam-diameter", "BEAM_DIAMETER"),
@@ -28,6 +28,8 @@ pub const HEADER_KEYS: [(&str, &str); 10] = [
     ("operator", "OPERATOR"),
     ("date", "DATE"),
     ("temperature", "TEMPERATURE"),
+    ("role", "ROLE"),
+    ("of", "BELONGS_TO"),
 ];
 
 /// The sweep-file key of an ASTM header keyword (any case), if it is one of
@@ -135,6 +137,8 @@ mod tests {
             operator: Some("J. Doe".into()),
             date: Some("2026-12-05".into()),
             temperature_c: Some(22.0),
+            role: Some(crate::sweep_file::Role::Signature),
+            of: Some("coupon-7.csv".into()),
         };
         let rows = vec![[0.1, 0.0, 0.1, std::f64::consts::PI, 2.0]];
         let mut text = Vec::new();

@@ -25,7 +25,7 @@ impl std::error::Error for SweepFileError {}
 
 /// The `# key:` lines gonio reads or writes (keys in any case); others are kept in
 /// [`super::SweepData::meta`] and named by [`super::SweepData::warnings`]: gonio does not read them.
-pub const KNOWN_KEYS: [&str; 27] = [
+pub const KNOWN_KEYS: [&str; 29] = [
     "status",
     "device",
     "sample",
@@ -53,6 +53,8 @@ pub const KNOWN_KEYS: [&str; 27] = [
     "operator",
     "date",
     "temperature",
+    "role",
+    "of",
 ];
 
 /// Columns the capture writes, in order.

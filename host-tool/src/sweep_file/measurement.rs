@@ -14,6 +14,8 @@
 //! | `operator` | who measured |
 //! | `date` | ISO 8601 date (YYYY-MM-DD, a time may follow); `started` stands in for it |
 //! | `temperature` | degrees Celsius (`C` or `degC` may follow) |
+//! | `role` | `dark` (the noise-equivalent capture: beam blocked) or `signature` (the instrument-signature capture: no sample); absent for a sample's sweep |
+//! | `of` | the sweep a `dark` or `signature` capture belongs to (a file, an id); needs `role` |
 //!
 //! Keys in any case (the reader lowers them). A number may be followed by its unit and
 //! then by a comment (`wavelength: 550 nm (one of the file's)`); a unit other than the
@@ -33,7 +35,7 @@ impl SweepData {
 }
 
 /// The keys this module reads and writes (with `started` as the date's fallback).
-pub const MEASUREMENT_KEYS: [&str; 11] = [
+pub const MEASUREMENT_KEYS: [&str; 13] = [
     "wavelength",
     "polarization",
     "polarisation",
@@ -45,7 +47,48 @@ pub const MEASUREMENT_KEYS: [&str; 11] = [
     "operator",
     "date",
     "temperature",
+    "role",
+    "of",
 ];
+
+/// What a capture is, beside a sample's sweep: one of the two captures ASTM E1392 /
+/// E2387 pair with it (`# role:`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Role {
+    /// The noise-equivalent capture: the beam blocked (its readings give the NEBSDF).
+    Dark,
+    /// The instrument-signature capture: no sample on the stage.
+    Signature,
+}
+
+impl Role {
+    /// The word the file holds.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Role::Dark => "dark",
+            Role::Signature => "signature",
+        }
+    }
+
+    /// Reads a `role` value: `dark` or `signature` (any case), a `(comment)` may follow.
+    pub fn parse(value: &str) -> Result<Role, String> {
+        let mut words = value.split_whitespace();
+        let first = words.next().unwrap_or("");
+        let role = match first.to_ascii_lowercase().as_str() {
+            "dark" => Some(Role::Dark),
+            "signature" => Some(Role::Signature),
+            _ => None,
+        };
+        match (role, words.next()) {
+            (Some(r), None) => Ok(r),
+            (Some(r), Some(w)) if w.starts_with('(') => Ok(r),
+            _ => Err(format!(
+                "# role: '{}' is neither dark (beam blocked) nor signature (no sample)",
+                crate::text::escape_line(value, 40)
+            )),
+        }
+    }
+}
 
 /// A measurement's metadata; every field optional ("where given").
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -74,6 +117,10 @@ pub struct Measurement {
     pub date: Option<String>,
     /// Sample temperature, degrees Celsius (> -273.15).
     pub temperature_c: Option<f64>,
+    /// What this capture is when it is not a sample's sweep (a dark or signature one).
+    pub role: Option<Role>,
+    /// The sweep a dark or signature capture belongs to (needs `role`).
+    pub of: Option<String>,
 }
 
 /// A number, then optionally one of `units` (any case), then anything (a comment).
@@ -156,6 +203,14 @@ impl Measurement {
                 first.parse::<f64>().is_err() && first.starts_with(|c: char| c.is_alphabetic())
             })
             .map(str::to_string);
+        let role = get("role").map(Role::parse).transpose()?;
+        let of = text("of");
+        if of.is_some() && role.is_none() {
+            return Err(
+                "# of: names the sweep a dark or signature capture belongs to: give # role: too"
+                    .to_string(),
+            );
+        }
         let m = Measurement {
             wavelength_nm: if band.is_some() {
                 None
@@ -185,6 +240,8 @@ impl Measurement {
             temperature_c: num("temperature", &["C", "degC", "°C"])?
                 .map(|v| check("temperature", v, v > -273.15, "above -273.15 C"))
                 .transpose()?,
+            role,
+            of,
         };
         Ok(m)
     }
@@ -224,6 +281,8 @@ impl Measurement {
         put("operator", self.operator.clone());
         put("date", self.date.clone());
         put("temperature", self.temperature_c.map(|v| format!("{v} C")));
+        put("role", self.role.map(|r| r.as_str().to_string()));
+        put("of", self.of.clone());
         out
     }
 
@@ -251,6 +310,8 @@ mod tests {
             operator: Some("A. Tester".into()),
             date: Some("2026-12-01T10:00:00Z".into()),
             temperature_c: Some(21.5),
+            role: Some(Role::Signature),
+            of: Some("fe-2026-12-01.csv".into()),
         }
     }
 
@@ -320,6 +381,12 @@ mod tests {
         let m = Measurement::from_meta(&meta(&[("wavelength", y)])).unwrap();
         assert_eq!((m.wavelength_nm, m.band.as_deref()), (None, Some(y)));
         assert_eq!(m.lines(), vec![("wavelength", y.to_string())]);
+        let m = Measurement::from_meta(&meta(&[("role", "DARK (beam blocked)"), ("of", "fe.csv")]))
+            .unwrap();
+        assert_eq!(
+            (m.role, m.of.as_deref()),
+            (Some(Role::Dark), Some("fe.csv"))
+        );
     }
 
     #[test]
@@ -334,6 +401,9 @@ mod tests {
             ("temperature", "-300", "out of range"),
             ("date", "yesterday", "ISO 8601"),
             ("nebsdf", "nan", "finite"),
+            ("role", "blocked", "neither dark"),
+            ("role", "dark beam", "neither dark"),
+            ("of", "fe.csv", "give # role"),
         ] {
             let meta = BTreeMap::from([(k.to_string(), v.to_string())]);
             let e = Measurement::from_meta(&meta).unwrap_err();

@@ -17,6 +17,7 @@ mod golden;
 mod honest_answers;
 mod hostile;
 mod live_view;
+mod meta_cli;
 mod module_graph;
 mod ports_flash;
 mod real_sweeps;

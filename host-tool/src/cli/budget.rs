@@ -10,7 +10,7 @@ use super::output::write_stdout;
 use crate::calibrate::{Instrument, UncertaintyModel};
 use crate::fit::physical::CheckScope;
 use crate::fit::{FitOptions, NoiseModel, Residual};
-use crate::request::{InstrumentFile, Request};
+use crate::request::{Aperture as RequestAperture, InstrumentFile, Request};
 use crate::uncertainty::{Context, Sources, budget};
 
 /// `gonio budget`.
@@ -56,6 +56,12 @@ pub struct BudgetArgs {
     /// below it are left out before the fit, as `gonio fit --floor`.
     #[arg(long, value_name = "VALUE|auto")]
     pub floor: Option<String>,
+    /// The detector's half-angle, degrees: each reading is modelled as the average
+    /// over that cone, as `gonio fit --aperture` (0: point readings). Without it (and
+    /// without a `# aperture:` line) the fit assumes half the step where the readings
+    /// do not resolve the core, and the budget lists that among its assumptions.
+    #[arg(long, value_name = "DEG", value_parser = super::fit_args::parse_aperture_arg)]
+    pub aperture: Option<super::fit_args::Aperture>,
     /// Add the appearance figures (specular gloss at 20, 60 and 85 deg, the D4039 haze
     /// index, E430 haze and DOI; see `gonio appearance`) to the outputs: they need the
     /// BRDF in 1/sr (a sweep in 1/sr, or --instrument).
@@ -104,6 +110,9 @@ pub fn run(args: &BudgetArgs) -> CliResult {
     let request = Request {
         fit: opts,
         instrument: instrument.clone(),
+        aperture: args
+            .aperture
+            .map_or(RequestAperture::FromSweep, |a| RequestAperture::given(a.0)),
         ..Request::default()
     };
     let sf = super::fit::fit_file(&args.sweep, &request)?;
@@ -137,6 +146,14 @@ pub fn run(args: &BudgetArgs) -> CliResult {
         bar.finish_and_clear();
     }
     let mut assumptions = resolved.assumptions.clone();
+    if sf.family.aperture_assumed
+        && let Some(a) = sf.family.aperture
+    {
+        assumptions.push(format!(
+            "detector aperture: a half-angle of {} deg assumed by the fit (half the step: the readings do not resolve the core), each reading modelled as the average over it; its uncertainty not propagated (state it with --aperture DEG)",
+            crate::text::sig(a, 4)
+        ));
+    }
     if resolved.solid_angle.is_some() || resolved.beam_diameter.is_some() {
         assumptions.push(
             "solid angle and beam diameter: recorded, not propagated (the solid angle cancels in K, the reference being measured through the same aperture; the detector is assumed to see the whole beam footprint)".into(),

@@ -242,7 +242,7 @@ pub struct FitArgs {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Aperture(pub Option<f64>);
 
-fn parse_aperture_arg(s: &str) -> Result<Aperture, String> {
+pub(super) fn parse_aperture_arg(s: &str) -> Result<Aperture, String> {
     fit::data::parse_aperture(s).map(Aperture)
 }
 

@@ -145,9 +145,25 @@ fn the_solar_arrays_budget_names_its_assumptions() {
         "albedo(41.4)",
         "expanded U (k = 2)",
         "Monte Carlo not run",
+        // The fit's own assumption: its core is narrower than the 1 deg step.
+        "detector aperture: a half-angle of 0.5 deg assumed by the fit",
     ] {
         assert!(out.stdout.contains(what), "{what}:\n{}", out.stdout);
     }
+    // --aperture 0 states point readings: nothing assumed, another measurement model.
+    let point = gonio(&["budget", &s(&data), "--trials", "0", "--aperture", "0"]);
+    assert!(point.ok(), "{}", point.stderr);
+    assert!(
+        !point.stdout.contains("detector aperture"),
+        "{}",
+        point.stdout
+    );
+    let model = |t: &str| {
+        t.lines()
+            .find(|l| l.starts_with("measurement model"))
+            .map(String::from)
+    };
+    assert_ne!(model(&out.stdout), model(&point.stdout));
     let out = gonio(&["budget", &s(&data), "--uncertainty", "/nonexistent.toml"]);
     assert_eq!(out.code, 2, "{}", out.stderr);
 }

@@ -150,7 +150,7 @@ pub fn run(args: &BudgetArgs) -> CliResult {
         && let Some(a) = sf.family.aperture
     {
         assumptions.push(format!(
-            "detector aperture: a half-angle of {} deg assumed by the fit (half the step: the readings do not resolve the core), each reading modelled as the average over it; its uncertainty not propagated (state it with --aperture DEG)",
+            "detector aperture: a half-angle of {} deg assumed by the fit, the readings not resolving the core (its notes say how it was chosen), each reading modelled as the average over it; its uncertainty not propagated (state it with --aperture DEG)",
             crate::text::sig(a, 4)
         ));
     }

@@ -14,6 +14,7 @@ use super::misses::{peak_readings, spike};
 use super::options::FitOptions;
 use super::peak;
 use super::select::MARGIN;
+use crate::sweep_file::BrdfUnits;
 
 /// Why these readings do not resolve the selected core, if they do not: its full width
 /// at half maximum is under the step at the peak ([`peak::unresolved_core`]), or some
@@ -55,6 +56,9 @@ pub fn narrow_core(data: &Dataset, family: &FamilyFit) -> Option<String> {
 /// half-angle of half the step at the peak, when `stated` is false (no `--aperture`,
 /// no `# aperture:` line), the readings do not resolve the core ([`narrow_core`]) and
 /// the refit's selected member is lower in AICc than `point`'s by more than [`MARGIN`]
+/// and, in 1/sr, physical: a cone the peak readings' energy rules out
+/// ([`energy_bound`]), or whose fit creates energy, is halved (at most [`HALVINGS`]
+/// times) and the narrower one tried
 /// (the objective is the same: the data's noise model does not depend on the
 /// aperture). `fit` is the fit `point` came from, run on the data with the assumed
 /// aperture: the same machinery as `--aperture`. Returns the data and the family to
@@ -79,55 +83,133 @@ pub fn refit_if_unresolved(
     if !matches!(super::data::check_aperture(half), Ok(Some(_))) {
         return (data, point);
     }
-    let mut wide = data.clone();
-    wide.aperture = Some(half);
     let aicc = |f: &FamilyFit| f.candidate(f.selected_member).map(|c| c.aicc);
-    let tried = fit(&wide, opts);
     let stated_how = "state the detector's real half-angle with --aperture DEG (--aperture 0: point readings, no assumption)";
-    match tried {
-        Ok(mut a)
-            if aicc(&a)
-                .zip(aicc(&point))
-                .is_some_and(|(x, p)| x < p - MARGIN) =>
+    let bound = energy_bound(&data);
+    // Why each wider cone was not assumed.
+    let mut wider: Vec<String> = Vec::new();
+    let mut spent = 0.0;
+    let mut a = half;
+    for _ in 0..=HALVINGS {
+        if let Some((b, ti)) = bound
+            && a >= b
         {
-            let (x, p) = (
-                aicc(&a).unwrap_or(f64::NAN),
-                aicc(&point).unwrap_or(f64::NAN),
-            );
-            a.notes.insert(
+            wider.push(format!(
+                "{} deg would make the peak reading at theta_i {} carry more than the incident energy (above {} deg)",
+                crate::text::sig(a, 4),
+                crate::text::angle(ti),
+                crate::text::sig(b, 3)
+            ));
+            a /= 2.0;
+            continue;
+        }
+        let mut wide = data.clone();
+        wide.aperture = Some(a);
+        let tried = match fit(&wide, opts) {
+            Ok(f) => f,
+            Err(e) => {
+                point.notes.push(format!(
+                    "{why}; readings averaged over an assumed detector half-angle of {} deg were tried and not kept: they could not be fitted ({e}); {stated_how}",
+                    crate::text::sig(a, 4),
+                ));
+                return (data, point);
+            }
+        };
+        spent += tried.fit_seconds;
+        if let Some(rho) = creates_energy(&wide, &tried) {
+            wider.push(format!(
+                "{} deg was fitted and its selected member creates energy (rho up to {})",
+                crate::text::sig(a, 4),
+                crate::text::sig(rho, 3)
+            ));
+            a /= 2.0;
+            continue;
+        }
+        let halved = if wider.is_empty() {
+            format!("half the {} deg step", crate::text::sig(step, 4))
+        } else {
+            format!(
+                "half the {} deg step, halved until physical: {}",
+                crate::text::sig(step, 4),
+                wider.join("; ")
+            )
+        };
+        let (x, p) = (
+            aicc(&tried).unwrap_or(f64::NAN),
+            aicc(&point).unwrap_or(f64::NAN),
+        );
+        if x < p - MARGIN {
+            let mut kept = tried;
+            kept.notes.insert(
                 0,
                 format!(
-                    "assumed a detector half-angle of {} deg (half the {} deg step): {why}, so each reading was fitted as the average over that cone; AICc {} against {} for point readings ({}); {stated_how}",
-                    crate::text::sig(half, 4),
-                    crate::text::sig(step, 4),
+                    "assumed a detector half-angle of {} deg ({halved}): {why}, so each reading was fitted as the average over that cone; AICc {} against {} for point readings ({}); {stated_how}",
+                    crate::text::sig(a, 4),
                     crate::text::sig(x, 5),
                     crate::text::sig(p, 5),
                     point.selected_member,
                 ),
             );
-            a.fit_seconds += point.fit_seconds;
-            a.aperture_assumed = true;
-            (wide, a)
+            kept.fit_seconds = point.fit_seconds + spent;
+            kept.aperture_assumed = true;
+            return (wide, kept);
         }
-        other => {
-            let why_not = match other {
-                Ok(a) => {
-                    point.fit_seconds += a.fit_seconds;
-                    format!(
-                        "AICc {} against {} for point readings: not lower by more than {MARGIN}",
-                        aicc(&a).map_or("none".into(), |x| crate::text::sig(x, 5)),
-                        aicc(&point).map_or("none".into(), |x| crate::text::sig(x, 5)),
-                    )
-                }
-                Err(e) => format!("it could not be fitted ({e})"),
-            };
-            point.notes.push(format!(
-                "{why}; readings averaged over an assumed detector half-angle of {} deg (half the step) were tried and not kept: {why_not}; {stated_how}",
-                crate::text::sig(half, 4),
-            ));
-            (data, point)
-        }
+        point.fit_seconds += spent;
+        point.notes.push(format!(
+            "{why}; readings averaged over an assumed detector half-angle of {} deg ({halved}) were tried and not kept: AICc {} against {} for point readings: not lower by more than {MARGIN}; {stated_how}",
+            crate::text::sig(a, 4),
+            if x.is_nan() { "none".into() } else { crate::text::sig(x, 5) },
+            if p.is_nan() { "none".into() } else { crate::text::sig(p, 5) },
+        ));
+        return (data, point);
     }
+    point.fit_seconds += spent;
+    point.notes.push(format!(
+        "{why}; no detector half-angle was assumed: {}; {stated_how}",
+        wider.join("; ")
+    ));
+    (data, point)
+}
+
+/// Halvings of half the step tried when a cone creates energy: half, a quarter, an
+/// eighth and a sixteenth of the step at most.
+pub const HALVINGS: usize = 3;
+
+/// The widest detector half-angle (degrees) the readings allow, and the incidence that
+/// sets it, when they are in 1/sr: a reading that is the average over a cone of solid
+/// angle W carries y W cos(theta_r) of the incident energy at least, so a peak
+/// reading y allows W <= 1 / (y cos theta_r) (the solar array's 75 deg peak, 5.3e4
+/// 1/sr, allows 0.275 deg: a 0.5 deg cone made its fit's rho 5.1). `None` in relative
+/// units (or where no peak bounds it).
+pub fn energy_bound(data: &Dataset) -> Option<(f64, f64)> {
+    if data.units != BrdfUnits::PerSr {
+        return None;
+    }
+    peak_readings(data)
+        .into_iter()
+        .enumerate()
+        .filter_map(|(j, k)| {
+            let o = &data.obs[k?];
+            let w = 1.0 / (o.y * o.theta_r.to_radians().cos());
+            // W = 2 pi (1 - cos a).
+            (w.is_finite() && w > 0.0 && w < 2.0 * std::f64::consts::PI).then(|| {
+                (
+                    (1.0 - w / (2.0 * std::f64::consts::PI)).acos().to_degrees(),
+                    data.incidences[j],
+                )
+            })
+        })
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+}
+
+/// The largest rho of `family`'s selected member when it exceeds 1 (in 1/sr only: a
+/// relative BRDF's rho is not an energy).
+fn creates_energy(data: &Dataset, family: &FamilyFit) -> Option<f64> {
+    if data.units != BrdfUnits::PerSr {
+        return None;
+    }
+    let rho = super::physical::check_member(family.selected_fit()?).max_rho();
+    (rho > 1.0).then_some(rho)
 }
 
 #[cfg(test)]
@@ -171,6 +253,23 @@ mod tests {
                 .for_each(|c| c.aicc += by);
             Ok(f)
         }
+    }
+
+    /// The solar array's peak readings bound the cone by energy: its 75 deg peak (5.33e4
+    /// 1/sr at theta_r 75) allows 0.275 deg, under half its 1 deg step; in relative
+    /// units nothing bounds it.
+    #[test]
+    fn the_peak_readings_energy_bounds_the_cone() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/data/scatterworks-solar-array-532nm.sweep.csv");
+        let mut data = crate::request::Request::default()
+            .job_for_file(&path)
+            .unwrap()
+            .data;
+        let (b, ti) = energy_bound(&data).unwrap();
+        assert!((b - 0.2751).abs() < 5e-4 && ti == 75.0, "{b} at {ti}");
+        data.units = BrdfUnits::Relative;
+        assert_eq!(energy_bound(&data), None);
     }
 
     #[test]
@@ -230,9 +329,8 @@ mod tests {
         );
         assert_eq!((d.aperture, f.aperture_assumed), (None, false));
         assert!(
-            f.notes.last().is_some_and(
-                |n| n.contains("half-angle of 5 deg (half the step) were tried and not kept")
-            ),
+            f.notes.last().is_some_and(|n| n
+                .contains("half-angle of 5 deg (half the 10 deg step) were tried and not kept")),
             "{:?}",
             f.notes.last()
         );

@@ -58,9 +58,8 @@ pub fn narrow_core(data: &Dataset, family: &FamilyFit) -> Option<String> {
 /// the refit's selected member is lower in AICc than `point`'s by more than [`MARGIN`]
 /// and, in 1/sr, physical: a cone the peak readings' energy rules out
 /// ([`energy_bound`]), or whose fit creates energy, is halved (at most [`HALVINGS`]
-/// times) and the narrower one tried
-/// (the objective is the same: the data's noise model does not depend on the
-/// aperture). `fit` is the fit `point` came from, run on the data with the assumed
+/// times) and the narrower one tried. The objective is the same (the data's noise
+/// model does not depend on the aperture). `fit` is the fit `point` came from, run on the data with the assumed
 /// aperture: the same machinery as `--aperture`. Returns the data and the family to
 /// report, with a note either way; `point` unchanged (and `data`) when nothing was
 /// tried.

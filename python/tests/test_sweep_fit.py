@@ -59,14 +59,21 @@ def test_bad_sweep_file_message(tmp_path):
         gonio.read_sweep(bad)
 
 
-def test_fit_result_and_json_equal_the_cli(gonio_bin):
-    r = gonio.fit(FE_SWEEP)
-    cli = json.loads(subprocess.run([gonio_bin, "fit", str(FE_SWEEP), "--json"], check=True,
+def fit_as_cli(gonio_bin, path, argv, **kwargs):
+    """gonio.fit(path, **kwargs) and `gonio fit path --json *argv`, their JSON the same
+    but for fit_seconds: (the result, its JSON, the command's JSON)."""
+    r = gonio.fit(path, **kwargs)
+    cli = json.loads(subprocess.run([gonio_bin, "fit", str(path), "--json", *argv], check=True,
                                     capture_output=True, text=True).stdout)
     ours = json.loads(r.to_json())
     for d in (cli, ours):
         d.pop("fit_seconds")
     assert_same_json(ours, cli)
+    return r, ours, cli
+
+
+def test_fit_result_and_json_equal_the_cli(gonio_bin):
+    fit_as_cli(gonio_bin, FE_SWEEP, [])
 
 
 def assert_same_json(a, b, path="$"):
@@ -112,14 +119,10 @@ def test_fit_result_object():
 
 
 def test_fit_options_as_on_the_command_line(gonio_bin):
-    r = gonio.fit(FE_SWEEP, fix={"sigma_m": 0.7, "kdd": 900}, models="ts,three", loss="cauchy:0.05")
-    cli = json.loads(subprocess.run([gonio_bin, "fit", str(FE_SWEEP), "--json", "--fix", "sigma_m=0.7",
-                                     "--fix", "kdd=900", "--models", "ts,three", "--loss", "cauchy:0.05"],
-                                    check=True, capture_output=True, text=True).stdout)
-    ours = json.loads(r.to_json())
-    for d in (cli, ours):
-        d.pop("fit_seconds")
-    assert_same_json(ours, cli)
+    r, _, _ = fit_as_cli(gonio_bin, FE_SWEEP,
+                         ["--fix", "sigma_m=0.7", "--fix", "kdd=900", "--models", "ts,three",
+                          "--loss", "cauchy:0.05"],
+                         fix={"sigma_m": 0.7, "kdd": 900}, models="ts,three", loss="cauchy:0.05")
     assert set(r.models) == {"torrance-sparrow", "three-component"}
     assert r.models["three-component"].fixed == ["sigma_m", "k_dd"]
 
@@ -130,13 +133,7 @@ def test_fit_aperture_and_instrument_as_on_the_command_line(gonio_bin, tmp_path)
                     'date = "2026-12-02T00:00:00Z"\nreadings = 150\n')
     for kw, argv in (({"aperture": 0.5}, ["--aperture", "0.5"]),
                      ({"instrument": inst}, ["--instrument", str(inst)])):
-        r = gonio.fit(FE_SWEEP, models="three", **kw)
-        cli = json.loads(subprocess.run([gonio_bin, "fit", str(FE_SWEEP), "--json", "--models", "three", *argv],
-                                        check=True, capture_output=True, text=True).stdout)
-        ours = json.loads(r.to_json())
-        for d in (cli, ours):
-            d.pop("fit_seconds")
-        assert_same_json(ours, cli)
+        r, _, cli = fit_as_cli(gonio_bin, FE_SWEEP, ["--models", "three", *argv], models="three", **kw)
     assert cli["brdf_units"] == "1/sr" and cli["instrument"]["k"] == 2000.0
     assert r.model().to_per_sr == 1.0
     aperture = json.loads(gonio.fit(FE_SWEEP, models="three", aperture=0.5).to_json())
@@ -198,12 +195,7 @@ def test_fit_floor_as_on_the_command_line(gonio_bin, tmp_path):
     path = tmp_path / "cu-floor.csv"
     gonio.write_sweep(path, ti, tr, y)
     for value, argv in (("auto", ["--floor", "auto"]), (floor, ["--floor", repr(floor)])):
-        ours = json.loads(gonio.fit(path, models="three", floor=value).to_json())
-        cli = json.loads(subprocess.run([gonio_bin, "fit", str(path), "--json", "--models", "three", *argv],
-                                        check=True, capture_output=True, text=True).stdout)
-        for d in (cli, ours):
-            d.pop("fit_seconds")
-        assert_same_json(ours, cli)
+        _, ours, _ = fit_as_cli(gonio_bin, path, ["--models", "three", *argv], models="three", floor=value)
         assert any("5 reading" in n for n in ours["notes"]), ours["notes"]
     unfloored = json.loads(gonio.fit(path, models="three").to_json())
     assert unfloored["models"][0]["ssr"] > ours["models"][0]["ssr"]
@@ -217,12 +209,7 @@ def test_fit_all_starts_as_on_the_command_line(gonio_bin, tmp_path):
     path = tmp_path / "cu.csv"
     subprocess.run([gonio_bin, "simulate", "--material", "cu-0.070", "--seed", "2", "--out", str(path), "-q"],
                    check=True)
-    ours = json.loads(gonio.fit(path, all_starts=True).to_json())
-    cli = json.loads(subprocess.run([gonio_bin, "fit", str(path), "--json", "--all-starts"],
-                                    check=True, capture_output=True, text=True).stdout)
-    for d in (cli, ours):
-        d.pop("fit_seconds")
-    assert_same_json(ours, cli)
+    _, ours, _ = fit_as_cli(gonio_bin, path, ["--all-starts"], all_starts=True)
     ssr = lambda d: {m["name"]: m["ssr"] for m in d["models"]}
     default = ssr(json.loads(gonio.fit(path).to_json()))
     two = "specular:beckmann+specular-haze:beckmann+directional-diffuse+ideal-diffuse"
@@ -242,12 +229,7 @@ def test_fit_offset_as_on_the_command_line(gonio_bin, tmp_path):
     # relative (the default objective's rule would count its lowest readings in
     # absolute terms).
     for value, argv in (("fit", ["--offset", "fit"]), (2.0, ["--offset", "2.0"])):
-        ours = json.loads(gonio.fit(path, offset=value, residual="log").to_json())
-        cli = json.loads(subprocess.run([gonio_bin, "fit", str(path), "--json", "--residual", "log", *argv],
-                                        check=True, capture_output=True, text=True).stdout)
-        for d in (cli, ours):
-            d.pop("fit_seconds")
-        assert_same_json(ours, cli)
+        _, ours, _ = fit_as_cli(gonio_bin, path, ["--residual", "log", *argv], offset=value, residual="log")
         assert abs(ours["angles"]["detector_offset_deg"] - 2.0) < 0.05, ours["angles"]
         assert ours["angles"]["fitted"] == (value == "fit")
     assert "angles" not in json.loads(gonio.fit(path).to_json())
@@ -307,11 +289,6 @@ def test_keep_saturated_as_on_the_command_line(gonio_bin, tmp_path):
     path.write_text("".join(lines))
     fits = {}
     for keep, argv in ((False, []), (True, ["--keep-saturated"])):
-        ours = json.loads(gonio.fit(path, models="three", keep_saturated=keep).to_json())
-        cli = json.loads(subprocess.run([gonio_bin, "fit", str(path), "--json", "--models", "three", *argv],
-                                        check=True, capture_output=True, text=True).stdout)
-        for d in (cli, ours):
-            d.pop("fit_seconds")
-        assert_same_json(ours, cli)
-        fits[keep] = ours
+        _, fits[keep], _ = fit_as_cli(gonio_bin, path, ["--models", "three", *argv], models="three",
+                                      keep_saturated=keep)
     assert fits[False] != fits[True]

@@ -4,6 +4,25 @@
 
 use super::data::Dataset;
 
+/// asinh(x) within 2 ulp of [`f64::asinh`] (1.3 measured), without its `hypot` (which, with the
+/// `ln_1p` beside it, was 15 % of the instructions of a noise-objective fit of the
+/// solar array): ln(x + sqrt(x^2 + 1)) from 0.5 up, where the logarithm's argument is
+/// at least 1.6 (so well conditioned), ln(2x) beyond 2^27 (where x^2 + 1 rounds to
+/// x^2), and below 0.5 the usual ln_1p(x + x^2 / (1 + sqrt(1 + x^2))); odd.
+#[inline]
+pub fn asinh(x: f64) -> f64 {
+    let a = x.abs();
+    let r = if a >= 134_217_728.0 {
+        a.ln() + core::f64::consts::LN_2
+    } else if a >= 0.5 {
+        (a + (a * a + 1.0).sqrt()).ln()
+    } else {
+        let a2 = a * a;
+        (a + a2 / (1.0 + (1.0 + a2).sqrt())).ln_1p()
+    };
+    r.copysign(x)
+}
+
 /// Where a [`NoiseModel`]'s floor and proportional part come from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum NoiseFrom {
@@ -99,7 +118,7 @@ impl NoiseModel {
         } else if self.prop == 0.0 {
             v / self.floor
         } else {
-            (self.prop * v / self.floor).asinh() / self.prop
+            asinh(self.prop * v / self.floor) / self.prop
         }
     }
 
@@ -248,6 +267,38 @@ mod tests {
     use crate::fit::member_fit::{fit_member, fit_member_from};
     use brdf_core::member::Member;
     use brdf_core::sim::XorShift32;
+
+    /// The fast asinh against the standard library's over 1e-300..1e300, both signs,
+    /// the branches' edges and the special values.
+    #[test]
+    fn asinh_is_within_two_ulp_of_the_standard_one() {
+        let ulps = |a: f64, b: f64| {
+            if a == b {
+                0.0
+            } else {
+                (a - b).abs() / (f64::EPSILON * b.abs())
+            }
+        };
+        let mut worst: f64 = 0.0;
+        let mut x = 1e-300_f64;
+        while x < 1e300 {
+            for v in [
+                x,
+                -x,
+                x.next_up(),
+                0.5_f64.next_down(),
+                134_217_728.0_f64.next_down(),
+            ] {
+                worst = worst.max(ulps(asinh(v), v.asinh()));
+            }
+            x *= 1.0137;
+        }
+        assert!(worst <= 2.0, "worst {worst} ulp");
+        assert_eq!(asinh(0.0).to_bits(), 0.0_f64.to_bits());
+        assert_eq!(asinh(-0.0).to_bits(), (-0.0_f64).to_bits());
+        assert_eq!(asinh(f64::INFINITY), f64::INFINITY);
+        assert!(asinh(f64::NAN).is_nan());
+    }
 
     /// Simulated paper sweeps of fe-0.115 (153 readings, the three-component member's
     /// 13 parameters) with a known floor and proportional noise, each reading the mean

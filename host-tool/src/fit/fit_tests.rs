@@ -748,3 +748,58 @@ fn a_specular_far_below_the_noise_is_not_supported() {
     assert!(t.effect.is_some_and(f64::is_finite), "{t:?}");
     assert!(!t.supports(), "{t:?}");
 }
+
+/// The family's fit is the same, bit for bit, on one thread and on several, called
+/// from outside the pool (as `gonio fit` calls it) or from one of its threads (as a
+/// campaign does): members fitted ahead of their stage ([`stages`]' first batch) are
+/// the fits the stage would have made. On al-0.782 the stages after the first fit
+/// five members (lobe shapes, a smooth k_s, a component's test), all guessed ahead; on
+/// the two-lobe truth the two-lobe member is selected and the guesses change with it.
+#[test]
+fn the_family_is_the_same_on_any_number_of_threads() {
+    let key = |f: &FamilyFit| {
+        let members: Vec<(String, Vec<u64>, u64)> = f
+            .members
+            .iter()
+            .map(|m| {
+                let x = m.x.iter().map(|v| v.to_bits()).collect();
+                (m.member().to_string(), x, m.ssr.to_bits())
+            })
+            .collect();
+        (members, f.selected_member.to_string(), f.notes.clone())
+    };
+    let two_lobe = member_rows(
+        |ti| brdf_core::member_model::MemberParams {
+            core: lobe(0.02, 0.5 + ti / 100.0),
+            haze: lobe(0.2, 0.3),
+            directional: None,
+            ideal: Some(0.01),
+            abg: None,
+        },
+        &[10.0, 35.0, 60.0],
+        |_| (0..=89).map(|k| -89.0 + 2.0 * k as f64).collect(),
+        None,
+        0.01,
+        3,
+    );
+    for rows in [preset_sweep("al-0.782", 0.005, 1), two_lobe] {
+        let one = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap()
+            .install(|| key(&family(&rows)));
+        for threads in [2, 3] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            assert_eq!(
+                pool.install(|| key(&family(&rows))),
+                one,
+                "{threads} threads"
+            );
+        }
+        // From outside a pool: the global one, whatever its size.
+        assert_eq!(key(&family(&rows)), one, "the global pool");
+    }
+}

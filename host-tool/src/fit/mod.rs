@@ -11,7 +11,8 @@
 //!   nothing of BRDFs); the grid points' small solves in `point_system`;
 //! - one member: [`member_fit`] (its grid search in `member_fit/grid.rs`, the shared
 //!   unit bases in `member_fit/bases.rs`, LM from a start in `member_fit/refine.rs`);
-//! - the family: its stages in [`family`], [`fit_family`] in [`stages`], the model
+//! - the family: its stages in [`family`], [`fit_family`] in [`stages`] (members
+//!   taken by each thread as it comes free: [`queue`]), the model
 //!   selection in [`select`] (AICc and BIC in [`criteria`]), the result [`FamilyFit`];
 //! - assessing a fit: [`goodness`] (against the readings' noise), [`paper_rmse`]
 //!   (Table 3), [`peak`], [`misses`] (regions the selected member misses),
@@ -51,6 +52,7 @@ pub mod paper_rmse;
 pub mod peak;
 pub mod physical;
 mod point_system;
+pub mod queue;
 pub mod report;
 pub mod select;
 pub mod stages;

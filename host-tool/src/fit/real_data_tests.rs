@@ -373,6 +373,7 @@ fn stage_one_selects_what_fitting_every_reference_member_would() {
             &family::reference_members(),
             Residual::Log,
             true,
+            &mut Vec::new(),
             &mut notes,
         );
         assert_eq!(tried.contains(&deferred), fits_deferred, "{name}");
@@ -416,6 +417,7 @@ fn stage_two_leaves_out_only_smooth_variants_that_cannot_be_selected() {
         let mut every = Fitted {
             members: some.members.clone(),
             cands: some.cands.clone(),
+            ..Fitted::default()
         };
         every.add(&bases, &more, Residual::Log, &mut notes);
         stage_two(&mut some, &bases, &more, Residual::Log, &mut notes);

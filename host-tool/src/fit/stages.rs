@@ -1,10 +1,11 @@
 //! Fitting the family to one dataset ([`fit_family`]): the lattice's stages of
 //! [`super::family`], members in parallel, the selection and the notes that say it.
 
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Mutex, OnceLock};
 use std::time::Instant;
 
 use brdf_core::member::{Component, Member};
-use rayon::prelude::*;
 
 use super::data::Dataset;
 use super::family;
@@ -16,6 +17,7 @@ use super::offset::{self, Angles, OffsetSpec};
 use super::options::{FitOptions, Residual};
 use super::paper::Kind;
 use super::peak;
+use super::queue;
 use super::select::{self, Candidate, Criterion, Selection};
 
 /// A difference in AICc below this is not evidence for the larger model.
@@ -24,43 +26,67 @@ pub const AICC_MARGIN: f64 = select::MARGIN;
 /// One member's fit and candidate, or why it could not be fitted.
 type MemberResult = Result<(MemberFit, Candidate), NotFitted>;
 
-/// Fits every member in `members` (in parallel), each with its [`Candidate`]
-/// ([`candidate_of_member`], in the same parallel pass), noting those that cannot be
-/// fitted. The grid's unit bases are evaluated once and shared by the members
-/// ([`GridBases`]).
-pub(super) fn fit_members(
+/// Fits `members` (in parallel), each with its [`Candidate`] ([`candidate_of_member`],
+/// in the same parallel pass); the results in `members`' order. The grid's unit bases
+/// are evaluated once and shared by the members ([`GridBases`]).
+fn fit_raw(
     bases: &GridBases<'_>,
     members: &[Member],
     residual: Residual,
     effects: bool,
-    notes: &mut Vec<String>,
-) -> Vec<(MemberFit, Candidate)> {
-    let data = bases.data();
+) -> Vec<MemberResult> {
     // The costliest fits first (the most lobes, then the most components): a stage
     // lasts as long as its slowest member, so that one starts at once instead of
     // after the cheap ones queued before it (the two-lobe member with every
     // component takes about 4x any other on the paper grid). Results keep `members`'
     // order.
-    let lobes = |m: Member| usize::from(m.core.is_some()) + usize::from(m.haze.is_some());
+    let order = costliest_first(members);
+    let fits = queue::run(
+        order.len(),
+        &|k| fit_one(bases, members[order[k]], residual, effects),
+        &|| {},
+        false,
+    );
+    in_members_order(&order, fits)
+}
+
+/// The indices of `members`, the costliest fits first.
+fn costliest_first(members: &[Member]) -> Vec<usize> {
     let mut order: Vec<usize> = (0..members.len()).collect();
-    order.sort_by_key(|&i| {
-        let m = members[i];
-        std::cmp::Reverse((lobes(m), m.components().count()))
-    });
-    let mut fitted: Vec<(usize, MemberResult)> = order
-        .par_iter()
-        .map(|&i| {
-            let fit = member_fit::fit_member_with(bases, members[i], residual).map(|f| {
-                let c = candidate_of_member(data, &f, residual, effects);
-                (f, c)
-            });
-            (i, fit)
-        })
-        .collect();
+    order.sort_by_key(|&i| std::cmp::Reverse(cost_rank(members[i])));
+    order
+}
+
+/// Results taken in `order` (indices of the members), back in the members' order.
+fn in_members_order(order: &[usize], fits: Vec<MemberResult>) -> Vec<MemberResult> {
+    let mut fitted: Vec<(usize, MemberResult)> = order.iter().copied().zip(fits).collect();
     fitted.sort_by_key(|(i, _)| *i);
-    let fitted = fitted.into_iter().map(|(_, f)| f);
+    fitted.into_iter().map(|(_, f)| f).collect()
+}
+
+/// A member's expected cost, for ordering: its lobes, then its components.
+fn cost_rank(m: Member) -> (usize, usize) {
+    let lobes = usize::from(m.core.is_some()) + usize::from(m.haze.is_some());
+    (lobes, m.components().count())
+}
+
+/// One member's fit and candidate.
+fn fit_one(bases: &GridBases<'_>, m: Member, residual: Residual, effects: bool) -> MemberResult {
+    member_fit::fit_member_with(bases, m, residual).map(|f| {
+        let c = candidate_of_member(bases.data(), &f, residual, effects);
+        (f, c)
+    })
+}
+
+/// `members`' results (in their order) as fits, noting those that could not be fitted.
+fn keep_fitted(
+    data: &Dataset,
+    members: &[Member],
+    results: Vec<MemberResult>,
+    notes: &mut Vec<String>,
+) -> Vec<(MemberFit, Candidate)> {
     let mut out = Vec::new();
-    for (m, f) in members.iter().zip(fitted) {
+    for (m, f) in members.iter().zip(results) {
         match f {
             Ok(f) => out.push(f),
             Err(NotFitted::Undetermined) => notes.push(format!(
@@ -76,12 +102,50 @@ pub(super) fn fit_members(
     out
 }
 
+/// Fits every member in `members` (in parallel, those fitted ahead taken from `ahead`),
+/// each with its [`Candidate`], noting those that cannot be fitted.
+pub(super) fn fit_members(
+    bases: &GridBases<'_>,
+    members: &[Member],
+    residual: Residual,
+    effects: bool,
+    ahead: &mut Vec<(Member, MemberResult)>,
+    notes: &mut Vec<String>,
+) -> Vec<(MemberFit, Candidate)> {
+    let mut taken: Vec<Option<MemberResult>> = members
+        .iter()
+        .map(|m| {
+            let i = ahead.iter().position(|(a, _)| a == m)?;
+            Some(ahead.swap_remove(i).1)
+        })
+        .collect();
+    let rest: Vec<Member> = members
+        .iter()
+        .zip(&taken)
+        .filter(|(_, t)| t.is_none())
+        .map(|(&m, _)| m)
+        .collect();
+    let mut fitted = fit_raw(bases, &rest, residual, effects).into_iter();
+    let results = taken
+        .iter_mut()
+        .map(|t| {
+            t.take()
+                .or_else(|| fitted.next())
+                .expect("one result per member")
+        })
+        .collect();
+    keep_fitted(bases.data(), members, results, notes)
+}
+
 /// The members fitted so far, each with its candidate (its goodness computed once,
 /// however often the stages select).
 #[derive(Default)]
 pub(super) struct Fitted {
     pub(super) members: Vec<MemberFit>,
     pub(super) cands: Vec<Candidate>,
+    /// Members fitted ahead of being asked for ([`Fitted::add_first`]), by member: a
+    /// later stage that asks for one takes its result from here.
+    pub(super) ahead: Vec<(Member, MemberResult)>,
 }
 
 impl Fitted {
@@ -107,10 +171,89 @@ impl Fitted {
         effects: bool,
         notes: &mut Vec<String>,
     ) {
-        for (f, c) in fit_members(bases, members, residual, effects, notes) {
+        let fits = fit_members(bases, members, residual, effects, &mut self.ahead, notes);
+        self.push(fits);
+    }
+
+    fn push(&mut self, fits: Vec<(MemberFit, Candidate)>) {
+        for (f, c) in fits {
             self.members.push(f);
             self.cands.push(c);
         }
+    }
+
+    /// [`Fitted::add`] for the family's first batch, with the members the next stages
+    /// are likely to ask for fitted ahead by threads it would leave idle. The two-lobe
+    /// members take several times any other (2 ms of the paper grid's 3 on one
+    /// thread): on two threads one fits them while the other fits the rest of the
+    /// batch and is then idle, and the stages after fit one or two members at a time.
+    /// So once the batch is fitted, every thread that comes free takes the members the
+    /// stages after would fit if the selection stays where the batch puts it
+    /// ([`ahead_guesses`]), one at a time. A member's fit depends on the data and the
+    /// member alone, so a result taken from there is the one the stage would have
+    /// made: only the time differs. On one thread nothing is fitted ahead; nor by the
+    /// calling thread when it is itself one of the pool's (a campaign's sweeps keep
+    /// every thread busy: a guess the stages do not ask for would be time lost).
+    pub(super) fn add_first(
+        &mut self,
+        bases: &GridBases<'_>,
+        members: &[Member],
+        residual: Residual,
+        notes: &mut Vec<String>,
+    ) {
+        if rayon::current_num_threads() < 2 {
+            return self.add(bases, members, residual, notes);
+        }
+        let order = costliest_first(members);
+        let n = order.len();
+        let cells: Vec<OnceLock<MemberResult>> = (0..n).map(|_| OnceLock::new()).collect();
+        let left = AtomicUsize::new(n);
+        let guesses: Mutex<Guesses> = Mutex::new(Guesses::default());
+        let ahead: Mutex<Vec<(Member, MemberResult)>> = Mutex::new(Vec::new());
+        let done = || -> Vec<&MemberResult> { cells.iter().filter_map(OnceLock::get).collect() };
+        let first = |k: usize| {
+            let _ = cells[k].set(fit_one(bases, members[order[k]], residual, true));
+            // The last of the batch to end: the guesses from the whole batch.
+            if left.fetch_sub(1, Ordering::AcqRel) == 1 {
+                lock(&guesses).settle(ahead_guesses(&done(), members));
+            }
+        };
+        let then = || {
+            // The first thread here guesses from the fits ended so far (the two-lobe
+            // members may still be running): if they change the selection, the
+            // batch's last fit replaces these guesses.
+            loop {
+                let m = {
+                    let mut g = lock(&guesses);
+                    if g.list.is_none() {
+                        g.list = Some(ahead_guesses(&done(), members));
+                    }
+                    match g.take() {
+                        Some(m) => m,
+                        None => return,
+                    }
+                };
+                match needed_ahead(m, &cells, &ahead) {
+                    Some(true) => {
+                        let r = fit_one(bases, m, residual, true);
+                        lock(&ahead).push((m, r));
+                        lock(&guesses).fitted(m);
+                    }
+                    Some(false) => {}
+                    None => lock(&guesses).wait(m),
+                }
+            }
+        };
+        let here = rayon::current_thread_index().is_none();
+        queue::run(n, &|k| first(k), &then, here);
+        let fits: Vec<MemberResult> = cells
+            .into_iter()
+            .map(|c| c.into_inner().expect("every member was fitted"))
+            .collect();
+        let results = in_members_order(&order, fits);
+        let fits = keep_fitted(bases.data(), members, results, notes);
+        self.push(fits);
+        self.ahead = ahead.into_inner().unwrap_or_else(|e| e.into_inner());
     }
 
     /// The member selected by AICc so far.
@@ -181,7 +324,7 @@ pub(super) fn stage_one(
 ) -> (Fitted, Vec<Member>) {
     let mut tried = family::default_members();
     let mut fitted = Fitted::default();
-    fitted.add(bases, &tried, residual, notes);
+    fitted.add_first(bases, &tried, residual, notes);
     loop {
         let more = family::needed(&fitted.members, &fitted.cands, &tried);
         if more.is_empty() {
@@ -195,7 +338,15 @@ pub(super) fn stage_one(
         fitted.members.into_iter().zip(fitted.cands).collect();
     both.sort_by_key(|(f, _)| order.iter().position(|&m| m == f.member()));
     let (members, cands) = both.into_iter().unzip();
-    (Fitted { members, cands }, tried)
+    let ahead = fitted.ahead;
+    (
+        Fitted {
+            members,
+            cands,
+            ahead,
+        },
+        tried,
+    )
 }
 
 /// Fits the family and selects a member: the default family (three stages, see
@@ -301,6 +452,7 @@ fn fit_nominal(data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, String> {
     let Fitted {
         members,
         cands: candidates,
+        ..
     } = std::mem::take(&mut fitted);
     let sel = Selection::new(&candidates, Criterion::Aicc);
     let selected_member = sel
@@ -378,6 +530,114 @@ fn untested_components(
         bases.retain_for(&more);
         fitted.add(bases, &more, residual, notes);
     }
+}
+
+/// The members to fit ahead ([`Fitted::add_first`]) and those taken so far.
+#[derive(Default)]
+struct Guesses {
+    /// The guesses, once made ([`ahead_guesses`]).
+    list: Option<Vec<Member>>,
+    /// Those taken (fitted or skipped), in any list so far.
+    taken: Vec<Member>,
+    /// Smooth-k_s guesses waiting for their member with k_s per incidence, which a
+    /// thread is fitting ahead: the thread that ends it takes them up again.
+    waiting: Vec<Member>,
+}
+
+impl Guesses {
+    /// The next guess not taken yet, now taken.
+    fn take(&mut self) -> Option<Member> {
+        let m = *self
+            .list
+            .as_ref()?
+            .iter()
+            .find(|m| !self.taken.contains(m))?;
+        self.taken.push(m);
+        Some(m)
+    }
+
+    /// `m` waits for its member with k_s per incidence to be fitted.
+    fn wait(&mut self, m: Member) {
+        self.waiting.push(m);
+    }
+
+    /// `m` was fitted ahead: the guesses that waited for it can be taken again.
+    fn fitted(&mut self, m: Member) {
+        let ready = |w: &Member| family::per_incidence_of(*w) == Some(m);
+        self.taken
+            .retain(|t| !(self.waiting.contains(t) && ready(t)));
+        self.waiting.retain(|w| !ready(w));
+    }
+
+    /// The guesses from the whole first batch, in place of any made before.
+    fn settle(&mut self, list: Vec<Member>) {
+        self.list = Some(list);
+    }
+}
+
+/// The mutex's value, whether or not a thread panicked holding it.
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// Whether to fit the guess `m` ahead: yes, but for a smooth-k_s variant only when
+/// its member with k_s per incidence, fitted (in the first batch, `first`, or ahead),
+/// does not bound it out of the selection ([`family::smooth_needed`]); `None` while
+/// that member is not fitted yet.
+fn needed_ahead(
+    m: Member,
+    first: &[OnceLock<MemberResult>],
+    ahead: &Mutex<Vec<(Member, MemberResult)>>,
+) -> Option<bool> {
+    let Some(by) = family::per_incidence_of(m) else {
+        return Some(true);
+    };
+    let done = lock(ahead);
+    let fits = || {
+        first
+            .iter()
+            .filter_map(OnceLock::get)
+            .chain(done.iter().map(|(_, r)| r))
+            .filter_map(|r| r.as_ref().ok())
+    };
+    let cands: Vec<Candidate> = fits().map(|(_, c)| c.clone()).collect();
+    let (f, _) = fits().find(|(f, _)| f.member() == by)?;
+    Some(
+        family::smooth_needed(m, std::slice::from_ref(f), &cands, &[])
+            == family::SmoothVariant::Needed,
+    )
+}
+
+/// The members the stages after the first would fit if the best of `fits` (the first
+/// batch, or as much of it as has ended) stays selected, most likely first: its lobe
+/// variants ([`family::variants_of`]) with k_s per incidence, itself without each of
+/// its components no fit tests yet ([`untested_components`]), then the smooth-k_s
+/// variants ([`needed_ahead`]: fitted only when they could be selected). None already
+/// in `tried`.
+fn ahead_guesses(fits: &[&MemberResult], tried: &[Member]) -> Vec<Member> {
+    let cands: Vec<Candidate> = fits
+        .iter()
+        .filter_map(|f| f.as_ref().ok().map(|(_, c)| c.clone()))
+        .collect();
+    let sel = Selection::new(&cands, Criterion::Aicc);
+    let Some(best) = sel.best().map(|c| c.member) else {
+        return Vec::new();
+    };
+    let (smooth, per_incidence): (Vec<Member>, Vec<Member>) = family::variants_of(best)
+        .into_iter()
+        .partition(|&m| family::per_incidence_of(m).is_some());
+    let without = best
+        .components()
+        .filter(|&c| sel.test(best, c).is_none())
+        .map(|c| best.without(c))
+        .filter(|m| m.is_valid());
+    let mut out: Vec<Member> = Vec::new();
+    for m in per_incidence.into_iter().chain(without).chain(smooth) {
+        if !tried.contains(&m) && !out.contains(&m) {
+            out.push(m);
+        }
+    }
+    out
 }
 
 /// One fit's [`Candidate`]: its goodness and its components' effects.

@@ -18,6 +18,7 @@
 //! | [`outfile`] | the one way an output file is written: checked target, private temporary file, sync, rename |
 //! | [`flash`] | flashing the firmware through a debug probe (probe-rs) |
 //! | [`memory`] | the process's resident memory: freed memory given back to the system |
+//! | [`pool`] | the thread pool started with its threads spread over the CPUs |
 //! | [`text`] | device and file text made safe to print: control characters escaped, length bounded |
 //! | `testing` | test support (feature `testing`): link fault injection, a faulty connector, shared assertions |
 //!
@@ -40,6 +41,7 @@ pub mod live;
 pub mod memory;
 pub mod outfile;
 pub mod plot;
+pub mod pool;
 pub mod request;
 pub mod sweep_file;
 #[cfg(feature = "testing")]

@@ -35,6 +35,9 @@ pub(super) fn file_error(e: FileError) -> CliError {
 
 /// Runs `gonio fit`.
 pub fn run(args: &FitArgs) -> CliResult {
+    // The fit's thread pool is started now, each thread on its own CPU, not when the
+    // fit first hands them work (crate::pool says why).
+    crate::pool::start_spread();
     let mut request = request(args)?;
     if args.sweeps.len() > 1 || args.sweeps[0].is_dir() {
         if args.appearance {

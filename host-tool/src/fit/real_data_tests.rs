@@ -694,3 +694,33 @@ fn offset_note(f: &FamilyFit) -> (&str, f64) {
         .unwrap();
     (note, mean)
 }
+
+/// A member fitted alone has its grid starts refined in parallel, with the result of
+/// one start after another, bit for bit: on the solar array the three-component
+/// member's second and third starts are stopped by the basin rule one after another,
+/// and run beside the first in parallel (stopped, or their results dropped, once the
+/// first's optimum is known). On pools of one to three threads.
+#[test]
+fn a_member_alone_fits_the_same_with_its_starts_in_parallel() {
+    use super::member_fit::{fit_member_alone, fit_member_with};
+    let data = scatterworks_data(&FitOptions::default());
+    let haze = Member::parse("specular:beckmann+specular-haze:beckmann+ideal-diffuse").unwrap();
+    for m in [Member::THREE_COMPONENT, haze] {
+        let one = fit_member_with(&GridBases::new(&data, None), m, Residual::Log).unwrap();
+        for threads in 1..=3 {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let par = pool
+                .install(|| fit_member_alone(&GridBases::new(&data, None), m, Residual::Log))
+                .unwrap();
+            assert_eq!(
+                par.ssr.to_bits(),
+                one.ssr.to_bits(),
+                "{m}, {threads} threads"
+            );
+            assert_eq!(par.x, one.x, "{m}, {threads} threads");
+        }
+    }
+}

@@ -41,6 +41,12 @@ fn fit_raw(
     // component takes about 4x any other on the paper grid). Results keep `members`'
     // order.
     let order = costliest_first(members);
+    // A member fitted alone, from outside the pool, has the pool to itself: its starts
+    // share it. (Inside, a campaign's other sweeps keep the pool busy.)
+    if let [m] = members {
+        let alone = rayon::current_thread_index().is_none();
+        return vec![fit_one_with(bases, *m, residual, effects, alone)];
+    }
     let fits = queue::run(
         order.len(),
         &|k| fit_one(bases, members[order[k]], residual, effects),
@@ -72,7 +78,23 @@ fn cost_rank(m: Member) -> (usize, usize) {
 
 /// One member's fit and candidate.
 fn fit_one(bases: &GridBases<'_>, m: Member, residual: Residual, effects: bool) -> MemberResult {
-    member_fit::fit_member_with(bases, m, residual).map(|f| {
+    fit_one_with(bases, m, residual, effects, false)
+}
+
+/// [`fit_one`], the member `alone` ([`member_fit::fit_member_alone`]) or not.
+fn fit_one_with(
+    bases: &GridBases<'_>,
+    m: Member,
+    residual: Residual,
+    effects: bool,
+    alone: bool,
+) -> MemberResult {
+    let fit = if alone {
+        member_fit::fit_member_alone(bases, m, residual)
+    } else {
+        member_fit::fit_member_with(bases, m, residual)
+    };
+    fit.map(|f| {
         let c = candidate_of_member(bases.data(), &f, residual, effects);
         (f, c)
     })

@@ -9,6 +9,7 @@ use super::super::lm::{ArrowProblem, LmOptions, minimize};
 use super::super::options::{Loss, Residual};
 use super::super::paper_rmse::paper_rmse_with;
 
+use super::starts::{Reached, Start, Widths, refine_starts};
 use super::{bases::*, grid::*, layout::*, problem::*, refine::*, result::*};
 
 /// Why a member was not fitted.
@@ -43,7 +44,18 @@ pub fn fit_member_with(
     member: Member,
     residual: Residual,
 ) -> Result<MemberFit, NotFitted> {
-    fit_member_keeping(bases, member, residual, KEPT_AMPLITUDE_BYTES)
+    fit_member_keeping(bases, member, residual, KEPT_AMPLITUDE_BYTES, false)
+}
+
+/// [`fit_member_with`] for a member fitted alone, the pool's threads otherwise idle:
+/// its grid starts are refined on them as each comes free ([`refine_starts`]), with
+/// the same result.
+pub fn fit_member_alone(
+    bases: &GridBases<'_>,
+    member: Member,
+    residual: Residual,
+) -> Result<MemberFit, NotFitted> {
+    fit_member_keeping(bases, member, residual, KEPT_AMPLITUDE_BYTES, true)
 }
 
 /// The data cannot determine the member: no parameters, too few readings for them
@@ -65,12 +77,14 @@ pub(super) fn undetermined(data: &Dataset, layout: &Layout, fixed: &[bool]) -> b
 }
 
 /// [`fit_member_with`] keeping at most `kept_bytes` of grid amplitudes between the
-/// grid's solves and its costing (the tests compare both paths).
+/// grid's solves and its costing (the tests compare both paths), its starts refined in
+/// `parallel` ([`fit_member_alone`]) or one after another.
 pub(super) fn fit_member_keeping(
     bases: &GridBases<'_>,
     member: Member,
     residual: Residual,
     kept_bytes: usize,
+    parallel: bool,
 ) -> Result<MemberFit, NotFitted> {
     let data = bases.data;
     let aperture = bases.aperture;
@@ -112,10 +126,6 @@ pub(super) fn fit_member_keeping(
     });
     let width = |spec: Option<LobeSpec>, w: &[f64], i: usize| spec.map_or(1.0, |_| w[i]);
     let lm = LmOptions::default();
-    let mut p = Problem::new(data, layout.clone(), residual, &resid, aperture);
-    let mut best: Option<(f64, Vec<f64>, bool, Option<Normal>)> = None;
-    // The log widths (core, haze, sigma_m) and the cost of every optimum reached so far.
-    let mut optima: Vec<([f64; 3], f64)> = Vec::new();
     let steps = [
         grid_step(core_w),
         grid_step(haze_w),
@@ -140,18 +150,16 @@ pub(super) fn fit_member_keeping(
     let fresnel = layout.core_fresnel.is_some() || layout.haze_fresnel.is_some();
     let variants = if fresnel { FRESNEL_STARTS } else { 1 };
     let prune = !bases.all_starts && !fresnel;
-    let in_basin = |optima: &[([f64; 3], f64)], at: [f64; 3], cost: f64| {
+    let in_basin = |optima: &[(Widths, f64)], at: Widths, cost: f64| {
         prune
             && optima.iter().any(|(o, c)| {
                 cost >= *c && (0..3).all(|d| !on[d] || (at[d] - o[d]).abs() <= BASIN * steps[d])
             })
     };
+    let mut jobs = Vec::new();
     for k in starts {
         let (ci, hi, si) = grid.at(k);
         let at = [core_w[ci].ln(), haze_w[hi].ln(), bases.sigma_m_w[si].ln()];
-        if in_basin(&optima, at, f64::INFINITY) {
-            continue;
-        }
         let Some(pt) = grid.point(ci, hi, si) else {
             continue;
         };
@@ -169,25 +177,25 @@ pub(super) fn fit_member_keeping(
             1.0
         };
         for variant in 0..variants {
-            let Some((x0, pinned)) = start_vector(data, &layout, sigmas, sm, &amp, &held, variant)
-            else {
-                continue;
-            };
-            p.pinned = pinned;
-            p.fixed.clone_from(&fixed);
-            // The same test after each accepted LM step and between rounds: a start
-            // whose path has come into the basin of an optimum already reached, no
-            // lower than it, is left there.
-            let explored = |x: &[f64], cost: f64| in_basin(&optima, widths(x), cost);
-            let Some((c, x, converged, normal)) = refine(&mut p, x0, &lm, &explored) else {
-                continue;
-            };
-            optima.push((widths(&x), c));
-            if best.as_ref().is_none_or(|b| c < b.0) {
-                best = Some((c, x, converged, normal));
+            if let Some((x0, pinned)) =
+                start_vector(data, &layout, sigmas, sm, &amp, &held, variant)
+            {
+                jobs.push(Start { at, x0, pinned });
             }
         }
     }
+    let make = || Problem::new(data, layout.clone(), residual, &resid, aperture);
+    let mut best: Option<Reached> = None;
+    for r in refine_starts(jobs, &make, &fixed, &lm, &in_basin, &widths, parallel)
+        .into_iter()
+        .flatten()
+    {
+        if best.as_ref().is_none_or(|b| r.0 < b.0) {
+            best = Some(r);
+        }
+    }
+    let mut p = make();
+    p.fixed.clone_from(&fixed);
     conclude(&mut p, bases.loss, best, held, &lm)
 }
 

@@ -14,7 +14,8 @@
 //!
 //! Where things live: [`fit`] (one member from the grid's starts, robust losses by
 //! IRLS), [`bases`] (the width grid's shared unit bases), [`grid`] (the grid search),
-//! [`refine`] (LM from one start), [`problem`] (the LM problem and its row pass),
+//! [`refine`] (LM from one start), [`starts`] (LM from every start, in parallel when
+//! the member is fitted alone, with the results of one after another), [`problem`] (the LM problem and its row pass),
 //! [`layout`] (the parameter vector), [`result`] ([`MemberFit`]), [`abg`] (the ABg
 //! member's own start grid, over B and g).
 
@@ -26,6 +27,7 @@ pub mod layout;
 pub mod problem;
 pub mod refine;
 pub mod result;
+pub mod starts;
 
 pub use self::{bases::*, fit::*, layout::*, problem::*, refine::*, result::*};
 

@@ -250,9 +250,16 @@ fn grid_points_solved_again_give_the_same_fit() {
     };
     for m in [Member::THREE_COMPONENT, haze] {
         // Bases each: shared bases would hand the second fit the first one's starts.
-        let kept =
-            fit_member_keeping(&GridBases::new(&data, None), m, Residual::Log, usize::MAX).unwrap();
-        let again = fit_member_keeping(&GridBases::new(&data, None), m, Residual::Log, 0).unwrap();
+        let kept = fit_member_keeping(
+            &GridBases::new(&data, None),
+            m,
+            Residual::Log,
+            usize::MAX,
+            false,
+        )
+        .unwrap();
+        let again =
+            fit_member_keeping(&GridBases::new(&data, None), m, Residual::Log, 0, false).unwrap();
         assert_eq!(kept.ssr.to_bits(), again.ssr.to_bits(), "{m}");
         assert_eq!(kept.x, again.x, "{m}");
     }

@@ -40,13 +40,13 @@ fn fit_raw(
     // after the cheap ones queued before it (the two-lobe member with every
     // component takes about 4x any other on the paper grid). Results keep `members`'
     // order.
-    let order = costliest_first(members);
     // A member fitted alone, from outside the pool, has the pool to itself: its starts
     // share it. (Inside, a campaign's other sweeps keep the pool busy.)
     if let [m] = members {
         let alone = rayon::current_thread_index().is_none();
         return vec![fit_one_with(bases, *m, residual, effects, alone)];
     }
+    let order = costliest_first(members);
     let fits = queue::run(
         order.len(),
         &|k| fit_one(bases, members[order[k]], residual, effects),
@@ -540,11 +540,9 @@ fn untested_components(
             return;
         };
         let s = Selection::new(&fitted.cands, Criterion::Aicc);
-        let more: Vec<Member> = sel
-            .components()
-            .filter(|&c| s.test(sel, c).is_none())
-            .map(|c| sel.without(c))
-            .filter(|m| m.is_valid() && !fitted.members.iter().any(|f| f.member() == *m))
+        let more: Vec<Member> = untested(&s, sel)
+            .into_iter()
+            .filter(|m| !fitted.members.iter().any(|f| f.member() == *m))
             .collect();
         if more.is_empty() {
             return;
@@ -552,6 +550,16 @@ fn untested_components(
         bases.retain_for(&more);
         fitted.add(bases, &more, residual, notes);
     }
+}
+
+/// `sel` without each of its components that no fit in `s` tests yet (the valid ones):
+/// what [`untested_components`] fits, and [`ahead_guesses`] guesses.
+fn untested(s: &Selection<'_>, sel: Member) -> Vec<Member> {
+    sel.components()
+        .filter(|&c| s.test(sel, c).is_none())
+        .map(|c| sel.without(c))
+        .filter(|m| m.is_valid())
+        .collect()
 }
 
 /// The members to fit ahead ([`Fitted::add_first`]) and those taken so far.
@@ -665,11 +673,7 @@ fn ahead_guesses(fits: &[&MemberResult], tried: &[Member]) -> Vec<Member> {
     let (smooth, per_incidence): (Vec<Member>, Vec<Member>) = family::variants_of(best)
         .into_iter()
         .partition(|&m| family::per_incidence_of(m).is_some());
-    let without = best
-        .components()
-        .filter(|&c| sel.test(best, c).is_none())
-        .map(|c| best.without(c))
-        .filter(|m| m.is_valid());
+    let without = untested(&sel, best);
     let mut out: Vec<Member> = Vec::new();
     for m in per_incidence.into_iter().chain(without).chain(smooth) {
         if !tried.contains(&m) && !out.contains(&m) {

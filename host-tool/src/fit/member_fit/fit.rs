@@ -9,7 +9,7 @@ use super::super::lm::{ArrowProblem, LmOptions, minimize};
 use super::super::options::{Loss, Residual};
 use super::super::paper_rmse::paper_rmse_with;
 
-use super::starts::{Reached, Start, Widths, refine_starts};
+use super::starts::{Point, Reached, Start, Widths, refine_starts};
 use super::{bases::*, grid::*, layout::*, problem::*, refine::*, result::*};
 
 /// Why a member was not fitted.
@@ -150,7 +150,7 @@ pub(super) fn fit_member_keeping(
     let fresnel = layout.core_fresnel.is_some() || layout.haze_fresnel.is_some();
     let variants = if fresnel { FRESNEL_STARTS } else { 1 };
     let prune = !bases.all_starts && !fresnel;
-    let in_basin = |optima: &[(Widths, f64)], at: Widths, cost: f64| {
+    let in_basin = |optima: &[Point], at: Widths, cost: f64| {
         prune
             && optima.iter().any(|(o, c)| {
                 cost >= *c && (0..3).all(|d| !on[d] || (at[d] - o[d]).abs() <= BASIN * steps[d])

@@ -10,6 +10,7 @@ use super::super::data::Dataset;
 use super::super::factors::Detectors;
 
 use super::super::options::{Fixed, Loss, Residual};
+use super::super::queue;
 
 use super::layout::HAZE_OVER_CORE;
 use super::problem::*;
@@ -83,6 +84,24 @@ pub(super) fn directional_values(data: &Dataset, params: &MemberParams<f64>) -> 
 }
 
 pub(super) type Parts = brdf_core::member_model::Parts<f64>;
+
+/// A unit basis of the grid: a lobe of (role, distribution), or the directional diffuse.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Unit {
+    Lobe(usize, Distribution),
+    Dd,
+}
+
+/// The directional diffuse alone, k_dd 1, at `sigma_m` (radians).
+fn unit_directional(sigma_m: f64) -> MemberParams<f64> {
+    MemberParams {
+        core: None,
+        haze: None,
+        directional: Some(DirectionalParams { kdd: 1.0, sigma_m }),
+        ideal: None,
+        abg: None,
+    }
+}
 
 /// The grid's gamma of a lobe of `dist`: [`START_GAMMA`] for a Student-t lobe.
 pub(super) fn grid_gamma(dist: Distribution) -> Option<f64> {
@@ -166,6 +185,10 @@ pub(super) type SharedStarts = (Member, Residual, Arc<OnceLock<Vec<usize>>>);
 /// Cross moments per incidence of pairs of bases, row-major over the two grids
 /// (`None` where a basis is missing or the pair is not combined).
 pub(super) type Crosses = Vec<Option<Vec<f64>>>;
+
+/// The pairs of bases whose cross moments make one [`Crosses`], in its order (`None`:
+/// a pair not combined, or a basis missing).
+type Pairs<'b> = Vec<Option<(&'b Basis, &'b Basis)>>;
 
 /// Distributions the bases are kept for ([`dist_index`]).
 pub(super) const N_DIST: usize = 3;
@@ -339,25 +362,9 @@ impl<'a> GridBases<'a> {
 
     /// The lobe bases of `role` (0 core, 1 haze) for `dist`, one per grid width.
     pub(super) fn lobes(&self, role: usize, dist: Distribution) -> &[Option<Basis>] {
-        let d = dist_index(dist);
-        self.lobes[role][d].get_or_init(|| {
-            let widths = if role == 0 {
-                &self.core_w
-            } else {
-                &self.haze_w
-            };
-            widths
-                .iter()
-                .map(|&w| {
-                    match self.aperture {
-                        None => unit_lobe_values(self.data, dist, w),
-                        Some(_) => {
-                            basis_of(self.data, unit_lobe(dist, w), self.aperture, |b| b.core)
-                        }
-                    }
-                    .map(|b| self.basis(b))
-                })
-                .collect()
+        self.lobes[role][dist_index(dist)].get_or_init(|| {
+            let widths = self.widths(Unit::Lobe(role, dist));
+            widths.iter().map(|&w| self.unit(Some(dist), w)).collect()
         })
     }
 
@@ -365,25 +372,130 @@ impl<'a> GridBases<'a> {
         self.dd.get_or_init(|| {
             self.sigma_m_w
                 .iter()
-                .map(|&sm| {
-                    let p = MemberParams {
-                        core: None,
-                        haze: None,
-                        directional: Some(DirectionalParams {
-                            kdd: 1.0,
-                            sigma_m: sm,
-                        }),
-                        ideal: None,
-                        abg: None,
-                    };
-                    match self.aperture {
-                        None => directional_values(self.data, &p),
-                        Some(_) => basis_of(self.data, p, self.aperture, |b| b.directional),
-                    }
-                    .map(|b| self.basis(b))
-                })
+                .map(|&sm| self.unit(None, sm))
                 .collect()
         })
+    }
+
+    /// The grid's widths of a unit basis.
+    fn widths(&self, u: Unit) -> &[f64] {
+        match u {
+            Unit::Lobe(0, _) => &self.core_w,
+            Unit::Lobe(..) => &self.haze_w,
+            Unit::Dd => &self.sigma_m_w,
+        }
+    }
+
+    /// Where a unit basis is kept.
+    fn cell(&self, u: Unit) -> &OnceLock<Vec<Option<Basis>>> {
+        match u {
+            Unit::Lobe(role, dist) => &self.lobes[role][dist_index(dist)],
+            Unit::Dd => &self.dd,
+        }
+    }
+
+    /// One unit basis: the lobe of `dist` at width `w`, or (`None`) the directional
+    /// diffuse at sigma_m `w`.
+    fn unit(&self, dist: Option<Distribution>, w: f64) -> Option<Basis> {
+        match (dist, self.aperture) {
+            (Some(d), None) => unit_lobe_values(self.data, d, w),
+            (Some(d), Some(_)) => basis_of(self.data, unit_lobe(d, w), self.aperture, |b| b.core),
+            (None, None) => directional_values(self.data, &unit_directional(w)),
+            (None, Some(_)) => basis_of(self.data, unit_directional(w), self.aperture, |b| {
+                b.directional
+            }),
+        }
+        .map(|b| self.basis(b))
+    }
+
+    /// Computes the unit bases and cross moments `members`' grids use that are not
+    /// computed yet, on the calling thread and the pool's idle ones ([`queue::run`]),
+    /// each basis (or cross moment) a task: the same values, bit for bit, as each
+    /// computed on first use, one after another. For a member fitted alone (on the
+    /// solar array, its grid's 57 bases were a quarter of `--models three`) and the
+    /// family's first batch, whose members would otherwise wait on a basis another
+    /// is computing. Not from inside a basis's computation (it makes rayon calls).
+    pub(crate) fn prepare(&self, members: &[Member]) {
+        let grids: Vec<Member> = members.iter().copied().filter(|m| !m.abg).collect();
+        let mut units: Vec<Unit> = Vec::new();
+        let mut add = |u: Unit| {
+            if self.cell(u).get().is_none() && !units.contains(&u) {
+                units.push(u);
+            }
+        };
+        for m in &grids {
+            if let Some(l) = m.core {
+                add(Unit::Lobe(0, l.dist));
+            }
+            if let Some(l) = m.haze {
+                add(Unit::Lobe(1, l.dist));
+            }
+            if m.directional {
+                add(Unit::Dd);
+            }
+        }
+        let tasks: Vec<(usize, usize)> = units
+            .iter()
+            .enumerate()
+            .flat_map(|(i, &u)| (0..self.widths(u).len()).map(move |k| (i, k)))
+            .collect();
+        let values = queue::run(
+            tasks.len(),
+            &|t| {
+                let (i, k) = tasks[t];
+                let dist = match units[i] {
+                    Unit::Lobe(_, d) => Some(d),
+                    Unit::Dd => None,
+                };
+                self.unit(dist, self.widths(units[i])[k])
+            },
+            &|| {},
+            false,
+        );
+        let mut values = values.into_iter();
+        for &u in &units {
+            let n = self.widths(u).len();
+            let _ = self.cell(u).set(values.by_ref().take(n).collect());
+        }
+        // The cross moments, from the bases now computed.
+        let mut pairs: Vec<(&OnceLock<Crosses>, Pairs<'_>)> = Vec::new();
+        let wanted = |pairs: &[(&OnceLock<Crosses>, _)], cell: &OnceLock<Crosses>| {
+            cell.get().is_none() && !pairs.iter().any(|(c, _)| std::ptr::eq(*c, cell))
+        };
+        for m in &grids {
+            if let (Some(c), Some(h)) = (m.core, m.haze) {
+                let cell = &self.core_haze[dist_index(c.dist)][dist_index(h.dist)];
+                if wanted(&pairs, cell) {
+                    pairs.push((cell, self.core_haze_pairs(c.dist, h.dist)));
+                }
+            }
+            for (role, l) in [(0, m.core), (1, m.haze)] {
+                if let Some(l) = l.filter(|_| m.directional) {
+                    let cell = &self.lobe_dd[role][dist_index(l.dist)];
+                    if wanted(&pairs, cell) {
+                        pairs.push((cell, self.lobe_dd_pairs(role, l.dist)));
+                    }
+                }
+            }
+        }
+        let tasks: Vec<(usize, usize)> = pairs
+            .iter()
+            .enumerate()
+            .flat_map(|(i, (_, p))| (0..p.len()).map(move |k| (i, k)))
+            .collect();
+        let crosses = queue::run(
+            tasks.len(),
+            &|t| {
+                let (i, k) = tasks[t];
+                pairs[i].1[k].map(|(a, b)| self.cross(a, b))
+            },
+            &|| {},
+            false,
+        );
+        let mut crosses = crosses.into_iter();
+        for (cell, p) in &pairs {
+            let _ = cell.set(crosses.by_ref().take(p.len()).collect());
+        }
     }
 
     /// The core-haze cross moments, `[ci * n_haze + hi]`, of the pairs with the haze
@@ -391,32 +503,55 @@ impl<'a> GridBases<'a> {
     /// combined): computed once per data and shared by the members with both lobes.
     pub(super) fn core_haze(&self, core: Distribution, haze: Distribution) -> &[Option<Vec<f64>>] {
         self.core_haze[dist_index(core)][dist_index(haze)].get_or_init(|| {
-            let (cw, hw) = (&self.core_w, &self.haze_w);
-            let (cores, hazes) = (self.lobes(0, core), self.lobes(1, haze));
-            let nh = hazes.len();
-            (0..cores.len() * nh)
-                .map(|k| {
-                    let (ci, hi) = (k / nh, k % nh);
-                    if hw[hi] >= HAZE_OVER_CORE * cw[ci] {
-                        Some(self.cross(cores[ci].as_ref()?, hazes[hi].as_ref()?))
-                    } else {
-                        None
-                    }
-                })
+            let pairs = self.core_haze_pairs(core, haze);
+            pairs
+                .iter()
+                .map(|p| p.map(|(a, b)| self.cross(a, b)))
                 .collect()
         })
+    }
+
+    /// The pairs of bases [`GridBases::core_haze`] crosses, in its order (`None`: not
+    /// combined, or a basis missing).
+    fn core_haze_pairs(
+        &self,
+        core: Distribution,
+        haze: Distribution,
+    ) -> Vec<Option<(&Basis, &Basis)>> {
+        let (cw, hw) = (&self.core_w, &self.haze_w);
+        let (cores, hazes) = (self.lobes(0, core), self.lobes(1, haze));
+        let nh = hazes.len();
+        (0..cores.len() * nh)
+            .map(|k| {
+                let (ci, hi) = (k / nh, k % nh);
+                if hw[hi] >= HAZE_OVER_CORE * cw[ci] {
+                    Some((cores[ci].as_ref()?, hazes[hi].as_ref()?))
+                } else {
+                    None
+                }
+            })
+            .collect()
     }
 
     /// The cross moments of the lobes of `role` (0 core, 1 haze) for `dist` with the
     /// directional bases, `[li * n_sigma_m + si]`: computed once per data and shared.
     pub(super) fn lobe_dd(&self, role: usize, dist: Distribution) -> &[Option<Vec<f64>>] {
         self.lobe_dd[role][dist_index(dist)].get_or_init(|| {
-            let (lobes, dds) = (self.lobes(role, dist), self.dd());
-            let nd = dds.len();
-            (0..lobes.len() * nd)
-                .map(|k| Some(self.cross(lobes[k / nd].as_ref()?, dds[k % nd].as_ref()?)))
+            let pairs = self.lobe_dd_pairs(role, dist);
+            pairs
+                .iter()
+                .map(|p| p.map(|(a, b)| self.cross(a, b)))
                 .collect()
         })
+    }
+
+    /// The pairs of bases [`GridBases::lobe_dd`] crosses, in its order.
+    fn lobe_dd_pairs(&self, role: usize, dist: Distribution) -> Pairs<'_> {
+        let (lobes, dds) = (self.lobes(role, dist), self.dd());
+        let nd = dds.len();
+        (0..lobes.len() * nd)
+            .map(|k| Some((lobes[k / nd].as_ref()?, dds[k % nd].as_ref()?)))
+            .collect()
     }
 
     /// Per incidence: sum w^2 a b.

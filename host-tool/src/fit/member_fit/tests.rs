@@ -678,3 +678,61 @@ fn a_student_t_lobe_is_fitted_back_with_its_gamma_within_the_standard_error() {
         );
     }
 }
+
+/// The bases and cross moments [`GridBases::prepare`] computes on a pool's threads, a
+/// task each, are those computed on first use, one after another, bit for bit (point
+/// readings and with an aperture, on pools of one to three threads).
+#[test]
+fn bases_prepared_on_the_pools_threads_are_those_computed_on_first_use() {
+    let data = paper_sweep("al-0.782", 3);
+    let members: Vec<Member> = [
+        "specular:beckmann+specular-haze:beckmann+directional-diffuse+ideal-diffuse",
+        "specular:student-t+specular-haze:ggx+directional-diffuse",
+        "three-component",
+    ]
+    .iter()
+    .map(|m| Member::parse(m).unwrap())
+    .collect();
+    let cross_bits = |c: Option<&[Option<Vec<f64>>]>| -> Option<Vec<Option<Vec<u64>>>> {
+        c.map(|c| {
+            c.iter()
+                .map(|v| v.as_ref().map(|v| v.iter().map(|x| x.to_bits()).collect()))
+                .collect()
+        })
+    };
+    let unit = |g: &[Option<&Basis>]| -> Vec<Option<Vec<u64>>> {
+        g.iter()
+            .map(|b| {
+                b.map(|b| {
+                    [&b.b, &b.bb, &b.b1, &b.by]
+                        .iter()
+                        .flat_map(|v| v.iter().map(|x| x.to_bits()))
+                        .collect()
+                })
+            })
+            .collect()
+    };
+    for aperture in [None, Some(0.5)] {
+        let lazy = GridBases::new(&data, aperture);
+        for threads in 1..=3 {
+            let ahead = GridBases::new(&data, aperture);
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| ahead.prepare(&members));
+            // Computed by `prepare`, not on first use below.
+            assert!(ahead.lobes[0][0].get().is_some() && ahead.dd.get().is_some());
+            assert!(ahead.core_haze[2][1].get().is_some() && ahead.lobe_dd[1][1].get().is_some());
+            for &m in &members {
+                let (a, b) = (Grid::new(&lazy, m), Grid::new(&ahead, m));
+                assert_eq!(unit(&a.cores), unit(&b.cores), "{m} cores");
+                assert_eq!(unit(&a.hazes), unit(&b.hazes), "{m} hazes");
+                assert_eq!(unit(&a.dds), unit(&b.dds), "{m} sigma_m");
+                assert_eq!(cross_bits(a.ch), cross_bits(b.ch), "{m} core-haze");
+                assert_eq!(cross_bits(a.cd), cross_bits(b.cd), "{m} core-dd");
+                assert_eq!(cross_bits(a.hd), cross_bits(b.hd), "{m} haze-dd");
+            }
+        }
+    }
+}

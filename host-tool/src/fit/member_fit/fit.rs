@@ -112,9 +112,6 @@ pub(super) fn fit_member_keeping(
         }
         return conclude(&mut p, bases.loss, best, held, &lm);
     }
-    if parallel {
-        bases.prepare(&[member]);
-    }
     let grid = Grid::new(bases, member);
     let (core_w, haze_w) = (&grid.core_w, &grid.haze_w);
     let resid = Residuals::new(data, residual);

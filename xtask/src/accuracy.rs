@@ -373,7 +373,12 @@ fn measure(gonio: &str, tmp: &Path, i: usize, s: &RealSweep) -> Result<Outcome> 
     let misses = notes(&format!("{selected} misses "));
     let assumed = notes("assumed a detector half-angle").into_iter().next();
     // The same family under the two-lobe fit's own objective (least squares in ln).
-    let log_flags: Vec<&str> = s.flags.iter().copied().chain(["--residual", "log"]).collect();
+    let log_flags: Vec<&str> = s
+        .flags
+        .iter()
+        .copied()
+        .chain(["--residual", "log"])
+        .collect();
     let log_residuals = tmp.join(format!("residuals-{i}-log.csv"));
     let log = fit_gonio(gonio, s, &sweep_s, &log_flags, &log_residuals)?;
     commands.push(

@@ -513,11 +513,7 @@ impl<'a> GridBases<'a> {
 
     /// The pairs of bases [`GridBases::core_haze`] crosses, in its order (`None`: not
     /// combined, or a basis missing).
-    fn core_haze_pairs(
-        &self,
-        core: Distribution,
-        haze: Distribution,
-    ) -> Vec<Option<(&Basis, &Basis)>> {
+    fn core_haze_pairs(&self, core: Distribution, haze: Distribution) -> Pairs<'_> {
         let (cw, hw) = (&self.core_w, &self.haze_w);
         let (cores, hazes) = (self.lobes(0, core), self.lobes(1, haze));
         let nh = hazes.len();

@@ -229,7 +229,8 @@ impl Fitted {
         // Every basis the batch uses, first, on every thread: a member would otherwise
         // wait for one another member is computing. Measured (60-80 fresh processes,
         // two runs): the family's median 4.4-4.7 -> 2.7 ms on al-0.782 and 2.3-3.0 ->
-        // 2.0-2.1 on fe-0.115, its best unchanged within 3 %.
+        // 2.0-2.1 on fe-0.115, its best unchanged within 3 % there (on cu-0.070 9 %
+        // worse in one of two runs, 1.54 -> 1.68 ms).
         bases.prepare(members);
         let order = costliest_first(members);
         let n = order.len();

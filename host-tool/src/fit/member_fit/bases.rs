@@ -363,8 +363,8 @@ impl<'a> GridBases<'a> {
     /// The lobe bases of `role` (0 core, 1 haze) for `dist`, one per grid width.
     pub(super) fn lobes(&self, role: usize, dist: Distribution) -> &[Option<Basis>] {
         self.lobes[role][dist_index(dist)].get_or_init(|| {
-            let widths = self.widths(Unit::Lobe(role, dist));
-            widths.iter().map(|&w| self.unit(Some(dist), w)).collect()
+            let u = Unit::Lobe(role, dist);
+            self.widths(u).iter().map(|&w| self.unit(u, w)).collect()
         })
     }
 
@@ -372,7 +372,7 @@ impl<'a> GridBases<'a> {
         self.dd.get_or_init(|| {
             self.sigma_m_w
                 .iter()
-                .map(|&sm| self.unit(None, sm))
+                .map(|&sm| self.unit(Unit::Dd, sm))
                 .collect()
         })
     }
@@ -394,14 +394,16 @@ impl<'a> GridBases<'a> {
         }
     }
 
-    /// One unit basis: the lobe of `dist` at width `w`, or (`None`) the directional
-    /// diffuse at sigma_m `w`.
-    fn unit(&self, dist: Option<Distribution>, w: f64) -> Option<Basis> {
-        match (dist, self.aperture) {
-            (Some(d), None) => unit_lobe_values(self.data, d, w),
-            (Some(d), Some(_)) => basis_of(self.data, unit_lobe(d, w), self.aperture, |b| b.core),
-            (None, None) => directional_values(self.data, &unit_directional(w)),
-            (None, Some(_)) => basis_of(self.data, unit_directional(w), self.aperture, |b| {
+    /// One unit basis `u` at width `w`: a lobe's sigma, or the directional diffuse's
+    /// sigma_m (radians).
+    fn unit(&self, u: Unit, w: f64) -> Option<Basis> {
+        match (u, self.aperture) {
+            (Unit::Lobe(_, d), None) => unit_lobe_values(self.data, d, w),
+            (Unit::Lobe(_, d), Some(_)) => {
+                basis_of(self.data, unit_lobe(d, w), self.aperture, |b| b.core)
+            }
+            (Unit::Dd, None) => directional_values(self.data, &unit_directional(w)),
+            (Unit::Dd, Some(_)) => basis_of(self.data, unit_directional(w), self.aperture, |b| {
                 b.directional
             }),
         }
@@ -443,11 +445,7 @@ impl<'a> GridBases<'a> {
             tasks.len(),
             &|t| {
                 let (i, k) = tasks[t];
-                let dist = match units[i] {
-                    Unit::Lobe(_, d) => Some(d),
-                    Unit::Dd => None,
-                };
-                self.unit(dist, self.widths(units[i])[k])
+                self.unit(units[i], self.widths(units[i])[k])
             },
             &|| {},
             false,

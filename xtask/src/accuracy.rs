@@ -358,6 +358,7 @@ fn measure(gonio: &str, tmp: &Path, i: usize, s: &RealSweep) -> Result<Outcome> 
         .replace("  ", " "),
     );
     let (selected, json, gonio_fig) = (fit.selected, fit.json, fit.figures);
+    let readings = fit.readings;
     let notes = |start: &str| -> Vec<String> {
         json["notes"]
             .as_array()
@@ -388,20 +389,18 @@ fn measure(gonio: &str, tmp: &Path, i: usize, s: &RealSweep) -> Result<Outcome> 
         )
         .replace("  ", " "),
     );
-    let text = std::fs::read_to_string(&residuals).map_err(|e| format!("{residuals:?}: {e}"))?;
     let script = root.join("bench/two_lobe_fit.py");
     let two = parse_json(
         &output(&root, "python3", &[&path(&script)?, &sweep_s])?,
         "bench/two_lobe_fit.py",
     )?;
     commands.push(format!("python3 bench/two_lobe_fit.py {shown}"));
-    let two_readings =
-        same_readings(&read_residuals(&text)?, &read_two_lobe(&two)?).ok_or_else(|| {
-            format!(
-                "{}: gonio's fit and the two-lobe fit used different readings",
-                s.name
-            )
-        })?;
+    let two_readings = same_readings(&readings, &read_two_lobe(&two)?).ok_or_else(|| {
+        format!(
+            "{}: gonio's fit and the two-lobe fit used different readings",
+            s.name
+        )
+    })?;
     let two_fig = figures(&two_readings);
     if log.figures.n != gonio_fig.n {
         return Err(format!(
@@ -421,11 +420,12 @@ fn measure(gonio: &str, tmp: &Path, i: usize, s: &RealSweep) -> Result<Outcome> 
     })
 }
 
-/// One `gonio fit` of a sweep: its selected member, its JSON and the figures of its
-/// residuals export (written to `residuals`).
+/// One `gonio fit` of a sweep: its selected member, its JSON, and the readings of its
+/// residuals export (written to `residuals`) with their figures.
 struct GonioFit {
     selected: String,
     json: Value,
+    readings: Vec<Reading>,
     figures: Figures,
 }
 
@@ -452,7 +452,8 @@ fn fit_gonio(
         .ok_or("gonio fit --json: no selected member")?
         .to_string();
     let text = std::fs::read_to_string(residuals).map_err(|e| format!("{residuals:?}: {e}"))?;
-    let figures = figures(&read_residuals(&text)?);
+    let readings = read_residuals(&text)?;
+    let figures = figures(&readings);
     let own = json["models"]
         .as_array()
         .and_then(|m| m.iter().find(|m| m["name"] == selected.as_str()))
@@ -472,6 +473,7 @@ fn fit_gonio(
     Ok(GonioFit {
         selected,
         json,
+        readings,
         figures,
     })
 }

@@ -35,11 +35,6 @@ fn fit_raw(
     residual: Residual,
     effects: bool,
 ) -> Vec<MemberResult> {
-    // The costliest fits first (the most lobes, then the most components): a stage
-    // lasts as long as its slowest member, so that one starts at once instead of
-    // after the cheap ones queued before it (the two-lobe member with every
-    // component takes about 4x any other on the paper grid). Results keep `members`'
-    // order.
     // A member fitted alone, from outside the pool, has the pool to itself: its starts
     // share it. (Inside, a campaign's other sweeps keep the pool busy.)
     if let [m] = members {
@@ -56,7 +51,10 @@ fn fit_raw(
     in_members_order(&order, fits)
 }
 
-/// The indices of `members`, the costliest fits first.
+/// The indices of `members`, the costliest fits first (the most lobes, then the most
+/// components): a stage lasts as long as its slowest member, so that one starts at
+/// once instead of after the cheap ones queued before it (the two-lobe member with
+/// every component takes about 4x any other on the paper grid).
 fn costliest_first(members: &[Member]) -> Vec<usize> {
     let mut order: Vec<usize> = (0..members.len()).collect();
     order.sort_by_key(|&i| std::cmp::Reverse(cost_rank(members[i])));

@@ -256,11 +256,15 @@ impl Problem<'_> {
                 let Some((e, g)) = at else {
                     return false;
                 };
-                let mut scale = match self.resid.kind {
-                    Residual::Noise(m) => 1.0 / m.sigma(e.f),
-                    Residual::Log => 1.0 / e.f.max(1e-300),
-                    Residual::Relative => 1.0 / o.y,
-                    Residual::Absolute => 1.0,
+                // The residual with its slope (the noise transform's share one square root).
+                let (mut r, mut scale) = match self.resid.kind {
+                    Residual::Noise(m) => {
+                        let (g, slope) = m.transform_and_slope(e.f);
+                        (g - self.resid.ln_y[k], slope)
+                    }
+                    Residual::Log => (self.resid.raw(e.f, k, o.y), 1.0 / e.f.max(1e-300)),
+                    Residual::Relative => (self.resid.raw(e.f, k, o.y), 1.0 / o.y),
+                    Residual::Absolute => (self.resid.raw(e.f, k, o.y), 1.0),
                 };
                 if WEIGHTED {
                     scale *= self.resid.sqrt_w[k];
@@ -321,7 +325,6 @@ impl Problem<'_> {
                         }
                     }
                 }
-                let mut r = self.resid.raw(e.f, k, o.y);
                 if WEIGHTED {
                     r *= self.resid.sqrt_w[k];
                 }

@@ -256,11 +256,12 @@ impl Problem<'_> {
                 let Some((e, g)) = at else {
                     return false;
                 };
-                // The residual with its slope (the noise transform's share one square root).
+                // The residual and its slope in f (the noise transform's two share one
+                // square root).
                 let (mut r, mut scale) = match self.resid.kind {
                     Residual::Noise(m) => {
-                        let (g, slope) = m.transform_and_slope(e.f);
-                        (g - self.resid.ln_y[k], slope)
+                        let (t, slope) = m.transform_and_slope(e.f);
+                        (t - self.resid.ln_y[k], slope)
                     }
                     Residual::Log => (self.resid.raw(e.f, k, o.y), 1.0 / e.f.max(1e-300)),
                     Residual::Relative => (self.resid.raw(e.f, k, o.y), 1.0 / o.y),

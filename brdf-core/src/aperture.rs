@@ -161,19 +161,34 @@ impl<T: Real> Aperture<T> {
     }
 
     /// An aperture whose order suits `model` at one reading (incidence `theta_i_deg`,
-    /// nominal signed `theta_r_deg`, degrees): [`Aperture::for_model`]'s order, except
-    /// that a core lobe whose centre (the mirror direction, theta_r = theta_i in the
-    /// plane) lies more than [`FAR_WIDTHS`] of its widths outside the cone counts with
-    /// the cone's distance from it as its width. There a light-tailed core is below
-    /// e^-32 of its peak, and a heavy-tailed core's power-law tail varies over the cone
-    /// on the scale of that distance; the other components keep their widths. Far
-    /// readings thus take a handful of nodes, the core's readings the full order.
+    /// nominal signed `theta_r_deg`, degrees): [`Aperture::reading_order`] nodes in both
+    /// directions.
     pub fn for_reading(
         aperture_deg: T,
         model: &MemberModel<T>,
         theta_i_deg: T,
         theta_r_deg: T,
     ) -> Result<Self, ModelError> {
+        let n = Self::reading_order(aperture_deg, model, theta_i_deg, theta_r_deg);
+        Self::new(aperture_deg, n, n)
+    }
+
+    /// The node count (in each direction) [`Aperture::for_reading`] gives `model` at one
+    /// reading: [`Aperture::for_model`]'s order, except that a core lobe whose centre
+    /// (the mirror direction, theta_r = theta_i in the plane) lies more than
+    /// [`FAR_WIDTHS`] of its widths outside the cone counts with the cone's distance
+    /// from it as its width. There a light-tailed core is below e^-32 of its peak, and
+    /// a heavy-tailed core's power-law tail varies over the cone on the scale of that
+    /// distance; the other components keep their widths. Far readings thus take a
+    /// handful of nodes, the core's readings the full order. 1 when nothing varies.
+    /// A caller that keeps the apertures it has built, one per order, builds each once
+    /// (their nodes, by Newton's method, can cost as much as an average).
+    pub fn reading_order(
+        aperture_deg: T,
+        model: &MemberModel<T>,
+        theta_i_deg: T,
+        theta_r_deg: T,
+    ) -> usize {
         let a = deg_to_rad(aperture_deg).widen();
         let d = deg_to_rad(theta_r_deg - theta_i_deg).widen().abs();
         let core = model.core_width().map(|w| {
@@ -184,13 +199,7 @@ impl<T: Real> Aperture<T> {
             .into_iter()
             .flatten()
             .reduce(f64::min);
-        match width {
-            Some(w) => {
-                let n = Self::order(a / w);
-                Self::new(aperture_deg, n, n)
-            }
-            None => Self::new(aperture_deg, 1, 1),
-        }
+        width.map_or(1, |w| Self::order(a / w))
     }
 
     /// The half-angle, degrees.
@@ -251,6 +260,9 @@ impl<T: Real> Aperture<T> {
         // Nominal direction w0 (azimuth 0 for + theta_r), e1 toward larger theta_r, e2 = y.
         let w0 = [s, T::zero(), c];
         let e1 = [c, T::zero(), -s];
+        // The factors of the incidence alone, once for every node (the same values, bit
+        // for bit, as each node's own: MemberModel::eval_with_gradient_given).
+        let inc = model.at_incidence(theta_i_deg)?;
         let mut basis = Parts::default();
         let mut f = T::zero();
         for k in 0..self.n_radial {
@@ -268,13 +280,14 @@ impl<T: Real> Aperture<T> {
                     Err(ModelError::NoHalfVector) => continue,
                     Err(e) => return Err(e),
                 };
+                let dd = model.directional_at(g.theta_r);
                 let e = match grad.as_deref_mut() {
                     Some(out) => {
-                        let (e, gr) = model.eval_with_gradient(theta_i_deg, &g)?;
+                        let (e, gr) = model.eval_with_gradient_given(&inc, dd, &g)?;
                         out.add_scaled(wk, &gr);
                         e
                     }
-                    None => model.eval(theta_i_deg, &g)?,
+                    None => model.eval_given(&inc, dd, &g)?,
                 };
                 f = f + wk * e.f;
                 basis.core = basis.core + wk * e.basis.core;

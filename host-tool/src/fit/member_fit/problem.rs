@@ -1,5 +1,7 @@
 //! One member's least-squares problem in arrow form: residuals (IRLS-weighted under a robust loss) and the row pass of the LM step.
 
+use std::cell::RefCell;
+
 use brdf_core::aperture::Aperture;
 use brdf_core::member_model::{MemberEval, MemberModel};
 
@@ -156,11 +158,42 @@ pub fn eval_at(
 ) -> Option<MemberEval<f64>> {
     match aperture {
         None => m.eval(o.theta_i, &o.geom).ok(),
-        Some(a) => Aperture::for_reading(a, m, o.theta_i, o.theta_r)
-            .ok()?
-            .average(m, o.theta_i, o.theta_r)
-            .ok(),
+        Some(a) => with_reading_aperture(a, m, o, |ap| ap.average(m, o.theta_i, o.theta_r))?.ok(),
     }
+}
+
+thread_local! {
+    /// The apertures this thread has built, by order (index n - 1), each for the
+    /// half-angle it was last built for.
+    static BUILT: RefCell<Vec<Option<Aperture<f64>>>> = const { RefCell::new(Vec::new()) };
+}
+
+/// `f` of [`Aperture::for_reading`]'s aperture for `m` at reading `o` (half-angle `a`
+/// degrees), built once per thread, order and half-angle: its Gauss–Legendre nodes, by
+/// Newton's method, took a fifth of a fit with an aperture when built at every reading
+/// (the same nodes each time, so the same averages). `None` when the aperture cannot
+/// be built (a half-angle out of range).
+pub(super) fn with_reading_aperture<R>(
+    a: f64,
+    m: &MemberModel<f64>,
+    o: &Observation,
+    f: impl FnOnce(&Aperture<f64>) -> R,
+) -> Option<R> {
+    let n = Aperture::reading_order(a, m, o.theta_i, o.theta_r);
+    BUILT.with(|built| {
+        let mut built = built.borrow_mut();
+        if built.len() < n {
+            built.resize(n, None);
+        }
+        let slot = &mut built[n - 1];
+        if slot
+            .as_ref()
+            .is_none_or(|ap| ap.half_angle_deg().to_bits() != a.to_bits())
+        {
+            *slot = Some(Aperture::new(a, n, n).ok()?);
+        }
+        slot.as_ref().map(f)
+    })
 }
 
 impl Problem<'_> {
@@ -249,9 +282,10 @@ impl Problem<'_> {
                         let dd = self.directional.at(self.data, k);
                         model.eval_with_gradient_given(&f, dd, &o.geom).ok()
                     }
-                    Some(a) => Aperture::for_reading(a, model, o.theta_i, o.theta_r)
-                        .ok()
-                        .and_then(|ap| ap.average_with_gradient(model, o.theta_i, o.theta_r).ok()),
+                    Some(a) => with_reading_aperture(a, model, o, |ap| {
+                        ap.average_with_gradient(model, o.theta_i, o.theta_r)
+                    })
+                    .and_then(Result::ok),
                 };
                 let Some((e, g)) = at else {
                     return false;

@@ -263,6 +263,7 @@ impl<T: Real> Aperture<T> {
         // The factors of the incidence alone, once for every node (the same values, bit
         // for bit, as each node's own: MemberModel::eval_with_gradient_given).
         let inc = model.at_incidence(theta_i_deg)?;
+        let with_theta_r = model.has_directional();
         let mut basis = Parts::default();
         let mut f = T::zero();
         for k in 0..self.n_radial {
@@ -274,7 +275,7 @@ impl<T: Real> Aperture<T> {
                     continue; // below the horizon: no light reaches the detector there
                 }
                 let w = [cr * w0[0] + a * e1[0], b, z];
-                let g = match Geometry::from_vectors(w_i, w) {
+                let g = match Geometry::from_vectors_with(w_i, w, with_theta_r) {
                     Ok(g) => g,
                     // w = -w_i: one point on the horizon, of measure zero.
                     Err(ModelError::NoHalfVector) => continue,

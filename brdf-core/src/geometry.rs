@@ -86,6 +86,17 @@ impl<T: Real> Geometry<T> {
     /// upper hemisphere, pointing away from the surface). Length must be 1 within 1e-4
     /// (relative), z >= -1e-6 (clamped to 0).
     pub fn from_vectors(w_i: [T; 3], w_r: [T; 3]) -> Result<Self, ModelError> {
+        Self::from_vectors_with(w_i, w_r, true)
+    }
+
+    /// [`Geometry::from_vectors`], its `theta_r` left NaN unless `with_theta_r`: for a
+    /// caller whose model does not read it (only the directional-diffuse term does),
+    /// which saves the atan2, a sixth of an average over a detector's cone.
+    pub(crate) fn from_vectors_with(
+        w_i: [T; 3],
+        w_r: [T; 3],
+        with_theta_r: bool,
+    ) -> Result<Self, ModelError> {
         let wi = check_unit("w_i", w_i)?;
         let wr = check_unit("w_r", w_r)?;
         let s = [wi[0] + wr[0], wi[1] + wr[1], wi[2] + wr[2]];
@@ -95,14 +106,18 @@ impl<T: Real> Geometry<T> {
             return Err(ModelError::NoHalfVector);
         }
         let s_xy = (s[0] * s[0] + s[1] * s[1]).sqrt();
-        let r_xy = (wr[0] * wr[0] + wr[1] * wr[1]).sqrt();
+        let theta_r = if with_theta_r {
+            (wr[0] * wr[0] + wr[1] * wr[1]).sqrt().atan2(wr[2])
+        } else {
+            T::lit(f64::NAN)
+        };
         Ok(Self::with_derived(
             wi[2],
             wr[2],
             s[2] / s_len,
             s_xy / s_len,
             s_len * T::lit(0.5),
-            r_xy.atan2(wr[2]),
+            theta_r,
         ))
     }
 
@@ -174,6 +189,27 @@ fn check_unit<T: Real>(what: &'static str, w: [T; 3]) -> Result<[T; 3], ModelErr
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Leaving theta_r out changes no other field, bit for bit (an average over a cone
+    /// of a member without the directional term is then the same), and leaves it NaN,
+    /// never a plausible angle.
+    #[test]
+    fn theta_r_left_out_changes_nothing_else() {
+        for (ti, pi, tr, pr) in [
+            (30.0, 180.0, 30.0, 0.0),
+            (0.0, 0.0, 89.9, 17.0),
+            (75.0, 180.0, 12.5, 233.0),
+            (45.0, 90.0, 0.0, 0.0),
+        ] {
+            let wi = direction("theta_i", ti, "phi_i", pi).unwrap();
+            let wr = direction("theta_r", tr, "phi_r", pr).unwrap();
+            let full = Geometry::<f64>::from_vectors(wi, wr).unwrap();
+            let mut part = Geometry::<f64>::from_vectors_with(wi, wr, false).unwrap();
+            assert!(part.theta_r.is_nan());
+            part.theta_r = full.theta_r;
+            assert_eq!(format!("{part:?}"), format!("{full:?}"));
+        }
+    }
 
     #[test]
     fn in_plane_mirror_has_zero_alpha() {

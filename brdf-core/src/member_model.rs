@@ -589,6 +589,12 @@ impl<T: Real> MemberModel<T> {
         })
     }
 
+    /// Whether the member has the directional-diffuse term, the one part that reads
+    /// [`Geometry::theta_r`].
+    pub(crate) fn has_directional(&self) -> bool {
+        self.directional.is_some()
+    }
+
     /// The directional-diffuse basis f_dd (unweighted, eq. 5) and its exponent
     /// y = theta_r^2/(2 sigma_m^2) at |theta_r| (radians, as [`Geometry::theta_r`]);
     /// `None` when the member has no directional-diffuse term. It depends on the

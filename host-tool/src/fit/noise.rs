@@ -91,7 +91,8 @@ impl NoiseModel {
     /// in log residuals (symmetric in the ratio), not as in relative ones, where a
     /// model far under the readings costs at most 1 / b a reading and the fit drops
     /// the peak (the chrome film's peaks came out 0.00 under `--residual rel`).
-    /// With a = 0: ln v / b; with b = 0: v / a.
+    /// With a = 0 (or a floor so far below b that b / a overflows): ln v / b; with
+    /// b = 0: v / a.
     #[inline]
     pub fn transform(&self, v: f64) -> f64 {
         self.transform_and_slope(v).0
@@ -110,15 +111,19 @@ impl NoiseModel {
     #[inline]
     pub fn transform_and_slope(&self, v: f64) -> (f64, f64) {
         let (a, b) = (self.floor, self.prop);
-        // The reciprocals depend on the model alone: a row pass computes them once
-        // (hoisted out of its loop), and each reading multiplies.
-        if a == 0.0 {
+        // The ratio and reciprocals depend on the model alone: a row pass computes them
+        // once (hoisted out of its loop), and each reading multiplies.
+        let c = b / a;
+        // a = 0, or a floor so far below b that b / a overflows (x would be infinite,
+        // or NaN at v = 0): the proportional part alone, g = ln v / b (asinh less the
+        // constant ln 2c / b, which cancels in g(f) - g(y)).
+        if !c.is_finite() {
             let v = v.max(1e-300);
             (v.ln() * (1.0 / b), 1.0 / (b * v))
         } else if b == 0.0 {
             (v * (1.0 / a), 1.0 / a)
         } else {
-            let x = (b / a) * v;
+            let x = c * v;
             let ax = x.abs();
             // Beyond 2^27, 1 + x^2 rounds to x^2 (and squares overflow from 1e154).
             let (g, s) = if ax >= 134_217_728.0 {
@@ -312,6 +317,14 @@ mod tests {
         assert_eq!(m.transform(-0.0).to_bits(), (-0.0_f64).to_bits());
         assert_eq!(m.transform_and_slope(f64::INFINITY), (f64::INFINITY, 0.0));
         assert!(m.transform(f64::NAN).is_nan());
+        // A floor so small that b / a overflows: the proportional part alone, finite at
+        // a zero reading (b v / a would be infinity times zero there).
+        let tiny = NoiseModel::stated(1e-310, 0.03).unwrap();
+        assert!(tiny.transform(0.0).is_finite());
+        assert_eq!(
+            tiny.transform_and_slope(2.0),
+            (2.0_f64.ln() * (1.0 / 0.03), 1.0 / 0.06)
+        );
         // The two limits: the floor alone and the proportional part alone.
         let log = NoiseModel::stated(0.0, 0.5).unwrap();
         assert_eq!(log.transform_and_slope(2.0), (2.0_f64.ln() * 2.0, 1.0));

@@ -23,7 +23,7 @@
 use crate::error::ModelError;
 use crate::float::{Real, deg_to_rad};
 use crate::geometry::{Geometry, check_angle, direction};
-use crate::member_model::{MemberEval, MemberGradient, MemberModel, Parts};
+use crate::member_model::{AtIncidence, MemberEval, MemberGradient, MemberModel, Parts};
 
 /// Most nodes in either direction of the quadrature.
 pub const MAX_NODES: usize = 48;
@@ -236,6 +236,72 @@ impl<T: Real> Aperture<T> {
         Ok((e, g))
     }
 
+    /// Calls `f` with each node of this aperture at a reading (incidence `theta_i_deg`,
+    /// nominal signed `theta_r_deg`, degrees): its weight and the geometry of its
+    /// direction, in the order [`Aperture::average`] sums them; nodes below the horizon
+    /// (which collect nothing) and the one at -w_i (of measure zero) left out. The
+    /// geometry depends on the reading and the nodes alone: a caller averaging many
+    /// members, or one member many times, at a reading can keep the nodes and give them
+    /// to [`Aperture::average_nodes`] (the same averages, bit for bit). `with_theta_r`
+    /// false leaves [`Geometry::theta_r`] NaN (saving an atan2 a node): only the
+    /// directional-diffuse term reads it. A zero aperture is its nominal direction, not
+    /// nodes: it calls `f` for nothing.
+    pub fn nodes_at(
+        &self,
+        theta_i_deg: T,
+        theta_r_deg: T,
+        with_theta_r: bool,
+        mut f: impl FnMut(T, Geometry<T>),
+    ) -> Result<(), ModelError> {
+        if self.half_angle_deg == T::zero() {
+            return Ok(());
+        }
+        let tr = check_angle("theta_r", theta_r_deg, -90.0, 90.0)?;
+        let w_i = direction("theta_i", theta_i_deg, "phi_i", T::lit(180.0))?;
+        let (s, c) = (deg_to_rad(tr).sin(), crate::float::cos_deg(tr));
+        // Nominal direction w0 (azimuth 0 for + theta_r), e1 toward larger theta_r, e2 = y.
+        let w0 = [s, T::zero(), c];
+        let e1 = [c, T::zero(), -s];
+        for k in 0..self.n_radial {
+            let (cr, sr, wk) = (self.cos_rho[k], self.sin_rho[k], self.weight[k]);
+            for j in 0..self.n_azimuth {
+                let (a, b) = (sr * self.cos_psi[j], sr * self.sin_psi[j]);
+                let z = cr * w0[2] + a * e1[2];
+                if z < T::zero() {
+                    continue; // below the horizon: no light reaches the detector there
+                }
+                let w = [cr * w0[0] + a * e1[0], b, z];
+                match Geometry::from_vectors_with(w_i, w, with_theta_r) {
+                    Ok(g) => f(wk, g),
+                    // w = -w_i: one point on the horizon, of measure zero.
+                    Err(ModelError::NoHalfVector) => continue,
+                    Err(e) => return Err(e),
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The member averaged over `nodes` ([`Aperture::nodes_at`] of an aperture at a
+    /// reading of incidence `theta_i_deg`), with the averaged gradient added into
+    /// `grad` when given (start it at its default): what [`Aperture::average`] and
+    /// [`Aperture::average_with_gradient`] give at that reading, bit for bit.
+    pub fn average_nodes(
+        model: &MemberModel<T>,
+        theta_i_deg: T,
+        nodes: &[(T, Geometry<T>)],
+        mut grad: Option<&mut MemberGradient<T>>,
+    ) -> Result<MemberEval<T>, ModelError> {
+        // The factors of the incidence alone, once for every node (the same values, bit
+        // for bit, as each node's own: MemberModel::eval_with_gradient_given).
+        let inc = model.at_incidence(theta_i_deg)?;
+        let mut sum = NodeSum::default();
+        for (w, g) in nodes {
+            sum.add(model, &inc, *w, g, grad.as_deref_mut())?;
+        }
+        sum.finish()
+    }
+
     fn average_impl(
         &self,
         model: &MemberModel<T>,
@@ -254,54 +320,71 @@ impl<T: Real> Aperture<T> {
                 None => model.eval(theta_i_deg, &g),
             };
         }
-        let tr = check_angle("theta_r", theta_r_deg, -90.0, 90.0)?;
-        let w_i = direction("theta_i", theta_i_deg, "phi_i", T::lit(180.0))?;
-        let (s, c) = (deg_to_rad(tr).sin(), crate::float::cos_deg(tr));
-        // Nominal direction w0 (azimuth 0 for + theta_r), e1 toward larger theta_r, e2 = y.
-        let w0 = [s, T::zero(), c];
-        let e1 = [c, T::zero(), -s];
-        // The factors of the incidence alone, once for every node (the same values, bit
-        // for bit, as each node's own: MemberModel::eval_with_gradient_given).
+        // The angles' checks first, as the nodes make them.
+        check_angle("theta_r", theta_r_deg, -90.0, 90.0)?;
+        direction("theta_i", theta_i_deg, "phi_i", T::lit(180.0))?;
         let inc = model.at_incidence(theta_i_deg)?;
-        let with_theta_r = model.has_directional();
-        let mut basis = Parts::default();
-        let mut f = T::zero();
-        for k in 0..self.n_radial {
-            let (cr, sr, wk) = (self.cos_rho[k], self.sin_rho[k], self.weight[k]);
-            for j in 0..self.n_azimuth {
-                let (a, b) = (sr * self.cos_psi[j], sr * self.sin_psi[j]);
-                let z = cr * w0[2] + a * e1[2];
-                if z < T::zero() {
-                    continue; // below the horizon: no light reaches the detector there
-                }
-                let w = [cr * w0[0] + a * e1[0], b, z];
-                let g = match Geometry::from_vectors_with(w_i, w, with_theta_r) {
-                    Ok(g) => g,
-                    // w = -w_i: one point on the horizon, of measure zero.
-                    Err(ModelError::NoHalfVector) => continue,
-                    Err(e) => return Err(e),
-                };
-                let dd = model.directional_at(g.theta_r);
-                let e = match grad.as_deref_mut() {
-                    Some(out) => {
-                        let (e, gr) = model.eval_with_gradient_given(&inc, dd, &g)?;
-                        out.add_scaled(wk, &gr);
-                        e
-                    }
-                    None => model.eval_given(&inc, dd, &g)?,
-                };
-                f = f + wk * e.f;
-                basis.core = basis.core + wk * e.basis.core;
-                basis.haze = basis.haze + wk * e.basis.haze;
-                basis.directional = basis.directional + wk * e.basis.directional;
-                basis.ideal = basis.ideal + wk * e.basis.ideal;
-                basis.abg = basis.abg + wk * e.basis.abg;
+        let mut sum = NodeSum::default();
+        let mut failed = None;
+        self.nodes_at(theta_i_deg, theta_r_deg, model.has_directional(), |w, g| {
+            if failed.is_none()
+                && let Err(e) = sum.add(model, &inc, w, &g, grad.as_deref_mut())
+            {
+                failed = Some(e);
             }
+        })?;
+        match failed {
+            Some(e) => Err(e),
+            None => sum.finish(),
         }
-        if !f.is_finite() {
+    }
+}
+
+/// The weighted sums of an average over an aperture's nodes.
+#[derive(Default)]
+struct NodeSum<T> {
+    f: T,
+    basis: Parts<T>,
+}
+
+impl<T: Real> NodeSum<T> {
+    /// Adds the member at one node (weight `w`, geometry `g`; `inc` its incidence's
+    /// factors), and its gradient into `grad` when given.
+    #[inline(always)]
+    fn add(
+        &mut self,
+        model: &MemberModel<T>,
+        inc: &AtIncidence<T>,
+        w: T,
+        g: &Geometry<T>,
+        grad: Option<&mut MemberGradient<T>>,
+    ) -> Result<(), ModelError> {
+        let dd = model.directional_at(g.theta_r);
+        let e = match grad {
+            Some(out) => {
+                let (e, gr) = model.eval_with_gradient_given(inc, dd, g)?;
+                out.add_scaled(w, &gr);
+                e
+            }
+            None => model.eval_given(inc, dd, g)?,
+        };
+        self.f = self.f + w * e.f;
+        self.basis.core = self.basis.core + w * e.basis.core;
+        self.basis.haze = self.basis.haze + w * e.basis.haze;
+        self.basis.directional = self.basis.directional + w * e.basis.directional;
+        self.basis.ideal = self.basis.ideal + w * e.basis.ideal;
+        self.basis.abg = self.basis.abg + w * e.basis.abg;
+        Ok(())
+    }
+
+    fn finish(self) -> Result<MemberEval<T>, ModelError> {
+        if !self.f.is_finite() {
             return Err(ModelError::Overflow);
         }
-        Ok(MemberEval { basis, f })
+        Ok(MemberEval {
+            basis: self.basis,
+            f: self.f,
+        })
     }
 }
 

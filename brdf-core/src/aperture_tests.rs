@@ -345,3 +345,41 @@ fn far_readings_take_few_nodes_and_agree_with_the_full_order() {
         full.nodes()
     );
 }
+
+/// Nodes kept from `nodes_at` average as `average` and `average_with_gradient` do,
+/// bit for bit, with and without theta_r (the latter for a member without the
+/// directional term), at the core, beside it, far from it and near the horizon; a zero
+/// aperture has no nodes.
+#[test]
+fn kept_nodes_average_as_the_aperture_does() {
+    for (m, with_theta_r) in [
+        (full(), true),
+        (single(Distribution::Beckmann, 0.01), false),
+    ] {
+        for (ti, tr) in [
+            (30.0, 30.0),
+            (30.0, 30.4),
+            (30.0, -60.0),
+            (75.0, 89.5),
+            (0.0, 0.0),
+        ] {
+            let ap = Aperture::for_reading(1.0, &m, ti, tr).unwrap();
+            let mut nodes = std::vec::Vec::new();
+            ap.nodes_at(ti, tr, with_theta_r, |w, g| nodes.push((w, g)))
+                .unwrap();
+            assert!(!nodes.is_empty());
+            let want = ap.average(&m, ti, tr).unwrap();
+            let got = Aperture::average_nodes(&m, ti, &nodes, None).unwrap();
+            assert_eq!(format!("{got:?}"), format!("{want:?}"), "{ti} {tr}");
+            let (want, want_g) = ap.average_with_gradient(&m, ti, tr).unwrap();
+            let mut got_g = MemberGradient::default();
+            let got = Aperture::average_nodes(&m, ti, &nodes, Some(&mut got_g)).unwrap();
+            assert_eq!(format!("{got:?}"), format!("{want:?}"), "{ti} {tr}");
+            assert_eq!(format!("{got_g:?}"), format!("{want_g:?}"), "{ti} {tr}");
+        }
+    }
+    let zero = Aperture::<f64>::new(0.0, 1, 1).unwrap();
+    let mut count = 0;
+    zero.nodes_at(30.0, 30.0, true, |_, _| count += 1).unwrap();
+    assert_eq!(count, 0);
+}

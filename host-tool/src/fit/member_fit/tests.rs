@@ -737,47 +737,56 @@ fn bases_prepared_on_the_pools_threads_are_those_computed_on_first_use() {
     }
 }
 
-/// The apertures each thread keeps, one per order, average as one built for the
-/// reading does, bit for bit, when the half-angle changes between calls on a thread
-/// (as between two sweeps of a campaign) and at every order a reading may need.
+/// The nodes each thread keeps average as an aperture built for the reading does, bit
+/// for bit, value and gradient, when the half-angle changes between calls on a thread
+/// (as between two sweeps of a campaign), at every order a reading may need, and for a
+/// member with the directional term (the one that reads theta_r) and one without.
 #[test]
-fn kept_apertures_average_as_those_built_for_the_reading() {
-    let p = MemberParams {
-        core: lobe(0.002, 0.7),
-        haze: lobe(0.2, 0.05),
-        directional: None,
-        ideal: Some(0.01),
-        abg: None,
-    };
-    let m = MemberModel::new(&p).unwrap();
-    let mut rows = Vec::new();
-    for k in 0..=356 {
-        rows.push(Row {
-            theta_i: 30.0,
-            theta_r: -89.0 + 0.5 * k as f64,
-            brdf: 1.0,
-            std: None,
-            n: None,
-            seq: None,
-            t_ms: None,
-        });
-    }
-    let data = Dataset::from_rows(&rows, true).unwrap();
+fn kept_nodes_average_as_apertures_built_for_the_reading() {
     let mut orders = std::collections::BTreeSet::new();
-    for a in [1.0, 0.25, 1.0, 2.0, 0.25] {
-        for o in &data.obs {
-            let ap =
-                brdf_core::aperture::Aperture::for_reading(a, &m, o.theta_i, o.theta_r).unwrap();
-            orders.insert(ap.nodes().0);
-            let want = ap.average(&m, o.theta_i, o.theta_r).unwrap();
-            let got = eval_at(&m, o, Some(a)).unwrap();
-            assert_eq!(
-                got.f.to_bits(),
-                want.f.to_bits(),
-                "{a} deg at {}",
-                o.theta_r
-            );
-            assert_eq!(got.basis.core.to_bits(), want.basis.core.to_bits());
+    for directional in [
+        None,
+        Some(DirectionalParams {
+            kdd: 0.02,
+            sigma_m: 0.4,
+        }),
+    ] {
+        let p = MemberParams {
+            core: lobe(0.002, 0.7),
+            haze: lobe(0.2, 0.05),
+            directional,
+            ideal: Some(0.01),
+            abg: None,
+        };
+        let m = MemberModel::new(&p).unwrap();
+        let mut rows = Vec::new();
+        for k in 0..=356 {
+            rows.push(Row {
+                theta_i: 30.0,
+                theta_r: -89.0 + 0.5 * k as f64,
+                brdf: 1.0,
+                std: None,
+                n: None,
+                seq: None,
+                t_ms: None,
+            });
+        }
+        let data = Dataset::from_rows(&rows, true).unwrap();
+        for a in [1.0, 0.25, 1.0, 2.0, 0.0, 0.25] {
+            for o in &data.obs {
+                let ap = brdf_core::aperture::Aperture::for_reading(a, &m, o.theta_i, o.theta_r)
+                    .unwrap();
+                orders.insert(ap.nodes().0);
+                let (want, want_g) = ap.average_with_gradient(&m, o.theta_i, o.theta_r).unwrap();
+                let got = eval_at(&m, o, Some(a)).unwrap();
+                let mut got_g = brdf_core::member_model::MemberGradient::default();
+                let got_with = averaged(a, &m, o, Some(&mut got_g)).unwrap();
+                let at = format!("{a} deg at {}", o.theta_r);
+                for e in [got, got_with] {
+                    assert_eq!(format!("{e:?}"), format!("{want:?}"), "{at}");
+                }
+                assert_eq!(format!("{got_g:?}"), format!("{want_g:?}"), "{at}");
+            }
         }
     }
     // Several orders, the far readings' few nodes to the core's many.

@@ -16,10 +16,12 @@
 //! IRLS), [`bases`] (the width grid's shared unit bases), [`grid`] (the grid search),
 //! [`refine`] (LM from one start), [`starts`] (LM from every start, in parallel when
 //! the member is fitted alone, with the results of one after another), [`problem`] (the LM problem and its row pass),
-//! [`layout`] (the parameter vector), [`result`] ([`MemberFit`]), [`abg`] (the ABg
+//! [`aperture_nodes`] (the detector cone's nodes each thread keeps), [`layout`] (the
+//! parameter vector), [`result`] ([`MemberFit`]), [`abg`] (the ABg
 //! member's own start grid, over B and g).
 
 pub mod abg;
+pub mod aperture_nodes;
 pub mod bases;
 pub mod fit;
 pub mod grid;

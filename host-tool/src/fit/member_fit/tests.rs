@@ -12,6 +12,7 @@ use super::super::arrow::{Normal, RowSink, Shape};
 use super::super::data::Dataset;
 use super::super::lm::{ArrowProblem, LmOptions, minimize};
 use super::super::options::Residual;
+use super::aperture_nodes::averaged;
 use super::grid::*;
 use crate::sweep_file::{Row, read_sweep};
 

@@ -244,8 +244,8 @@ impl<T: Real> Aperture<T> {
     /// members, or one member many times, at a reading can keep the nodes and give them
     /// to [`Aperture::average_nodes`] (the same averages, bit for bit). `with_theta_r`
     /// false leaves [`Geometry::theta_r`] NaN (saving an atan2 a node): only the
-    /// directional-diffuse term reads it. A zero aperture is its nominal direction, not
-    /// nodes: it calls `f` for nothing.
+    /// directional-diffuse term reads it. A zero aperture has one node of weight 1, the
+    /// nominal direction (the point value).
     pub fn nodes_at(
         &self,
         theta_i_deg: T,
@@ -254,6 +254,7 @@ impl<T: Real> Aperture<T> {
         mut f: impl FnMut(T, Geometry<T>),
     ) -> Result<(), ModelError> {
         if self.half_angle_deg == T::zero() {
+            f(T::one(), Geometry::in_plane(theta_i_deg, theta_r_deg)?);
             return Ok(());
         }
         let tr = check_angle("theta_r", theta_r_deg, -90.0, 90.0)?;
@@ -309,17 +310,6 @@ impl<T: Real> Aperture<T> {
         theta_r_deg: T,
         mut grad: Option<&mut MemberGradient<T>>,
     ) -> Result<MemberEval<T>, ModelError> {
-        if self.half_angle_deg == T::zero() {
-            let g = Geometry::in_plane(theta_i_deg, theta_r_deg)?;
-            return match grad {
-                Some(out) => {
-                    let (e, g) = model.eval_with_gradient(theta_i_deg, &g)?;
-                    *out = g;
-                    Ok(e)
-                }
-                None => model.eval(theta_i_deg, &g),
-            };
-        }
         // The angles' checks first, as the nodes make them.
         check_angle("theta_r", theta_r_deg, -90.0, 90.0)?;
         direction("theta_i", theta_i_deg, "phi_i", T::lit(180.0))?;

@@ -21,18 +21,6 @@ pub(crate) fn averaged(
     o: &Observation,
     grad: Option<&mut MemberGradient<f64>>,
 ) -> Option<MemberEval<f64>> {
-    if a == 0.0 {
-        // No cone: the nominal direction (no nodes to keep).
-        let ap = Aperture::new(0.0, 1, 1).ok()?;
-        return match grad {
-            None => ap.average(m, o.theta_i, o.theta_r).ok(),
-            Some(out) => {
-                let (e, g) = ap.average_with_gradient(m, o.theta_i, o.theta_r).ok()?;
-                *out = g;
-                Some(e)
-            }
-        };
-    }
     let n = Aperture::reading_order(a, m, o.theta_i, o.theta_r);
     NODES.with(|cache| {
         let mut cache = cache.borrow_mut();

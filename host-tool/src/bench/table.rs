@@ -59,19 +59,23 @@ pub fn replay_table(study: &ReplayStudy) -> String {
         cell(&study.dense)
     ));
     for r in &study.rows {
-        let miss = r.miss_in_se.map_or("-".to_string(), |z| format!("{z:+.2}"));
+        let mark = if r.in_dense_member.is_some() { "*" } else { "" };
+        let miss = r
+            .miss_in_se
+            .map_or("-".to_string(), |z| format!("{z:+.2}{mark}"));
         t.push_str(&format!(
             "{:<46} {} {:>8} {:>7}\n",
             r.plan,
-            cell(&r.fit),
+            cell(r.in_dense_member.as_ref().unwrap_or(&r.fit)),
             miss,
             r.status
         ));
     }
     t.push_str(&format!(
-        "Scatterworks 532 nm solar array (host-tool/tests/data), {} readings at 4 incidences, replayed with {} % noise (seed 1); each file fitted as `gonio fit` fits it (the selected member's sigma, the core width, with its standard error); \"miss/se\": (sigma - dense sigma) / se\n",
+        "Scatterworks 532 nm solar array (host-tool/tests/data), {} readings at 4 incidences, replayed with {} % noise (seed 1); each file fitted as `gonio fit` fits it: the core width sigma, with its standard error, of the dense fit's member ({}), and \"miss/se\": (sigma - dense sigma) / se; * where the plan's readings select another member: the dense fit's member fitted to them (a core width is a parameter of its member)\n",
         study.dense.readings,
-        REPLAY_NOISE * 100.0
+        REPLAY_NOISE * 100.0,
+        study.dense.member
     ));
     t
 }

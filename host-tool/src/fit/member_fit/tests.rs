@@ -429,7 +429,7 @@ fn a_smooth_ks_variant_shares_its_members_grid_search() {
         )
     };
     let found = best(local);
-    assert_eq!(found.len(), REFINED);
+    assert_eq!(found.len(), refined(&local));
     assert_eq!(best(smooth), found);
 }
 

@@ -206,7 +206,8 @@ pub struct FitArgs {
     /// left out.
     #[arg(long, value_name = "auto|VALUE", value_parser = fit::data::parse_floor)]
     pub floor: Option<fit::Floor>,
-    /// Refine every one of each member's best grid starts (up to 3) to its end. By
+    /// Refine every one of each member's best grid starts (up to 3; 8 for a member
+    /// with a Student-t lobe) to its end. By
     /// default a start, or its LM path, that comes within two grid steps of every
     /// width of an optimum already reached, at no lower cost, is stopped there: the
     /// fit takes about half the time, but now and then misses a lower optimum (on 97

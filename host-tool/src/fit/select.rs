@@ -456,6 +456,12 @@ pub fn component_notes(s: &Selection<'_>, sel: Member) -> Vec<String> {
                     amp_text(c, t.amplitude),
                     effect_text(&t)
                 ),
+                // Without it nothing is left: a member of no component predicts no
+                // reflection, so there is no fit to compare with, and none is needed.
+                None if !sel.without(c).is_valid() => format!(
+                    "{}: on in the selected member, which without it has no component left (it would predict no reflection at all): nothing to compare with",
+                    c.name()
+                ),
                 None => format!(
                     "{}: on in the selected member, not tested (the member without it was not fitted)",
                     c.name()
@@ -533,6 +539,69 @@ mod tests {
         }
     }
 
+    /// A fitted member's candidate at `aicc` (BIC the same): each component's amplitude
+    /// determined (1 +- 0.01), but the directional diffuse's `kdd`; each changes the
+    /// prediction by 30 standard errors.
+    fn candidate(member: Member, aicc: f64, kdd: Amplitude) -> Candidate {
+        let mut amplitude = [None; Component::ALL.len()];
+        let mut effect = [None; Component::ALL.len()];
+        for c in member.components() {
+            amplitude[slot(c)] = Some(amp(1.0, 0.01));
+            effect[slot(c)] = Some(30.0);
+        }
+        if member.directional {
+            amplitude[slot(Component::DirectionalDiffuse)] = Some(kdd);
+        }
+        Candidate {
+            member,
+            aicc,
+            bic: aicc,
+            k: 0,
+            rmse: None,
+            amplitude,
+            goodness: None,
+            effect,
+        }
+    }
+
+    #[test]
+    fn a_member_of_lobes_alone_needs_no_test_of_its_specular_component() {
+        // MERL aluminium's two Student-t lobes once read "specular: on in the selected
+        // member, not tested (the member without it was not fitted)": without its
+        // lobes no member is left to fit, so there is nothing to compare with.
+        let two = Member::parse("specular:student-t+specular-haze:student-t").unwrap();
+        let one = Member::parse("specular:student-t").unwrap();
+        let a = amp(1.0, 0.01);
+        let cands = [candidate(two, 100.0, a), candidate(one, 400.0, a)];
+        let notes = component_notes(&Selection::new(&cands, Criterion::Aicc), two);
+        let line = |c: &str| notes.iter().find(|n| n.starts_with(c)).unwrap().clone();
+        assert!(
+            line("specular:").contains("has no component left")
+                && !line("specular:").contains("not tested"),
+            "{notes:?}"
+        );
+        assert!(
+            line("specular-haze:")
+                .starts_with("specular-haze: supported (AICc 300.0 lower than specular:student-t"),
+            "{notes:?}"
+        );
+        // An untested addition is still said to be one.
+        assert!(
+            line("directional-diffuse:").contains("not tested"),
+            "{notes:?}"
+        );
+        // A member that has more than its lobes is tested against the rest alone.
+        let three = Kind::ThreeComponent.member();
+        let notes = component_notes(
+            &Selection::new(&[candidate(three, 100.0, a)], Criterion::Aicc),
+            three,
+        );
+        assert!(
+            notes[0].starts_with("specular: on in the selected member, not tested"),
+            "{notes:?}"
+        );
+    }
+
     #[test]
     fn a_component_that_changes_no_reading_beyond_the_noise_is_not_supported() {
         // The claim once made: a k_s of 2.3e-8, determined, the criterion lower, called
@@ -578,27 +647,7 @@ mod tests {
         // The note names the relative standard error.
         let with = Kind::ThreeComponent.member();
         let without = with.without(Component::DirectionalDiffuse);
-        let cand = |member: Member, aicc: f64| {
-            let mut amplitude = [None; Component::ALL.len()];
-            let mut effect = [None; Component::ALL.len()];
-            for c in member.components() {
-                amplitude[slot(c)] = Some(amp(1.0, 0.01));
-                effect[slot(c)] = Some(30.0);
-            }
-            if member.directional {
-                amplitude[slot(Component::DirectionalDiffuse)] = Some(kdd);
-            }
-            Candidate {
-                member,
-                aicc,
-                bic: aicc,
-                k: 0,
-                rmse: None,
-                amplitude,
-                goodness: None,
-                effect,
-            }
-        };
+        let cand = |member: Member, aicc: f64| candidate(member, aicc, kdd);
         let cands = [cand(with, 100.0), cand(without, 140.0)];
         let notes = component_notes(&Selection::new(&cands, Criterion::Aicc), with);
         let dd = notes

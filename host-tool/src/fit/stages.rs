@@ -535,11 +535,12 @@ fn fit_nominal(data: &Dataset, opts: &FitOptions) -> Result<FamilyFit, String> {
 }
 
 /// The selected member without each of its components that no fit has tested yet
-/// (the member without it, or its reference member's, not fitted): fitted, so that
-/// every component the selection keeps is backed by a comparison the report names
-/// (the ideal diffuse of a GGX member was "on, not tested" on every real sweep).
-/// Repeated while the selection moves to a member with an untested component (at
-/// most three rounds).
+/// (the member without it, or its reference member's, not fitted), and with each
+/// component it lacks whose addition no fit has tested: fitted, so that every
+/// component the selection keeps or leaves out is backed by a comparison the report
+/// names (the ideal diffuse of a GGX member was "on, not tested" on every real sweep,
+/// MERL aluminium's directional diffuse "absent (not tested)"). Repeated while the
+/// selection moves to a member with an untested component (at most three rounds).
 fn untested_components(
     fitted: &mut Fitted,
     bases: &mut GridBases<'_>,
@@ -551,10 +552,15 @@ fn untested_components(
             return;
         };
         let s = Selection::new(&fitted.cands, Criterion::Aicc);
-        let more: Vec<Member> = untested(&s, sel)
+        let mut more: Vec<Member> = Vec::new();
+        for m in untested(&s, sel)
             .into_iter()
-            .filter(|m| !fitted.members.iter().any(|f| f.member() == *m))
-            .collect();
+            .chain(untested_additions(&s, sel))
+        {
+            if !more.contains(&m) && !fitted.members.iter().any(|f| f.member() == m) {
+                more.push(m);
+            }
+        }
         if more.is_empty() {
             return;
         }
@@ -570,6 +576,17 @@ fn untested(s: &Selection<'_>, sel: Member) -> Vec<Member> {
         .filter(|&c| s.test(sel, c).is_none())
         .map(|c| sel.without(c))
         .filter(|m| m.is_valid())
+        .collect()
+}
+
+/// `sel` with each component it lacks (the valid members; ABg is no component to
+/// add) whose addition no fit in `s` tests yet: what the notes would call "absent
+/// (not tested)".
+fn untested_additions(s: &Selection<'_>, sel: Member) -> Vec<Member> {
+    Component::ALL
+        .into_iter()
+        .filter(|&c| c != Component::Abg)
+        .filter_map(|c| select::with(sel, c).filter(|&m| s.test(m, c).is_none()))
         .collect()
 }
 

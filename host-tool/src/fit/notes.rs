@@ -124,7 +124,8 @@ pub fn family_notes(
     }
     if let Some(a) = aperture {
         notes.push(format!(
-            "every model was averaged over the detector's aperture (half-angle {a} deg) before comparison; parameters are the surface's"
+            "every model was averaged over the detector's aperture (half-angle {} deg) before comparison; parameters are the surface's",
+            crate::text::sig(a, 4)
         ));
     }
     notes

@@ -187,9 +187,11 @@ fn the_default_fit_keeps_the_peaks_it_follows_and_names_those_it_misses() {
         // of their grid's best points (their lowest optimum, a second narrow lobe, was
         // reached from the 6th; the 3 best missed it, and then needed an assumed
         // aperture and still missed 78.75 deg 1.7x).
-        // 41.4 deg comes to 0.66x over the 0.25 deg cone assumed (0.5 deg, half the
-        // step, followed it at 1.02x but made the fit create energy), and is named.
-        ("scatterworks", &[5.0, 60.0, 75.0]),
+        // 41.4 deg, 0.4 deg from its nearest reading, at 0.669x over the widest
+        // physical cone assumed, 0.2563 deg (half the step, 0.5 deg, is above the 75
+        // deg peak's energy bound; 0.2626 deg made the fit create energy); it was
+        // 0.66x over the 0.25 deg that halving alone gave.
+        ("scatterworks", &[5.0, 41.4, 60.0, 75.0]),
         (
             "merl aluminium",
             &[11.25, 22.5, 33.75, 45.0, 56.25, 67.5, 78.75],

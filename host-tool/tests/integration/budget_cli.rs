@@ -147,8 +147,8 @@ fn the_solar_arrays_budget_names_its_assumptions() {
         "Monte Carlo not run",
         // The fit's own assumption: its core is narrower than the 1 deg step, and half
         // the step (0.5 deg) would make the 75 deg peak carry more than the incident
-        // energy: a quarter of it.
-        "detector aperture: a half-angle of 0.25 deg assumed by the fit",
+        // energy: the widest cone whose fit conserves energy.
+        "detector aperture: a half-angle of 0.2563 deg assumed by the fit",
     ] {
         assert!(out.stdout.contains(what), "{what}:\n{}", out.stdout);
     }

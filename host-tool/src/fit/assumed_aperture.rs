@@ -325,17 +325,39 @@ mod tests {
         }
     }
 
+    /// [`refit_if_unresolved`] of `point` with no aperture stated, its refits `by`
+    /// lower in AICc ([`refit`]).
+    fn refit_by(
+        data: &Dataset,
+        point: &FamilyFit,
+        by: f64,
+        asked: &RefCell<Vec<Option<f64>>>,
+    ) -> (Dataset, FamilyFit) {
+        refit_if_unresolved(
+            data.clone(),
+            &FitOptions::default(),
+            point.clone(),
+            false,
+            refit(point, by, asked),
+        )
+    }
+
+    /// The solar array's sweep, read as `gonio fit` reads it.
+    fn solar() -> Dataset {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/data/scatterworks-solar-array-532nm.sweep.csv");
+        crate::request::Request::default()
+            .job_for_file(&path)
+            .unwrap()
+            .data
+    }
+
     /// The solar array's peak readings bound the cone by energy: its 75 deg peak (5.33e4
     /// 1/sr at theta_r 75) allows 0.275 deg, under half its 1 deg step; in relative
     /// units nothing bounds it.
     #[test]
     fn the_peak_readings_energy_bounds_the_cone() {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("tests/data/scatterworks-solar-array-532nm.sweep.csv");
-        let mut data = crate::request::Request::default()
-            .job_for_file(&path)
-            .unwrap()
-            .data;
+        let mut data = solar();
         let (b, ti) = energy_bound(&data).unwrap();
         assert!((b - 0.2751).abs() < 5e-4 && ti == 75.0, "{b} at {ti}");
         data.units = BrdfUnits::Relative;
@@ -348,12 +370,7 @@ mod tests {
     /// prefer the wider cone).
     #[test]
     fn a_cone_ruled_out_is_narrowed_to_the_widest_physical_one() {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("tests/data/scatterworks-solar-array-532nm.sweep.csv");
-        let data = crate::request::Request::default()
-            .job_for_file(&path)
-            .unwrap()
-            .data;
+        let data = solar();
         let opts = FitOptions {
             aperture: Some(0.0),
             ..FitOptions::default()
@@ -362,13 +379,7 @@ mod tests {
         assert!(narrow_core(&data, &point).is_some());
         assert!(creates_energy(&data, &point).is_none());
         let asked = RefCell::new(Vec::new());
-        let (d, f) = refit_if_unresolved(
-            data.clone(),
-            &FitOptions::default(),
-            point.clone(),
-            false,
-            refit(&point, -(MARGIN + 1.0), &asked),
-        );
+        let (d, f) = refit_by(&data, &point, -(MARGIN + 1.0), &asked);
         // 0.5 deg is above the bound and never fitted; 0.25, then halfway to 0.2751.
         let asked = asked.borrow();
         assert_eq!(asked[0], Some(0.25), "{asked:?}");
@@ -419,13 +430,7 @@ mod tests {
         );
         let asked = RefCell::new(Vec::new());
         // Lower by more than the margin: kept, and said so first.
-        let (d, f) = refit_if_unresolved(
-            data.clone(),
-            &FitOptions::default(),
-            point.clone(),
-            false,
-            refit(&point, -(MARGIN + 1.0), &asked),
-        );
+        let (d, f) = refit_by(&data, &point, -(MARGIN + 1.0), &asked);
         assert_eq!(*asked.borrow(), [Some(5.0)], "half the 10 deg step");
         assert_eq!((d.aperture, f.aperture_assumed), (Some(5.0), true));
         assert!(
@@ -435,13 +440,7 @@ mod tests {
             f.notes[0]
         );
         // Lower, but within the margin: point readings kept, and the trial said.
-        let (d, f) = refit_if_unresolved(
-            data,
-            &FitOptions::default(),
-            point.clone(),
-            false,
-            refit(&point, -(MARGIN - 0.5), &asked),
-        );
+        let (d, f) = refit_by(&data, &point, -(MARGIN - 0.5), &asked);
         assert_eq!((d.aperture, f.aperture_assumed), (None, false));
         assert!(
             f.notes.last().is_some_and(|n| n

@@ -250,6 +250,10 @@ fn few_incidences_fit_without_panics_and_say_what_cannot_be_fitted() {
             f.notes
         );
         assert!(has_note(&f, "goodness of fit"), "{n_inc}: {:?}", f.notes);
+        // What cannot be fitted is said once, however many stages would have tried it.
+        for (i, n) in f.notes.iter().enumerate() {
+            assert!(!f.notes[..i].contains(n), "{n_inc}: said twice: {n}");
+        }
         if n_inc == 3 {
             // A smooth k_s through three incidences is one k_s per incidence: the same
             // model, so the notes must not present either form as chosen by the data.

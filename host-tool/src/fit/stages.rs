@@ -547,6 +547,9 @@ fn untested_components(
     residual: Residual,
     notes: &mut Vec<String>,
 ) {
+    // Tried in an earlier round: one that could not be fitted is not tried again (its
+    // note is made once).
+    let mut tried: Vec<Member> = Vec::new();
     for _ in 0..3 {
         let Some(sel) = fitted.best() else {
             return;
@@ -557,7 +560,10 @@ fn untested_components(
             .into_iter()
             .chain(untested_additions(&s, sel))
         {
-            if !more.contains(&m) && !fitted.members.iter().any(|f| f.member() == m) {
+            if !more.contains(&m)
+                && !tried.contains(&m)
+                && !fitted.members.iter().any(|f| f.member() == m)
+            {
                 more.push(m);
             }
         }
@@ -566,6 +572,7 @@ fn untested_components(
         }
         bases.retain_for(&more);
         fitted.add(bases, &more, residual, notes);
+        tried.extend(more);
     }
 }
 

@@ -371,7 +371,9 @@ fn measure(gonio: &str, tmp: &Path, i: usize, s: &RealSweep) -> Result<Outcome> 
             })
             .unwrap_or_default()
     };
-    let misses = notes(&format!("{selected} misses "));
+    let mut misses = notes(&format!("{selected} misses "));
+    // A shift of the peaks common to every incidence is a cause of the misses too.
+    misses.extend(notes("the measured specular peak sits "));
     let assumed = notes("assumed a detector half-angle").into_iter().next();
     // The same family under the two-lobe fit's own objective (least squares in ln).
     let log_flags: Vec<&str> = s

@@ -200,6 +200,33 @@ pub fn spike(data: &Dataset, j: usize, peak: usize) -> Option<f64> {
     (sides.iter().all(|s| s.is_finite()) && ratio >= SPIKE).then_some(ratio)
 }
 
+/// A member's core too high at the peak reading is "narrower" than the readings' when
+/// theirs is at least this many times as wide at half maximum.
+const NARROWER: f64 = 1.5;
+
+/// At incidence `j`, the full width at half maximum (degrees) of the core around the
+/// highest of `value` over its readings, between the half-maximum crossings either
+/// side, each interpolated linearly between the two readings that straddle it. `None`
+/// where the readings end before a crossing, or a value is missing.
+fn core_width(data: &Dataset, j: usize, value: impl Fn(usize) -> Option<f64>) -> Option<f64> {
+    let mut rows: Vec<usize> = data.rows_of(j).to_vec();
+    rows.sort_by(|&a, &b| data.obs[a].theta_r.total_cmp(&data.obs[b].theta_r));
+    let x: Vec<f64> = rows.iter().map(|&k| data.obs[k].theta_r).collect();
+    let v: Vec<f64> = rows.iter().map(|&k| value(k)).collect::<Option<_>>()?;
+    let top = (0..v.len()).max_by(|&a, &b| v[a].total_cmp(&v[b]))?;
+    let half = v[top] / 2.0;
+    // `o` the first reading below half maximum, `i` its neighbour toward the top.
+    let cross = |o: usize, i: usize| x[o] + (x[i] - x[o]) * (half - v[o]) / (v[i] - v[o]);
+    let left = (0..top)
+        .rev()
+        .find(|&o| v[o] < half)
+        .map(|o| cross(o, o + 1))?;
+    let right = (top + 1..v.len())
+        .find(|&o| v[o] < half)
+        .map(|o| cross(o, o - 1))?;
+    Some(right - left)
+}
+
 /// Why a peak reading is missed, as far as the readings tell.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum PeakCause {
@@ -214,6 +241,10 @@ enum PeakCause {
     /// The highest reading is not the one nearest the mirror direction but this far
     /// (degrees) from it, while the member's core is centred on the mirror direction.
     Displaced { off: f64 },
+    /// The member's core is too high at the peak and narrower than the readings'
+    /// there (full widths at half maximum, degrees, each from its own values at the
+    /// readings): its energy sits in a sharper core than the measured one.
+    Narrower { member: f64, measured: f64 },
     /// Toward grazing incidence (at least [`GRAZING`]), where the model's masking and
     /// Fresnel factors set the core's level.
     Grazing,
@@ -222,7 +253,16 @@ enum PeakCause {
 }
 
 impl PeakCause {
-    fn of(data: &Dataset, j: usize, peak: usize, core_fwhm_deg: Option<f64>) -> PeakCause {
+    /// The cause at incidence `j`, whose peak reading `peak` the member (`fitted`, at
+    /// every reading) misses, too high when `high`.
+    fn of(
+        data: &Dataset,
+        j: usize,
+        peak: usize,
+        fitted: &[Option<f64>],
+        high: bool,
+        core_fwhm_deg: Option<f64>,
+    ) -> PeakCause {
         let ti = data.incidences[j];
         let near = super::peak::step_near_mirror(data, j);
         let at = data.obs[peak].theta_r;
@@ -245,6 +285,15 @@ impl PeakCause {
         }
         if let Some(ratio) = spike(data, j, peak) {
             return PeakCause::Spike { ratio };
+        }
+        if high
+            && let (Some(measured), Some(member)) = (
+                core_width(data, j, |k| Some(data.obs[k].y)),
+                core_width(data, j, |k| fitted[k]),
+            )
+            && measured >= NARROWER * member
+        {
+            return PeakCause::Narrower { member, measured };
         }
         if ti >= GRAZING {
             PeakCause::Grazing
@@ -282,6 +331,13 @@ impl PeakCause {
                  the incidence angle or a tilt of the sample would do that)",
                 crate::text::sig(off, 2)
             ),
+            PeakCause::Narrower { member, measured } => format!(
+                "the member's core is about {} deg wide at half maximum here, the readings' {} deg: one \
+                 core width for every incidence does not follow this one, or the readings are averages over \
+                 the detector's aperture, which widens and flattens a narrower core",
+                crate::text::sig(member, 2),
+                crate::text::sig(measured, 2)
+            ),
             PeakCause::Grazing => {
                 "toward grazing, where the model's masking and Fresnel factors set the core's level"
                     .into()
@@ -294,7 +350,7 @@ impl PeakCause {
 /// A note naming the incidences whose highest reading `selected` (fitted values
 /// `fitted`) misses by more than [`PEAK_FACTOR`] (or [`PEAK_SIGMAS`] standard errors of
 /// `noise` where wider), with the factor and the cause at each (a core narrower than
-/// the step, of full width at half maximum `core_fwhm_deg` in theta_r; grazing; the
+/// the step, of full width at half maximum `core_fwhm_deg` in theta_r; a core narrower than the readings'; grazing; the
 /// lobes' shape), and what would follow it: the report never leaves a missed peak
 /// unsaid. `None` when every peak is followed.
 pub fn peak_miss_note(
@@ -320,7 +376,7 @@ pub fn peak_miss_note(
             PEAK_FACTOR.max(1.0 + wide),
         );
         if !(lo..=hi).contains(&ratio) {
-            let cause = PeakCause::of(data, j, k, core_fwhm_deg);
+            let cause = PeakCause::of(data, j, k, fitted, ratio > 1.0, core_fwhm_deg);
             missed.push(format!(
                 "theta_i {} ({}x at theta_r {}: {})",
                 crate::text::angle(o.theta_i),
@@ -335,10 +391,12 @@ pub fn peak_miss_note(
         return None;
     }
     let mut remedies = Vec::new();
-    if causes
-        .iter()
-        .any(|c| matches!(c, PeakCause::Unresolved { .. } | PeakCause::Spike { .. }))
-    {
+    if causes.iter().any(|c| {
+        matches!(
+            c,
+            PeakCause::Unresolved { .. } | PeakCause::Spike { .. } | PeakCause::Narrower { .. }
+        )
+    }) {
         remedies.push(
             "`--aperture` with the detector's half-angle fits the readings as averages over it",
         );
@@ -639,12 +697,21 @@ mod tests {
                 && !note.contains(&format!("theta_i {} (", t(3))),
             "{note}"
         );
-        // Without a core width the cause is the lobes' shape, and the remedy the
-        // absolute residual; with a core narrower than the step, the aperture.
+        // Without a core width, a peak missed low is the lobes' shape, with the
+        // absolute residual for remedy; one raised 1.6x above the readings' core (the
+        // spike set on the truth) is a core narrower than theirs, with the aperture.
         assert!(
-            note.contains("its lobes do not follow this core")
-                && note.contains("`--residual abs` follows the peaks")
-                && !note.contains("--aperture"),
+            note.contains(&format!(
+                "theta_i {} (0.4x at theta_r {}: its lobes do not follow this core",
+                t(0),
+                t(0)
+            )) && note.contains("`--residual abs` follows the peaks")
+                && note.contains(&format!(
+                    "theta_i {} (1.6x at theta_r {}: the member's core is about ",
+                    t(1),
+                    t(1)
+                ))
+                && note.contains("`--aperture` with the detector's half-angle"),
             "{note}"
         );
         let narrow =
@@ -663,5 +730,34 @@ mod tests {
             peak_miss_note(&data, Member::THREE_COMPONENT, &fitted, Some(noisy), None),
             None
         );
+    }
+
+    #[test]
+    fn a_cores_width_at_half_maximum_is_read_from_its_values() {
+        // A Gaussian core 2 deg wide at half maximum, centred at 30.1, read every 0.25
+        // deg over a floor far below it: linear interpolation between the readings
+        // straddling each half-maximum crossing gives the width within 2 %.
+        let fwhm: f64 = 2.0;
+        let rows: Vec<crate::sweep_file::Row> = (0..81)
+            .map(|i| {
+                let tr = 20.0 + 0.25 * f64::from(i);
+                let d = tr - 30.1;
+                let y = 1e-3 + (-4.0 * std::f64::consts::LN_2 * d * d / (fwhm * fwhm)).exp();
+                crate::sweep_file::Row::new(30.0, tr, y)
+            })
+            .collect();
+        let data = Dataset::from_rows(&rows, true).unwrap();
+        let w = core_width(&data, 0, |k| Some(data.obs[k].y)).unwrap();
+        assert!((w / fwhm - 1.0).abs() < 0.02, "{w}");
+        // A core whose half maximum the readings do not reach on one side: none.
+        assert_eq!(
+            core_width(&data, 0, |k| Some(if data.obs[k].theta_r > 29.0 {
+                1.0
+            } else {
+                data.obs[k].y
+            })),
+            None
+        );
+        assert_eq!(core_width(&data, 0, |_| None), None);
     }
 }

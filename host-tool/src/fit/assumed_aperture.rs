@@ -138,8 +138,15 @@ pub fn refit_if_unresolved(
                 wider.push(why_not);
                 ruled_out = ruled_out.min(limit);
             }
-            // A cone between two fitted ones that cannot be fitted: the narrower stands.
-            Tried::Failed(_) => break,
+            // A cone between two fitted ones that cannot be fitted: the narrower stands,
+            // and the note says why the wider was not taken.
+            Tried::Failed(e) => {
+                wider.push(format!(
+                    "{} deg could not be fitted ({e})",
+                    crate::text::sig(m, 4)
+                ));
+                break;
+            }
         }
     }
     let halved = if wider.is_empty() {
@@ -393,6 +400,39 @@ mod tests {
         assert!(f.aperture_assumed);
         assert!(
             f.notes[0].contains("(half the 1 deg step, narrowed to the widest cone found physical: 0.5 deg would make the peak reading at theta_i 75 carry more than the incident energy"),
+            "{}",
+            f.notes[0]
+        );
+    }
+
+    /// A cone between the physical one and the bound that cannot be fitted leaves the
+    /// narrower assumed, and the note says why the wider was not (the bisection once
+    /// stopped there without a word).
+    #[test]
+    fn a_wider_cone_that_cannot_be_fitted_is_named_in_the_note() {
+        let data = solar();
+        let opts = FitOptions {
+            aperture: Some(0.0),
+            ..FitOptions::default()
+        };
+        let point = fit_family(&data, &opts).unwrap();
+        let asked = RefCell::new(Vec::new());
+        let lower = refit(&point, -(MARGIN + 1.0), &asked);
+        let (d, f) = refit_if_unresolved(
+            data.clone(),
+            &FitOptions::default(),
+            point.clone(),
+            false,
+            |d: &Dataset, o: &FitOptions| {
+                if d.aperture.is_some_and(|a| a > 0.25) {
+                    return Err("no model could be fitted to these data".into());
+                }
+                lower(d, o)
+            },
+        );
+        assert_eq!(d.aperture, Some(0.25));
+        assert!(
+            f.notes[0].contains("deg could not be fitted (no model could be fitted to these data)"),
             "{}",
             f.notes[0]
         );

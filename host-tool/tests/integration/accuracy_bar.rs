@@ -228,6 +228,15 @@ fn the_default_fit_keeps_the_peaks_it_follows_and_names_those_it_misses() {
         // aluminium's directional diffuse was "absent (not tested: ... was not
         // fitted)").
         assert!(!report.contains("not tested"), "{name}:\n{report}");
+        // The RGL chrome film's peaks all sit 0.1-0.5 deg below the mirror direction:
+        // the report says so (one incidence's 0.097 deg once hid the shift on the 1 deg
+        // grid).
+        if name.starts_with("rgl chrome film") {
+            assert!(
+                report.contains("the measured specular peak sits -0."),
+                "{name}:\n{report}"
+            );
+        }
         // The others are named by the report, each with its factor.
         for p in peak_misses(&all) {
             let said = format!("({}x at theta_r ", sig2(p.ratio()));

@@ -359,6 +359,17 @@ mod tests {
             .data
     }
 
+    /// The solar array's data and its family fitted at point readings (`--aperture 0`).
+    fn solar_point() -> (Dataset, FamilyFit) {
+        let data = solar();
+        let opts = FitOptions {
+            aperture: Some(0.0),
+            ..FitOptions::default()
+        };
+        let point = fit_family(&data, &opts).unwrap();
+        (data, point)
+    }
+
     /// The solar array's peak readings bound the cone by energy: its 75 deg peak (5.33e4
     /// 1/sr at theta_r 75) allows 0.275 deg, under half its 1 deg step; in relative
     /// units nothing bounds it.
@@ -377,12 +388,7 @@ mod tests {
     /// prefer the wider cone).
     #[test]
     fn a_cone_ruled_out_is_narrowed_to_the_widest_physical_one() {
-        let data = solar();
-        let opts = FitOptions {
-            aperture: Some(0.0),
-            ..FitOptions::default()
-        };
-        let point = fit_family(&data, &opts).unwrap();
+        let (data, point) = solar_point();
         assert!(narrow_core(&data, &point).is_some());
         assert!(creates_energy(&data, &point).is_none());
         let asked = RefCell::new(Vec::new());
@@ -410,12 +416,7 @@ mod tests {
     /// stopped there without a word).
     #[test]
     fn a_wider_cone_that_cannot_be_fitted_is_named_in_the_note() {
-        let data = solar();
-        let opts = FitOptions {
-            aperture: Some(0.0),
-            ..FitOptions::default()
-        };
-        let point = fit_family(&data, &opts).unwrap();
+        let (data, point) = solar_point();
         let asked = RefCell::new(Vec::new());
         let lower = refit(&point, -(MARGIN + 1.0), &asked);
         let (d, f) = refit_if_unresolved(

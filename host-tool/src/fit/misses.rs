@@ -350,9 +350,10 @@ impl PeakCause {
 /// A note naming the incidences whose highest reading `selected` (fitted values
 /// `fitted`) misses by more than [`PEAK_FACTOR`] (or [`PEAK_SIGMAS`] standard errors of
 /// `noise` where wider), with the factor and the cause at each (a core narrower than
-/// the step, of full width at half maximum `core_fwhm_deg` in theta_r; a core narrower than the readings'; grazing; the
-/// lobes' shape), and what would follow it: the report never leaves a missed peak
-/// unsaid. `None` when every peak is followed.
+/// the step, of full width at half maximum `core_fwhm_deg` in theta_r; the member's
+/// core narrower than the readings'; grazing; the lobes' shape), and what would follow
+/// it: the report never leaves a missed peak unsaid. `None` when every peak is
+/// followed.
 pub fn peak_miss_note(
     data: &Dataset,
     selected: Member,

@@ -335,8 +335,10 @@ impl PeakCause {
                 "the member's core is about {} deg wide at half maximum here, the readings' {} deg: one \
                  core width for every incidence does not follow this one, or the readings are averages over \
                  the detector's aperture, which widens and flattens a narrower core",
-                crate::text::sig(member, 2),
-                crate::text::sig(measured, 2)
+                // Three digits: at two, widths 1.5x apart could read as less (1.26
+                // and 1.94 as 1.3 and 1.9).
+                crate::text::sig(member, 3),
+                crate::text::sig(measured, 3)
             ),
             PeakCause::Grazing => {
                 "toward grazing, where the model's masking and Fresnel factors set the core's level"

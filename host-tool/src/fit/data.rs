@@ -443,6 +443,14 @@ impl Dataset {
         &self.order[self.group_start[j]..self.group_start[j + 1]]
     }
 
+    /// Indices into `obs` of incidence `j`'s points, by ascending theta_r (a peak and
+    /// its neighbours are read along it).
+    pub fn rows_by_theta_r(&self, j: usize) -> Vec<usize> {
+        let mut rows = self.rows_of(j).to_vec();
+        rows.sort_by(|&a, &b| self.obs[a].theta_r.total_cmp(&self.obs[b].theta_r));
+        rows
+    }
+
     /// The distinct |theta_r| of the readings (radians, as [`Geometry::theta_r`]),
     /// ascending.
     pub fn detectors(&self) -> &[f64] {

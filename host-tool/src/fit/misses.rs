@@ -209,8 +209,7 @@ const NARROWER: f64 = 1.5;
 /// side, each interpolated linearly between the two readings that straddle it. `None`
 /// where the readings end before a crossing, or a value is missing.
 fn core_width(data: &Dataset, j: usize, value: impl Fn(usize) -> Option<f64>) -> Option<f64> {
-    let mut rows: Vec<usize> = data.rows_of(j).to_vec();
-    rows.sort_by(|&a, &b| data.obs[a].theta_r.total_cmp(&data.obs[b].theta_r));
+    let rows = data.rows_by_theta_r(j);
     let x: Vec<f64> = rows.iter().map(|&k| data.obs[k].theta_r).collect();
     let v: Vec<f64> = rows.iter().map(|&k| value(k)).collect::<Option<_>>()?;
     let top = (0..v.len()).max_by(|&a, &b| v[a].total_cmp(&v[b]))?;

@@ -57,8 +57,7 @@ fn peak_vertex(x: &[f64], v: &[Option<f64>]) -> Option<f64> {
 pub fn offsets(data: &Dataset, fitted: &[Option<f64>]) -> Vec<(f64, f64)> {
     let mut out = Vec::new();
     for (j, &ti) in data.incidences.iter().enumerate() {
-        let mut rows: Vec<usize> = data.rows_of(j).to_vec();
-        rows.sort_by(|&a, &b| data.obs[a].theta_r.total_cmp(&data.obs[b].theta_r));
+        let rows = data.rows_by_theta_r(j);
         let y = |k: usize| data.obs[k].y;
         let low = rows.iter().map(|&k| y(k)).fold(f64::INFINITY, f64::min);
         let high = rows.iter().map(|&k| y(k)).fold(f64::NEG_INFINITY, f64::max);

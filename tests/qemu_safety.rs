@@ -267,10 +267,44 @@ fn settings_are_served_refused_while_busy_and_used() {
     assert_eq!(defaults.detector.microsteps, 16);
     let mut want = defaults;
     want.detector.microsteps = 8;
-    link.send(&Command::Home).unwrap();
-    match settings(&mut link, Command::SetSettings(want)).pop() {
-        Some(Event::Error(e)) => assert_eq!(e.code, ErrorCode::Busy, "{e:?}"),
-        other => panic!("{other:?}"),
+    // QEMU's clock jumps to each deadline, so homing costs little wall time: on a
+    // loaded machine it can end before the next frame is read. Only a SetSettings the
+    // firmware read while homing tests the refusal, and the events' order (one
+    // thread, in order) says which it was: a homing that ended first sent its Status
+    // before the answer. Then the settings are put back, the detector sent to its far
+    // limit (a parked arm would re-home at once), and the pair tried again.
+    let far = link
+        .handshake(Duration::from_secs(20))
+        .expect("handshake")
+        .detector
+        .max_deg;
+    let mut tries = 0;
+    loop {
+        tries += 1;
+        link.send(&Command::Home).unwrap();
+        let ev = settings(&mut link, Command::SetSettings(want));
+        match ev.last() {
+            Some(Event::Error(e)) => {
+                assert_eq!(e.code, ErrorCode::Busy, "{e:?}");
+                break;
+            }
+            Some(Event::Settings(s)) => {
+                assert!(
+                    ev.iter()
+                        .any(|e| matches!(e, Event::Status(Status { homed: true, .. }))),
+                    "SetSettings accepted while homing: {ev:?}"
+                );
+                assert_eq!(*s, want);
+                assert!(tries < 10, "homing ended before SetSettings {tries} times");
+                assert_eq!(
+                    settings(&mut link, Command::SetSettings(defaults)).pop(),
+                    Some(Event::Settings(defaults))
+                );
+                home(&mut link);
+                jog(&mut link, Arm::Detector, far);
+            }
+            other => panic!("{other:?}"),
+        }
     }
     until(&mut link, Duration::from_secs(120), |e| {
         matches!(e, Event::Status(_))
@@ -289,16 +323,17 @@ fn settings_are_served_refused_while_busy_and_used() {
     assert_eq!(info.detector.steps_per_deg, 40.0);
     assert!(!info.homed, "new mechanics need homing");
     home(&mut link);
-    link.send(&Command::Jog {
-        arm: Arm::Detector,
-        degrees: 12.5,
-    })
-    .unwrap();
-    let ev = until(&mut link, Duration::from_secs(60), |e| {
+    assert_eq!(jog(&mut link, Arm::Detector, 12.5).detector_deg, 12.5);
+}
+
+/// Moves `arm` to `degrees` and returns the Status that ends the move.
+fn jog(link: &mut Link, arm: Arm, degrees: f32) -> Status {
+    link.send(&Command::Jog { arm, degrees }).unwrap();
+    let ev = until(link, Duration::from_secs(60), |e| {
         matches!(e, Event::Status(_))
     });
     match ev.last() {
-        Some(Event::Status(s)) => assert_eq!(s.detector_deg, 12.5, "{ev:?}"),
+        Some(Event::Status(s)) => *s,
         other => panic!("{other:?}"),
     }
 }

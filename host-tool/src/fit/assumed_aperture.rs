@@ -225,12 +225,12 @@ fn try_cone(
     }
     let mut wide = data.clone();
     wide.aperture = Some(a);
-    let tried = match fit(&wide, opts) {
+    let mut tried = match fit(&wide, opts) {
         Ok(f) => f,
         Err(e) => return Tried::Failed(e),
     };
     *spent += tried.fit_seconds;
-    match creates_energy(&wide, &tried) {
+    match creates_energy(&wide, &mut tried) {
         Some(rho) => Tried::RuledOut(
             format!(
                 "{} deg was fitted and its selected member creates energy (rho up to {})",
@@ -280,12 +280,16 @@ pub fn energy_bound(data: &Dataset) -> Option<(f64, f64)> {
 }
 
 /// The largest rho of `family`'s selected member when it exceeds 1 (in 1/sr only: a
-/// relative BRDF's rho is not an energy).
-fn creates_energy(data: &Dataset, family: &FamilyFit) -> Option<f64> {
+/// relative BRDF's rho is not an energy). The member's check is left in
+/// [`FamilyFit::physical`], for [`super::job::run`]'s checks to take rather than make
+/// again.
+fn creates_energy(data: &Dataset, family: &mut FamilyFit) -> Option<f64> {
     if data.units != BrdfUnits::PerSr {
         return None;
     }
-    let rho = super::physical::check_member(family.selected_fit()?).max_rho();
+    let check = super::physical::check_member(family.selected_fit()?);
+    let rho = check.max_rho();
+    family.physical = vec![check];
     (rho > 1.0).then_some(rho)
 }
 
@@ -388,9 +392,9 @@ mod tests {
     /// prefer the wider cone).
     #[test]
     fn a_cone_ruled_out_is_narrowed_to_the_widest_physical_one() {
-        let (data, point) = solar_point();
+        let (data, mut point) = solar_point();
         assert!(narrow_core(&data, &point).is_some());
-        assert!(creates_energy(&data, &point).is_none());
+        assert!(creates_energy(&data, &mut point).is_none());
         let asked = RefCell::new(Vec::new());
         let (d, f) = refit_by(&data, &point, -(MARGIN + 1.0), &asked);
         // 0.5 deg is above the bound and never fitted; 0.25, then halfway to 0.2751.
@@ -404,6 +408,15 @@ mod tests {
         );
         assert_eq!(asked.last(), Some(&Some(a)), "{asked:?}");
         assert!(f.aperture_assumed);
+        // The energy test's check of the kept fit's selected member comes with it, the
+        // one job::run's checks then take: the same as checking it again.
+        let kept = &f.physical;
+        assert_eq!(kept.len(), 1);
+        let again = super::super::physical::check_member(f.selected_fit().unwrap());
+        assert_eq!(
+            (kept[0].name.as_str(), kept[0].max_rho()),
+            (again.name.as_str(), again.max_rho())
+        );
         assert!(
             f.notes[0].contains("(half the 1 deg step, narrowed to the widest cone found physical: 0.5 deg would make the peak reading at theta_i 75 carry more than the incident energy"),
             "{}",

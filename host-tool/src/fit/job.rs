@@ -114,9 +114,15 @@ pub fn run(job: Job) -> Result<Outcome, FileError> {
         job.aperture_stated,
         fit_family,
     );
-    // Assessed once, here: every report formats these.
-    family.physical =
-        super::physical::check_family(&family.members, family.selected_member, family.checks);
+    // Assessed once, here: every report formats these (a kept cone's fit brings the
+    // selected member's, made by its energy test).
+    let known = std::mem::take(&mut family.physical);
+    family.physical = super::physical::check_family_with(
+        &family.members,
+        family.selected_member,
+        family.checks,
+        known,
+    );
     let residual = job.options.residual.resolved(&data);
     Ok(Outcome {
         name: job.name,

@@ -174,6 +174,18 @@ fn finish(
 ///
 /// [`FamilyFit::physical`]: super::family_fit::FamilyFit::physical
 pub fn check_family(members: &[MemberFit], selected: Member, scope: CheckScope) -> Vec<ModelCheck> {
+    check_family_with(members, selected, scope, Vec::new())
+}
+
+/// [`check_family`], taking a member's check from `known` where it is there (by name:
+/// a check already made of the same fit, as the assumed aperture's energy test makes
+/// of the selected member) instead of making it again.
+pub fn check_family_with(
+    members: &[MemberFit],
+    selected: Member,
+    scope: CheckScope,
+    known: Vec<ModelCheck>,
+) -> Vec<ModelCheck> {
     if scope == CheckScope::None {
         return Vec::new();
     }
@@ -181,7 +193,13 @@ pub fn check_family(members: &[MemberFit], selected: Member, scope: CheckScope) 
     members
         .par_iter()
         .filter(|f| all || f.member() == selected)
-        .map(check_member)
+        .map(|f| {
+            let name = f.member().to_string();
+            match known.iter().find(|c| c.name == name) {
+                Some(c) => c.clone(),
+                None => check_member(f),
+            }
+        })
         .collect()
 }
 
@@ -446,6 +464,33 @@ mod tests {
         assert!(check_family(&fam.members, fam.selected_member, fam.checks).is_empty());
         let t = checks_text(&[], BrdfUnits::PerSr, &selected, CheckScope::None);
         assert!(t.contains("not run"), "{t}");
+        // A check already made is taken, not made again (marked here by its count of
+        // evaluations); the other members are checked; none with the scope none.
+        let mut known = same.clone();
+        known.evaluations = usize::MAX;
+        fam.checks = CheckScope::All;
+        let reused = check_family_with(
+            &fam.members,
+            fam.selected_member,
+            fam.checks,
+            vec![known.clone()],
+        );
+        assert_eq!(reused.len(), all.len());
+        for (r, a) in reused.iter().zip(&all) {
+            let want = if r.name == selected {
+                usize::MAX
+            } else {
+                a.evaluations
+            };
+            assert_eq!((&r.name, r.evaluations), (&a.name, want));
+        }
+        let none = check_family_with(
+            &fam.members,
+            fam.selected_member,
+            CheckScope::None,
+            vec![known],
+        );
+        assert!(none.is_empty());
     }
 
     #[test]

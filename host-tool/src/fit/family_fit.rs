@@ -48,8 +48,9 @@ pub struct FamilyFit {
     /// Which fitted models the reports' physical checks cover ([`FitOptions::checks`]).
     pub checks: CheckScope,
     /// The physical checks of the models [`FamilyFit::checks`] names, made once after
-    /// the fit ([`super::job::run`]) for every report to format (empty until
-    /// then).
+    /// the fit ([`super::job::run`]) for every report to format (until then empty, or,
+    /// for a fit over an assumed cone, its selected member's check from the energy test,
+    /// which [`super::job::run`] takes rather than makes again).
     pub physical: Vec<ModelCheck>,
     /// The instrument's angles the family was fitted at (`--offset`), if any: the
     /// members then describe the readings at the sample's local angles, and

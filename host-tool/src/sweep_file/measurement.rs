@@ -330,7 +330,10 @@ mod tests {
 
     #[test]
     fn a_capture_writes_them_and_reads_them_back() {
-        use crate::sweep_file::{Header, SweepWriter, read_sweep};
+        use crate::sweep_file::{Header, KNOWN_KEYS, SweepWriter, read_sweep};
+        for k in MEASUREMENT_KEYS {
+            assert!(KNOWN_KEYS.contains(&k), "{k}");
+        }
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("s.csv");
         let header = Header {

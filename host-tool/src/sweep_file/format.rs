@@ -25,10 +25,16 @@ impl std::error::Error for SweepFileError {}
 
 /// The `# key:` lines gonio reads or writes (keys in any case); others are kept in
 /// [`super::SweepData::meta`] and named by [`super::SweepData::warnings`]: gonio does not read them.
-pub const KNOWN_KEYS: [&str; 29] = [
+/// The format's own keys, then the measurement's ([`MEASUREMENT_KEYS`], one list for
+/// both: a key added there is read here too).
+pub const KNOWN_KEYS: [&str; FORMAT_KEYS.len() + MEASUREMENT_KEYS.len()] =
+    concat_keys(FORMAT_KEYS, MEASUREMENT_KEYS);
+
+/// The keys of the capture and its reduction (status, plan, units, ...): [`KNOWN_KEYS`]
+/// less the measurement's.
+const FORMAT_KEYS: [&str; 16] = [
     "status",
     "device",
-    "sample",
     "units",
     "brdf",
     "plan",
@@ -40,22 +46,43 @@ pub const KNOWN_KEYS: [&str; 29] = [
     "aperture",
     "offset",
     "out-of-plane",
-    "wavelength",
     "missing",
     "repeats",
     "theta_r",
+];
+
+/// The measurement's keys, read and written by [`super::Measurement`] (with `started`
+/// as the date's fallback). Here, beside [`KNOWN_KEYS`], which is built from them.
+pub const MEASUREMENT_KEYS: [&str; 13] = [
+    "wavelength",
     "polarization",
     "polarisation",
     "beam-diameter",
     "solid-angle",
     "nebsdf",
     "signature",
+    "sample",
     "operator",
     "date",
     "temperature",
     "role",
     "of",
 ];
+
+/// `a` then `b`, at compile time.
+const fn concat_keys<const A: usize, const B: usize, const C: usize>(
+    a: [&'static str; A],
+    b: [&'static str; B],
+) -> [&'static str; C] {
+    assert!(A + B == C);
+    let mut out = [""; C];
+    let mut i = 0;
+    while i < C {
+        out[i] = if i < A { a[i] } else { b[i - A] };
+        i += 1;
+    }
+    out
+}
 
 /// Columns the capture writes, in order.
 pub const COLUMNS: [&str; 7] = ["theta_i", "theta_r", "brdf", "std", "n", "seq", "t_ms"];

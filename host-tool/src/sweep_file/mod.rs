@@ -38,7 +38,7 @@ mod whole;
 mod write;
 
 pub use header_row::{DELIMITERS, delimiter_name, sniff_delimiter};
-pub use measurement::{MEASUREMENT_KEYS, Measurement, Role};
+pub use measurement::{Measurement, Role};
 pub use radians::{ANGLE_UNITS, angles_look_like_radians, looks_like_radians, radians_warning};
 pub use read::{MAX_SWEEP_BYTES, SATURATED_PREFIX, SweepData, parse_sweep, read_input, read_sweep};
 pub use units::{BRDF_KEY, BrdfUnits, refuse_mixed};
@@ -46,8 +46,8 @@ pub use whole::{text_problem, write_text};
 pub use write::SweepWriter;
 
 pub use format::{
-    ANGLE_MAX_DEG, BRDF_MAX, BRDF_MIN, COLUMNS, Counters, Header, KNOWN_KEYS, Row, SweepFileError,
-    SweepStatus, brdf_in_range, meta_problem, row_problem,
+    ANGLE_MAX_DEG, BRDF_MAX, BRDF_MIN, COLUMNS, Counters, Header, KNOWN_KEYS, MEASUREMENT_KEYS,
+    Row, SweepFileError, SweepStatus, brdf_in_range, meta_problem, row_problem,
 };
 
 #[cfg(test)]

@@ -300,6 +300,29 @@ fn degenerate_inputs_are_clear_errors_or_flagged() {
             .0
             .contains("--residual abs,")
     );
+    // Too few readings for most members: each that cannot be fitted is said once,
+    // though several stages ask for it.
+    let three: Vec<Row> = rows
+        .iter()
+        .filter(|r| r.theta_i == 10.0)
+        .take(3)
+        .copied()
+        .collect();
+    let f = family(&three);
+    let unfitted: Vec<&String> = f
+        .notes
+        .iter()
+        .filter(|n| n.contains(": not fitted"))
+        .collect();
+    assert!(unfitted.len() >= 3, "{:?}", f.notes);
+    for n in &unfitted {
+        assert_eq!(
+            f.notes.iter().filter(|m| m == n).count(),
+            1,
+            "{n}: {:?}",
+            f.notes
+        );
+    }
     let mut nan = rows.clone();
     nan[3].brdf = f64::NAN;
     assert!(

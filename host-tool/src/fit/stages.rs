@@ -107,16 +107,23 @@ fn keep_fitted(
 ) -> Vec<(MemberFit, Candidate)> {
     let mut out = Vec::new();
     for (m, f) in members.iter().zip(results) {
-        match f {
-            Ok(f) => out.push(f),
-            Err(NotFitted::Undetermined) => notes.push(format!(
+        let note = match f {
+            Ok(f) => {
+                out.push(f);
+                continue;
+            }
+            Err(NotFitted::Undetermined) => format!(
                 "{m}: not fitted ({} readings at {} incidence(s) cannot determine its parameters)",
                 data.obs.len(),
                 data.incidences.len()
-            )),
-            Err(NotFitted::NoStart) => notes.push(format!(
+            ),
+            Err(NotFitted::NoStart) => format!(
                 "{m}: not fitted: no start on its width grid could be refined (the model could not be evaluated there, or the optimiser failed from every one)"
-            )),
+            ),
+        };
+        // A later stage may ask for a member an earlier one could not fit: said once.
+        if !notes.contains(&note) {
+            notes.push(note);
         }
     }
     out

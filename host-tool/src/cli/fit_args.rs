@@ -18,8 +18,9 @@ use crate::request::{Aperture as RequestAperture, InstrumentFile, Request};
 pub enum ResidualArg {
     /// g(f) - g(y), g(v) = asinh(b v / a) / b: each reading against its noise
     /// sqrt(a^2 + (b y)^2), a floor a and a proportional part b: from the readings' std/n, --noise, or by rule (a
-    /// = the level of the lowest tenth of the readings, b = 3 %). The peak and the
-    /// haze both count (default).
+    /// = the level of the lowest tenth of the readings, zeros left out, b = 3 %). The peak and the
+    /// haze both count; zero or negative readings (a detector at its floor) are compared
+    /// with the floor (default).
     Noise,
     /// ln f - ln y: each decade of the curve counts alike (the haze's many readings
     /// outvote the peak's few).

@@ -269,7 +269,7 @@ const SAME_ANGLE: f64 = 1e-6;
 
 impl Dataset {
     /// Checks and groups rows, in O(n log n). `positive` requires brdf > 0 (log and
-    /// relative residuals divide by it).
+    /// relative residuals divide by it: [`super::Residual::needs_positive`]).
     pub fn from_rows(rows: &[Row], positive: bool) -> Result<Self, DataError> {
         Self::from_rows_floor(rows, positive, None)
     }
@@ -342,8 +342,10 @@ impl Dataset {
             }
             if positive && r.brdf <= 0.0 {
                 return Err(DataError(format!(
-                    "reading {} (theta_i {}, theta_r {}) has brdf {} <= 0: log and relative residuals \
-                     need positive values (use --residual abs, or --floor 0 to leave out readings <= 0)",
+                    "reading {} (theta_i {}, theta_r {}) has brdf {} <= 0: log and relative residuals, \
+                     and a noise model stated without a floor, need positive values (the default \
+                     objective, a noise model with a floor, and --residual abs take it; --floor 0 \
+                     leaves out readings <= 0)",
                     k + 1,
                     r.theta_i,
                     r.theta_r,

@@ -211,6 +211,106 @@ fn paper_rmse_is_zero_for_exact_data_and_defined_per_incidence() {
     assert!(ts.rmse.unwrap() > 10.0 * three.rmse.unwrap().max(1e-9));
 }
 
+/// A detector at its floor reads 0 (clipped) or below (a dark level subtracted): the
+/// default objective compares those readings with the noise floor, as a metrologist
+/// would, instead of refusing the sweep; log residuals still refuse them. An incidence
+/// whose reference reading is 0 has no paper RMSE (it would divide by 0).
+#[test]
+fn readings_at_or_below_zero_are_fitted_against_the_noise_floor() {
+    let p = Preset::by_name("fe-0.115").unwrap();
+    let mut rows = preset_sweep("fe-0.115", 0.005, 3);
+    let mut lowest: Vec<usize> = (0..rows.len()).collect();
+    lowest.sort_by(|&a, &b| rows[a].brdf.total_cmp(&rows[b].brdf));
+    for (n, &k) in lowest[..12].iter().enumerate() {
+        rows[k].brdf = if n % 3 == 0 { -0.2 * rows[k].brdf } else { 0.0 };
+    }
+    assert!(Residual::Log.needs_positive());
+    assert!(Dataset::from_rows(&rows, true).is_err());
+    let opts = FitOptions::default();
+    assert!(!opts.residual.needs_positive());
+    let data = Dataset::from_rows(&rows, opts.residual.needs_positive()).unwrap();
+    let f = fit_family(&data, &opts).unwrap();
+    let three = get(&f, Kind::ThreeComponent).unwrap();
+    assert!(three.ssr.is_finite() && three.x.iter().all(|v| v.is_finite()));
+    let sigma = value(three, "sigma");
+    // Clipping at 0 loses what those readings knew (4 % here); comparing them through
+    // ln 0 would lose the fit.
+    assert!(
+        (sigma / p.sigma - 1.0).abs() < 0.1,
+        "sigma {sigma} against {}",
+        p.sigma
+    );
+    assert!(three.rmse_by_inc.iter().all(Option::is_some));
+
+    // The reference reading of theta_i 0 (theta_r 0) at 0: that incidence has no paper
+    // RMSE, the others keep theirs.
+    let at = rows
+        .iter()
+        .position(|r| r.theta_i == 0.0 && r.theta_r == 0.0)
+        .unwrap();
+    rows[at].brdf = 0.0;
+    let data = Dataset::from_rows(&rows, false).unwrap();
+    let (per, all) = paper_rmse::paper_rmse_with(&data, |_| Some(|_: usize| Some(1.0)));
+    assert_eq!(per.len(), 9);
+    assert!(
+        per[0].is_none() && per[1..].iter().all(Option::is_some),
+        "{per:?}"
+    );
+    assert!(all.is_some_and(f64::is_finite));
+    let f = fit_family(&data, &opts).unwrap();
+    assert!(f.members.iter().all(|m| m.rmse_by_inc[0].is_none()));
+    assert!(
+        f.notes
+            .iter()
+            .any(|n| n.starts_with("theta_i 0: the reading that normalises")),
+        "{:?}",
+        f.notes
+    );
+}
+
+/// The noise fitted to readings' std can have no floor (every std proportional to its
+/// reading): a reading below 0 would then be compared through ln, so the sweep is
+/// refused with what to do, as a stated model without a floor is.
+#[test]
+fn a_noise_model_without_a_floor_refuses_readings_below_zero() {
+    let mut rows = preset_sweep("fe-0.115", 0.0, 1);
+    rows[5].brdf = -rows[5].brdf;
+    // The low readings' std a little under proportional: the fitted floor is 0.
+    for r in &mut rows {
+        let low = r.brdf.abs() < 300.0;
+        r.std = Some(if low { 0.02 } else { 0.03 } * r.brdf.abs());
+        r.n = Some(1);
+    }
+    let data = Dataset::from_rows(&rows, false).unwrap();
+    assert_eq!(noise::NoiseModel::of_data(&data).floor, 0.0);
+    let opts = FitOptions::default();
+    let e = job::prepare(&rows, crate::sweep_file::BrdfUnits::Relative, &opts, None).unwrap_err();
+    assert!(
+        e.contains("reading 6") && e.contains("no floor") && e.contains("--noise"),
+        "{e}"
+    );
+    let stated = FitOptions {
+        residual: Residual::Noise(noise::NoiseModel::stated(0.0, 0.03).unwrap()),
+        ..FitOptions::default()
+    };
+    let e = job::prepare(&rows, crate::sweep_file::BrdfUnits::Relative, &stated, None).unwrap_err();
+    assert!(e.contains("without a floor"), "{e}");
+    // With a floor stated, the reading is compared with it.
+    let floored = FitOptions {
+        residual: Residual::Noise(noise::NoiseModel::stated(0.001, 0.03).unwrap()),
+        ..FitOptions::default()
+    };
+    assert!(
+        job::prepare(
+            &rows,
+            crate::sweep_file::BrdfUnits::Relative,
+            &floored,
+            None
+        )
+        .is_ok()
+    );
+}
+
 #[test]
 fn fixed_parameters_stay_fixed() {
     let rows = preset_sweep("fe-0.115", 0.01, 1);
@@ -298,7 +398,7 @@ fn degenerate_inputs_are_clear_errors_or_flagged() {
         Dataset::from_rows(&bad, true)
             .unwrap_err()
             .0
-            .contains("--residual abs,")
+            .contains("--residual abs take it")
     );
     // Too few readings for most members: each that cannot be fitted is said once,
     // though several stages ask for it.

@@ -151,5 +151,21 @@ pub fn prepare(
         Dataset::from_rows_converted(rows, positive, opts.floor, convert.map(|(c, _)| c))
             .map_err(|e| e.0)?;
     data.units = convert.map_or(units, |(_, u)| u);
+    // A noise model without a floor (fitted so to the readings' std) would compare a
+    // reading at or below 0 through ln v: refused, as a stated one is above.
+    if let Residual::Noise(m) = opts.residual.resolved(&data)
+        && m.floor == 0.0
+        && let Some((k, o)) = data.obs.iter().enumerate().find(|(_, o)| o.y <= 0.0)
+    {
+        return Err(format!(
+            "reading {} (theta_i {}, theta_r {}) has brdf {} <= 0, and the noise fitted to the \
+             readings' std has no floor to compare it with: state the instrument's with --noise \
+             FLOOR,PROP, or leave out readings <= 0 with --floor 0",
+            k + 1,
+            o.theta_i,
+            o.theta_r,
+            o.y
+        ));
+    }
     Ok(data)
 }

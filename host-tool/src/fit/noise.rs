@@ -147,8 +147,8 @@ impl NoiseModel {
 
     /// The noise of `data`: fitted to the readings' standard errors where every
     /// reading states one ([`NoiseModel::of_std`]), else the rule (a floor at the
-    /// level of the lowest readings, [`RULE_FLOOR_QUANTILE`], and
-    /// [`RULE_PROPORTIONAL`] of each).
+    /// level of the lowest readings, [`RULE_FLOOR_QUANTILE`] of their sizes, readings
+    /// of exactly 0 left out, and [`RULE_PROPORTIONAL`] of each).
     /// Never estimated from a model's misfit: a noise model fitted to the residuals
     /// takes the model's error for noise (on the chrome film it gave a proportional
     /// part of 4-7 and moved the peaks further off).
@@ -156,11 +156,19 @@ impl NoiseModel {
         if let Some(m) = Self::of_std(data) {
             return m;
         }
-        let mut ys: Vec<f64> = data.obs.iter().map(|o| o.y.abs()).collect();
+        // A reading of exactly 0 (clipped at zero, or below the file's resolution) says
+        // nothing of the floor's level; a negative one (a dark level subtracted) does,
+        // by its size. Where every reading is positive, this is every reading.
+        let mut ys: Vec<f64> = data
+            .obs
+            .iter()
+            .map(|o| o.y.abs())
+            .filter(|&y| y > 0.0)
+            .collect();
         ys.sort_by(f64::total_cmp);
-        let at = ((ys.len() as f64 * RULE_FLOOR_QUANTILE) as usize).min(ys.len() - 1);
+        let at = ((ys.len() as f64 * RULE_FLOOR_QUANTILE) as usize).min(ys.len().max(1) - 1);
         NoiseModel {
-            floor: ys[at].max(f64::MIN_POSITIVE),
+            floor: ys.get(at).copied().unwrap_or(0.0).max(f64::MIN_POSITIVE),
             prop: RULE_PROPORTIONAL,
             from: NoiseFrom::Rule,
         }
@@ -428,6 +436,62 @@ mod tests {
         assert_eq!(s.resolved(&data), s);
         for bad in ["0,0", "-1,0.1", "x,1", "1", "nan,0.1"] {
             assert!(NoiseModel::parse(bad).is_err(), "{bad}");
+        }
+    }
+
+    /// Readings of exactly 0 (clipped) say nothing of the floor's level and are left out
+    /// of the rule's quantile; negative ones (a dark level subtracted) count by their
+    /// size. A noise model with a floor takes such readings; one stated without a floor
+    /// (its transform ln v) does not.
+    #[test]
+    fn the_rules_floor_leaves_out_readings_of_zero() {
+        let p = brdf_core::Preset::by_name("fe-0.115").unwrap();
+        let mut rows = super::super::data::synthetic_paper_sweep(|ti| p.model(ti).unwrap(), 0.0, 5);
+        for r in rows.iter_mut().step_by(4) {
+            r.brdf = 0.0;
+        }
+        rows[1].brdf = -rows[1].brdf;
+        let data = Dataset::from_rows(&rows, false).unwrap();
+        let m = NoiseModel::of_data(&data);
+        let mut ys: Vec<f64> = rows
+            .iter()
+            .map(|r| r.brdf.abs())
+            .filter(|&y| y > 0.0)
+            .collect();
+        ys.sort_by(f64::total_cmp);
+        assert_eq!(m.from, NoiseFrom::Rule);
+        assert_eq!(
+            m.floor,
+            ys[(ys.len() as f64 * RULE_FLOOR_QUANTILE) as usize]
+        );
+        assert!(m.floor > 0.0);
+        let (g, slope) = m.transform_and_slope(0.0);
+        assert_eq!((g, slope), (0.0, 1.0 / m.floor));
+        assert!(m.transform(rows[1].brdf) < 0.0);
+        // Every reading 0: no level to take; the floor stays positive (the sweep has
+        // nothing to fit, which the fit says).
+        for r in &mut rows {
+            r.brdf = 0.0;
+        }
+        let data = Dataset::from_rows(&rows, false).unwrap();
+        assert!(NoiseModel::of_data(&data).floor > 0.0);
+        // Which objectives need readings > 0.
+        let kinds = [
+            (Residual::Noise(NoiseModel::FROM_DATA), false),
+            (
+                Residual::Noise(NoiseModel::stated(0.01, 0.03).unwrap()),
+                false,
+            ),
+            (
+                Residual::Noise(NoiseModel::stated(0.0, 0.03).unwrap()),
+                true,
+            ),
+            (Residual::Log, true),
+            (Residual::Relative, true),
+            (Residual::Absolute, false),
+        ];
+        for (kind, positive) in kinds {
+            assert_eq!(kind.needs_positive(), positive, "{kind:?}");
         }
     }
 }

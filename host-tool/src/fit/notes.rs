@@ -119,6 +119,19 @@ pub fn family_notes(
             nearest.join(", ")
         ));
     }
+    let unnormalised: Vec<String> = (0..data.incidences.len())
+        .filter(|&j| {
+            data.specular_reference(j)
+                .is_some_and(|(k, _)| data.obs[k].y <= 0.0)
+        })
+        .map(|j| crate::text::angle(data.incidences[j]))
+        .collect();
+    if !unnormalised.is_empty() {
+        notes.push(format!(
+            "theta_i {}: the reading that normalises the paper RMSE (at or nearest theta_r = theta_i) is at or below 0: no paper RMSE there",
+            unnormalised.join(", ")
+        ));
+    }
     if let Residual::Noise(m) = compared.residual {
         notes.push(m.describe());
     }

@@ -58,10 +58,18 @@ impl Residual {
         }
     }
 
-    /// The readings must be > 0 (log and relative residuals divide by them; the
-    /// noise residual's grid starts weight by 1 / y).
+    /// The readings must be > 0: log and relative residuals divide by them, as does
+    /// a noise model stated without a floor (its transform is then ln v / b). A noise
+    /// model with a floor compares a reading at or below 0 against the floor, as
+    /// `abs` does; so does one still to come from the data (its rule's floor is
+    /// positive; one fitted to the readings' std without a floor is refused where it is
+    /// resolved, [`super::job::prepare`]).
     pub fn needs_positive(self) -> bool {
-        self != Residual::Absolute
+        match self {
+            Residual::Absolute => false,
+            Residual::Noise(m) => m.from == super::noise::NoiseFrom::Stated && m.floor == 0.0,
+            Residual::Log | Residual::Relative => true,
+        }
     }
 }
 

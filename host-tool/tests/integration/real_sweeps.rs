@@ -3,7 +3,9 @@
 //! the RGL metallic paint imported per channel (r, g, b and luminance y), as a user
 //! runs them. The figures are the report's own (`--json`'s ssr, n and Table-3 rmse),
 //! checked against the residuals export's per-reading values; docs/fitting.md holds
-//! the table this test prints (`--nocapture`).
+//! the table this test prints (`--nocapture`). The residual is the fit's own (the
+//! default objective's, not a logarithm: RMS ln against scipy's two-lobe fit is
+//! `cargo xtask accuracy`'s).
 
 use std::path::{Path, PathBuf};
 
@@ -15,8 +17,8 @@ const TWO_LOBE: &str = "specular:beckmann+specular-haze:beckmann+ideal-diffuse";
 
 /// One fitted member as the report gives it.
 struct Figures {
-    /// RMS of ln(fitted / measured) over the readings fitted: sqrt(SSR(log) / n).
-    rms_ln: f64,
+    /// RMS of the fit's own residual over the readings fitted: sqrt(SSR / n).
+    rms: f64,
     /// The paper's Table-3 RMSE of normalised curves.
     rmse: f64,
 }
@@ -28,12 +30,12 @@ fn figures(json: &serde_json::Value, name: &str) -> Option<Figures> {
         .find(|m| m["name"] == name)?;
     let (ssr, n) = (m["ssr"].as_f64()?, m["n"].as_f64()?);
     Some(Figures {
-        rms_ln: (ssr / n).sqrt(),
+        rms: (ssr / n).sqrt(),
         rmse: m["rmse"].as_f64()?,
     })
 }
 
-/// RMS of the residuals export's `residual` column (ln measured - ln fitted).
+/// RMS of the residuals export's `residual` column (the fit's own residual kind).
 fn rms_of_export(path: &Path) -> f64 {
     let text = std::fs::read_to_string(path).unwrap();
     let r: Vec<f64> = text
@@ -137,7 +139,7 @@ fn sweeps(dir: &Path) -> Vec<Sweep> {
 fn the_selected_member_is_no_worse_than_two_lobe_beckmann_on_every_real_sweep() {
     let dir = scratch("real-sweeps");
     let mut table = vec![format!(
-        "| sweep | selected | RMS ln (sel / 2-lobe) | Table-3 RMSE (sel / 2-lobe) |"
+        "| sweep | selected | RMS residual (sel / 2-lobe) | Table-3 RMSE (sel / 2-lobe) |"
     )];
     let mut rmse_losses = Vec::new();
     for s in sweeps(&dir) {
@@ -171,22 +173,22 @@ fn the_selected_member_is_no_worse_than_two_lobe_beckmann_on_every_real_sweep() 
         for (f, path) in [(&sel, &sel_res), (&two, &two_res)] {
             let per_reading = rms_of_export(path);
             assert!(
-                (per_reading / f.rms_ln - 1.0).abs() < 1e-9,
+                (per_reading / f.rms - 1.0).abs() < 1e-9,
                 "{}: {per_reading} vs {}",
                 s.name,
-                f.rms_ln
+                f.rms
             );
         }
         table.push(format!(
             "| {} | `{selected}` | {:.3} / {:.3} | {:.4} / {:.4} |",
-            s.name, sel.rms_ln, two.rms_ln, sel.rmse, two.rmse
+            s.name, sel.rms, two.rms, sel.rmse, two.rmse
         ));
         assert!(
-            sel.rms_ln <= two.rms_ln * (1.0 + 1e-9),
-            "{}: RMS ln {} against {TWO_LOBE}'s {}",
+            sel.rms <= two.rms * (1.0 + 1e-9),
+            "{}: RMS residual {} against {TWO_LOBE}'s {}",
             s.name,
-            sel.rms_ln,
-            two.rms_ln
+            sel.rms,
+            two.rms
         );
         if sel.rmse > two.rmse {
             rmse_losses.push(s.name.clone());
@@ -204,14 +206,12 @@ fn the_selected_member_is_no_worse_than_two_lobe_beckmann_on_every_real_sweep() 
         }
     }
     eprintln!("{}", table.join("\n"));
-    // The Scatterworks core is one reading wide: the log fit that selects GGX lobes
-    // weighs the six decades of the wings, Table 3's linear RMSE normalised at the
-    // peak weighs the few readings at the core, where two Beckmann lobes sit closer.
+    // No worse in Table-3 RMSE either (issue #53). Under log residuals with GGX lobes
+    // the Scatterworks sweep was (0.0067 against 0.0052): docs/fitting.md.
     assert!(
-        rmse_losses.iter().all(|n| n.starts_with("scatterworks")),
+        rmse_losses.is_empty(),
         "Table-3 RMSE worse than {TWO_LOBE} on {rmse_losses:?}"
     );
-    assert!(rmse_losses.len() <= 2, "{rmse_losses:?}");
 }
 
 #[test]

@@ -481,6 +481,18 @@ impl Grid {
         self.direction_with(&gl, k)
     }
 
+    /// Direction `k` as a unit vector (z along the normal), k in `0..directions()`:
+    /// the vectors [`reciprocity`] gives its BRDF.
+    pub fn unit(&self, k: usize) -> [f64; 3] {
+        let gl = GaussLegendre::new(self.polar);
+        self.unit_with(&gl, k)
+    }
+
+    fn unit_with(&self, gl: &GaussLegendre, k: usize) -> [f64; 3] {
+        let (t, p) = self.direction_with(gl, k);
+        unit_deg(t, p)
+    }
+
     fn direction_with(&self, gl: &GaussLegendre, k: usize) -> (f64, f64) {
         let (p, a) = (k / self.azimuths, k % self.azimuths);
         let mu = 0.5 * (gl.x[p] + 1.0);
@@ -518,6 +530,19 @@ pub fn reciprocity<T: Real, F>(grid: &Grid, mut f: F) -> Result<Reciprocity, Mod
 where
     F: FnMut(&[T; 3], &[T; 3]) -> Result<T, ModelError>,
 {
+    let gl = GaussLegendre::new(grid.polar.clamp(1, MAX_NODES));
+    let dir = |k: usize| narrow::<T>(grid.unit_with(&gl, k));
+    reciprocity_indexed(grid, |i, o| f(&dir(i), &dir(o)))
+}
+
+/// [`reciprocity`] with the BRDF given by direction index: `f(i, o)` is its value from
+/// direction `i` to direction `o` of `grid` ([`Grid::unit`]), asked in the same order.
+/// A caller that checks many BRDFs on one grid can then compute each pair's geometry
+/// once.
+pub fn reciprocity_indexed<T: Real, F>(grid: &Grid, mut f: F) -> Result<Reciprocity, ModelError>
+where
+    F: FnMut(usize, usize) -> Result<T, ModelError>,
+{
     if grid.polar < 1 || grid.polar > MAX_NODES {
         return Err(ModelError::OutOfRange {
             what: "grid polar angles",
@@ -534,10 +559,6 @@ where
     }
     let gl = GaussLegendre::new(grid.polar);
     let n = grid.directions();
-    let dir = |k: usize| {
-        let (t, p) = grid.direction_with(&gl, k);
-        narrow::<T>(unit_deg(t, p))
-    };
     let mut best = Reciprocity {
         max_ratio: 1.0,
         worst_in: grid.direction_with(&gl, 0),
@@ -545,11 +566,9 @@ where
         pairs: 0,
     };
     for a in 0..n {
-        let wa = dir(a);
         for b in a + 1..n {
-            let wb = dir(b);
-            let fab = value(f(&wa, &wb)?)?;
-            let fba = value(f(&wb, &wa)?)?;
+            let fab = value(f(a, b)?)?;
+            let fba = value(f(b, a)?)?;
             if fab < 0.0 || fba < 0.0 {
                 return Err(ModelError::Negative {
                     what: "brdf",

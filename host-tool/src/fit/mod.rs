@@ -53,6 +53,7 @@ pub mod peak;
 pub mod physical;
 mod point_system;
 pub mod queue;
+pub mod reciprocity_pairs;
 pub mod report;
 pub mod select;
 pub mod stages;

@@ -14,10 +14,7 @@
 
 use std::fmt::Write;
 
-use brdf_core::albedo::{
-    Grid, Reciprocity, Rule, albedo_within, member_brdf, polar_deg, reciprocity,
-};
-use brdf_core::geometry::Geometry;
+use brdf_core::albedo::{Reciprocity, Rule, albedo_within, member_brdf};
 use rayon::prelude::*;
 use serde_json::{Value, json};
 
@@ -43,7 +40,7 @@ pub struct ModelCheck {
     /// The fitted incidences (of which `albedo` holds [`checked_incidences`]'s
     /// subset when there are more than [`MAX_CHECKED_INCIDENCES`]).
     pub incidences: usize,
-    /// The reciprocity check on [`Grid::DEFAULT`], k_s taken at the polar angle of the
+    /// The reciprocity check on [`brdf_core::albedo::Grid::DEFAULT`], k_s taken at the polar angle of the
     /// incident direction (interpolated between the fitted incidences).
     pub reciprocity: Option<Reciprocity>,
 }
@@ -87,33 +84,10 @@ pub fn checked_incidences(n: usize, amplitude: impl Fn(usize) -> f64) -> Vec<usi
     out
 }
 
-/// A fitted member at any incidence as a 3-D BRDF closure (per-incidence k_s
-/// interpolated in theta_i as [`MemberFit::model_at`], smooth k_s at w_i's polar angle);
-/// the model of each incidence angle met is built once (a grid has few polar angles).
-pub fn member_fit_brdf(
-    fit: &MemberFit,
-) -> impl FnMut(&[f64; 3], &[f64; 3]) -> Result<f64, brdf_core::ModelError> + '_ {
-    let mut models: Vec<(f64, Option<brdf_core::member_model::MemberModel<f64>>)> = Vec::new();
-    move |wi, wo| {
-        let t = polar_deg(wi);
-        let m = match models.iter().find(|m| m.0 == t) {
-            Some(m) => m.1,
-            None => {
-                let m = fit.model_at(t);
-                models.push((t, m));
-                m
-            }
-        };
-        let m = m.ok_or(brdf_core::ModelError::NotFinite {
-            what: "fitted model",
-        })?;
-        m.eval(t, &Geometry::from_vectors(*wi, *wo)?).map(|e| e.f)
-    }
-}
-
 /// Checks one fitted member: albedo at each fitted incidence (the model with that
 /// incidence's own k_s) on [`Rule::for_width`]'s panels for its narrowest component
-/// with the fewest nodes that reach [`CHECK_REL_ERROR`], reciprocity on [`Grid::DEFAULT`].
+/// with the fewest nodes that reach [`CHECK_REL_ERROR`], reciprocity on
+/// [`brdf_core::albedo::Grid::DEFAULT`] ([`super::reciprocity_pairs`]).
 pub fn check_member(fit: &MemberFit) -> ModelCheck {
     // Each incidence's model is built where it is needed (cheap) rather than held in a
     // list (16 MB at 50,000 incidences, one per member checked in parallel). None is
@@ -147,7 +121,7 @@ pub fn check_member(fit: &MemberFit) -> ModelCheck {
             Some((ti, a))
         })
         .collect();
-    let reciprocity = reciprocity(&Grid::DEFAULT, member_fit_brdf(fit)).ok();
+    let reciprocity = super::reciprocity_pairs::member_reciprocity(fit).ok();
     finish(fit.member().to_string(), albedo, n, reciprocity)
 }
 

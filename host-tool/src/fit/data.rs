@@ -335,6 +335,14 @@ impl Dataset {
                 rows.len()
             )));
         }
+        // Every reading at or below 0 (a detector that saw nothing, or not connected):
+        // any model fits it as well as none, so nothing is fitted.
+        if rows.iter().all(|r| r.brdf <= 0.0) {
+            return Err(DataError(format!(
+                "all {} readings are at or below 0: nothing to fit (was the detector reading?)",
+                rows.len()
+            )));
+        }
         let mut obs = Vec::with_capacity(rows.len());
         for (k, r) in rows.iter().enumerate() {
             if !(r.brdf.is_finite() && r.theta_i.is_finite() && r.theta_r.is_finite()) {

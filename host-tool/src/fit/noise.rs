@@ -468,13 +468,12 @@ mod tests {
         let (g, slope) = m.transform_and_slope(0.0);
         assert_eq!((g, slope), (0.0, 1.0 / m.floor));
         assert!(m.transform(rows[1].brdf) < 0.0);
-        // Every reading 0: no level to take; the floor stays positive (the sweep has
-        // nothing to fit, which the fit says).
+        // Every reading 0: nothing to fit, and the data say so.
         for r in &mut rows {
             r.brdf = 0.0;
         }
-        let data = Dataset::from_rows(&rows, false).unwrap();
-        assert!(NoiseModel::of_data(&data).floor > 0.0);
+        let e = Dataset::from_rows(&rows, false).unwrap_err().0;
+        assert!(e.contains("all 153 readings are at or below 0"), "{e}");
         // Which objectives need readings > 0.
         let kinds = [
             (Residual::Noise(NoiseModel::FROM_DATA), false),

@@ -348,6 +348,10 @@ impl SweepData {
                 continue;
             };
             let top = rows.iter().map(|r| r.brdf).fold(f64::MIN, f64::max);
+            // Readings all at or below 0 have no peak on either side.
+            if top <= 0.0 {
+                continue;
+            }
             if minus == top && minus >= SIGN_PEAK_RATIO * plus.max(0.0) {
                 reversed += 1;
             } else if plus == top && plus >= SIGN_PEAK_RATIO * minus.max(0.0) {

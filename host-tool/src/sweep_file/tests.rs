@@ -521,7 +521,7 @@ fn metadata_keys_in_any_case_unknown_said_duplicates_refused() {
 /// Issue 50 case 7's other side: the sign check says theta_r looks reversed only where
 /// the peaks sit at -theta_i and not at +theta_i. Peaks on both sides alike (a
 /// symmetric sweep: the data cannot tell the sign) give no such line; the same sweep
-/// with only the -theta_i peak does.
+/// with only the -theta_i peak does; readings all 0 have no peak.
 #[test]
 fn symmetric_peaks_do_not_fire_the_sign_check() {
     let d = tempdir();
@@ -542,4 +542,6 @@ fn symmetric_peaks_do_not_fire_the_sign_check() {
         None
     );
     assert!(sweep("source.csv", &|ti, tr| bump(tr + ti)).is_some());
+    // Every reading 0: no peak on either side (the 0 at -theta_i once passed for one).
+    assert_eq!(sweep("zeros.csv", &|_, _| -1.0), None);
 }

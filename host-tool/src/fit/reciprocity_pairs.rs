@@ -10,9 +10,10 @@ use brdf_core::member_model::MemberModel;
 use super::member_fit::MemberFit;
 
 /// [`Grid::DEFAULT`]'s directions: each one's polar angle (degrees) and each ordered
-/// pair's geometry, row-major (`in * n + out`). A member's check evaluates its model on
-/// all 46,656 pairs; the geometry (two square roots, an atan2) and the directions
-/// (four sines and cosines, an acos) are the same for every member.
+/// pair's geometry, row-major (`in * n + out`; 216 x 216, a direction with itself
+/// unused). A member's check evaluates its model on the 46,440 pairs of distinct
+/// directions; the geometry (square roots, an atan2) and the directions (sines,
+/// cosines, an acos) are the same for every member.
 struct Pairs {
     n: usize,
     polar: Vec<f64>,

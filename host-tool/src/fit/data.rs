@@ -485,4 +485,12 @@ impl Dataset {
             .map(|k| (k, true))
             .or_else(|| self.nearest[j].map(|k| (k, false)))
     }
+
+    /// [`Dataset::specular_reference`] when that reading can normalise a curve: above 0
+    /// (one at or below 0 normalises nothing). The paper's RMSE, its note and the plots
+    /// divide by it.
+    pub fn normalising_reference(&self, j: usize) -> Option<(usize, bool)> {
+        self.specular_reference(j)
+            .filter(|&(k, _)| self.obs[k].y > 0.0)
+    }
 }

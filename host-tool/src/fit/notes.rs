@@ -121,8 +121,7 @@ pub fn family_notes(
     }
     let unnormalised: Vec<String> = (0..data.incidences.len())
         .filter(|&j| {
-            data.specular_reference(j)
-                .is_some_and(|(k, _)| data.obs[k].y <= 0.0)
+            data.specular_reference(j).is_some() && data.normalising_reference(j).is_none()
         })
         .map(|j| crate::text::angle(data.incidences[j]))
         .collect();

@@ -5,8 +5,8 @@ use super::data::Dataset;
 /// RMSE as in the paper's Table 3: per incidence, measured values divided by the
 /// measured value at theta_r = theta_i, model values by the model's value there; when
 /// an incidence has no reading exactly there, both are normalised at the reading
-/// nearest to it ([`Dataset::specular_reference`]); not for an incidence whose
-/// reference reading is at or below 0. One pass over the readings.
+/// nearest to it; not for an incidence whose reference reading is at or below 0
+/// ([`Dataset::normalising_reference`]). One pass over the readings.
 /// `model_at(j)` gives incidence `j`'s model as its value
 /// at a reading of that incidence, by the reading's index in `data.obs` (None when it
 /// cannot be built or evaluated); it is asked once per incidence, so one model is held
@@ -18,16 +18,11 @@ pub fn paper_rmse_with<F: FnMut(usize) -> Option<f64>>(
     let mut per = Vec::with_capacity(data.incidences.len());
     let (mut sum, mut count) = (0.0, 0usize);
     for j in 0..data.incidences.len() {
-        let Some((r, _)) = data.specular_reference(j) else {
+        let Some((r, _)) = data.normalising_reference(j) else {
             per.push(None);
             continue;
         };
         let y_ref = data.obs[r].y;
-        // A reference at or below 0 (a reading at the floor) normalises nothing.
-        if y_ref <= 0.0 {
-            per.push(None);
-            continue;
-        }
         let Some(mut f) = model_at(j) else {
             per.push(None);
             continue;

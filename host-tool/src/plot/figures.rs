@@ -324,8 +324,9 @@ pub(super) fn incidence_figure(data: &Dataset, fam: &FamilyFit, j: usize) -> Fig
     // Normalised at the reading at theta_r = theta_i, else at the nearest one (as the
     // paper's RMSE is): measured and fitted curves divided at the same angle.
     let reference_reading = jd.and_then(|jd| data.specular_reference(jd));
-    let reference = match reference_reading {
-        Some((k, exact)) if data.obs[k].y > 0.0 => {
+    let normalising = jd.and_then(|jd| data.normalising_reference(jd));
+    let reference = match (reference_reading, normalising) {
+        (_, Some((k, exact))) => {
             if !exact {
                 subtitles.push(format!(
                     "No reading at theta_r = theta_i: every curve divided by its value at the nearest reading, theta_r = {}.",
@@ -334,14 +335,14 @@ pub(super) fn incidence_figure(data: &Dataset, fam: &FamilyFit, j: usize) -> Fig
             }
             Some(data.obs[k].y)
         }
-        Some(_) => {
+        (Some(_), None) => {
             subtitles.push(
                 "The reading nearest to theta_r = theta_i is not positive: nothing to normalise."
                     .to_string(),
             );
             None
         }
-        None => {
+        (None, _) => {
             subtitles.push("No readings at this incidence.".to_string());
             None
         }

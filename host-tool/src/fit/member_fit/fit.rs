@@ -98,7 +98,7 @@ pub(super) fn fit_member_keeping(
     if member.abg {
         // Its own start grid (over B and g), then LM as for every member.
         let resid = Residuals::new(data, residual);
-        let lm = LmOptions::default();
+        let lm = lm_options(data, &fixed);
         let mut p = Problem::new(data, layout.clone(), residual, &resid, aperture);
         let mut best: Option<(f64, Vec<f64>, bool, Option<Normal>)> = None;
         for x0 in super::abg::abg_starts(bases, &layout, &resid) {
@@ -125,7 +125,7 @@ pub(super) fn fit_member_keeping(
         best_points(&grid, &resid, kept_bytes, held_amps, &mut scratch)
     });
     let width = |spec: Option<LobeSpec>, w: &[f64], i: usize| spec.map_or(1.0, |_| w[i]);
-    let lm = LmOptions::default();
+    let lm = lm_options(data, &fixed);
     let steps = [
         grid_step(core_w),
         grid_step(haze_w),
@@ -197,6 +197,12 @@ pub(super) fn fit_member_keeping(
     let mut p = make();
     p.fixed.clone_from(&fixed);
     conclude(&mut p, bases.loss, best, held, &lm)
+}
+
+/// A member's LM options ([`LmOptions::for_fit`]): its readings against its free
+/// parameters (those not `fixed`).
+fn lm_options(data: &Dataset, fixed: &[bool]) -> LmOptions {
+    LmOptions::for_fit(data.obs.len(), fixed.iter().filter(|&&f| !f).count())
 }
 
 /// The fit from the best LM optimum of the starts (cost, x, converged, normal

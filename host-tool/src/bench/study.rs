@@ -1,6 +1,7 @@
 //! The slower studies behind docs/PERFORMANCE.md (`gonio bench --study`): how many
 //! readings a plan needs for a given fit error (uniform grids against adaptive plans),
-//! and the fit's time against its error across LM tolerances and start counts.
+//! the fit's time against the readings and incidences, and each member's speed against
+//! its error.
 
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;

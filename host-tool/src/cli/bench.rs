@@ -24,8 +24,8 @@ pub struct BenchArgs {
     pub seconds: f64,
     /// Also run the slower studies: readings against fit error for uniform, adaptive
     /// and sequential plans (on simulated presets, and the core width against the dense
-    /// fit's on the replayed real Scatterworks sweep), fit time against error across tolerances and start counts, fit
-    /// time against readings (153 to 10^5) and incidences, speed against error per
+    /// fit's on the replayed real Scatterworks sweep), fit time against readings (153
+    /// to 10^5) and incidences, speed against error per
     /// member on the Scatterworks test data, and the multi-start's default against
     /// --all-starts on simulated paper-grid sweeps (time, and member fits that missed
     /// a lower optimum) (a minute or two; run with RAYON_NUM_THREADS=1 for per-core

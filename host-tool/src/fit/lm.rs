@@ -406,15 +406,16 @@ pub fn minimize_from<P: ArrowProblem>(
         // its length are the cap's (a parameter with no pull on the cost, e.g. sigma_m
         // under a vanished k_dd, can take all of it and leave the others' steps tiny).
         let small_step = !capped && snorm <= opts.xtol * (xnorm + opts.xtol);
+        // The caller may end the run at a step about to be tried, before its pass.
+        if predicted > 0.0 && stop(Visit::Trial(&trial, cost - predicted)) {
+            termination = Termination::Stopped;
+            break;
+        }
         // One pass at the trial point gives its cost and, if the step is accepted, the
         // normal equations there (a separate cost pass would evaluate the model twice
         // per accepted step; most steps are accepted).
         // A step the linear model itself says cannot lower the cost (a bound clipped
         // it) is rejected whatever the trial's cost: its row pass is skipped.
-        if predicted > 0.0 && stop(Visit::Trial(&trial, cost - predicted)) {
-            termination = Termination::Stopped;
-            break;
-        }
         let (actual, rho) = if predicted > 0.0 {
             let new_cost = p
                 .normal(&trial, &mut trial_normal)

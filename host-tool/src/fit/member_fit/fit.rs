@@ -62,7 +62,7 @@ pub fn fit_member_alone(
 /// (and for a residual degree of freedom), or a smooth or Fresnel k_s over fewer than
 /// 3 incidences.
 pub(super) fn undetermined(data: &Dataset, layout: &Layout, fixed: &[bool]) -> bool {
-    let free = fixed.iter().filter(|&&f| !f).count();
+    let free = free_params(fixed);
     free == 0
         || data.obs.len() <= free + 1
         || ([
@@ -199,10 +199,17 @@ pub(super) fn fit_member_keeping(
     conclude(&mut p, bases.loss, best, held, &lm)
 }
 
+/// The parameters a fit determines: those not `fixed`. The readings less these are
+/// the degrees of freedom that scale the covariance ([`finish`]) and LM's tolerance
+/// ([`lm_options`]).
+fn free_params(fixed: &[bool]) -> usize {
+    fixed.iter().filter(|&&f| !f).count()
+}
+
 /// A member's LM options ([`LmOptions::for_fit`]): its readings against its free
-/// parameters (those not `fixed`).
+/// parameters.
 fn lm_options(data: &Dataset, fixed: &[bool]) -> LmOptions {
-    LmOptions::for_fit(data.obs.len(), fixed.iter().filter(|&&f| !f).count())
+    LmOptions::for_fit(data.obs.len(), free_params(fixed))
 }
 
 /// The fit from the best LM optimum of the starts (cost, x, converged, normal
@@ -285,7 +292,7 @@ pub(super) fn finish(
     };
     let n = data.obs.len();
     let fixed = p.fixed.clone();
-    let free = fixed.iter().filter(|&&f| !f).count();
+    let free = free_params(&fixed);
     debug_assert_eq!(held.len(), fixed.len());
     let cov = ArrowInverse::new(&normal).scaled(ssr / (n - free) as f64);
     let identifiable: Vec<bool> = cov

@@ -55,7 +55,7 @@ pub(super) fn grid_step(w: &[f64]) -> f64 {
 /// nothing is held at the end, LM's normal equations there; `None`
 /// when the start failed, or when after an accepted LM step or between two rounds
 /// `explored` says the point reached (its cost given) lies in the basin of an optimum
-/// already found.
+/// already found, or says so of a step about to be tried (its predicted cost given).
 // x, the pins and the bounds are parallel arrays indexed together.
 #[allow(clippy::needless_range_loop)]
 pub(super) fn refine(

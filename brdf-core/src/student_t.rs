@@ -144,7 +144,7 @@ impl<T: Real> StudentT<T> {
             return (zero, zero, zero);
         }
         let (z, l) = self.ln1p_z(g.tan2_a);
-        let ln_f = self.ln_norm + g.g_term.ln() - T::lit(4.0) * g.cos_a.ln() - self.gamma * l;
+        let ln_f = self.ln_norm + ln_g_over_cos4(g) - self.gamma * l;
         let f = ln_f.exp();
         if f <= zero {
             return (zero, zero, zero);
@@ -157,6 +157,20 @@ impl<T: Real> StudentT<T> {
         let gw = self.gamma * w;
         let two = T::lit(2.0);
         (f, two * gw - two, gw - self.k * l)
+    }
+}
+
+/// ln(G/(cos_i cos_r) / cos^4(alpha)) for g_term > 0 and cos_a > 0: one logarithm of
+/// the quotient where it is a normal float (a lobe evaluation's logarithms are most of
+/// its cost), else the two logarithms' difference.
+#[inline]
+fn ln_g_over_cos4<T: Real>(g: &Geometry<T>) -> T {
+    let c2 = g.cos_a * g.cos_a;
+    let q = g.g_term / (c2 * c2);
+    if q.is_normal() && (c2 * c2).is_normal() {
+        q.ln()
+    } else {
+        g.g_term.ln() - T::lit(4.0) * g.cos_a.ln()
     }
 }
 

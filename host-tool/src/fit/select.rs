@@ -60,27 +60,42 @@ impl Amplitude {
         self.held || (!self.at_bound && self.se.is_some_and(|s| s < self.value / 3.0))
     }
 
-    /// One amplitude from one k_s per incidence: the inverse-variance combination of
-    /// their logarithms (geometric-mean value, relative error 1 / sqrt(sum 1 / r_j^2)
-    /// over the incidences whose k_s is determined and off its bound, r_j = se_j /
-    /// k_s_j); at its bound when every incidence is.
+    /// One amplitude from one k_s per incidence, over the incidences whose k_s has a
+    /// standard error and is off its bound: its value the geometric mean of theirs (a
+    /// level: k_s varies with the incidence), its relative error that of the
+    /// inverse-variance combination of their logarithms, 1 / sqrt(sum 1 / r_j^2) with
+    /// r_j = se_j / k_s_j. The value and its error come from the same incidences: a k_s
+    /// vanishing at one incidence (at its bound, or undetermined) does not drag the
+    /// value its error is not about. Without such an incidence the value is the
+    /// geometric mean of them all, with no error; at its bound when every incidence is.
     pub fn combine(parts: &[Amplitude]) -> Option<Amplitude> {
         if parts.is_empty() {
             return None;
         }
-        let n = parts.len() as f64;
-        let value = (parts.iter().map(|a| a.value.max(1e-300).ln()).sum::<f64>() / n).exp();
-        let at_bound = parts.iter().all(|a| a.at_bound);
+        let geometric_mean = |of: &mut dyn Iterator<Item = &Amplitude>| {
+            let (mut sum, mut n) = (0.0, 0.0);
+            for a in of {
+                sum += a.value.max(1e-300).ln();
+                n += 1.0;
+            }
+            (sum / n).exp()
+        };
+        let informative = |a: &&Amplitude| !a.at_bound && a.se.is_some();
         let info: f64 = parts
             .iter()
-            .filter(|a| !a.at_bound)
+            .filter(informative)
             .filter_map(|a| a.se.map(|s| (a.value / s.max(1e-300)).powi(2)))
             .sum();
-        let se = (info > 0.0).then(|| value / info.sqrt());
+        let (value, se) = if info > 0.0 {
+            let v = geometric_mean(&mut parts.iter().filter(informative));
+            (v, Some(v / info.sqrt()))
+        } else {
+            (geometric_mean(&mut parts.iter()), None)
+        };
         Some(Amplitude {
             value,
             se,
-            at_bound,
+            at_bound: parts.iter().all(|a| a.at_bound),
             held: parts.iter().all(|a| a.held),
         })
     }
@@ -522,6 +537,42 @@ mod tests {
             at_bound: false,
             held: false,
         }
+    }
+
+    #[test]
+    fn a_combined_k_s_takes_its_value_from_the_incidences_its_error_is_about() {
+        // Two incidences determined (1.0 and 4.0, each +- 10 %), one vanishing at its
+        // bound and one with no standard error: the value is the geometric mean of the
+        // two, 2.0, its error 10 % / sqrt(2) of it. The geometric mean of all four
+        // (1e-9 among them) would print a value 4 orders lower with an error about
+        // another.
+        let bound = Amplitude {
+            at_bound: true,
+            ..amp(1e-9, 1e-3)
+        };
+        let undetermined = Amplitude {
+            se: None,
+            ..amp(0.5, 1.0)
+        };
+        let c = Amplitude::combine(&[amp(1.0, 0.1), bound, amp(4.0, 0.4), undetermined]).unwrap();
+        assert!((c.value - 2.0).abs() < 1e-12, "{c:?}");
+        let se = c.se.unwrap();
+        assert!((se - 0.2 / 2f64.sqrt()).abs() < 1e-12, "{c:?}");
+        assert!(!c.at_bound && c.determined());
+        // Every incidence determined: the geometric mean of them all, whatever their
+        // errors (k_s is a level over incidences, not one quantity measured twice);
+        // the relative error the inverse-variance combination's.
+        let c = Amplitude::combine(&[amp(1.0, 0.01), amp(4.0, 0.4)]).unwrap();
+        assert!((c.value - 2.0).abs() < 1e-12, "{c:?}");
+        let rel = 1.0 / (1e4f64 + 100.0).sqrt();
+        assert!((c.se.unwrap() / c.value - rel).abs() < 1e-12, "{c:?}");
+        // Nothing determined: the geometric mean of every incidence, no error; at its
+        // bound only when every incidence is.
+        let c = Amplitude::combine(&[bound, bound]).unwrap();
+        assert!(c.at_bound && c.se.is_none() && (c.value - 1e-9).abs() < 1e-21);
+        let c = Amplitude::combine(&[bound, undetermined]).unwrap();
+        assert!(!c.at_bound && c.se.is_none() && !c.determined());
+        assert!((c.value - (1e-9f64 * 0.5).sqrt()).abs() < 1e-15, "{c:?}");
     }
 
     fn test(gain: f64, a: Amplitude, effect: f64) -> Test {

@@ -166,8 +166,9 @@ impl<T: Real> StudentT<T> {
 #[inline]
 fn ln_g_over_cos4<T: Real>(g: &Geometry<T>) -> T {
     let c2 = g.cos_a * g.cos_a;
-    let q = g.g_term / (c2 * c2);
-    if q.is_normal() && (c2 * c2).is_normal() {
+    let c4 = c2 * c2;
+    let q = g.g_term / c4;
+    if q.is_normal() && c4.is_normal() {
         q.ln()
     } else {
         g.g_term.ln() - T::lit(4.0) * g.cos_a.ln()

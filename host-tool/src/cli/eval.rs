@@ -37,8 +37,10 @@ is retro-reflection. BRDF values are in the paper's relative units.\n\n\
 Any member of the family: a paper name (ideal-diffuse, torrance-sparrow, three-component, \
 three-component-smooth-ks; or their short names ideal, ts, three, three-smooth) or a systematic \
 name joining components with '+': specular, specular-haze, directional-diffuse, ideal-diffuse; a \
-lobe takes :beckmann (default) or :ggx and :smooth-ks (ln k_s = c0 + c1 t + c2 t^2, t = theta_i/90), \
-e.g. specular:ggx+specular-haze+ideal-diffuse. The haze lobe's distribution comes from its name.\n\n\
+lobe takes :beckmann (default), :ggx or :student-t (its tail exponent from --gamma or --gamma-haze) and \
+:smooth-ks (ln k_s = c0 + c1 t + c2 t^2, t = theta_i/90), e.g. specular:ggx+specular-haze+ideal-diffuse or \
+specular:student-t+specular-haze:ggx+ideal-diffuse: whatever `gonio fit` selects but a :fresnel lobe. The haze \
+lobe's distribution comes from its name.\n\n\
 Output: CSV on stdout with the header theta_i,theta_r,brdf and one row per theta_r; \
 values are printed in their shortest exact (round-trip) form.",
     after_help = "Examples:\n  gonio eval --material fe-0.115 --theta-i 20 --theta-r -80:80:10\n  \
@@ -46,7 +48,9 @@ gonio eval --ks 145 --sigma 0.115 --theta-i 20 --theta-r=-20,0,20 --precision f3
 gonio eval --model ts --material cu-0.070 --kd 30 --theta-i 40 --theta-r 0:90:5\n  \
 gonio eval --model specular+specular-haze:ggx+ideal-diffuse --ks 5000 --sigma 0.005 \
 --ks-haze 20 --sigma-haze 0.2 --kid 1 --theta-i 30 --theta-r 0:60:1\n  \
-gonio eval --model three-component-smooth-ks --ks-smooth 5,0.5,-0.2 --sigma 0.1 --theta-i 40 --theta-r 0:80:10"
+gonio eval --model three-component-smooth-ks --ks-smooth 5,0.5,-0.2 --sigma 0.1 --theta-i 40 --theta-r 0:80:10\n  \
+gonio eval --model specular:student-t+specular-haze:ggx+ideal-diffuse --ks 0.2 --sigma 0.0055 --gamma 2.1 \
+--ks-haze 0.04 --sigma-haze 0.055 --kid 0.03 --theta-i 30 --theta-r 25:35:0.5"
 )]
 pub struct EvalArgs {
     /// The member: `three` (specular + directional diffuse + ideal diffuse, the
@@ -69,6 +73,10 @@ pub struct EvalArgs {
     /// theta_i / 90 [members whose specular is :smooth-ks; with --sigma].
     #[arg(long = "ks-smooth", value_name = "C0,C1,C2", value_parser = coefficients, requires = "sigma")]
     pub ks_smooth: Option<[f64; 3]>,
+    /// Tail exponent gamma (> 1) of a :student-t specular lobe [required for one]: GGX's
+    /// tail at 2, Beckmann's as gamma grows; `gonio fit` reports it as `gamma`.
+    #[arg(long, value_name = "G")]
+    pub gamma: Option<f64>,
     /// The haze lobe's k_s (>= 0) [members with specular-haze].
     #[arg(long = "ks-haze", value_name = "K", conflicts_with = "ks_haze_smooth")]
     pub ks_haze: Option<f64>,
@@ -78,6 +86,10 @@ pub struct EvalArgs {
     /// The haze lobe's width sigma (> 0, dimensionless) [members with specular-haze].
     #[arg(long = "sigma-haze", value_name = "S")]
     pub sigma_haze: Option<f64>,
+    /// Tail exponent gamma (> 1) of a :student-t haze lobe [required for one]; `gonio
+    /// fit` reports it as `gamma_haze`.
+    #[arg(long = "gamma-haze", value_name = "G")]
+    pub gamma_haze: Option<f64>,
     /// Directional-diffuse weight k_dd (>= 0) [three-component model; default 900].
     #[arg(long, value_name = "K")]
     pub kdd: Option<f64>,
@@ -180,6 +192,8 @@ fn fits_f32(args: &EvalArgs) -> CliResult {
         ("--sigma", args.sigma),
         ("--ks-haze", args.ks_haze),
         ("--sigma-haze", args.sigma_haze),
+        ("--gamma", args.gamma),
+        ("--gamma-haze", args.gamma_haze),
         ("--kdd", args.kdd),
         ("--kid", args.kid),
         ("--sigma-m", args.sigma_m),
@@ -229,22 +243,26 @@ fn build_model<T: Real>(args: &EvalArgs) -> CliResult<MemberModel<T>> {
                 || args.ks.is_some()
                 || args.ks_smooth.is_some()
                 || args.sigma.is_some()
+                || args.gamma.is_some()
             {
                 return Err(CliError::usage(format!(
-                    "--model {}: no specular lobe, so --material, --ks, --ks-smooth and --sigma do not apply",
+                    "--model {}: no specular lobe, so --material, --ks, --ks-smooth, --sigma and --gamma do not apply",
                     member
                 )));
             }
             None
         }
-        Some(spec) => Some(core_lobe(args, spec, ti)?),
+        Some(spec) => Some(core_lobe(args, &member, spec, ti)?),
     };
     let haze = match member.haze {
         None => {
-            if args.ks_haze.is_some() || args.ks_haze_smooth.is_some() || args.sigma_haze.is_some()
+            if args.ks_haze.is_some()
+                || args.ks_haze_smooth.is_some()
+                || args.sigma_haze.is_some()
+                || args.gamma_haze.is_some()
             {
                 return Err(CliError::usage(format!(
-                    "--ks-haze, --ks-haze-smooth and --sigma-haze belong to members with specular-haze (not {member})"
+                    "--ks-haze, --ks-haze-smooth, --sigma-haze and --gamma-haze belong to members with specular-haze (not {member})"
                 )));
             }
             None
@@ -274,7 +292,7 @@ fn build_model<T: Real>(args: &EvalArgs) -> CliResult<MemberModel<T>> {
                 dist: spec.dist,
                 ks,
                 sigma: T::lit(sigma),
-                gamma: None,
+                gamma: tail::<T>(&member, "haze", spec, ("--gamma-haze", args.gamma_haze))?,
             })
         }
     };
@@ -325,7 +343,12 @@ fn no_fresnel(member: &dyn std::fmt::Display) -> CliError {
 }
 
 /// The core lobe from --material or --ks/--ks-smooth with --sigma.
-fn core_lobe<T: Real>(args: &EvalArgs, spec: LobeSpec, ti: T) -> CliResult<LobeParams<T>> {
+fn core_lobe<T: Real>(
+    args: &EvalArgs,
+    member: &Member,
+    spec: LobeSpec,
+    ti: T,
+) -> CliResult<LobeParams<T>> {
     if spec.ks == KsForm::Fresnel {
         return Err(no_fresnel(&args.model));
     }
@@ -375,6 +398,28 @@ fn core_lobe<T: Real>(args: &EvalArgs, spec: LobeSpec, ti: T) -> CliResult<LobeP
         dist: spec.dist,
         ks,
         sigma,
-        gamma: None,
+        gamma: tail::<T>(member, "specular", spec, ("--gamma", args.gamma))?,
     })
+}
+
+/// A lobe's tail exponent from its option `(flag, value)`: required for a lobe whose
+/// distribution has one (Student-t), refused for one without (the model checks the
+/// value itself: finite, > 1). `role` names the lobe in the message.
+fn tail<T: Real>(
+    member: &Member,
+    role: &str,
+    spec: LobeSpec,
+    (flag, given): (&str, Option<f64>),
+) -> CliResult<Option<T>> {
+    match (spec.dist.has_gamma(), given) {
+        (true, Some(g)) => Ok(Some(T::lit(g))),
+        (true, None) => Err(CliError::usage(format!(
+            "--model {member}: the {role} lobe is student-t: give its tail exponent {flag} G (> 1; GGX's tail at 2)"
+        ))),
+        (false, Some(_)) => Err(CliError::usage(format!(
+            "{flag} is the tail exponent of a :student-t lobe; the {role} lobe of {member} is {}",
+            spec.dist.name()
+        ))),
+        (false, None) => Ok(None),
+    }
 }

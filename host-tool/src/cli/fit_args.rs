@@ -49,36 +49,51 @@ pub enum ChecksArg {
     about = "Fit the BRDF model family to a sweep file",
     long_about = "Fit a family of BRDF models to a sweep file and say which components the data support.\n\n\
 The family is built from four components: specular (the paper's lobe, eq. 3-4), specular-haze (a second, wider \
-lobe with its own width), directional-diffuse (eq. 5) and ideal-diffuse (eq. 6); each lobe Beckmann or GGX \
-(Trowbridge–Reitz), its k_s one value per incidence or a smooth k_s(theta_i). The paper's members keep their \
-names (ideal-diffuse, torrance-sparrow, three-component, three-component-smooth-ks); the others are named by \
-their components, e.g. specular:ggx+specular-haze+ideal-diffuse.\n\n\
+lobe with its own width), directional-diffuse (eq. 5) and ideal-diffuse (eq. 6); each lobe Beckmann, GGX \
+(Trowbridge–Reitz) or Student-t (a slope distribution whose tail exponent gamma is fitted: GGX at 2, Beckmann \
+as gamma grows; real metals' sharp cores and heavy wings), its k_s one value per incidence or a smooth \
+k_s(theta_i). The paper's members keep their names (ideal-diffuse, torrance-sparrow, three-component, \
+three-component-smooth-ks); the others are named by their components, e.g. \
+specular:student-t+specular-haze:ggx+ideal-diffuse.\n\n\
 The default does not fit every combination. It fits what is needed to decide: first the paper's four members, \
 directional-diffuse+ideal-diffuse and three-component with a haze lobe; then, of the component sets with the \
 ideal diffuse and the paper's lobe, each one component from the member selected (its claims compare against \
 it) or that could still beat it (a member fits no better than a larger member it is nested in, which bounds \
 its AICc and BIC), until none is left: so torrance-sparrow with a haze is fitted only when it matters; then, \
-for the component set selected, the variants of its core lobe (Beckmann or GGX, k_s per incidence or smooth), a \
-smooth-k_s variant only when it could be selected (the same member with k_s per incidence bounds it: the notes \
-say so when it is left out); then, if the member selected has a haze, that member with the haze's other distribution. --models fits exactly the members named.\n\n\
+for the component set selected, the variants of its core lobe (Beckmann, GGX or Student-t, k_s per incidence or \
+smooth), a smooth-k_s variant only when it could be selected (the same member with k_s per incidence bounds it: \
+the notes say so when it is left out); then, if the member selected has a haze, that member with each of the \
+haze's other distributions; last, the member selected without each of its components, and with each it lacks, \
+wherever no fit tests that component yet: every \"supported\" or \"absent\" in the notes compares two fits the \
+report names. --models fits exactly the members named.\n\n\
 Selection: a component is supported only when the comparison that adds that component alone favours it by AICc \
-(by more than 2) AND its amplitude is determined (not at its bound, standard error under a third of the value; \
-one k_s per incidence counts as one amplitude). The selected model is the lowest-AICc member whose every \
-component is supported (a core-lobe variant, GGX or smooth k_s, takes the verdicts of its component set's \
-Beckmann member); BIC's choice by the same rule is reported when it differs. When the sweep has std and n \
+(by more than 2), its amplitude is determined (not at its bound, standard error under a third of the value; \
+one k_s per incidence counts as one amplitude; for the directional or ideal diffuse an AICc gain over 10 also \
+suffices, the note then says \"poorly determined\") AND it changes the prediction by more than 2 standard errors \
+at some incidence. The selected model is the lowest-AICc member whose every component is supported (a lobe \
+variant, GGX, Student-t or smooth k_s, takes the verdicts of its component set's Beckmann member); BIC's choice \
+by the same rule is reported when it differs. By default each reading is weighed against its noise (--residual \
+noise: a floor and a part proportional to the reading, from the readings' std/n, --noise or a stated rule), so \
+the peak's few readings and the haze's many both count; goodness of fit, standard errors and the criteria all \
+follow from that objective. When the sweep has std and n \
 columns (gonio's captures do), the reduced chi-square against the readings' noise says whether a member fits \
 within it, and the report says so plainly when none does.\n\n\
 Each member is fitted on a log-spaced grid of lobe widths with its amplitudes solved linearly (non-negative) at \
 every grid point, so a lobe one reading step wide is found, then refined by Levenberg–Marquardt with an \
 analytic Jacobian; members are fitted in parallel. --fix holds a parameter at its value in every member that has \
 it (a width held fixed is the grid's one width); a robust --loss refits each member from its least-squares \
-optimum by iteratively reweighted least squares. Every parameter is fitted as its logarithm; standard errors \
-come from the covariance at the optimum.\n\n\
+optimum by iteratively reweighted least squares. Widths and amplitudes are fitted as their logarithms (a \
+Student-t gamma as ln(gamma - 1)); standard errors come from the covariance at the optimum.\n\n\
 When at least 3 readings equal the sweep's smallest value exactly, the report asks whether that is a \
 detection floor; --floor auto leaves them out of the fit, --floor VALUE every reading at or below VALUE. When the \
 measured specular peak sits off the selected member's peak at every incidence (0.1 degree or more, same side), \
-the report says so: an angle offset or tilted sample no member has a parameter for; and when the selected core \
-lobe is narrower at half maximum than the readings' step at the peak, that its width is not resolved.\n\n\
+the report says so (an angle offset or a tilted sample: --offset fit fits them); and when the selected core \
+lobe is narrower at half maximum than the readings' step at the peak, that its width is not resolved. When the \
+selected member's value at an incidence's highest reading is off by more than a factor 1.5 (or 3 of the noise's \
+standard errors, where wider), the report names those incidences, the factor and the likely cause (a measured \
+core off the mirror direction, or wider or narrower than the member's there); and it names a region (one \
+incidence, or the detector angles toward grazing) whose residuals the member leaves on one side while another \
+fitted member follows them.\n\n\
 --aperture (or a `# aperture: DEG` line in the sweep) averages each model over the detector's acceptance cone \
 before comparing, so widths are the surface's. With neither, where the readings do not resolve the core (the \
 selected core narrower than the step, or a peak one reading 4x both neighbours) the family is refitted over an \
@@ -165,7 +180,8 @@ pub struct FitArgs {
     /// (ideal-diffuse, torrance-sparrow, three-component, three-component-smooth-ks, or
     /// their short forms ideal, ts, three, three-smooth) or systematic names, components
     /// joined by '+' (specular, specular-haze, directional-diffuse, ideal-diffuse), a
-    /// lobe optionally with :beckmann or :ggx and :smooth-ks or :fresnel (k_s = k0 F,
+    /// lobe optionally with :beckmann, :ggx or :student-t (its tail exponent gamma fitted)
+    /// and :smooth-ks or :fresnel (k_s = k0 F,
     /// the exact unpolarised Fresnel reflectance of index n + ik on the facet's local
     /// angle: k0, n in [0.02, 10] and k in [0, 15] fitted, or n, k held by --fresnel or
     /// --fix; only when named), e.g. specular:ggx+specular-haze+ideal-diffuse or

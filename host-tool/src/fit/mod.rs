@@ -1,6 +1,6 @@
 //! Fitting captured sweeps: a family of models generated from brdf-core's component
 //! lattice ([`brdf_core::member::Member`]: specular, specular-haze, directional-diffuse,
-//! ideal-diffuse; Beckmann or GGX lobes; k_s per incidence or smooth), each member
+//! ideal-diffuse; Beckmann, GGX or Student-t lobes; k_s per incidence or smooth), each member
 //! fitted on a log-spaced width grid with its amplitudes solved linearly, then refined
 //! by Levenberg–Marquardt over the arrow structure, members in parallel; selection by
 //! AICc (BIC reported too). Parameters held fixed (`--fix`) and robust losses (IRLS)

@@ -277,6 +277,52 @@ fn every_member_evaluates_by_paper_or_systematic_name() {
 }
 
 #[test]
+fn a_student_t_lobe_evaluates_with_its_tail_exponent() {
+    // What `gonio fit` selects on real metals (a Student-t core) can be evaluated at
+    // chosen angles. Checked against the lobe's formula written out here: P22(r) =
+    // (1 + r^2/(k m^2))^-gamma / (pi m^2), D = P22(tan alpha)/cos^4 alpha, f = k_s D G /
+    // (4 cos_i cos_r), m^2 = 2 sigma^2, k = gamma - 1, G = 1 this close to the mirror.
+    // gamma 2.5: neither GGX's 2 nor the fit's start of 1.5.
+    let (ks, sigma, gamma) = (3.0f64, 0.05f64, 2.5f64);
+    let run = |precision: &str| {
+        let r = gonio(&[
+            "eval",
+            "--model",
+            "specular:student-t",
+            "--ks",
+            "3",
+            "--sigma",
+            "0.05",
+            "--gamma",
+            "2.5",
+            "--theta-i",
+            "0",
+            "--theta-r",
+            "0,10",
+            "--precision",
+            precision,
+        ]);
+        assert_eq!((r.code, r.stderr.as_str()), (0, ""), "{precision}");
+        rows(&r.stdout)
+    };
+    let m2 = 2.0 * sigma * sigma;
+    let f = |theta_r: f64| {
+        let alpha = (theta_r / 2.0).to_radians();
+        let z = alpha.tan().powi(2) / ((gamma - 1.0) * m2);
+        let d = (1.0 + z).powf(-gamma) / (std::f64::consts::PI * m2 * alpha.cos().powi(4));
+        ks * d / (4.0 * theta_r.to_radians().cos())
+    };
+    let f64_rows = run("f64");
+    for (row, theta_r) in f64_rows.iter().zip([0.0, 10.0]) {
+        let want = f(theta_r);
+        assert!((row.2 - want).abs() / want < 1e-12, "{row:?} vs {want}");
+    }
+    for (a, b) in run("f32").iter().zip(&f64_rows) {
+        assert!((a.2 - b.2).abs() / b.2 < 1e-5, "{a:?} vs {b:?}");
+    }
+}
+
+#[test]
 fn member_options_are_checked_with_one_line() {
     for (args, needle) in [
         (
@@ -308,6 +354,43 @@ fn member_options_are_checked_with_one_line() {
         (
             vec!["--model", "ideal-diffuse", "--material", "fe-0.115"],
             "no specular lobe",
+        ),
+        (
+            vec![
+                "--model",
+                "specular:student-t+ideal-diffuse",
+                "--material",
+                "fe-0.115",
+            ],
+            "give its tail exponent --gamma G",
+        ),
+        (
+            vec![
+                "--model",
+                "specular+specular-haze:student-t",
+                "--material",
+                "fe-0.115",
+                "--ks-haze",
+                "1",
+                "--sigma-haze",
+                "0.3",
+            ],
+            "--gamma-haze G",
+        ),
+        (
+            vec!["--material", "fe-0.115", "--gamma", "2"],
+            "the specular lobe of three-component is beckmann",
+        ),
+        (
+            vec![
+                "--model",
+                "specular:student-t",
+                "--material",
+                "fe-0.115",
+                "--gamma",
+                "1",
+            ],
+            "gamma - 1 must be > 0",
         ),
     ] {
         let mut a = vec!["eval"];

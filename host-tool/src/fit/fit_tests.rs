@@ -312,6 +312,46 @@ fn a_noise_model_without_a_floor_refuses_readings_below_zero() {
 }
 
 #[test]
+fn a_shape_parameter_at_a_bound_of_the_fit_is_not_determined() {
+    // A Beckmann surface fitted with a Student-t core: gamma runs to its upper bound
+    // (51, a Beckmann tail within 2 %). Its standard error, the covariance's as if it
+    // were free, had read "51 +- 13": a claim the data do not make.
+    let rows = preset_sweep("al-0.782", 0.01, 1);
+    let data = Dataset::from_rows(&rows, true).unwrap();
+    let student = Member::parse("specular:student-t+directional-diffuse+ideal-diffuse").unwrap();
+    let opts = FitOptions {
+        members: Some(vec![student]),
+        ..FitOptions::default()
+    };
+    let f = fit_family(&data, &opts).unwrap();
+    let fit = f.member(student).unwrap();
+    let g = fit.layout.core_gamma.unwrap();
+    assert_eq!(fit.layout.shape_at_bound(&fit.x, g), Some(true));
+    let (gamma, se) = fit.natural(g);
+    assert!(
+        (gamma - 51.0).abs() < 1e-9 && se.is_none(),
+        "{gamma} {se:?}"
+    );
+    // The widths inside their bounds keep their standard errors.
+    assert!(fit.sigma().unwrap().1.is_some());
+    assert!(fit.natural(fit.layout.sigma_m.unwrap()).1.is_some());
+    let note = f
+        .notes
+        .iter()
+        .find(|n| n.starts_with(&format!("{student}: ")))
+        .expect("a note on the member");
+    assert!(
+        note.contains("gamma = 51, its upper bound: the tail is Beckmann's to within 2 %")
+            && note.contains("not determined by these data"),
+        "{note}"
+    );
+    assert!(!note.contains("flagged"), "{note}");
+    let json = report::member_fit_json(&f, fit);
+    assert!(json["std_errors"]["gamma"].is_null(), "{json}");
+    assert!(json["std_errors"]["sigma"].is_number(), "{json}");
+}
+
+#[test]
 fn fixed_parameters_stay_fixed() {
     let rows = preset_sweep("fe-0.115", 0.01, 1);
     let data = Dataset::from_rows(&rows, true).unwrap();

@@ -90,11 +90,24 @@ pub fn family_notes(
     summary.append(&mut fitting);
     let mut notes = summary;
     for f in members {
-        if (0..f.x.len()).any(|i| !f.identifiable[i] && !f.is_fixed(i)) {
-            notes.push(format!(
+        let singular = (0..f.x.len()).any(|i| {
+            !f.identifiable[i] && !f.is_fixed(i) && f.layout.shape_at_bound(&f.x, i).is_none()
+        });
+        let at_bounds = f.shapes_at_bounds().join("; ");
+        match (singular, at_bounds.is_empty()) {
+            (true, true) => notes.push(format!(
                 "{}: some parameters are not determined by these data (flagged)",
                 f.member()
-            ));
+            )),
+            (true, false) => notes.push(format!(
+                "{}: some parameters are not determined by these data (flagged); {at_bounds}: a standard error is not defined at a bound of the fit",
+                f.member()
+            )),
+            (false, false) => notes.push(format!(
+                "{}: {at_bounds}: not determined by these data (a standard error is not defined at a bound of the fit)",
+                f.member()
+            )),
+            (false, true) => {}
         }
         if !f.converged {
             notes.push(format!(

@@ -295,11 +295,15 @@ pub(super) fn finish(
     let free = free_params(&fixed);
     debug_assert_eq!(held.len(), fixed.len());
     let cov = ArrowInverse::new(&normal).scaled(ssr / (n - free) as f64);
+    // A shape parameter on its box bound is not determined either: its standard error
+    // would be the covariance's, as if it were free (a Student-t gamma at its bound 51
+    // read "51 +- 13").
     let identifiable: Vec<bool> = cov
         .identifiable()
         .iter()
         .zip(&fixed)
-        .map(|(&ok, &held)| ok && !held)
+        .enumerate()
+        .map(|(i, (&ok, &held))| ok && !held && layout.shape_at_bound(&x, i).is_none())
         .collect();
     // The paper's RMSE compares the model with the readings as the fit does: point
     // values, or with a detector aperture the model averaged over it (what the

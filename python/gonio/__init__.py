@@ -69,10 +69,12 @@ def _shaped(out, shape):
 class Model:
     """A member of the model family with its parameters.
 
-    ``Model(member, *, ks, sigma, ks_haze, sigma_haze, kdd=900, sigma_m=0.7, kid=25)``
-    takes any name of ``gonio.members()`` (e.g. ``'three-component'``,
-    ``'specular:ggx+specular-haze:beckmann+ideal-diffuse'``); ``ks`` is a number (k_s
-    per incidence) or ``[c0, c1, c2]`` for a ``:smooth-ks`` lobe.
+    ``Model(member, *, ks, sigma, gamma, ks_haze, sigma_haze, gamma_haze, kdd=900,
+    sigma_m=0.7, kid=25)`` takes any name of ``gonio.members()`` (e.g.
+    ``'three-component'``, ``'specular:student-t+specular-haze:ggx+ideal-diffuse'``);
+    ``ks`` is a number (k_s per incidence) or ``[c0, c1, c2]`` for a ``:smooth-ks`` lobe;
+    ``gamma`` (``gamma_haze``) is a ``:student-t`` lobe's tail exponent (> 1), required
+    for one and refused for others.
     ``Model.preset('fe-0.115')`` is the paper's model of a preset, k_s(theta_i) from its
     table. Bad parameters raise :class:`GonioError` with brdf-core's message.
     """

@@ -44,6 +44,21 @@ pub struct PyModel {
     def: ModelDef,
 }
 
+/// A lobe's tail exponent `given` as keyword `name`: required for a Student-t lobe,
+/// refused for one without (brdf-core checks the value: finite, > 1).
+fn tail(what: &str, name: &str, dist: Distribution, given: Option<f64>) -> PyResult<Option<f64>> {
+    match (dist.has_gamma(), given) {
+        (true, None) => Err(err(format!(
+            "{what} is student-t: give its tail exponent {name} (> 1; GGX's tail at 2)"
+        ))),
+        (false, Some(_)) => Err(err(format!(
+            "{name} is the tail exponent of a student-t lobe; {what} is {}",
+            dist.name()
+        ))),
+        (_, g) => Ok(g),
+    }
+}
+
 fn lobe_ks(what: &str, form: KsForm, ks: Option<&Bound<'_, PyAny>>) -> PyResult<KsSrc> {
     let ks = ks.ok_or_else(|| err(format!("{what} needs its k_s")))?;
     match form {
@@ -98,19 +113,23 @@ fn slice<'a, T: numpy::Element>(a: &'a PyReadonlyArray1<'_, T>, what: &str) -> P
 
 #[pymethods]
 impl PyModel {
-    /// Model(member, *, ks=None, sigma=None, ks_haze=None, sigma_haze=None, kdd=900,
-    /// sigma_m=0.7, kid=25): any member of the family by name (see `gonio.members()`).
-    /// ks is a number (k_s per incidence) or [c0, c1, c2] for a ':smooth-ks' lobe;
-    /// sigma, sigma_haze dimensionless, sigma_m in radians; defaults are the paper's.
+    /// Model(member, *, ks=None, sigma=None, gamma=None, ks_haze=None, sigma_haze=None,
+    /// gamma_haze=None, kdd=900, sigma_m=0.7, kid=25): any member of the family by name
+    /// (see `gonio.members()`). ks is a number (k_s per incidence) or [c0, c1, c2] for a
+    /// ':smooth-ks' lobe; sigma, sigma_haze dimensionless, sigma_m in radians; gamma,
+    /// gamma_haze the tail exponents (> 1) of ':student-t' lobes, required for them and
+    /// refused for others; defaults are the paper's.
     #[new]
-    #[pyo3(signature = (member, *, ks=None, sigma=None, ks_haze=None, sigma_haze=None, kdd=None, sigma_m=None, kid=None))]
+    #[pyo3(signature = (member, *, ks=None, sigma=None, gamma=None, ks_haze=None, sigma_haze=None, gamma_haze=None, kdd=None, sigma_m=None, kid=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         member: &str,
         ks: Option<&Bound<'_, PyAny>>,
         sigma: Option<f64>,
+        gamma: Option<f64>,
         ks_haze: Option<&Bound<'_, PyAny>>,
         sigma_haze: Option<f64>,
+        gamma_haze: Option<f64>,
         kdd: Option<f64>,
         sigma_m: Option<f64>,
         kid: Option<f64>,
@@ -136,11 +155,14 @@ impl PyModel {
                 dist: spec.dist,
                 ks: lobe_ks("specular", spec.ks, ks)?,
                 sigma: sigma.ok_or_else(|| err("specular needs sigma"))?,
-                // A Student-t lobe is refused at evaluation without it (MissingGamma).
-                gamma: None,
+                gamma: tail("specular", "gamma", spec.dist, gamma)?,
             }),
             None => {
-                absent(ks.is_some() || sigma.is_some(), "ks/sigma", "specular")?;
+                absent(
+                    ks.is_some() || sigma.is_some() || gamma.is_some(),
+                    "ks/sigma/gamma",
+                    "specular",
+                )?;
                 None
             }
         };
@@ -149,13 +171,12 @@ impl PyModel {
                 dist: spec.dist,
                 ks: lobe_ks("specular-haze", spec.ks, ks_haze)?,
                 sigma: sigma_haze.ok_or_else(|| err("specular-haze needs sigma_haze"))?,
-                // A Student-t lobe is refused at evaluation without it (MissingGamma).
-                gamma: None,
+                gamma: tail("specular-haze", "gamma_haze", spec.dist, gamma_haze)?,
             }),
             None => {
                 absent(
-                    ks_haze.is_some() || sigma_haze.is_some(),
-                    "ks_haze/sigma_haze",
+                    ks_haze.is_some() || sigma_haze.is_some() || gamma_haze.is_some(),
+                    "ks_haze/sigma_haze/gamma_haze",
                     "specular-haze",
                 )?;
                 None

@@ -116,6 +116,31 @@ def test_errors_are_the_cores_messages():
     assert issubclass(gonio.GonioError, ValueError)
 
 
+def test_a_student_t_lobe_takes_its_tail_exponent():
+    # The lobe gonio fit selects on real metals, checked against its formula written
+    # out here: P22(r) = (1 + r^2/(k m^2))^-gamma / (pi m^2), D = P22(tan a)/cos^4 a,
+    # f = k_s D G / (4 cos_i cos_r), m^2 = 2 sigma^2, k = gamma - 1, G = 1 this close
+    # to the mirror. gamma 2.5 is neither GGX's 2 nor the fit's start of 1.5.
+    ks, sigma, gamma = 3.0, 0.05, 2.5
+    m = gonio.Model("specular:student-t", ks=ks, sigma=sigma, gamma=gamma)
+    tr = np.array([0.0, 10.0])
+    a = np.radians(tr / 2)
+    m2 = 2 * sigma**2
+    z = np.tan(a) ** 2 / ((gamma - 1) * m2)
+    want = ks * (1 + z) ** -gamma / (np.pi * m2 * np.cos(a) ** 4) / (4 * np.cos(np.radians(tr)))
+    np.testing.assert_allclose(m.eval([0.0, 0.0], tr), want, rtol=1e-12)
+    with pytest.raises(gonio.GonioError, match="give its tail exponent gamma"):
+        gonio.Model("specular:student-t", ks=ks, sigma=sigma)
+    with pytest.raises(gonio.GonioError, match="give its tail exponent gamma_haze"):
+        gonio.Model("specular+specular-haze:student-t", ks=1, sigma=0.01, ks_haze=1, sigma_haze=0.1)
+    with pytest.raises(gonio.GonioError, match="specular is beckmann"):
+        gonio.Model("three-component", ks=1, sigma=0.1, gamma=2)
+    with pytest.raises(gonio.GonioError, match="belongs to specular-haze"):
+        gonio.Model("three-component", ks=1, sigma=0.1, gamma_haze=2)
+    with pytest.raises(gonio.GonioError, match="gamma - 1 must be > 0"):
+        gonio.Model("specular:student-t", ks=ks, sigma=sigma, gamma=1.0)
+
+
 def test_components_sum_to_the_model():
     m = gonio.Model.preset("al-0.142")
     ti, tr = np.meshgrid(np.linspace(0, 80, 9), np.linspace(-80, 80, 33), indexing="ij")

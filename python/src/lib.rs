@@ -44,19 +44,9 @@ pub struct PyModel {
     def: ModelDef,
 }
 
-/// A lobe's tail exponent `given` as keyword `name`: required for a Student-t lobe,
-/// refused for one without (brdf-core checks the value: finite, > 1).
+/// A lobe's tail exponent `given` as keyword `name` (see `gonio::fit::paper::lobe_tail`).
 fn tail(what: &str, name: &str, dist: Distribution, given: Option<f64>) -> PyResult<Option<f64>> {
-    match (dist.has_gamma(), given) {
-        (true, None) => Err(err(format!(
-            "{what} is student-t: give its tail exponent {name} (> 1; GGX's tail at 2)"
-        ))),
-        (false, Some(_)) => Err(err(format!(
-            "{name} is the tail exponent of a student-t lobe; {what} is {}",
-            dist.name()
-        ))),
-        (_, g) => Ok(g),
-    }
+    gonio::fit::paper::lobe_tail(what, &format!("{name}="), dist, given).map_err(err)
 }
 
 fn lobe_ks(what: &str, form: KsForm, ks: Option<&Bound<'_, PyAny>>) -> PyResult<KsSrc> {

@@ -13,6 +13,7 @@ use super::args::{Angles, theta_r_angles};
 use super::error::{CliError, CliResult};
 use super::output::write_stdout;
 use crate::fit::Kind;
+use crate::fit::paper::lobe_tail;
 use crate::sweep_file::{angles_look_like_radians, radians_warning};
 
 /// Float precision of the evaluation.
@@ -402,24 +403,16 @@ fn core_lobe<T: Real>(
     })
 }
 
-/// A lobe's tail exponent from its option `(flag, value)`: required for a lobe whose
-/// distribution has one (Student-t), refused for one without (the model checks the
-/// value itself: finite, > 1). `role` names the lobe in the message.
+/// A lobe's tail exponent from its option `(flag, value)` ([`lobe_tail`]); `role`
+/// names the lobe in the message.
 fn tail<T: Real>(
     member: &Member,
     role: &str,
     spec: LobeSpec,
     (flag, given): (&str, Option<f64>),
 ) -> CliResult<Option<T>> {
-    match (spec.dist.has_gamma(), given) {
-        (true, Some(g)) => Ok(Some(T::lit(g))),
-        (true, None) => Err(CliError::usage(format!(
-            "--model {member}: the {role} lobe is student-t: give its tail exponent {flag} G (> 1; GGX's tail at 2)"
-        ))),
-        (false, Some(_)) => Err(CliError::usage(format!(
-            "{flag} is the tail exponent of a :student-t lobe; the {role} lobe of {member} is {}",
-            spec.dist.name()
-        ))),
-        (false, None) => Ok(None),
-    }
+    let what = format!("the {role} lobe of {member}");
+    lobe_tail(&what, flag, spec.dist, given)
+        .map(|g| g.map(T::lit))
+        .map_err(CliError::usage)
 }

@@ -128,6 +128,28 @@ pub fn member_by_name(s: &str) -> Result<Member, String> {
     Member::parse(t).map_err(|e| format!("'{}': {e}", crate::text::escape_line(s, 60)))
 }
 
+/// A lobe's tail exponent given by `flag` (`--gamma` to `gonio eval`, `gamma=` to
+/// Python's `Model`), for members built by hand: required for a Student-t lobe,
+/// refused for a lobe without one; the value itself is brdf-core's to check (finite,
+/// > 1). `what` names the lobe in the message.
+pub fn lobe_tail(
+    what: &str,
+    flag: &str,
+    dist: brdf_core::lobe::Distribution,
+    given: Option<f64>,
+) -> Result<Option<f64>, String> {
+    match (dist.has_gamma(), given) {
+        (true, None) => Err(format!(
+            "{what} is student-t: give its tail exponent with {flag} (> 1; GGX's tail at 2)"
+        )),
+        (false, Some(_)) => Err(format!(
+            "{flag} is the tail exponent of a student-t lobe; {what} is {}",
+            dist.name()
+        )),
+        (_, g) => Ok(g),
+    }
+}
+
 /// The [`Kind`] of a paper member.
 pub fn kind_of(m: brdf_core::member::Member) -> Option<Kind> {
     Kind::ALL.into_iter().find(|k| k.member() == m)

@@ -362,7 +362,7 @@ fn member_options_are_checked_with_one_line() {
                 "--material",
                 "fe-0.115",
             ],
-            "give its tail exponent --gamma G",
+            "give its tail exponent with --gamma (",
         ),
         (
             vec![
@@ -375,7 +375,7 @@ fn member_options_are_checked_with_one_line() {
                 "--sigma-haze",
                 "0.3",
             ],
-            "--gamma-haze G",
+            "give its tail exponent with --gamma-haze (",
         ),
         (
             vec!["--material", "fe-0.115", "--gamma", "2"],

@@ -11,6 +11,7 @@ use super::goodness;
 use super::member_fit::MemberFit;
 use super::options::{Compared, Residual};
 use super::peak;
+use super::report::member_params;
 use super::select::MARGIN as AICC_MARGIN;
 use super::select::{self, Candidate, Criterion, Selection};
 
@@ -93,7 +94,7 @@ pub fn family_notes(
         let singular = (0..f.x.len()).any(|i| {
             !f.identifiable[i] && !f.is_fixed(i) && f.layout.shape_at_bound(&f.x, i).is_none()
         });
-        let at_bounds = f.shapes_at_bounds().join("; ");
+        let at_bounds = shapes_at_bounds(f).join("; ");
         match (singular, at_bounds.is_empty()) {
             (true, true) => notes.push(format!(
                 "{}: some parameters are not determined by these data (flagged)",
@@ -285,4 +286,37 @@ fn goodness_note(data: &Dataset, cands: &[Candidate], sel: Member, residual: Res
                 .join(", ")
         )
     }
+}
+
+/// `f`'s shape parameters fitted to a bound of the fit's box
+/// ([`super::member_fit::Layout::shape_at_bound`]), by the report's names and values,
+/// each said as `name = value, its lower (upper) bound`, with what the bound means for
+/// a tail exponent or a haze held beside the core.
+fn shapes_at_bounds(f: &MemberFit) -> Vec<String> {
+    let l = &f.layout;
+    member_params(f)
+        .into_iter()
+        .filter(|p| !p.held && p.theta_i.is_none())
+        .filter_map(|p| {
+            let i = p.slot?;
+            let upper = l.shape_at_bound(&f.x, i)?;
+            let side = if upper { "upper" } else { "lower" };
+            let meaning = match (l.is_gamma(i), upper) {
+                (true, true) => ": the tail is Beckmann's to within 2 %",
+                (true, false) => ": the heaviest tail the fit allows",
+                (false, false) if Some(i) == l.sigma_haze && l.haze_ratio() => {
+                    ": the haze as narrow as the family allows beside the core"
+                }
+                _ => "",
+            };
+            // Six significant digits: the bound itself, not its last bit of rounding
+            // (gamma's 51 is 1 + exp(ln 50)).
+            let shown: f64 = format!("{:.5e}", p.value).parse().unwrap_or(p.value);
+            Some(format!(
+                "{} = {}, its {side} bound{meaning}",
+                p.base,
+                brdf_core::error::Short(shown)
+            ))
+        })
+        .collect()
 }

@@ -157,37 +157,31 @@ impl Layout {
 
     /// Parameter `i` shapes the model rather than scaling it: a width (sigma,
     /// sigma_haze, sigma_m), a Student-t tail exponent, ABg's B or g, a Fresnel lobe's n
-    /// or k; with its name in the report.
-    pub fn shape_name(&self, i: usize) -> Option<&'static str> {
-        let named = [
-            (self.sigma, "sigma"),
-            (self.sigma_haze, "sigma_haze"),
-            (self.sigma_m, "sigma_m"),
-            (self.core_gamma, "gamma"),
-            (self.haze_gamma, "gamma_haze"),
-            (self.abg_b, "B"),
-            (self.abg_g, "g"),
-        ];
-        if let Some((_, name)) = named.iter().find(|(slot, _)| *slot == Some(i)) {
-            return Some(name);
-        }
-        let haze = self.haze_fresnel.is_some_and(|p| i == p + 1 || i == p + 2);
-        self.fresnel_nk(i).map(|k| match (k, haze) {
-            (false, false) => "n",
-            (true, false) => "k",
-            (false, true) => "n_haze",
-            (true, true) => "k_haze",
-        })
+    /// or k.
+    pub fn is_shape(&self, i: usize) -> bool {
+        [
+            self.sigma,
+            self.sigma_haze,
+            self.sigma_m,
+            self.core_gamma,
+            self.haze_gamma,
+            self.abg_b,
+            self.abg_g,
+        ]
+        .contains(&Some(i))
+            || self.fresnel_nk(i).is_some()
     }
 
-    /// Shape parameter `i` ([`Layout::shape_name`]) lies on its box bound in `x`: the
+    /// Shape parameter `i` ([`Layout::is_shape`]) lies on its box bound in `x`: the
     /// lower one (`Some(false)`) or the upper (`Some(true)`); `None` inside, or for an
     /// amplitude (whose lower bound is a vanished term, which the selection reads).
     /// There the optimum is a corner of the box, not a minimum of the sum of squares:
     /// the covariance's standard error, computed as if the parameter were free, does
     /// not describe it.
     pub fn shape_at_bound(&self, x: &[f64], i: usize) -> Option<bool> {
-        self.shape_name(i)?;
+        if !self.is_shape(i) {
+            return None;
+        }
         let (lo, hi) = self.bounds(i);
         // LM projects onto the box, so a parameter there sits on the bound exactly.
         const AT: f64 = 1e-9;

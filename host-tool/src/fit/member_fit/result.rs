@@ -76,46 +76,6 @@ impl MemberFit {
         (offset + v, se)
     }
 
-    /// The shape parameters fitted to a bound of the fit's box ([`Layout::shape_at_bound`]),
-    /// each said as `name = value, its lower (upper) bound`, with what the bound means
-    /// for a tail exponent.
-    pub fn shapes_at_bounds(&self) -> Vec<String> {
-        (0..self.x.len())
-            .filter(|&i| !self.is_fixed(i))
-            .filter_map(|i| {
-                let upper = self.layout.shape_at_bound(&self.x, i)?;
-                let name = self.layout.shape_name(i)?;
-                let value = if Some(i) == self.layout.sigma_haze {
-                    self.sigma_haze().map_or(f64::NAN, |s| s.0)
-                } else if self.layout.is_plain(i) {
-                    self.x[i]
-                } else {
-                    self.natural(i).0
-                };
-                let side = if upper { "upper" } else { "lower" };
-                let meaning = match (self.layout.is_gamma(i), upper) {
-                    (true, true) => ": the tail is Beckmann's to within 2 %",
-                    (true, false) => ": the heaviest tail the fit allows",
-                    (false, _)
-                        if Some(i) == self.layout.sigma_haze
-                            && !upper
-                            && self.layout.haze_ratio() =>
-                    {
-                        ": the haze as narrow as the family allows beside the core"
-                    }
-                    _ => "",
-                };
-                // Six significant digits: the bound itself, not its last bit of
-                // rounding (gamma's 51 is 1 + exp(ln 50)).
-                let shown: f64 = format!("{value:.5e}").parse().unwrap_or(value);
-                Some(format!(
-                    "{name} = {}, its {side} bound{meaning}",
-                    brdf_core::error::Short(shown)
-                ))
-            })
-            .collect()
-    }
-
     /// The core lobe's sigma and its standard error.
     pub fn sigma(&self) -> Option<(f64, Option<f64>)> {
         self.layout.sigma.map(|i| self.natural(i))

@@ -85,7 +85,9 @@ pub fn component_effects(
         let Some(e) = e else { return };
         let (a, b) = (model.amplitudes(), e.basis);
         let o = &data.obs[k];
-        let r = residual_of(residual, e.f, o.y);
+        // r(f) - r(f - t): the reading's own term of each residual cancels, so g(f) is
+        // formed once and g(f - t) once per component (half the transforms).
+        let gf = residual_term(residual, e.f, o.y);
         let terms = [
             a.core * b.core,
             a.haze * b.haze,
@@ -97,7 +99,7 @@ pub fn component_effects(
             if !on[slot] {
                 continue;
             }
-            let d = (r - residual_of(residual, e.f - t, o.y)) / scale;
+            let d = (gf - residual_term(residual, e.f - t, o.y)) / scale;
             // A residual not formed (NaN) is no evidence.
             if !d.is_nan() {
                 sums[o.inc][slot] += d * d;
@@ -117,6 +119,18 @@ pub fn component_effects(
         }
     }
     out
+}
+
+/// The part of [`residual_of`]`(kind, f, y)` that depends on the fitted value `f`:
+/// the residual less a term of the reading `y` alone (g(y) under the noise objective,
+/// ln y under log), so that two residuals at one reading differ by the difference of
+/// their terms.
+fn residual_term(kind: Residual, f: f64, y: f64) -> f64 {
+    match kind {
+        Residual::Noise(m) => m.transform(f),
+        Residual::Log => f.max(1e-300).ln(),
+        Residual::Relative | Residual::Absolute => residual_of(kind, f, y),
+    }
 }
 
 /// A fit's residuals against the readings' noise.

@@ -73,8 +73,8 @@ fn mean_residual(r: &[Option<f64>], region: &[usize]) -> Option<(f64, f64, usize
 /// where `selected`, whose fitted value at every reading is `fitted`, misses
 /// systematically and one of `others` does not (its mean residual there within two of
 /// its standard errors, or under [`MIN_MISS`], and a quarter of the miss at most); at
-/// most three, the largest misses first. One residual pass per member: linear in the
-/// readings whatever the number of incidences.
+/// most three, the largest misses first. One residual pass per member when a region is
+/// missed, none otherwise: linear in the readings whatever the number of incidences.
 pub fn miss_notes(
     data: &Dataset,
     selected: &MemberFit,
@@ -98,11 +98,9 @@ pub fn miss_notes(
             true,
         )));
     let sel = log_residuals(data, fitted);
-    let fits: Vec<(&MemberFit, Vec<Option<f64>>)> = others
-        .iter()
-        .filter(|o| o.member() != selected.member())
-        .map(|o| (o, log_residuals(data, &member_fitted(o, data))))
-        .collect();
+    // The other members' residuals only once a region is missed: a pass over the
+    // readings per member, serial after the family's fits, for nothing on most sweeps.
+    let mut fits: Option<Vec<(&MemberFit, Vec<Option<f64>>)>> = None;
     let mut found: Vec<(f64, String)> = Vec::new();
     for (name, region, toward_grazing) in regions {
         let Some((mean, se, n)) = mean_residual(&sel, region) else {
@@ -112,6 +110,13 @@ pub fn miss_notes(
             continue;
         }
         // The other member that follows the region best.
+        let fits = fits.get_or_insert_with(|| {
+            others
+                .iter()
+                .filter(|o| o.member() != selected.member())
+                .map(|o| (o, log_residuals(data, &member_fitted(o, data))))
+                .collect()
+        });
         let follows = fits
             .iter()
             .filter_map(|(o, r)| {

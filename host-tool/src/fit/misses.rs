@@ -54,6 +54,9 @@ fn log_residuals(data: &Dataset, fitted: &[Option<f64>]) -> Vec<Option<f64>> {
         .collect()
 }
 
+/// Another member and its log residual at every reading.
+type Followed<'a> = (&'a MemberFit, Vec<Option<f64>>);
+
 /// Mean of the residuals `r` of the readings `region` (indices into the data) and its
 /// standard error (from the scatter about the mean), with the count; `None` with too
 /// few readings.
@@ -100,7 +103,7 @@ pub fn miss_notes(
     let sel = log_residuals(data, fitted);
     // The other members' residuals only once a region is missed: a pass over the
     // readings per member, serial after the family's fits, for nothing on most sweeps.
-    let mut fits: Option<Vec<(&MemberFit, Vec<Option<f64>>)>> = None;
+    let mut fits: Option<Vec<Followed<'_>>> = None;
     let mut found: Vec<(f64, String)> = Vec::new();
     for (name, region, toward_grazing) in regions {
         let Some((mean, se, n)) = mean_residual(&sel, region) else {

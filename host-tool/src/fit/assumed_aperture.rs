@@ -126,8 +126,11 @@ pub fn refit_if_unresolved(
         // The selected member alone, over the first cone the energy bound allows.
         if !screened && bound.is_none_or(|(b, _)| a < b) {
             screened = true;
+            // Kept for the family only when lower by more than the margin (a point AICc
+            // that is not a number is never beaten, as below).
             if let Some(x) = screen(a, &data, opts, point.selected_member, &fit, &mut spent)
-                && !(x < p - MARGIN)
+                && let lower = x < p - MARGIN
+                && !lower
             {
                 point.fit_seconds += spent;
                 point.notes.push(format!(

@@ -120,7 +120,9 @@ pub fn refit_if_unresolved(
             )
         }
     };
-    let mut screened = false;
+    // A fit of that member alone is the family's refit itself (`--models` naming it
+    // alone): nothing to screen.
+    let mut screened = opts.members.as_deref() == Some(&[point.selected_member][..]);
     let mut a = half;
     for _ in 0..=HALVINGS {
         // The selected member alone, over the first cone the energy bound allows.
@@ -601,7 +603,7 @@ mod tests {
         // Lowered by more than the margin: the family is then refitted over the cone.
         alone.borrow_mut().clear();
         let (d, _) = refit_if_unresolved(
-            data,
+            data.clone(),
             &FitOptions::default(),
             point.clone(),
             false,
@@ -609,5 +611,22 @@ mod tests {
         );
         assert_eq!(*alone.borrow(), [true, false]);
         assert_eq!(d.aperture, Some(5.0));
+        // With that member alone asked for (`--models`), its fit is the refit: one.
+        asked.borrow_mut().clear();
+        let opts = FitOptions {
+            members: Some(vec![point.selected_member]),
+            ..FitOptions::default()
+        };
+        let (d, _) = refit_if_unresolved(
+            data,
+            &opts,
+            point.clone(),
+            false,
+            refit(&point, -(MARGIN + 1.0), &asked, &alone),
+        );
+        assert_eq!(
+            (asked.borrow().clone(), d.aperture),
+            (vec![Some(5.0)], Some(5.0))
+        );
     }
 }

@@ -63,7 +63,8 @@ pub fn narrow_core(data: &Dataset, family: &FamilyFit) -> Option<String> {
 /// than [`MARGIN`] there, the cone is not kept and the family is not refitted (on MERL
 /// aluminium the family's refit took 15 of a 16 s default fit, and was not kept). The
 /// decision differs from the family's only where the cone leaves the selected member
-/// within the margin and lifts another above both. A cone the peak readings' energy rules out
+/// within the margin of its point AICc but brings another member more than the margin
+/// below it. A cone the peak readings' energy rules out
 /// ([`energy_bound`]), or whose fit creates energy, is halved (at most [`HALVINGS`]
 /// times) until one is physical, and the cone then widened by bisection toward the
 /// narrowest ruled out, to [`WIDEST_TOLERANCE`]: the widest physical cone up to half
@@ -102,6 +103,9 @@ pub fn refit_if_unresolved(
     let mut physical: Option<(f64, Dataset, FamilyFit)> = None;
     let mut ruled_out = f64::INFINITY;
     let p = aicc(&point).unwrap_or(f64::NAN);
+    // An AICc over a cone beats the point fit's when lower by more than the margin (one
+    // that is not a number never does, nor is one beaten that is not).
+    let beats = |x: f64| x < p - MARGIN;
     // How the cone was come to: half the step, or why wider ones were not assumed (to
     // the widest found physical once the family has been fitted over cones).
     let halved = |wider: &[String], physical: bool| {
@@ -128,11 +132,8 @@ pub fn refit_if_unresolved(
         // The selected member alone, over the first cone the energy bound allows.
         if !screened && bound.is_none_or(|(b, _)| a < b) {
             screened = true;
-            // Kept for the family only when lower by more than the margin (a point AICc
-            // that is not a number is never beaten, as below).
             if let Some(x) = screen(a, &data, opts, point.selected_member, &fit, &mut spent)
-                && let lower = x < p - MARGIN
-                && !lower
+                && !beats(x)
             {
                 point.fit_seconds += spent;
                 point.notes.push(format!(
@@ -201,7 +202,7 @@ pub fn refit_if_unresolved(
     }
     let halved = halved(&wider, true);
     let x = aicc(&tried).unwrap_or(f64::NAN);
-    if x < p - MARGIN {
+    if beats(x) {
         let mut kept = tried;
         kept.notes.insert(
             0,

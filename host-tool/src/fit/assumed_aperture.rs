@@ -239,6 +239,13 @@ enum Tried {
     Failed(String),
 }
 
+/// `data` with its readings taken as averages over a cone of half-angle `a` (deg).
+fn over_cone(data: &Dataset, a: f64) -> Dataset {
+    let mut wide = data.clone();
+    wide.aperture = Some(a);
+    wide
+}
+
 /// The AICc of `member` fitted alone (by `fit`, with `opts`' other settings) to
 /// `data` read over a cone of half-angle `a` (deg), its fit time added to `spent`;
 /// `None` when it could not be fitted.
@@ -250,8 +257,7 @@ fn screen(
     fit: &impl Fn(&Dataset, &FitOptions) -> Result<FamilyFit, String>,
     spent: &mut f64,
 ) -> Option<f64> {
-    let mut wide = data.clone();
-    wide.aperture = Some(a);
+    let wide = over_cone(data, a);
     let alone = FitOptions {
         members: Some(vec![member]),
         ..opts.clone()
@@ -285,8 +291,7 @@ fn try_cone(
             b,
         );
     }
-    let mut wide = data.clone();
-    wide.aperture = Some(a);
+    let wide = over_cone(data, a);
     let mut tried = match fit(&wide, opts) {
         Ok(f) => f,
         Err(e) => return Tried::Failed(e),
